@@ -1,0 +1,79 @@
+"""The game catalog: ids in Arena's convention ``<Game>-<x>T<y>P-v<N>`` mapped to game rules.
+
+Each module listed in :data:`GAME_MODULES` defines ``RULES``, a :class:`GameRules` subclass whose
+``layouts`` give the ids it offers.
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+from dataclasses import dataclass
+from functools import cache
+
+from arena_league.envs.core import GameRules
+
+#: Game modules under ``arena_league.envs.games``, one per game.
+GAME_MODULES: tuple[str, ...] = ("crossroads", "soccer", "gobang", "snake")
+
+_ID_RE = re.compile(r"^(?P<name>[A-Za-z][A-Za-z0-9]*)-(?P<teams>\d+)T(?P<players>\d+)P-v(?P<version>\d+)$")
+
+
+@dataclass(frozen=True)
+class GameSpec:
+    """One game id and the rules class behind it."""
+
+    game_id: str
+    rules: type[GameRules]
+    n_teams: int
+    players_per_team: int
+
+    @property
+    def n_agents(self) -> int:
+        return self.n_teams * self.players_per_team
+
+
+def format_game_id(name: str, n_teams: int, players_per_team: int, version: int) -> str:
+    return f"{name}-{n_teams}T{players_per_team}P-v{version}"
+
+
+@cache
+def game_rules_classes() -> tuple[type[GameRules], ...]:
+    classes = []
+    for module_name in GAME_MODULES:
+        module = importlib.import_module(f"arena_league.envs.games.{module_name}")
+        classes.append(module.RULES)
+    return tuple(classes)
+
+
+@cache
+def _catalog() -> dict[str, GameSpec]:
+    specs: dict[str, GameSpec] = {}
+    for rules in game_rules_classes():
+        for n_teams, players in rules.layouts:
+            game_id = format_game_id(rules.name, n_teams, players, rules.version)
+            specs[game_id] = GameSpec(game_id, rules, n_teams, players)
+    return specs
+
+
+def list_games() -> list[str]:
+    """Every game id, sorted."""
+    return sorted(_catalog())
+
+
+def game_spec(game_id: str) -> GameSpec:
+    """The spec of ``game_id``; an unknown id raises ``ValueError`` listing the valid ones."""
+    specs = _catalog()
+    if not isinstance(game_id, str):
+        raise TypeError(f"a game id is a string such as 'Crossroads-2T2P-v1', not {type(game_id).__name__}")
+    if game_id in specs:
+        return specs[game_id]
+    match = _ID_RE.match(game_id)
+    same_game = [g for g in specs if match and g.split("-")[0].lower() == match["name"].lower()]
+    if not match:
+        hint = "ids follow '<Game>-<x>T<y>P-v<N>' (x teams of y players)"
+    elif same_game:
+        hint = f"{match['name']} is offered as: {', '.join(same_game)}"
+    else:
+        hint = f"there is no game named {match['name']!r}"
+    raise ValueError(f"unknown game id {game_id!r}: {hint}. Valid ids: {', '.join(sorted(specs))}")

@@ -1,0 +1,216 @@
+"""Game rules and the measures they emit.
+
+A game module (one per game under ``envs/games/``) implements :class:`GameRules`: the state of
+one match, its physics or board logic, the flattened vector observation of every seat, and the
+*measures and events* of each step (distances, arrivals, eliminations, the progress of a shared
+object, the final outcome). Rules never compute social rewards: the social tree
+(``envs/social``) turns measures into rewards, so the same rules become a different social problem
+when the tree changes (Song et al., "Arena: A General Evaluation Platform and Building Toolkit for
+Multi-Agent Intelligence", AAAI 2020, section "Social tree").
+
+Conventions every game follows:
+
+* seats are numbered ``0..n_agents-1`` in team order (team 0's players first); the PettingZoo
+  agent names are ``player_<seat>``;
+* all agents stay in the episode until it ends (an agent that arrived or died is *inactive*: its
+  actions are ignored and its observation says so), so team rewards reach every member;
+* every random draw comes from ``self.rng``, created in :meth:`GameRules.reset` from the seed;
+* discrete actions arrive as ``int64[n_agents]``; continuous ones as ``float32[n_agents, act_dim]``
+  already checked to lie in [-1, 1].
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+#: Every measure a game may emit, with its meaning. Arrays have one entry per seat.
+MEASURE_DOCS: dict[str, str] = {
+    "active": "bool: the seat is still playing (not arrived, not eliminated); always emitted",
+    "alive": "bool: the seat has not been eliminated (games with elimination)",
+    "arrived": "bool: the seat has reached its target (games with arrival)",
+    "target_distance": "float: distance from the seat to its target",
+    "velocity_to_target": "float: component of the seat's velocity along the direction to its target",
+    "facing_target": "float: cosine of the angle between the seat's heading and its target",
+    "energy": "float: control effort spent this step (mean squared action, 0..1)",
+    "force": "float: magnitude of the contact force on the seat this step",
+    "speed": "float: the seat's speed",
+    "fallen": "bool: the seat has fallen or has its head down (robot games)",
+    "object_progress": "float: distance the seat's team object moved toward its goal this step",
+    "resource_gain": "float: amount of the limited resource the seat took this step",
+    "outcome": "float: final result of the seat, +1 win, -1 loss, 0 draw; 0 until the game ends",
+}
+
+_BOOL_MEASURES = frozenset({"active", "alive", "arrived", "fallen"})
+
+
+@dataclass
+class Measures:
+    """The measures of one step, one array entry per seat; ``None`` where the game emits none.
+
+    Rules update the arrays in place (or assign new ones) every step. ``outcome`` is filled when
+    the game ends (including a truncation at ``max_cycles``, when rules must decide the result).
+    """
+
+    n_agents: int
+    active: np.ndarray = field(default=None)  # type: ignore[assignment]
+    alive: np.ndarray | None = None
+    arrived: np.ndarray | None = None
+    target_distance: np.ndarray | None = None
+    velocity_to_target: np.ndarray | None = None
+    facing_target: np.ndarray | None = None
+    energy: np.ndarray | None = None
+    force: np.ndarray | None = None
+    speed: np.ndarray | None = None
+    fallen: np.ndarray | None = None
+    object_progress: np.ndarray | None = None
+    resource_gain: np.ndarray | None = None
+    outcome: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.active is None:
+            self.active = np.ones(self.n_agents, dtype=bool)
+
+    @classmethod
+    def allocate(cls, n_agents: int, names: frozenset[str] | set[str] | tuple[str, ...]) -> Measures:
+        """Zeroed arrays for the named measures (bools for flags, float64 otherwise)."""
+        unknown = set(names) - set(MEASURE_DOCS)
+        if unknown:
+            raise ValueError(f"unknown measures {sorted(unknown)}; valid: {sorted(MEASURE_DOCS)}")
+        m = cls(n_agents)
+        for name in names:
+            if name == "active":
+                continue
+            dtype = bool if name in _BOOL_MEASURES else np.float64
+            setattr(m, name, np.zeros(n_agents, dtype=dtype))
+        if "alive" in names:
+            m.alive[:] = True
+        return m
+
+    def copy_of(self, names: tuple[str, ...]) -> dict[str, np.ndarray]:
+        """A snapshot of the named measures (for rewards that need the previous step)."""
+        return {n: getattr(self, n).copy() for n in names}
+
+
+class GameRules(ABC):
+    """The rules of one match of a game, with no knowledge of rewards.
+
+    Subclasses set the class attributes, build their spaces' sizes in ``__init__`` and implement
+    the abstract methods. The module docstring of each game is its manual.
+    """
+
+    #: The game's name as in its id, e.g. ``"Crossroads"``.
+    name: ClassVar[str]
+    #: Id version: ``<name>-<x>T<y>P-v<version>``.
+    version: ClassVar[int] = 1
+    #: The (teams, players per team) layouts that make sense for this game.
+    layouts: ClassVar[tuple[tuple[int, int], ...]]
+    #: Action variants offered, first is the default.
+    action_types: ClassVar[tuple[str, ...]] = ("discrete",)
+    #: True for games where one seat moves at a time (these also get a native AEC env).
+    turn_based: ClassVar[bool] = False
+    #: Names of the measures this game emits (keys of MEASURE_DOCS, ``active`` included).
+    measures_provided: ClassVar[frozenset[str]]
+    #: Episode length cap used when ``make(..., max_cycles=None)``.
+    default_max_cycles: ClassVar[int]
+    #: One-line description for ``arena-league games``.
+    summary: ClassVar[str] = ""
+
+    # Set by every subclass __init__:
+    n_teams: int
+    players_per_team: int
+    n_agents: int
+    action_type: str
+    team_of: np.ndarray  # int64[n_agents], team index of each seat
+    obs_dim: int
+    state_dim: int
+    n_actions: int  # discrete variant: number of actions
+    act_dim: int  # continuous variant: action vector size
+    action_meanings: tuple[str, ...] = ()  # discrete variant: what each action index does
+    measures: Measures
+    rng: np.random.Generator
+    #: True once the rules say the match is over (everyone arrived, a goal, five in a row...).
+    game_over: bool = False
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str) -> None:
+        self.n_teams = n_teams
+        self.players_per_team = players_per_team
+        self.n_agents = n_teams * players_per_team
+        self.action_type = action_type
+        self.team_of = np.repeat(np.arange(n_teams, dtype=np.int64), players_per_team)
+        self.measures = Measures.allocate(self.n_agents, self.measures_provided)
+        self.rng = np.random.default_rng(0)
+
+    # --- the match -------------------------------------------------------------------------
+    @abstractmethod
+    def reset(self, seed: int) -> None:
+        """Start a new match. Create ``self.rng = np.random.default_rng(seed)`` and draw from it
+        only; reset ``measures`` (``outcome`` to 0, ``active`` to True) and ``game_over``."""
+
+    @abstractmethod
+    def step(self, actions: np.ndarray) -> None:
+        """Advance one step with validated actions of every seat (inactive seats' are ignored);
+        update ``measures`` (and ``game_over``; ``outcome`` when the game ends)."""
+
+    @abstractmethod
+    def observe(self) -> np.ndarray:
+        """A new ``float32[n_agents, obs_dim]`` array: each seat's flattened observation."""
+
+    @abstractmethod
+    def state(self) -> np.ndarray:
+        """A new ``float32[state_dim]`` array: the global state."""
+
+    @abstractmethod
+    def render_topdown(self) -> np.ndarray:
+        """A ``uint8[H, W, 3]`` picture of the whole arena from above, drawn without a display."""
+
+    @abstractmethod
+    def finish(self) -> None:
+        """Called once when the episode is cut at ``max_cycles`` before the rules ended it:
+        set ``measures.outcome`` to the result the rules give a timed-out match."""
+
+    @abstractmethod
+    def team_result(self) -> np.ndarray:
+        """``float64[n_teams]`` final score of each team, higher is better (win 1 / draw 0.5 /
+        loss 0 in two-team games; the finishing order, as n_teams-1-position, with more teams).
+        Valid once the episode ended."""
+
+    @classmethod
+    @abstractmethod
+    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
+        """The default social tree spec of this layout, mirroring the paper."""
+
+    @staticmethod
+    @abstractmethod
+    def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
+        """A simple scripted policy, deterministic, from the flattened observations
+        ``float32[N, obs_dim]`` of N seats (any game, any seat) to their actions
+        (``int64[N]`` or ``float32[N, act_dim]``). Used as the built-in heuristic agent and by
+        social-tree verification as the 'skilled' end of its policy space."""
+
+    # --- optional ------------------------------------------------------------------------------
+    def action_mask(self) -> np.ndarray | None:
+        """``bool[n_agents, n_actions]`` of legal actions, for games that have illegal moves."""
+        return None
+
+    def current_player(self) -> int | None:
+        """Turn-based games: the seat to move."""
+        return None
+
+    def random_action(self, seat: int, rng: np.random.Generator) -> np.ndarray | int:
+        """A uniformly random *legal* action for ``seat`` drawn from ``rng``."""
+        if self.action_type == "discrete":
+            mask = self.action_mask()
+            if mask is not None:
+                legal = np.flatnonzero(mask[seat])
+                if len(legal):
+                    return int(legal[rng.integers(len(legal))])
+            return int(rng.integers(self.n_actions))
+        return rng.uniform(-1.0, 1.0, self.act_dim).astype(np.float32)
+
+    def events(self) -> list[dict]:
+        """Events of the last step for replays and logs, e.g. ``{"kind": "arrive", "seat": 2}``."""
+        return []

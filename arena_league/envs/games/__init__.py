@@ -1,0 +1,1 @@
+"""One module per game; each module docstring is that game's manual."""

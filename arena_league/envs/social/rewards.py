@@ -1,0 +1,361 @@
+"""The library of social-tree reward functions, each declared with its basic multi-agent scheme.
+
+After Song et al., "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent
+Intelligence" (AAAI 2020): every node of the social tree carries one of five basic multi-agent
+reward schemes and a ready-to-use reward function of that scheme. With ``x_j`` the performance of
+agent (or child group) ``j`` and ``r_i`` the node's reward to ``i``, the schemes are
+
+* NL, non-learnable: ``dr_i/dx_i = 0`` (nothing an agent does changes its reward);
+* IS, isolated: ``dr_i/dx_i > 0`` and ``dr_i/dx_j = 0`` for ``j != i``;
+* CP, competitive: ``dr_i/dx_i > 0`` and ``dr_i/dx_j < 0`` between the node's children;
+* CL, collaborative: ``dr_i/dx_i > 0`` and ``dr_i/dx_j > 0``;
+* CC, mixed (competitive and collaborative): ``dr_i/dx_j`` positive for some pairs (teammates)
+  and negative for others (opponents).
+
+A reward function maps the game's measures (``envs.core.Measures``) to one value per agent below
+its node. Game rules emit measures only; every social reward is computed here.
+
+Custom functions are registered with :func:`register_reward`; verification
+(``envs.social.verify``) checks that a function behaves as the scheme it is declared with.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from arena_league.envs.core import Measures
+
+SCHEMES: dict[str, str] = {
+    "NL": "non-learnable: the reward does not depend on what the agents do",
+    "IS": "isolated: each agent's reward depends on its own behaviour only",
+    "CP": "competitive: a child's gain is the other children's loss",
+    "CL": "collaborative: every agent below the node shares one reward",
+    "CC": "mixed: teammates below the node gain together, opponents lose",
+}
+
+
+@dataclass
+class NodeView:
+    """What a reward function sees of its node: the agents below it and how they group.
+
+    ``agents`` are seat indices below the node (in spec order); ``group`` gives, for each of them,
+    the index of the node's child that holds it; ``n_groups`` is the number of children.
+    ``memory`` is per-episode scratch space for stateful functions (e.g. ranking), cleared at reset.
+    """
+
+    agents: np.ndarray
+    group: np.ndarray
+    n_groups: int
+    memory: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class RewardContext:
+    """The step a reward is computed for."""
+
+    measures: Measures
+    previous: dict[str, np.ndarray]  # the measures of the previous step that functions need
+    team_of: np.ndarray
+    step: int
+    ending: bool  # the episode ends with this step (game over or max_cycles)
+
+
+RewardFn = Callable[[RewardContext, NodeView, dict[str, Any]], np.ndarray]
+
+
+@dataclass(frozen=True)
+class RewardFunction:
+    """A reward function of the library: its scheme, the measures it reads, its parameters."""
+
+    name: str
+    scheme: str
+    fn: RewardFn
+    needs: tuple[str, ...]
+    needs_previous: tuple[str, ...]
+    defaults: dict[str, Any]
+    doc: str
+
+    def check_params(self, params: dict[str, Any]) -> dict[str, Any]:
+        unknown = set(params) - set(self.defaults)
+        if unknown:
+            valid = ", ".join(sorted(self.defaults)) or "none"
+            raise ValueError(
+                f"reward function {self.scheme}/{self.name} has no parameter(s) {sorted(unknown)}; valid: {valid}"
+            )
+        merged = {**self.defaults, **params}
+        validator = _PARAM_CHECKS.get(self.name)
+        if validator:
+            validator(merged)
+        return merged
+
+
+#: scheme -> name -> function
+REWARD_FUNCTIONS: dict[str, dict[str, RewardFunction]] = {s: {} for s in SCHEMES}
+_PARAM_CHECKS: dict[str, Callable[[dict[str, Any]], None]] = {}
+
+
+def register_reward(name: str, scheme: str, needs: tuple[str, ...] = (), needs_previous: tuple[str, ...] = (),
+                    **defaults: Any) -> Callable[[RewardFn], RewardFn]:
+    """Declare a reward function of ``scheme`` under ``name`` (decorator).
+
+    The function gets ``(ctx: RewardContext, node: NodeView, params: dict)`` and returns a float
+    array with one reward per agent in ``node.agents``. ``needs`` names the measures it reads,
+    ``needs_previous`` those it also reads from the previous step (``ctx.previous``).
+    """
+    if scheme not in SCHEMES:
+        raise ValueError(f"unknown scheme {scheme!r}; valid schemes: {', '.join(SCHEMES)}")
+
+    def decorate(fn: RewardFn) -> RewardFn:
+        if name in REWARD_FUNCTIONS[scheme]:
+            raise ValueError(f"a reward function {scheme}/{name} is already registered; pick another name")
+        doc = (fn.__doc__ or "").strip().splitlines()[0] if fn.__doc__ else ""
+        REWARD_FUNCTIONS[scheme][name] = RewardFunction(
+            name, scheme, fn, tuple(needs), tuple(needs_previous), dict(defaults), doc
+        )
+        return fn
+
+    return decorate
+
+
+def unregister_reward(name: str, scheme: str) -> None:
+    """Remove a custom reward function (tests and notebooks that register throwaway ones)."""
+    REWARD_FUNCTIONS[scheme].pop(name, None)
+
+
+def lookup_reward(scheme: str, name: str) -> RewardFunction:
+    if scheme not in SCHEMES:
+        raise ValueError(f"unknown scheme {scheme!r}; valid schemes: {', '.join(SCHEMES)}")
+    table = REWARD_FUNCTIONS[scheme]
+    if name not in table:
+        elsewhere = [s for s, t in REWARD_FUNCTIONS.items() if name in t]
+        hint = f" ({name!r} is a {'/'.join(elsewhere)} function)" if elsewhere else ""
+        raise ValueError(
+            f"reward function {name!r} is not in scheme {scheme}{hint}; {scheme} functions: {', '.join(sorted(table))}"
+        )
+    return table[name]
+
+
+# --- helpers -------------------------------------------------------------------------------------
+
+def _per_group(values: np.ndarray, node: NodeView) -> np.ndarray:
+    """Sum per child group of per-agent values of the node's agents."""
+    return np.bincount(node.group, weights=values, minlength=node.n_groups)
+
+
+def _zero_sum(group_values: np.ndarray) -> np.ndarray:
+    return group_values - group_values.mean()
+
+
+def _by_team(values: np.ndarray, teams: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean of per-agent values within each game team present; returns (team index per agent,
+    team means indexed by that)."""
+    present, inverse = np.unique(teams, return_inverse=True)
+    sums = np.bincount(inverse, weights=values, minlength=len(present))
+    counts = np.bincount(inverse, minlength=len(present))
+    return inverse, sums / counts
+
+
+# --- NL ------------------------------------------------------------------------------------------
+
+@register_reward("none", "NL")
+def _none(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """No reward (a node that only groups its children)."""
+    return np.zeros(len(node.agents))
+
+
+@register_reward("constant", "NL", value=1.0)
+def _constant(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """The same constant every step, whatever anyone does."""
+    return np.full(len(node.agents), float(params["value"]))
+
+
+# --- IS ------------------------------------------------------------------------------------------
+
+@register_reward("target", "IS", needs=("target_distance",), needs_previous=("target_distance",))
+def _target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Progress toward one's target: the decrease of the distance to it this step."""
+    a = node.agents
+    return ctx.previous["target_distance"][a] - ctx.measures.target_distance[a]
+
+
+@register_reward("velocity_to_target", "IS", needs=("velocity_to_target",))
+def _velocity_to_target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Velocity component toward one's target."""
+    return ctx.measures.velocity_to_target[node.agents].astype(np.float64)
+
+
+@register_reward("facing_target", "IS", needs=("facing_target",))
+def _facing_target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Cosine of the angle between one's heading and one's target."""
+    return ctx.measures.facing_target[node.agents].astype(np.float64)
+
+
+@register_reward("energy", "IS", needs=("energy",))
+def _energy(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Energy cost: minus the control effort spent this step."""
+    return -ctx.measures.energy[node.agents]
+
+
+@register_reward("big_force", "IS", needs=("force",), threshold=1.0, penalty=1.0)
+def _big_force(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Big-force penalty: minus ``penalty`` on each step the contact force exceeds ``threshold``."""
+    return -float(params["penalty"]) * (ctx.measures.force[node.agents] > params["threshold"])
+
+
+@register_reward("steady_velocity", "IS", needs=("speed",), needs_previous=("speed",))
+def _steady_velocity(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Steady velocity: minus the change of one's speed this step."""
+    a = node.agents
+    return -np.abs(ctx.measures.speed[a] - ctx.previous["speed"][a])
+
+
+@register_reward("time_penalty", "IS", needs=("active",), needs_previous=("active",), value=1.0)
+def _time_penalty(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Time penalty: minus ``value`` for every step one is still in play."""
+    return -float(params["value"]) * ctx.previous["active"][node.agents]
+
+
+@register_reward("fall", "IS", needs=("fallen",))
+def _fall(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Fall / head-down penalty: minus one on each step one is fallen."""
+    return -ctx.measures.fallen[node.agents].astype(np.float64)
+
+
+# --- CP ------------------------------------------------------------------------------------------
+
+def _check_ranking(params: dict[str, Any]) -> None:
+    if params["order"] not in ("depart", "survive"):
+        raise ValueError(
+            f"ranking order {params['order']!r} is not valid; use 'depart' (first to arrive ranks first) "
+            "or 'survive' (last to be eliminated ranks first)"
+        )
+    if float(params["tie_penalty"]) < 0:
+        raise ValueError("ranking tie_penalty must be >= 0 (it is subtracted from tied children)")
+
+
+_PARAM_CHECKS["ranking"] = _check_ranking
+
+
+@register_reward("ranking", "CP", needs=("active",), order="depart", tie_penalty=0.0)
+def _ranking(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Ranking of the children by order of arrival ("depart") or elimination ("survive").
+
+    A child group resolves when all its agents have arrived (depart) or none is alive (survive);
+    groups resolving on the same step tie. Place p (0 = first) of G pays 1 - 2p/(G-1), ties the mean
+    of their places, minus ``tie_penalty`` for each tied child; when one group is left it is placed
+    at once, and groups unresolved at the end share the remaining places.
+    """
+    m = ctx.measures
+    survive = params["order"] == "survive"
+    flag = m.alive if survive else m.arrived
+    if flag is None:
+        needed = "alive" if survive else "arrived"
+        raise ValueError(f"ranking with order {params['order']!r} needs the measure {needed!r}, which this game lacks")
+    mem = node.memory
+    n_groups = node.n_groups
+    if "resolved" not in mem:
+        mem["resolved"] = np.zeros(n_groups, dtype=bool)
+        mem["best_free"] = 0  # next place from the top (depart)
+        mem["worst_free"] = n_groups - 1  # next place from the bottom (survive)
+    resolved: np.ndarray = mem["resolved"]
+    rewards_g = np.zeros(n_groups)
+    if resolved.all():
+        return rewards_g[node.group]
+    cond = flag[node.agents]
+    if survive:
+        done_g = np.bincount(node.group, weights=cond, minlength=n_groups) == 0  # nobody alive
+    else:
+        done_g = np.bincount(node.group, weights=~cond, minlength=n_groups) == 0  # all arrived
+    newly = done_g & ~resolved
+    span = max(n_groups - 1, 1)
+    tie_penalty = float(params["tie_penalty"])
+
+    def place(groups: np.ndarray, from_top: bool) -> None:
+        k = int(groups.sum())
+        if k == 0:
+            return
+        if from_top:
+            first = mem["best_free"]
+            mem["best_free"] += k
+        else:
+            first = mem["worst_free"] - k + 1
+            mem["worst_free"] -= k
+        mean_place = first + (k - 1) / 2.0
+        rewards_g[groups] = 1.0 - 2.0 * mean_place / span - (tie_penalty if k > 1 else 0.0)
+        resolved[groups] = True
+
+    place(newly, from_top=not survive)
+    remaining = ~resolved
+    if remaining.sum() == 1 or (ctx.ending and remaining.any()):
+        # the last group's place is determined; at the end the unresolved share what is left
+        place(remaining, from_top=survive)
+    return rewards_g[node.group]
+
+
+@register_reward("resource_share", "CP", needs=("resource_gain",))
+def _resource_share(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Share of a limited resource: a child's take this step minus the children's mean take."""
+    gains = _per_group(ctx.measures.resource_gain[node.agents], node)
+    return _zero_sum(gains)[node.group]
+
+
+@register_reward("win_loss", "CP", needs=("outcome",))
+def _win_loss(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Zero-sum win/loss: at the end, a child's mean outcome minus the children's mean outcome."""
+    if not ctx.ending:
+        return np.zeros(len(node.agents))
+    counts = np.bincount(node.group, minlength=node.n_groups)
+    outcome_g = _per_group(ctx.measures.outcome[node.agents], node) / counts
+    return _zero_sum(outcome_g)[node.group]
+
+
+# --- CL ------------------------------------------------------------------------------------------
+
+@register_reward("team_progress", "CL", needs=("object_progress",))
+def _team_progress(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Team progress of a shared object: the distance it moved toward the goal, shared by all."""
+    return np.full(len(node.agents), ctx.measures.object_progress[node.agents].mean())
+
+
+@register_reward("team_target", "CL", needs=("target_distance",), needs_previous=("target_distance",))
+def _team_target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """The group's mean progress toward the targets of its members, shared by all."""
+    a = node.agents
+    progress = ctx.previous["target_distance"][a] - ctx.measures.target_distance[a]
+    return np.full(len(a), progress.mean())
+
+
+@register_reward("team_living_longer", "CL", needs=("active",), needs_previous=("active",))
+def _team_living_longer(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Team living time, longer is better: +1 per step while anyone below is still in play."""
+    return np.full(len(node.agents), float(ctx.previous["active"][node.agents].any()))
+
+
+@register_reward("team_living_shorter", "CL", needs=("active",), needs_previous=("active",))
+def _team_living_shorter(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Team living time, shorter is better: -1 per step while anyone below is still in play."""
+    return np.full(len(node.agents), -float(ctx.previous["active"][node.agents].any()))
+
+
+# --- CC ------------------------------------------------------------------------------------------
+
+@register_reward("team_win_loss", "CC", needs=("outcome",))
+def _team_win_loss(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Mixed win/loss over the agents below, grouped by game team: one's team's mean outcome
+    minus the mean over the teams present (teammates gain together, opponents lose)."""
+    if not ctx.ending:
+        return np.zeros(len(node.agents))
+    inverse, means = _by_team(ctx.measures.outcome[node.agents], ctx.team_of[node.agents])
+    return (means - means.mean())[inverse]
+
+
+@register_reward("team_progress_race", "CC", needs=("object_progress",))
+def _team_progress_race(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
+    """Mixed object race over the agents below, grouped by game team: one's team object's
+    progress minus the mean progress of the teams present."""
+    inverse, means = _by_team(ctx.measures.object_progress[node.agents], ctx.team_of[node.agents])
+    return (means - means.mean())[inverse]

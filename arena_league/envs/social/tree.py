@@ -1,0 +1,272 @@
+"""The social tree: agents are leaves, every node carries a reward scheme, a function and a scale.
+
+After Song et al., "Arena" (AAAI 2020). An agent's reward is the sum, over the nodes on its path
+from the root, of ``scale * node reward``; a node's reward reaches every agent below it. A node
+may carry ``"board": n``, a broadcast board of n floats that its descendants write (an extra part
+of their action) and read (an extra part of their observation).
+
+Spec (a dict, or the same as YAML/JSON)::
+
+    {"scheme": "CP", "reward": "ranking", "scale": 100, "params": {"order": "depart"},
+     "children": [
+        {"scheme": "CL", "reward": "team_target", "scale": 10, "board": 4, "children": [
+            {"agent": "player_0", "scheme": "IS", "reward": "target", "scale": 1},
+            "player_1"]},
+        {"scheme": "CL", "reward": "team_target", "children": ["player_2", "player_3"]}]}
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from arena_league.envs.core import Measures
+from arena_league.envs.social.rewards import (
+    SCHEMES,
+    NodeView,
+    RewardContext,
+    RewardFunction,
+    lookup_reward,
+)
+
+_NODE_KEYS = {"scheme", "reward", "scale", "params", "children", "board", "name"}
+_LEAF_KEYS = {"agent", "scheme", "reward", "scale", "params", "name"}
+_DEFAULT_REWARD = {"NL": "none"}
+
+
+class TreeSpecError(ValueError):
+    """A social tree spec that cannot be built; the message names the node and the fix."""
+
+
+@dataclass
+class SocialNode:
+    """One compiled node. ``agents`` are seat indices below it; ``view.group`` maps each to a child."""
+
+    path: str  # e.g. "root", "root/0", "root/1/player_3"
+    scheme: str
+    reward: RewardFunction
+    params: dict[str, Any]
+    scale: float
+    agents: np.ndarray
+    children: list[SocialNode]
+    view: NodeView
+    board: int = 0
+    agent_leaf: str | None = None  # the agent name when this node is an agent leaf with a reward
+    label: str | None = None
+
+    def describe(self) -> dict[str, Any]:
+        return {
+            "path": self.path,
+            "scheme": self.scheme,
+            "reward": self.reward.name,
+            "scale": self.scale,
+            "agents": [int(a) for a in self.agents],
+            "board": self.board,
+        }
+
+
+@dataclass
+class SocialTree:
+    """A validated, compiled social tree over the seats of one game layout."""
+
+    spec: dict[str, Any]
+    agent_names: list[str]
+    nodes: list[SocialNode]  # pre-order, root first
+    team_of: np.ndarray
+    previous_needed: tuple[str, ...] = ()
+    boards: list[SocialNode] = field(default_factory=list)  # nodes with a board, pre-order
+    board_slices: dict[int, list[tuple[int, slice]]] = field(default_factory=dict)  # seat -> [(board idx, msg slice)]
+
+    # --- construction ----------------------------------------------------------------------------
+    @classmethod
+    def build(cls, spec: Any, agent_names: Sequence[str], team_of: np.ndarray,
+              measures_provided: frozenset[str], game: str = "this game") -> SocialTree:
+        """Validate ``spec`` (dict, or a path to a YAML/JSON file) against the seats and measures."""
+        spec = load_tree_spec(spec)
+        if not isinstance(spec, Mapping):
+            raise TreeSpecError(f"a social tree spec is a dict (the root node), not {type(spec).__name__}")
+        names = list(agent_names)
+        index = {n: i for i, n in enumerate(names)}
+        seen: dict[str, str] = {}
+        nodes: list[SocialNode] = []
+        on_stack: set[int] = set()
+
+        def fail(path: str, problem: str) -> None:
+            raise TreeSpecError(f"social tree node {path}: {problem}")
+
+        def reward_of(path: str, raw: Mapping) -> tuple[str, RewardFunction, dict, float]:
+            scheme = raw.get("scheme")
+            if scheme is None:
+                fail(path, f"missing 'scheme'; give one of {', '.join(SCHEMES)}")
+            if scheme not in SCHEMES:
+                fail(path, f"unknown scheme {scheme!r}; valid schemes: {', '.join(SCHEMES)} ({_scheme_help()})")
+            name = raw.get("reward", _DEFAULT_REWARD.get(scheme))
+            if name is None:
+                fail(path, f"missing 'reward'; {scheme} functions: {', '.join(sorted(_functions(scheme)))}")
+            try:
+                fn = lookup_reward(scheme, name)
+                params = fn.check_params(dict(raw.get("params") or {}))
+            except ValueError as exc:
+                fail(path, str(exc))
+            missing = [m for m in fn.needs + fn.needs_previous if m not in measures_provided]
+            if missing:
+                fail(path, f"reward {scheme}/{name} needs the measure(s) {missing}, which {game} does not emit; "
+                     f"{game} emits: {', '.join(sorted(measures_provided))}")
+            scale = raw.get("scale", 1.0)
+            if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not np.isfinite(scale):
+                fail(path, f"'scale' must be a finite number, not {scale!r}")
+            return scheme, fn, params, float(scale)
+
+        def visit(raw: Any, path: str) -> tuple[list[int], SocialNode | None]:
+            """Returns the seats below ``raw`` and its compiled node (None for a bare agent)."""
+            if isinstance(raw, str):
+                if raw not in index:
+                    fail(path, f"unknown agent {raw!r}; agents of {game}: {', '.join(names)}")
+                if raw in seen:
+                    fail(path, f"agent {raw!r} is listed twice (also at {seen[raw]}); each agent is one leaf")
+                seen[raw] = path
+                return [index[raw]], None
+            if not isinstance(raw, Mapping):
+                fail(path, f"a node is a dict or an agent name, not {type(raw).__name__} {raw!r}")
+            if id(raw) in on_stack:
+                fail(path, "the tree has a cycle (a node is its own descendant); a social tree must be a tree")
+            if "agent" in raw:
+                unknown = set(raw) - _LEAF_KEYS
+                if unknown:
+                    fail(path, f"unknown key(s) {sorted(unknown)} on an agent leaf; valid: {sorted(_LEAF_KEYS)}")
+                agent = raw["agent"]
+                seats, _ = visit(agent, f"{path}/{agent}")
+                if "scheme" not in raw and "reward" not in raw:
+                    return seats, None
+                scheme, fn, params, scale = reward_of(path, raw)
+                if scheme not in ("IS", "NL"):
+                    fail(path, f"an agent leaf can carry only an IS or NL reward (one agent cannot compete or "
+                         f"collaborate with itself); put the {scheme} reward on a node above it")
+                arr = np.array(seats, dtype=np.int64)
+                node = SocialNode(path, scheme, fn, params, scale, arr, [],
+                                  NodeView(arr, np.zeros(1, dtype=np.int64), 1), agent_leaf=agent,
+                                  label=raw.get("name"))
+                return seats, node
+            unknown = set(raw) - _NODE_KEYS
+            if unknown:
+                fail(path, f"unknown key(s) {sorted(unknown)}; valid keys: {sorted(_NODE_KEYS)} "
+                     "(or 'agent' for a leaf)")
+            children = raw.get("children")
+            if not isinstance(children, Sequence) or isinstance(children, (str, bytes)) or not children:
+                fail(path, "a node needs a non-empty 'children' list (agent names or nodes)")
+            scheme, fn, params, scale = reward_of(path, raw)
+            if scheme in ("CP", "CC") and len(children) < 2:
+                fail(path, f"a {scheme} node needs at least two children to compete between")
+            board = raw.get("board", 0)
+            if isinstance(board, bool) or not isinstance(board, int) or board < 0:
+                fail(path, f"'board' must be a non-negative integer number of floats, not {board!r}")
+            on_stack.add(id(raw))
+            node = SocialNode(path, scheme, fn, params, scale, np.zeros(0, np.int64), [], None,  # type: ignore[arg-type]
+                              board=board, label=raw.get("name"))
+            nodes.append(node)
+            seats: list[int] = []
+            groups: list[int] = []
+            for k, child in enumerate(children):
+                child_path = f"{path}/{child}" if isinstance(child, str) else f"{path}/{k}"
+                child_seats, child_node = visit(child, child_path)
+                seats += child_seats
+                groups += [k] * len(child_seats)
+                if child_node is not None:
+                    node.children.append(child_node)
+                    if child_node.agent_leaf is not None:
+                        nodes.append(child_node)
+            on_stack.discard(id(raw))
+            node.agents = np.array(seats, dtype=np.int64)
+            node.view = NodeView(node.agents, np.array(groups, dtype=np.int64), len(children))
+            return seats, node
+
+        _, root = visit(spec, "root")
+        if root is None or root.agent_leaf is not None:
+            raise TreeSpecError("the root of a social tree must be a node with 'scheme' and 'children', not an agent")
+        missing = [n for n in names if n not in seen]
+        if missing:
+            raise TreeSpecError(f"social tree leaves out agent(s) {', '.join(missing)}; every agent of {game} "
+                                f"({', '.join(names)}) must be a leaf exactly once")
+        previous = sorted({m for n in nodes for m in n.reward.needs_previous})
+        tree = cls(dict(spec), names, nodes, np.asarray(team_of, dtype=np.int64), tuple(previous))
+        tree.boards = [n for n in nodes if n.board > 0]
+        for b, node in enumerate(tree.boards):
+            for seat in node.agents:
+                tree.board_slices.setdefault(int(seat), []).append((b, slice(0, node.board)))
+        # message slices in the order the seat's boards appear root-to-leaf (pre-order keeps that)
+        for seat, parts in tree.board_slices.items():
+            offset = 0
+            for i, (b, _) in enumerate(parts):
+                width = tree.boards[b].board
+                parts[i] = (b, slice(offset, offset + width))
+                offset += width
+        return tree
+
+    # --- use ---------------------------------------------------------------------------------------
+    @property
+    def n_agents(self) -> int:
+        return len(self.agent_names)
+
+    def board_width(self, seat: int) -> int:
+        """Floats of board message (action) and of board content (observation) for ``seat``."""
+        return sum(s.stop - s.start for _, s in self.board_slices.get(seat, ()))
+
+    def reset(self) -> None:
+        for node in self.nodes:
+            node.view.memory.clear()
+
+    def rewards(self, ctx: RewardContext, per_node: np.ndarray | None = None) -> np.ndarray:
+        """Every seat's reward for the step; ``per_node`` (``[n_nodes, n_agents]``), when given,
+        receives each node's unscaled reward (for verification)."""
+        total = np.zeros(self.n_agents)
+        for k, node in enumerate(self.nodes):
+            value = node.reward.fn(ctx, node.view, node.params)
+            if per_node is not None:
+                per_node[k, node.agents] += value
+            if node.scale != 0.0:
+                total[node.agents] += node.scale * value
+        return total
+
+    def describe(self) -> list[dict[str, Any]]:
+        return [n.describe() for n in self.nodes]
+
+
+def _functions(scheme: str) -> list[str]:
+    from arena_league.envs.social.rewards import REWARD_FUNCTIONS
+
+    return list(REWARD_FUNCTIONS[scheme])
+
+
+def _scheme_help() -> str:
+    return "; ".join(f"{k}: {v}" for k, v in SCHEMES.items())
+
+
+def load_tree_spec(spec: Any) -> Any:
+    """A spec given as a dict stays; a path (str or Path) to a .yaml/.yml/.json file is read."""
+    if isinstance(spec, (str, Path)) and not (isinstance(spec, str) and spec.strip().startswith("{")):
+        path = Path(spec)
+        if not path.exists():
+            raise TreeSpecError(f"social tree file {path} does not exist")
+        text = path.read_text()
+        try:
+            loaded = json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
+        except (json.JSONDecodeError, yaml.YAMLError) as exc:
+            raise TreeSpecError(f"social tree file {path} is not valid {path.suffix.lstrip('.') or 'YAML'}: {exc}") from exc
+        return loaded
+    if isinstance(spec, str):
+        try:
+            return json.loads(spec)
+        except json.JSONDecodeError as exc:
+            raise TreeSpecError(f"social tree given as a string is not valid JSON: {exc}") from exc
+    return spec
+
+
+def new_context(measures: Measures, tree: SocialTree) -> RewardContext:
+    """The context of the first step of an episode (previous = the measures at reset)."""
+    return RewardContext(measures, measures.copy_of(tree.previous_needed), tree.team_of, 0, False)

@@ -1,0 +1,1 @@
+"""matchmaking layer of arena-league (see DESIGN.md)."""

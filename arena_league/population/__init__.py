@@ -1,0 +1,1 @@
+"""population layer of arena-league (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""replay layer of arena-league (see DESIGN.md)."""
