@@ -183,7 +183,7 @@ class ArenaParallelEnv(ParallelEnv):
         sums = [np.zeros_like(c) for c in self._board_content]
         counts = [0] * len(self._board_content)
         for seat, parts in self.tree.board_slices.items():
-            if not active[seat] and not self.rules.game_over:
+            if not active[seat]:
                 continue
             for b, sl in parts:
                 sums[b] += messages[seat, sl]
@@ -193,20 +193,23 @@ class ArenaParallelEnv(ParallelEnv):
                 content[:] = sums[b] / counts[b]
 
     def _observations(self) -> np.ndarray:
+        """Row ``i``: base observation | seat i's boards, root first | global state (if asked),
+        zero-padded at the end to the widest seat (the dict API hands each seat its own width)."""
         obs = self.rules.observe()
         if not self._has_boards and not self.state_in_obs:
             return obs
-        parts = [obs]
-        if self._has_boards:
-            width = max(self._board_width)
-            boards = np.zeros((self.rules.n_agents, width), dtype=np.float32)
-            for seat, slices in self.tree.board_slices.items():
-                for b, sl in slices:
-                    boards[seat, sl] = self._board_content[b]
-            parts.append(boards)
-        if self.state_in_obs:
-            parts.append(np.broadcast_to(self.rules.state(), (self.rules.n_agents, self.rules.state_dim)))
-        return np.concatenate(parts, axis=1, dtype=np.float32)
+        rules = self.rules
+        out = np.zeros((rules.n_agents, max(self._obs_dim)), dtype=np.float32)
+        out[:, : rules.obs_dim] = obs
+        state = rules.state() if self.state_in_obs else None
+        for seat in range(rules.n_agents):
+            offset = rules.obs_dim
+            for b, sl in self.tree.board_slices.get(seat, ()):
+                out[seat, offset + sl.start: offset + sl.stop] = self._board_content[b]
+            if state is not None:
+                start = offset + self._board_width[seat]
+                out[seat, start: start + rules.state_dim] = state
+        return out
 
     # --- PettingZoo API ----------------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
@@ -230,16 +233,12 @@ class ArenaParallelEnv(ParallelEnv):
         else:
             flat = [actions[a] for a in self.possible_agents]
         if self._discrete:
-            array = np.empty(self.rules.n_agents, dtype=np.int64)
-            for i, a in enumerate(flat):
-                try:
-                    array[i] = a
-                except (TypeError, ValueError, OverflowError):
-                    raise ValueError(f"{self.game_id}: action {a!r} of player_{i} is not an integer; valid actions: "
-                                     f"{self._action_help()}") from None
-                if np.ndim(a) != 0:
-                    raise ValueError(f"{self.game_id}: action of player_{i} must be one integer, got shape "
-                                     f"{np.shape(a)}; valid actions: {self._action_help()}")
+            array = _integer_array(flat)
+            if array is None:
+                for i, a in enumerate(flat):
+                    if not isinstance(a, (int, np.integer)) or isinstance(a, bool):
+                        raise ValueError(f"{self.game_id}: action {a!r} of player_{i} is not an integer; "
+                                         f"valid actions: {self._action_help()}")
         else:
             shapes = {np.shape(a) for a in flat}
             if shapes != {(self.rules.act_dim,)}:
@@ -278,8 +277,9 @@ class ArenaParallelEnv(ParallelEnv):
         return flat, messages
 
     def _obs_dict(self, obs: np.ndarray) -> dict[str, np.ndarray]:
-        return {a: obs[i] for i, a in enumerate(self.agents)} if self.agents else \
-            {a: obs[i] for i, a in enumerate(self.possible_agents)}
+        if self._has_boards:
+            return {a: obs[i, : self._obs_dim[i]] for i, a in enumerate(self.possible_agents)}
+        return {a: obs[i] for i, a in enumerate(self.possible_agents)}
 
     def _info(self, seat: int) -> dict[str, Any]:
         mask = self.rules.action_mask()
@@ -304,3 +304,14 @@ class ArenaParallelEnv(ParallelEnv):
     @property
     def step_count(self) -> int:
         return self._step
+
+
+def _integer_array(values: list) -> np.ndarray | None:
+    """``int64`` array of one integer per seat, or None when any value is not an integer."""
+    try:
+        array = np.array(values)
+    except (ValueError, TypeError):
+        return None
+    if array.ndim != 1 or array.dtype.kind not in "iu":
+        return None
+    return array

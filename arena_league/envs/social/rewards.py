@@ -169,8 +169,11 @@ def _none(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
 
 @register_reward("constant", "NL", value=1.0)
 def _constant(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
-    """The same constant every step, whatever anyone does."""
-    return np.full(len(node.agents), float(params["value"]))
+    """A constant paid once, on the first step of every episode, whatever anyone does.
+
+    (Paid every step it would not be non-learnable: agents could then earn more of it by making
+    the episode last longer.)"""
+    return np.full(len(node.agents), float(params["value"]) if ctx.step == 1 else 0.0)
 
 
 # --- IS ------------------------------------------------------------------------------------------

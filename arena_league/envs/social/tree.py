@@ -141,7 +141,7 @@ class SocialTree:
                 if unknown:
                     fail(path, f"unknown key(s) {sorted(unknown)} on an agent leaf; valid: {sorted(_LEAF_KEYS)}")
                 agent = raw["agent"]
-                seats, _ = visit(agent, f"{path}/{agent}")
+                seats, _ = visit(agent, path)
                 if "scheme" not in raw and "reward" not in raw:
                     return seats, None
                 scheme, fn, params, scale = reward_of(path, raw)
@@ -173,7 +173,12 @@ class SocialTree:
             seats: list[int] = []
             groups: list[int] = []
             for k, child in enumerate(children):
-                child_path = f"{path}/{child}" if isinstance(child, str) else f"{path}/{k}"
+                if isinstance(child, str):
+                    child_path = f"{path}/{child}"
+                elif isinstance(child, Mapping) and isinstance(child.get("agent"), str):
+                    child_path = f"{path}/{child['agent']}"
+                else:
+                    child_path = f"{path}/{k}"
                 child_seats, child_node = visit(child, child_path)
                 seats += child_seats
                 groups += [k] * len(child_seats)

@@ -22,6 +22,7 @@ two episodes and ``c(j)`` the child holding ``j``:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -107,8 +108,10 @@ def play_episode(env: ArenaParallelEnv, env_seed: int, skills: np.ndarray, seat_
         env._per_node = None
 
 
-def verify_env(env: ArenaParallelEnv, samples: int = 64, seed: int = 0) -> VerificationReport:
-    """Verify every node of ``env``'s social tree from ``samples`` paired episodes."""
+def verify_env(env: ArenaParallelEnv, samples: int = 64, seed: int = 0,
+               progress: Callable[[int, int], None] | None = None) -> VerificationReport:
+    """Verify every node of ``env``'s social tree from ``samples`` paired episodes;
+    ``progress(done, total)`` is called after each pair."""
     if samples < 4:
         raise ValueError(f"verification needs at least 4 paired samples to estimate signs, not {samples}")
     n = env.rules.n_agents
@@ -129,17 +132,20 @@ def verify_env(env: ArenaParallelEnv, samples: int = 64, seed: int = 0) -> Verif
         # positive delta = the change when seat j plays better (lower epsilon)
         deltas[k] = totals[0] - totals[1]
         perturbed[k] = j
+        if progress is not None:
+            progress(k + 1, samples)
     verdicts = [_classify(node, k, deltas, perturbed) for k, node in enumerate(tree.nodes)]
     return VerificationReport(env.game_id, samples, seed, verdicts)
 
 
 def verify(game_id: str, tree: Any = None, samples: int = 64, seed: int = 0, max_cycles: int | None = None,
-           action_type: str | None = None, **game_kwargs: Any) -> VerificationReport:
+           action_type: str | None = None, progress: Callable[[int, int], None] | None = None,
+           **game_kwargs: Any) -> VerificationReport:
     """Verify the social tree of ``game_id`` (its default, or ``tree``) by paired sampling."""
     from arena_league.envs import make
 
     env = make(game_id, tree=tree, action_type=action_type, max_cycles=max_cycles, **game_kwargs)
-    return verify_env(env, samples=samples, seed=seed)
+    return verify_env(env, samples=samples, seed=seed, progress=progress)
 
 
 def _classify(node, node_index: int, deltas: np.ndarray, perturbed: np.ndarray) -> NodeVerdict:

@@ -1,0 +1,69 @@
+"""The batched policy interface every agent implements: built-in scripted agents, torch families,
+ONNX submissions.
+
+One :class:`Policy` acts for many seats at once (the match engine groups all seats a policy holds
+across every match in play into one call). Randomness never comes from the policy: the engine
+hands it per-seat uniform draws taken from each match's own generator, so outcomes are the same
+whatever the batch size or the backend.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    """What a game's seats must output."""
+
+    action_type: str  # "discrete" | "continuous"
+    obs_dim: int
+    n_actions: int = 0  # discrete
+    act_dim: int = 0  # continuous
+
+    @property
+    def uniforms_per_seat(self) -> int:
+        """Uniform draws the engine gives each seat per step (``act_dim`` for continuous, else 1)."""
+        return max(1, self.act_dim) if self.action_type == "continuous" else 1
+
+
+class Policy(ABC):
+    """An agent's policy, batched over seats.
+
+    ``act`` maps observations ``float32[N, obs_dim]`` to actions (``int64[N]`` discrete, or
+    ``float32[N, act_dim]`` in [-1, 1] continuous). ``uniforms`` is ``float64[N, k]`` of U(0, 1)
+    draws (``k = spec.uniforms_per_seat``) for any sampling the policy does; ``mask`` is
+    ``bool[N, n_actions]`` of legal actions for games that have illegal moves, or None.
+    Recurrent policies carry ``state`` (``float32[N, ...]``) from one step to the next.
+    """
+
+    spec: ActionSpec
+    #: A short name for logs: "random", "heuristic", "onnx:<sha>", "mlp".
+    name: str = "policy"
+    recurrent: bool = False
+
+    def initial_state(self, n: int) -> np.ndarray | None:
+        return None
+
+    @abstractmethod
+    def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
+            state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+        """Actions for N seats, and the next recurrent state (None for feed-forward policies)."""
+
+
+def sample_from_logits(logits: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None) -> np.ndarray:
+    """Categorical sample per row by inverse CDF of ``softmax(logits)`` with one uniform per row;
+    illegal actions (``mask`` False) get probability zero. ``int64[N]``."""
+    z = logits.astype(np.float64, copy=True)
+    if mask is not None:
+        z[~mask] = -np.inf
+    z -= z.max(axis=1, keepdims=True)
+    p = np.exp(z)
+    cdf = np.cumsum(p, axis=1)
+    cdf /= cdf[:, -1:]
+    u = uniforms[:, :1]
+    choice = (cdf < u).sum(axis=1)
+    return np.minimum(choice, logits.shape[1] - 1).astype(np.int64)
