@@ -154,9 +154,8 @@ class ArenaParallelEnv(ParallelEnv):
                 else:
                     raise ValueError(f"{self.game_id}: discrete actions are one integer per seat, shape ({n},); "
                                      f"got shape {arr.shape} dtype {arr.dtype}")
-            bad = (arr < 0) | (arr >= self.rules.n_actions)
-            if bad.any():
-                seat = int(np.flatnonzero(bad)[0])
+            if arr.min() < 0 or arr.max() >= self.rules.n_actions:
+                seat = int(np.flatnonzero((arr < 0) | (arr >= self.rules.n_actions))[0])
                 raise ValueError(f"{self.game_id}: action {int(arr[seat])} of player_{seat} is out of range; "
                                  f"valid actions: {self._action_help()}")
             return arr.astype(np.int64, copy=False)
@@ -164,7 +163,7 @@ class ArenaParallelEnv(ParallelEnv):
         if arr.shape != (n, self.rules.act_dim):
             raise ValueError(f"{self.game_id}: continuous actions have shape ({n}, {self.rules.act_dim}) "
                              f"(one vector of {self.rules.act_dim} floats in [-1, 1] per seat); got {arr.shape}")
-        if not np.all(np.isfinite(arr)) or np.any(np.abs(arr) > 1.0):
+        if not (-1.0 <= arr.min() and arr.max() <= 1.0):  # NaN fails both comparisons
             seat = int(np.flatnonzero(~(np.isfinite(arr) & (np.abs(arr) <= 1.0)).all(axis=1))[0])
             raise ValueError(f"{self.game_id}: action {arr[seat].tolist()} of player_{seat} is out of range; "
                              f"every component must be finite and within [-1, 1]")
@@ -214,24 +213,21 @@ class ArenaParallelEnv(ParallelEnv):
     # --- PettingZoo API ----------------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
         obs = self.reset_arrays(seed)
-        return self._obs_dict(obs), {a: self._info(i) for i, a in enumerate(self.agents)}
+        return self._obs_dict(obs), self._infos()
 
     def step(self, actions: dict[str, Any]):
         if not self.agents:
             raise RuntimeError(f"{self.game_id}: the episode is over; call reset() before step()")
-        if not isinstance(actions, dict):
-            raise TypeError(f"{self.game_id}: step() takes a dict agent name -> action, not {type(actions).__name__}")
-        missing = [a for a in self.agents if a not in actions]
-        extra = [a for a in actions if a not in self._index]
-        if missing or extra:
-            problem = (f"missing actions for {', '.join(missing)}" if missing
-                       else f"unknown agent(s) {', '.join(map(str, extra))}")
-            raise ValueError(f"{self.game_id}: {problem}; give one action for each of {', '.join(self.agents)}")
+        names = self.possible_agents
+        try:
+            if len(actions) != len(names):
+                raise KeyError
+            flat = [actions[a] for a in names]
+        except (KeyError, TypeError):
+            self._explain_action_dict(actions)
         messages = None
         if self._has_boards:
             flat, messages = self._split_board_actions(actions)
-        else:
-            flat = [actions[a] for a in self.possible_agents]
         if self._discrete:
             array = _integer_array(flat)
             if array is None:
@@ -240,20 +236,26 @@ class ArenaParallelEnv(ParallelEnv):
                         raise ValueError(f"{self.game_id}: action {a!r} of player_{i} is not an integer; "
                                          f"valid actions: {self._action_help()}")
         else:
-            shapes = {np.shape(a) for a in flat}
-            if shapes != {(self.rules.act_dim,)}:
-                bad = next(i for i, a in enumerate(flat) if np.shape(a) != (self.rules.act_dim,))
+            try:
+                array = np.asarray(flat, dtype=np.float32)
+            except (ValueError, TypeError):
+                array = None
+            if array is None or array.shape != (len(names), self.rules.act_dim):
+                bad = next((i for i, a in enumerate(flat) if np.shape(a) != (self.rules.act_dim,)), 0)
                 raise ValueError(f"{self.game_id}: action of player_{bad} has shape {np.shape(flat[bad])}; "
                                  f"continuous actions are {self.rules.act_dim} floats in [-1, 1]")
-            array = np.asarray(flat, dtype=np.float32)
         obs, rewards, terminated, truncated = self.step_arrays(array, messages)
-        names = self.possible_agents
-        obs_d = self._obs_dict(obs)
-        rew_d = {a: float(rewards[i]) for i, a in enumerate(names)}
-        term_d = {a: terminated for a in names}
-        trunc_d = {a: truncated for a in names}
-        info_d = {a: self._info(i) for i, a in enumerate(names)}
-        return obs_d, rew_d, term_d, trunc_d, info_d
+        return (self._obs_dict(obs), dict(zip(names, rewards.tolist())), dict.fromkeys(names, terminated),
+                dict.fromkeys(names, truncated), self._infos())
+
+    def _explain_action_dict(self, actions: Any) -> None:
+        if not isinstance(actions, dict):
+            raise TypeError(f"{self.game_id}: step() takes a dict agent name -> action, not {type(actions).__name__}")
+        missing = [a for a in self.agents if a not in actions]
+        extra = [a for a in actions if a not in self._index]
+        problem = (f"missing actions for {', '.join(missing)}" if missing
+                   else f"unknown agent(s) {', '.join(map(str, extra))}")
+        raise ValueError(f"{self.game_id}: {problem}; give one action for each of {', '.join(self.agents)}")
 
     def _split_board_actions(self, actions: dict[str, Any]) -> tuple[list, np.ndarray]:
         width = max(self._board_width)
@@ -284,6 +286,13 @@ class ArenaParallelEnv(ParallelEnv):
     def _info(self, seat: int) -> dict[str, Any]:
         mask = self.rules.action_mask()
         return {} if mask is None else {"action_mask": mask[seat].astype(np.int8)}
+
+    def _infos(self) -> dict[str, dict[str, Any]]:
+        mask = self.rules.action_mask()
+        if mask is None:
+            return {a: {} for a in self.possible_agents}
+        mask = mask.astype(np.int8)
+        return {a: {"action_mask": mask[i]} for i, a in enumerate(self.possible_agents)}
 
     def state(self) -> np.ndarray:
         return self.rules.state()

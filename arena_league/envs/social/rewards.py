@@ -141,6 +141,15 @@ def lookup_reward(scheme: str, name: str) -> RewardFunction:
 
 # --- helpers -------------------------------------------------------------------------------------
 
+def _zeros_for(node: NodeView) -> np.ndarray:
+    """A cached read-only zero reward for the node's agents (callers only read rewards)."""
+    zeros = node.memory.get("_zeros")
+    if zeros is None:
+        zeros = node.memory["_zeros"] = np.zeros(len(node.agents))
+        zeros.flags.writeable = False
+    return zeros
+
+
 def _per_group(values: np.ndarray, node: NodeView) -> np.ndarray:
     """Sum per child group of per-agent values of the node's agents."""
     return np.bincount(node.group, weights=values, minlength=node.n_groups)
@@ -164,7 +173,7 @@ def _by_team(values: np.ndarray, teams: np.ndarray) -> tuple[np.ndarray, np.ndar
 @register_reward("none", "NL")
 def _none(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """No reward (a node that only groups its children)."""
-    return np.zeros(len(node.agents))
+    return _zeros_for(node)
 
 
 @register_reward("constant", "NL", value=1.0)
@@ -264,10 +273,14 @@ def _ranking(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
         mem["resolved"] = np.zeros(n_groups, dtype=bool)
         mem["best_free"] = 0  # next place from the top (depart)
         mem["worst_free"] = n_groups - 1  # next place from the bottom (survive)
+        mem["flag_count"] = -1
     resolved: np.ndarray = mem["resolved"]
+    # arrival and elimination flags only ever flip one way: an unchanged count means no change
+    count = np.count_nonzero(flag)
+    if mem.get("all_resolved") or (not ctx.ending and count == mem["flag_count"]):
+        return _zeros_for(node)  # nothing can resolve on this step
+    mem["flag_count"] = count
     rewards_g = np.zeros(n_groups)
-    if resolved.all():
-        return rewards_g[node.group]
     cond = flag[node.agents]
     if survive:
         done_g = np.bincount(node.group, weights=cond, minlength=n_groups) == 0  # nobody alive
@@ -296,6 +309,7 @@ def _ranking(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     if remaining.sum() == 1 or (ctx.ending and remaining.any()):
         # the last group's place is determined; at the end the unresolved share what is left
         place(remaining, from_top=survive)
+    mem["all_resolved"] = bool(resolved.all())
     return rewards_g[node.group]
 
 
@@ -310,7 +324,7 @@ def _resource_share(ctx: RewardContext, node: NodeView, params: dict) -> np.ndar
 def _win_loss(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """Zero-sum win/loss: at the end, a child's mean outcome minus the children's mean outcome."""
     if not ctx.ending:
-        return np.zeros(len(node.agents))
+        return _zeros_for(node)
     counts = np.bincount(node.group, minlength=node.n_groups)
     outcome_g = _per_group(ctx.measures.outcome[node.agents], node) / counts
     return _zero_sum(outcome_g)[node.group]
@@ -321,7 +335,8 @@ def _win_loss(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
 @register_reward("team_progress", "CL", needs=("object_progress",))
 def _team_progress(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """Team progress of a shared object: the distance it moved toward the goal, shared by all."""
-    return np.full(len(node.agents), ctx.measures.object_progress[node.agents].mean())
+    values = ctx.measures.object_progress[node.agents]
+    return np.full(len(values), values.sum() / len(values))
 
 
 @register_reward("team_target", "CL", needs=("target_distance",), needs_previous=("target_distance",))
@@ -329,7 +344,7 @@ def _team_target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray
     """The group's mean progress toward the targets of its members, shared by all."""
     a = node.agents
     progress = ctx.previous["target_distance"][a] - ctx.measures.target_distance[a]
-    return np.full(len(a), progress.mean())
+    return np.full(len(a), progress.sum() / len(a))
 
 
 @register_reward("team_living_longer", "CL", needs=("active",), needs_previous=("active",))
@@ -351,7 +366,7 @@ def _team_win_loss(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarr
     """Mixed win/loss over the agents below, grouped by game team: one's team's mean outcome
     minus the mean over the teams present (teammates gain together, opponents lose)."""
     if not ctx.ending:
-        return np.zeros(len(node.agents))
+        return _zeros_for(node)
     inverse, means = _by_team(ctx.measures.outcome[node.agents], ctx.team_of[node.agents])
     return (means - means.mean())[inverse]
 

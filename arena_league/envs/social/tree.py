@@ -82,6 +82,9 @@ class SocialTree:
     previous_needed: tuple[str, ...] = ()
     boards: list[SocialNode] = field(default_factory=list)  # nodes with a board, pre-order
     board_slices: dict[int, list[tuple[int, slice]]] = field(default_factory=dict)  # seat -> [(board idx, msg slice)]
+    #: The per-step evaluation plan: nodes that can pay anything, with IS nodes of the same function,
+    #: parameters and scale fused into one (IS functions are per agent, so fusing changes nothing).
+    plan: list[tuple[Any, NodeView, dict[str, Any], float]] = field(default_factory=list)
 
     # --- construction ----------------------------------------------------------------------------
     @classmethod
@@ -200,6 +203,7 @@ class SocialTree:
                                 f"({', '.join(names)}) must be a leaf exactly once")
         previous = sorted({m for n in nodes for m in n.reward.needs_previous})
         tree = cls(dict(spec), names, nodes, np.asarray(team_of, dtype=np.int64), tuple(previous))
+        tree.plan = _evaluation_plan(nodes)
         tree.boards = [n for n in nodes if n.board > 0]
         for b, node in enumerate(tree.boards):
             for seat in node.agents:
@@ -230,16 +234,40 @@ class SocialTree:
         """Every seat's reward for the step; ``per_node`` (``[n_nodes, n_agents]``), when given,
         receives each node's unscaled reward (for verification)."""
         total = np.zeros(self.n_agents)
+        if per_node is None:
+            for fn, view, params, scale in self.plan:
+                total[view.agents] += scale * fn(ctx, view, params)
+            return total
         for k, node in enumerate(self.nodes):
             value = node.reward.fn(ctx, node.view, node.params)
-            if per_node is not None:
-                per_node[k, node.agents] += value
+            per_node[k, node.agents] += value
             if node.scale != 0.0:
                 total[node.agents] += node.scale * value
         return total
 
     def describe(self) -> list[dict[str, Any]]:
         return [n.describe() for n in self.nodes]
+
+
+def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float]]:
+    plan: list[tuple[Any, NodeView, dict[str, Any], float]] = []
+    fused: dict[tuple, list[SocialNode]] = {}
+    for node in nodes:
+        if node.scale == 0.0 or (node.scheme == "NL" and node.reward.name == "none"):
+            continue  # pays nothing, ever
+        if node.scheme == "IS":
+            key = (node.reward.name, json.dumps(node.params, sort_keys=True, default=str), node.scale)
+            fused.setdefault(key, []).append(node)
+        else:
+            plan.append((node.reward.fn, node.view, node.params, node.scale))
+    for group in fused.values():
+        agents = np.concatenate([n.agents for n in group])
+        if len(group) > 1 and len(np.unique(agents)) == len(agents):
+            view = NodeView(agents, np.arange(len(agents)), len(agents))
+            plan.append((group[0].reward.fn, view, group[0].params, group[0].scale))
+        else:
+            plan += [(n.reward.fn, n.view, n.params, n.scale) for n in group]
+    return plan
 
 
 def _functions(scheme: str) -> list[str]:
