@@ -1,0 +1,659 @@
+"""Soccer: two teams push a ball into the other team's goal (pymunk physics).
+
+One of the team games of the Arena platform (Song et al., "Arena: A General Evaluation Platform
+and Building Toolkit for Multi-Agent Intelligence", AAAI 2020). Ids: ``Soccer-2T1P-v1``,
+``Soccer-2T2P-v1``, ``Soccer-2T3P-v1``.
+
+Field
+    A walled rectangle, ``x`` in [-4, 4] and ``y`` in [-2.5, 2.5] (inner faces of the walls), with
+    45-degree corner chamfers of 0.6 so that the ball cannot be trapped in a corner. Each end wall
+    has a goal mouth 1.6 wide (``goal_width``) centred on ``y = 0``, opening into a walled goal box
+    0.6 deep. Team 0 attacks the goal at ``x = +4`` (and defends ``x = -4``); team 1 attacks
+    ``x = -4``.
+
+Bodies and physics
+    Agents are circles of radius 0.25 and mass 1 that do not rotate; the ball is a circle of radius
+    0.2 and mass 0.4. Collisions between agents, ball and walls are solved by pymunk (Chipmunk2D),
+    one ``space.step`` of ``dt = 0.1`` per env step (restitution 0.4 agent-ball, 0.72 ball-wall,
+    friction 0.3). Every body loses 60 % of its velocity per second (space damping 0.4), so a ball
+    struck at 1.5 units/s rolls about 1.6 units; an agent's thrust of at most 6 is opposed by a drag
+    of ``3.1 * velocity``, which caps its speed at about 1.5 units/s.
+
+Kick-off
+    The ball starts at the centre spot (``y`` jittered by up to ``kickoff_jitter``), each team in
+    its own half in a formation whose positions are jittered by up to ``kickoff_jitter`` in both
+    coordinates; every draw comes from the match seed.
+
+Seat frame (mirroring)
+    Each seat sees the field, and acts, in its own frame: the world frame for team 0, and the world
+    mirrored in ``x`` (``x -> -x``, ``y`` unchanged) for team 1. In its own frame every seat attacks
+    ``+x``, so one policy can play either side.
+
+Actions
+    Discrete (default), 9 actions, directions in the seat frame (``E`` = ``+x`` = toward the goal
+    the seat attacks, ``N`` = ``+y``), each a thrust of full strength:
+    ``0 noop, 1 E, 2 NE, 3 N, 4 NW, 5 W, 6 SW, 7 S, 8 SE``.
+    Continuous: ``[fx, fy]`` in [-1, 1], the thrust in the seat frame as a fraction of full
+    strength; a vector longer than 1 is scaled back to length 1 (diagonals are no stronger).
+
+Observation (``float32``, seat frame; positions divided by 4, velocities by 3: absolute positions
+lie within about [-1.2, 1.2], relative ones within about [-2.3, 2.3], velocities within [-1, 1])
+    ====== =====================================================================
+    cell   meaning
+    ====== =====================================================================
+    0      own active flag (always 1 in Soccer)
+    1-2    own position ``x, y``
+    3-4    own velocity ``vx, vy``
+    5-6    ball position relative to the seat (ball - own)
+    7-8    ball position (absolute)
+    9-10   ball velocity
+    11-12  the attacked goal relative to the seat: the centre of its mouth on the goal
+           line, ``(4, 0)`` in the seat frame, minus the seat's position
+    13-14  the defended goal relative to the seat: ``(-4, 0)`` minus the seat's position
+    15+    every other seat, teammates first then opponents, each in seat order:
+           position relative to the seat (2 cells) then its velocity (2 cells)
+    ====== =====================================================================
+
+    ``obs_dim = 15 + 4 * (n_agents - 1)``: 19 for 2T1P, 27 for 2T2P, 35 for 2T3P.
+
+Global state (``float32``, world frame, same scales)
+    every seat's ``x, y, vx, vy`` in seat order, then the ball's ``x, y, vx, vy``, then the goals
+    scored by team 0 and by team 1: ``state_dim = 4 * n_agents + 6``.
+
+Measures
+    ``active`` (always true), ``target_distance`` (distance from the seat's centre to the ball's:
+    the ball is every seat's target), ``velocity_to_target`` (the seat's velocity along the
+    direction to the ball), ``energy`` (squared thrust length, 0..1: 1 for every discrete move, 0
+    for noop), ``force`` (magnitude of the contact force on the seat this step: the impulse pymunk's
+    solver applied to it, from agents, ball and walls, divided by ``dt``), ``speed``,
+    ``object_progress`` (the ball's displacement this step toward the goal the seat attacks:
+    ``+dx`` for team 0, ``-dx`` for team 1) and ``outcome`` (+1 / -1 for the scoring / conceding
+    team, 0 for a draw).
+
+Episode end
+    A goal (the ball entirely past a goal line inside the mouth) ends the match: the scoring team
+    wins. A match cut at ``max_cycles`` (default 300 steps, 30 s of play) is a draw.
+    ``team_result``: 1 win, 0.5 draw, 0 loss.
+
+Default social tree
+    Root CP ``win_loss`` (scale 100) over one CL ``team_progress`` node (scale 10) per team; each
+    agent leaf is IS ``target`` (scale 1: progress toward the ball).
+
+Heuristic
+    From the observation alone. The seat nearest the ball among its teammates attacks: it aims from
+    the ball into the attacked goal's mouth (a ball on the goal line beside the mouth is first
+    brought out in front of it), runs to a spot behind the ball on that line (round the ball when
+    the ball is in the way; where the spot is beyond a wall, the nearest spot inside sets the push
+    direction), then drives through the ball. Its teammates hold spots on the line from their own
+    goal to the ball. It assumes the default goal width.
+
+Game kwargs
+    ``goal_width`` (float in [0.6, 4.0], default 1.6), ``kickoff_jitter`` (float in [0, 0.5],
+    default 0.3).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+import pymunk
+import pymunk.batch
+
+try:  # pymunk's cffi module: lets _SpaceLink call Chipmunk without per-call bookkeeping
+    from pymunk._chipmunk_cffi import ffi as _ffi
+    from pymunk._chipmunk_cffi import lib as _lib
+except ImportError:  # pragma: no cover - other pymunk builds use the public batch API
+    _ffi = _lib = None
+
+from arena_league.envs.core import GameRules
+from arena_league.envs.rendering import TEAM_COLOURS, Canvas
+
+#: Half length and half width of the field (inner faces of the walls).
+HALF_LENGTH = 4.0
+HALF_WIDTH = 2.5
+#: Depth of each goal box behind its goal line.
+GOAL_DEPTH = 0.6
+#: Size of the 45-degree chamfer cut off each corner.
+CORNER_CHAMFER = 0.6
+#: Walls are pymunk segments this thick on each side of their centre line.
+WALL_RADIUS = 0.2
+AGENT_RADIUS = 0.25
+AGENT_MASS = 1.0
+BALL_RADIUS = 0.2
+BALL_MASS = 0.4
+#: Physics step per env step (seconds).
+DT = 0.1
+#: Fraction of its velocity a body keeps after one second (pymunk ``Space.damping``).
+SPACE_DAMPING = 0.4
+#: Full thrust of an agent, and the drag coefficient opposing its velocity.
+THRUST = 6.0
+AGENT_DRAG = 3.1
+#: Overlap pymunk tolerates between touching bodies (its default, 0.1, is large at this scale).
+COLLISION_SLOP = 0.01
+ELASTICITY = {"agent": 0.5, "ball": 0.8, "wall": 0.9}
+FRICTION = 0.3
+#: Observation scales: positions are divided by HALF_LENGTH, velocities by VELOCITY_UNIT.
+POSITION_SCALE = 1.0 / HALF_LENGTH
+VELOCITY_UNIT = 3.0
+
+#: Discrete moves in the seat frame (noop, then counter-clockwise from +x).
+_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
+_MOVE_DIRECTIONS = np.array(
+    [(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)], dtype=np.float64
+)
+_MOVE_DIRECTIONS[np.abs(_MOVE_DIRECTIONS) < 1e-12] = 0.0
+
+DEFAULT_GOAL_WIDTH = 1.6
+_GAME_KWARGS = {"goal_width": (0.6, 4.0, DEFAULT_GOAL_WIDTH), "kickoff_jitter": (0.0, 0.5, 0.3)}
+
+#: Kick-off slots of team 0 (team 1's are mirrored), per players per team.
+_FORMATIONS = {
+    1: ((-2.0, 0.0),),
+    2: ((-1.5, 0.9), (-1.5, -0.9)),
+    3: ((-1.2, 1.2), (-1.2, -1.2), (-2.8, 0.0)),
+}
+
+
+def _field_outline(goal_half_width: float) -> list[tuple[float, float]]:
+    """Inner boundary of the walls (field plus both goal boxes), counter-clockwise."""
+    L, W, G, D, c = HALF_LENGTH, HALF_WIDTH, goal_half_width, GOAL_DEPTH, CORNER_CHAMFER
+    return [(-L + c, -W), (L - c, -W), (L, -W + c), (L, -G), (L + D, -G), (L + D, G), (L, G),
+            (L, W - c), (L - c, W), (-L + c, W), (-L, W - c), (-L, G), (-L - D, G), (-L - D, -G),
+            (-L, -G), (-L, -W + c)]
+
+
+def _wall_segments(outline: list[tuple[float, float]]) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """Centre lines of the wall segments: each edge of ``outline`` pushed outward by WALL_RADIUS,
+    joined where consecutive pushed edges meet (so the walls' inner faces follow ``outline``)."""
+    pts = np.asarray(outline, dtype=np.float64)
+    edges = np.roll(pts, -1, axis=0) - pts
+    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1, keepdims=True)
+    corners = []
+    for k in range(len(pts)):
+        # vertex k joins edge k-1 and edge k; intersect their pushed lines
+        n0, n1 = normals[k - 1], normals[k]
+        p0, p1 = pts[k] + WALL_RADIUS * n0, pts[k] + WALL_RADIUS * n1
+        d0 = edges[k - 1]
+        denom = d0[0] * edges[k][1] - d0[1] * edges[k][0]
+        t = ((p1 - p0)[0] * edges[k][1] - (p1 - p0)[1] * edges[k][0]) / denom
+        corners.append(tuple(p0 + t * d0))
+    return [(corners[k], corners[(k + 1) % len(corners)]) for k in range(len(corners))]
+
+
+_STATE_FIELDS = pymunk.batch.BodyFields.POSITION | pymunk.batch.BodyFields.VELOCITY
+_FORCE_FIELDS = pymunk.batch.BodyFields.FORCE
+
+
+class _SpaceLink:
+    """Moves every body's state between one pymunk space and numpy arrays, one C call each way.
+
+    ``pymunk.batch`` reads (position, velocity) or writes (force) every body of a space through a
+    buffer laid over a numpy array. Its public functions allocate a C struct and go through enum
+    and lock bookkeeping on every call, which is most of their cost for a handful of bodies; where
+    pymunk's cffi module is reachable the link builds those structs once and calls Chipmunk
+    directly (same functions, same results), otherwise it uses the public API.
+    """
+
+    def __init__(self, space: pymunk.Space, state: pymunk.batch.Buffer, forces: pymunk.batch.Buffer) -> None:
+        self.space = space
+        self._state, self._forces = state, forces
+        self.direct = False
+        if _lib is not None:
+            try:
+                self._handle = space._space
+                self._state_floats, self._force_floats = state._float_arr, forces._float_arr
+                self._get = _ffi.addressof(_lib, "pmSpaceBodyGetIteratorFuncBatched")
+                self._set = _ffi.addressof(_lib, "pmSpaceBodySetIteratorFuncBatched")
+                self._get_data = self._batched_data(state, _STATE_FIELDS)
+                self._set_data = self._batched_data(forces, _FORCE_FIELDS)
+                self._each_body, self._space_step = _lib.cpSpaceEachBody, _lib.cpSpaceStep
+                self.direct = True
+            except AttributeError:  # pragma: no cover - a pymunk whose internals differ
+                self.direct = False
+
+    @staticmethod
+    def _batched_data(buffer: pymunk.batch.Buffer, fields: pymunk.batch.BodyFields):
+        data = _ffi.new("pmBatchedData *")
+        data.fields = fields.value
+        data.floatArray = buffer._float_arr
+        data.intArray = buffer._int_arr
+        return data
+
+    def read(self) -> None:
+        """Write ``[x, y, vx, vy]`` of every body, in the space's order, into the state array."""
+        if self.direct:
+            self._state_floats.num = 0
+            self._each_body(self._handle, self._get, self._get_data)
+        else:
+            self._state.clear()
+            pymunk.batch.get_space_bodies(self.space, _STATE_FIELDS, self._state)
+
+    def apply_forces_and_step(self, dt: float) -> None:
+        """Set every body's force from the force array, then advance the space by ``dt``."""
+        if self.direct:
+            self._force_floats.num = 0
+            self._each_body(self._handle, self._set, self._set_data)
+            self._space_step(self._handle, dt)
+        else:
+            pymunk.batch.set_space_bodies(self.space, _FORCE_FIELDS, self._forces)
+            self.space.step(dt)
+
+
+class SoccerRules(GameRules):
+    """Soccer on a walled pymunk field; see the module docstring for the manual."""
+
+    name: ClassVar[str] = "Soccer"
+    version: ClassVar[int] = 1
+    layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2), (2, 3))
+    action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
+    measures_provided: ClassVar[frozenset[str]] = frozenset(
+        {"active", "target_distance", "velocity_to_target", "energy", "force", "speed", "object_progress",
+         "outcome"}
+    )
+    default_max_cycles: ClassVar[int] = 300
+    summary: ClassVar[str] = "Teams push a ball into the other goal (pymunk; first goal wins)"
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
+        if (n_teams, players_per_team) not in self.layouts:
+            valid = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
+            raise ValueError(f"Soccer has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
+        if action_type not in self.action_types:
+            raise ValueError(f"Soccer action_type {action_type!r} is not offered; valid: {', '.join(self.action_types)}")
+        unknown = sorted(set(kwargs) - set(_GAME_KWARGS))
+        if unknown:
+            raise ValueError(f"Soccer got unknown game kwargs {unknown}; valid: "
+                             + ", ".join(f"{k} (float in [{lo}, {hi}], default {d})"
+                                         for k, (lo, hi, d) in _GAME_KWARGS.items()))
+        settings = {}
+        for key, (lo, hi, default) in _GAME_KWARGS.items():
+            value = kwargs.get(key, default)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
+                raise ValueError(f"Soccer {key} must be a number in [{lo}, {hi}] (default {default}), not {value!r}")
+            settings[key] = float(value)
+        super().__init__(n_teams, players_per_team, action_type)
+        self.goal_half_width = settings["goal_width"] / 2
+        self.kickoff_jitter = settings["kickoff_jitter"]
+        n = self.n_agents
+        self.n_actions = len(_MOVE_NAMES)
+        self.act_dim = 2
+        self.action_meanings = _MOVE_NAMES
+        self.obs_dim = 15 + 4 * (n - 1)
+        self.state_dim = 4 * n + 6
+        self.score = np.zeros(2, dtype=np.int64)
+
+        # +1 for team 0, -1 for team 1: the x sign of each seat's frame
+        self._team_sign = np.where(self.team_of == 0, 1.0, -1.0)
+        self._frame = np.stack([self._team_sign, np.ones(n)], axis=1)  # (n, 2) multiplies x, y
+        # world-frame unit thrust of every (team, move), flattened: row team * 9 + move
+        moves_world = _MOVE_DIRECTIONS[None] * np.array([[[1.0, 1.0]], [[-1.0, 1.0]]])
+        self._moves_world = np.ascontiguousarray(moves_world.reshape(-1, 2)).view(np.complex128).reshape(-1)
+        self._move_row_offset = self.team_of * len(_MOVE_NAMES)
+        self._move_energy = (_MOVE_DIRECTIONS**2).sum(axis=1)
+        self._walls = _wall_segments(_field_outline(self.goal_half_width))
+        self._goal_line = HALF_LENGTH + BALL_RADIUS
+        self._tiny = np.full(n, 1e-9)
+        self._layout_work_vector()
+        self.space: pymunk.Space | None = None
+        self._events: list[dict] = []
+
+    # --- construction --------------------------------------------------------------------------
+    def _layout_work_vector(self) -> None:
+        """One float64 vector holds everything a step reads, so that the observation and the
+        measures are each one matrix product of it (few numpy calls: the hot path is Python-bound).
+
+        Layout: ``[x, y, vx, vy]`` of every seat, the ball and pymunk's static body (written in place
+        by ``pymunk.batch``), spare room, the seats' velocities before the step, their world-frame
+        unit thrust, the ball's x before the step, and a constant 1.
+        """
+        n = self.n_agents
+        self._n_bodies = n + 2  # pymunk.batch also visits the space's static body
+        body_floats = 4 * self._n_bodies
+        # pymunk's batch array grows (reallocates) when fewer than 3 free slots are left: leave 8
+        self._v_before_at = body_floats + 8
+        self._thrust_at = self._v_before_at + 2 * n
+        self._ball_x_before_at = self._thrust_at + 2 * n
+        self._one_at = self._ball_x_before_at + 1
+        work = np.zeros(self._one_at + 1)
+        work[self._one_at] = 1.0
+        self._work = work
+        table = work[:body_floats].reshape(self._n_bodies, 4)
+        self._agent_pos = table[:n, 0:2]
+        self._agent_vel = table[:n, 2:4]
+        self._ball_state = table[n]
+        self._ball_x_at, self._ball_y_at = 4 * n, 4 * n + 1
+        # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
+        self._agent_vel_c = table[:n].view(np.complex128)[:, 1]
+        self._v_before_c = work[self._v_before_at: self._thrust_at].view(np.complex128)
+        self._thrust = work[self._thrust_at: self._ball_x_before_at].reshape(n, 2)
+        self._thrust_c = work[self._thrust_at: self._ball_x_before_at].view(np.complex128)
+        self._body_buffer = pymunk.batch.Buffer()
+        self._body_buffer.set_float_buf(work)
+        self._force_array = np.zeros(2 * self._n_bodies)
+        self._force_buffer = pymunk.batch.Buffer()
+        self._force_buffer.set_float_buf(self._force_array)
+        self._id_buffer = pymunk.batch.Buffer()
+        self._obs_matrix = self._observation_map()
+        self._measure_matrix = self._measure_map()
+        # applied force of every body (zero for the ball and the static body)
+        self._force_matrix = np.zeros((2 * self._n_bodies, len(work)))
+        for k in range(2 * n):
+            self._force_matrix[k, self._thrust_at + k] = THRUST
+            self._force_matrix[k, self._v_before_at + k] = -AGENT_DRAG
+
+    def _pos(self, body: int, axis: int) -> int:
+        return 4 * body + axis
+
+    def _vel(self, body: int, axis: int) -> int:
+        return 4 * body + 2 + axis
+
+    def _observation_map(self) -> np.ndarray:
+        """The observations of every seat as one matrix over the work vector."""
+        n = self.n_agents
+        A = np.zeros((n, self.obs_dim, len(self._work)))
+        ball, one = n, self._one_at
+        ps, vs = POSITION_SCALE, 1.0 / VELOCITY_UNIT
+        pos, vel = self._pos, self._vel
+        for i in range(n):
+            sign = (self._team_sign[i], 1.0)
+            team = self.team_of[i]
+            others = [j for j in range(n) if j != i and self.team_of[j] == team]
+            others += [j for j in range(n) if self.team_of[j] != team]
+            A[i, 0, one] = 1.0
+            for ax in range(2):
+                s = sign[ax]
+                A[i, 1 + ax, pos(i, ax)] = s * ps
+                A[i, 3 + ax, vel(i, ax)] = s * vs
+                A[i, 5 + ax, pos(ball, ax)] = s * ps
+                A[i, 5 + ax, pos(i, ax)] -= s * ps
+                A[i, 7 + ax, pos(ball, ax)] = s * ps
+                A[i, 9 + ax, vel(ball, ax)] = s * vs
+                # goals in the seat frame are at (+L, 0) (attacked) and (-L, 0) (defended)
+                A[i, 11 + ax, pos(i, ax)] = -s * ps
+                A[i, 13 + ax, pos(i, ax)] = -s * ps
+                for k, j in enumerate(others):
+                    c = 15 + 4 * k
+                    A[i, c + ax, pos(j, ax)] = s * ps
+                    A[i, c + ax, pos(i, ax)] -= s * ps
+                    A[i, c + 2 + ax, vel(j, ax)] = s * vs
+            A[i, 11, one] = HALF_LENGTH * ps
+            A[i, 13, one] = -HALF_LENGTH * ps
+        return A.reshape(n * self.obs_dim, len(self._work))
+
+    def _measure_map(self) -> np.ndarray:
+        """The linear parts of the measures as one matrix over the work vector.
+
+        Rows: ``[to_ball (x, -y), velocity (x, y), contact force (x, y)]`` of every seat, read as
+        complex numbers (``to_ball`` conjugated), then every seat's ``object_progress``. The contact force is the
+        impulse the solver added beyond damping and the applied force (Chipmunk integrates
+        ``v' = v * damping**dt + f / m * dt`` before solving contacts), divided by ``dt``.
+        """
+        n = self.n_agents
+        M = np.zeros((7 * n, len(self._work)))
+        ball = n
+        # velocity kept from before the step, drag included (force = THRUST * thrust - DRAG * v)
+        keep = SPACE_DAMPING**DT - AGENT_DRAG * DT / AGENT_MASS
+        for i in range(n):
+            for ax in range(2):
+                conj = 1.0 if ax == 0 else -1.0
+                M[2 * i + ax, self._pos(ball, ax)] = conj
+                M[2 * i + ax, self._pos(i, ax)] = -conj
+                M[2 * n + 2 * i + ax, self._vel(i, ax)] = 1.0
+                row = 4 * n + 2 * i + ax
+                M[row, self._vel(i, ax)] = AGENT_MASS / DT
+                M[row, self._v_before_at + 2 * i + ax] = -keep * AGENT_MASS / DT
+                M[row, self._thrust_at + 2 * i + ax] = -THRUST
+            M[6 * n + i, self._ball_x_at] = self._team_sign[i]
+            M[6 * n + i, self._ball_x_before_at] = -self._team_sign[i]
+        return M
+
+    def _build_space(self, agent_xy: np.ndarray, ball_xy: np.ndarray) -> None:
+        # A fresh space each match: no cached contacts survive from the previous one, so a seed
+        # gives the same match whatever was played before.
+        space = pymunk.Space()
+        space.damping = SPACE_DAMPING
+        space.collision_slop = COLLISION_SLOP
+        walls = []
+        for a, b in self._walls:
+            seg = pymunk.Segment(space.static_body, a, b, WALL_RADIUS)
+            seg.elasticity = ELASTICITY["wall"]
+            seg.friction = FRICTION
+            walls.append(seg)
+        space.add(*walls)
+        self._agents = []
+        for xy in agent_xy:
+            body = pymunk.Body(AGENT_MASS, float("inf"))
+            body.position = float(xy[0]), float(xy[1])
+            shape = pymunk.Circle(body, AGENT_RADIUS)
+            shape.elasticity = ELASTICITY["agent"]
+            shape.friction = FRICTION
+            space.add(body, shape)
+            self._agents.append(body)
+        ball = pymunk.Body(BALL_MASS, pymunk.moment_for_circle(BALL_MASS, 0.0, BALL_RADIUS))
+        ball.position = float(ball_xy[0]), float(ball_xy[1])
+        shape = pymunk.Circle(ball, BALL_RADIUS)
+        shape.elasticity = ELASTICITY["ball"]
+        shape.friction = FRICTION
+        space.add(ball, shape)
+        self._ball = ball
+        self.space = space
+        self._link = _SpaceLink(space, self._body_buffer, self._force_buffer)
+        self._id_buffer.clear()
+        pymunk.batch.get_space_bodies(space, pymunk.batch.BodyFields.BODY_ID, self._id_buffer)
+        ids = list(memoryview(self._id_buffer.int_buf()).cast("P"))
+        if ids != [body.id for body in self._agents] + [ball.id, space.static_body.id]:
+            raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; Soccer supports "
+                               "pymunk 7 (pip install 'pymunk>=7,<8')")
+        self._read_bodies()
+
+    def _read_bodies(self) -> None:
+        self._link.read()
+
+    # --- the match -----------------------------------------------------------------------------
+    def reset(self, seed: int) -> None:
+        self.rng = np.random.default_rng(seed)
+        p = self.players_per_team
+        jitter = self.kickoff_jitter
+        slots = np.asarray(_FORMATIONS[p], dtype=np.float64)
+        team0 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
+        team1 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
+        team1[:, 0] *= -1.0
+        ball_xy = np.array([0.0, self.rng.uniform(-jitter, jitter)])
+        self._build_space(np.concatenate([team0, team1]), ball_xy)
+        self._measure_still_state()
+        self.measures.active[:] = True
+        self.measures.outcome = np.zeros(self.n_agents)
+        self.score[:] = 0
+        self.game_over = False
+        self._events = []
+
+    def _measure_still_state(self) -> None:
+        """Measures of the bodies as they stand, with no step behind them (no force, no progress)."""
+        work = self._work
+        work[self._v_before_at: self._one_at] = 0.0
+        work[self._ball_x_before_at] = work[self._ball_x_at]
+        self._v_before_c[:] = self._agent_vel_c
+        self._update_measures(np.zeros(self.n_agents))
+        self.measures.force = np.zeros(self.n_agents)
+
+    def _update_measures(self, energy: np.ndarray) -> None:
+        m = self.measures
+        n = self.n_agents
+        linear = self._measure_matrix @ self._work
+        vectors = linear[: 6 * n].view(np.complex128)  # conj(to_ball), velocity, contact force
+        norms = np.abs(vectors)
+        distance = norms[:n]
+        m.target_distance = distance
+        m.speed = norms[n: 2 * n]
+        m.force = norms[2 * n:]
+        # Re(v * conj(d)) is the dot product of the velocity v and the way d to the ball
+        m.velocity_to_target = (vectors[n: 2 * n] * vectors[:n]).real / np.maximum(distance, self._tiny)
+        m.object_progress = linear[6 * n:]
+        m.energy = energy
+
+    def step(self, actions: np.ndarray) -> None:
+        work = self._work
+        thrust = self._thrust_c
+        if self.action_type == "discrete":
+            thrust[:] = self._moves_world.take(actions + self._move_row_offset)
+            energy = self._move_energy.take(actions)
+        else:
+            np.multiply(actions, self._frame, out=self._thrust)
+            length = np.abs(thrust)
+            longer = np.maximum(length, 1.0)
+            thrust /= longer  # a thrust longer than 1 is scaled back to length 1
+            energy = np.square(length / longer)
+        self._v_before_c[:] = self._agent_vel_c
+        work[self._ball_x_before_at] = work[self._ball_x_at]
+
+        # thrust against a linear drag; pymunk clears the forces after every step
+        np.dot(self._force_matrix, work, out=self._force_array)
+        link = self._link
+        link.apply_forces_and_step(DT)
+        link.read()
+        self._update_measures(energy)
+
+        ball_x = work[self._ball_x_at]
+        if abs(ball_x) > self._goal_line and abs(work[self._ball_y_at]) < self.goal_half_width:
+            scorer = 0 if ball_x > 0 else 1
+            self.score[scorer] += 1
+            self.measures.outcome = np.where(self.team_of == scorer, 1.0, -1.0)
+            self.game_over = True
+            self._events = [{"kind": "goal", "team": scorer}]
+        elif self._events:
+            self._events = []
+
+    def observe(self) -> np.ndarray:
+        return (self._obs_matrix @ self._work).astype(np.float32).reshape(self.n_agents, self.obs_dim)
+
+    def state(self) -> np.ndarray:
+        n = self.n_agents
+        table = self._work[: 4 * (n + 1)].reshape(n + 1, 4)
+        scaled = table * np.array([POSITION_SCALE, POSITION_SCALE, 1 / VELOCITY_UNIT, 1 / VELOCITY_UNIT])
+        return np.concatenate([scaled.reshape(-1), self.score.astype(np.float64)]).astype(np.float32)
+
+    def finish(self) -> None:
+        # a match cut at max_cycles without a goal is a draw
+        self.measures.outcome = np.zeros(self.n_agents)
+
+    def team_result(self) -> np.ndarray:
+        if self.score[0] == self.score[1]:
+            return np.array([0.5, 0.5])
+        return np.where(self.score == self.score.max(), 1.0, 0.0)
+
+    def events(self) -> list[dict]:
+        return list(self._events)
+
+    # --- tools ---------------------------------------------------------------------------------
+    def place(self, agent_xy: np.ndarray, ball_xy: np.ndarray, agent_velocity: np.ndarray | None = None,
+              ball_velocity: np.ndarray | None = None) -> None:
+        """Put the bodies at given world positions and velocities (for tests and scripted
+        scenarios); the match continues from there."""
+        agent_xy = np.asarray(agent_xy, dtype=np.float64).reshape(self.n_agents, 2)
+        agent_velocity = (np.zeros((self.n_agents, 2)) if agent_velocity is None
+                          else np.asarray(agent_velocity, dtype=np.float64).reshape(self.n_agents, 2))
+        if self.space is None:
+            raise RuntimeError("call reset(seed) before place()")
+        for body, xy, v in zip(self._agents, agent_xy, agent_velocity):
+            body.position = float(xy[0]), float(xy[1])
+            body.velocity = float(v[0]), float(v[1])
+        self._ball.position = float(ball_xy[0]), float(ball_xy[1])
+        bv = (0.0, 0.0) if ball_velocity is None else (float(ball_velocity[0]), float(ball_velocity[1]))
+        self._ball.velocity = bv
+        self._read_bodies()
+        self._measure_still_state()
+
+    def render_topdown(self) -> np.ndarray:
+        L, W, D, R = HALF_LENGTH, HALF_WIDTH, GOAL_DEPTH, WALL_RADIUS
+        margin = D + 2 * R
+        canvas = Canvas(-L - margin, L + margin, -W - 2 * R, W + 2 * R, size=400, background=(70, 70, 70))
+        outline = _field_outline(self.goal_half_width)
+        canvas.draw.polygon([canvas.px(x, y) for x, y in outline], fill=(60, 140, 60))
+        G = self.goal_half_width
+        for side, team in ((1, 1), (-1, 0)):  # goal box coloured by the team defending it
+            colour = TEAM_COLOURS[team]
+            canvas.rect(min(side * L, side * (L + D)), -G, max(side * L, side * (L + D)), G,
+                        fill=tuple(int(0.5 * c + 0.5 * 240) for c in colour))
+        canvas.line(0.0, -W, 0.0, W, fill=(230, 230, 230), width_px=2)
+        canvas.circle(0.0, 0.0, 0.8, fill=None, outline=(230, 230, 230))
+        for a, b in self._walls:
+            canvas.line(a[0], a[1], b[0], b[1], fill=(200, 200, 200), width_px=max(1, int(2 * R * canvas.scale)))
+        n = self.n_agents
+        for seat in range(n):
+            x, y = self._agent_pos[seat]
+            canvas.circle(x, y, AGENT_RADIUS, fill=TEAM_COLOURS[self.team_of[seat]], outline=(20, 20, 20))
+        bx, by = self._ball_state[0:2]
+        canvas.circle(bx, by, BALL_RADIUS, fill=(250, 250, 250), outline=(20, 20, 20))
+        return canvas.array()
+
+    # --- social tree and scripted play ---------------------------------------------------------
+    @classmethod
+    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
+        teams = []
+        for team in range(n_teams):
+            seats = range(team * players_per_team, (team + 1) * players_per_team)
+            teams.append({"scheme": "CL", "reward": "team_progress", "scale": 10, "children": [
+                {"agent": f"player_{seat}", "scheme": "IS", "reward": "target", "scale": 1} for seat in seats]})
+        return {"scheme": "CP", "reward": "win_loss", "scale": 100, "children": teams}
+
+    @staticmethod
+    def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
+        obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
+        n_agents = (obs.shape[1] - 15) // 4 + 1
+        n_mates = n_agents // 2 - 1  # Soccer always has two teams
+        me = obs[:, 1:3] * HALF_LENGTH
+        velocity = obs[:, 3:5] * VELOCITY_UNIT
+        ball = obs[:, 7:9] * HALF_LENGTH + obs[:, 9:11] * (VELOCITY_UNIT * 0.15)  # a little lead
+        goal = me + obs[:, 11:13] * HALF_LENGTH
+        own_goal = me + obs[:, 13:15] * HALF_LENGTH
+        # aim into the mouth; a ball on the goal line beside the mouth is first brought out in front
+        beside = (ball[:, 0] - goal[:, 0] > -0.7) & (np.abs(ball[:, 1] - goal[:, 1]) > DEFAULT_GOAL_WIDTH / 2 - 0.1)
+        aim = goal + np.where(beside[:, None], (-1.0, 0.0), (0.3, 0.0)) - ball
+        aim /= np.maximum(np.linalg.norm(aim, axis=1, keepdims=True), 1e-9)
+        contact = AGENT_RADIUS + BALL_RADIUS
+        rel = me - ball
+
+        # roles: the teammate nearest the ball attacks it; the others hold spots on the line from
+        # their own goal to the ball, nearer their goal the further they are from the ball
+        my_distance = np.linalg.norm(rel, axis=1)
+        rank = np.zeros(len(obs), dtype=np.int64)
+        for k in range(n_mates):
+            mate = me + obs[:, 15 + 4 * k: 17 + 4 * k] * HALF_LENGTH
+            rank += np.linalg.norm(mate - ball, axis=1) < my_distance
+        support_spot = own_goal + (ball - own_goal) * (0.6 / np.maximum(rank, 1))[:, None]
+
+        # the attacker runs to a spot behind the ball on the ball-goal line, then drives through;
+        # where that spot lies beyond a wall, the nearest spot inside sets the push direction
+        behind_spot = ball - aim * (contact + 0.3)
+        target = np.where((rank == 0)[:, None], behind_spot, support_spot)
+        limit = np.array([HALF_LENGTH - AGENT_RADIUS, HALF_WIDTH - AGENT_RADIUS])
+        target = np.clip(target, -limit, limit)
+        push = ball - target
+        push /= np.maximum(np.linalg.norm(push, axis=1, keepdims=True), 1e-9)
+        along = np.einsum("ij,ij->i", rel, push)  # < 0: the seat is behind the ball
+        lateral = rel - along[:, None] * push
+        lateral_len = np.linalg.norm(lateral, axis=1)
+        side = np.where(lateral_len[:, None] > 1e-6, lateral / np.maximum(lateral_len, 1e-9)[:, None],
+                        np.stack([-push[:, 1], push[:, 0]], axis=1))
+        # when the straight way there runs into the ball, go round it on the seat's side
+        path = target - me
+        t = np.clip(np.einsum("ij,ij->i", -rel, path) / np.maximum(np.einsum("ij,ij->i", path, path), 1e-9), 0, 1)
+        blocked = np.linalg.norm(ball - (me + t[:, None] * path), axis=1) < contact + 0.05
+        around = np.clip(ball + side * (contact + 0.3) - push * (contact + 0.3), -limit, limit)
+        waypoint = np.where(blocked[:, None], around, target)
+        aligned = (rank == 0) & (along < -0.5 * contact) & (lateral_len < 0.35 * contact)
+        waypoint = np.where(aligned[:, None], ball + push * 0.6, waypoint)
+
+        heading = waypoint - me
+        distance = np.linalg.norm(heading, axis=1, keepdims=True)
+        # steer the velocity, not just the position, so the seat does not overshoot
+        heading = heading / np.maximum(distance, 1e-9) * np.minimum(1.0, distance / 0.3) - 0.2 * velocity
+        length = np.linalg.norm(heading, axis=1)
+        if action_type == "continuous":
+            return np.clip(heading / np.maximum(length, 1.0)[:, None], -1.0, 1.0).astype(np.float32)
+        angle = np.arctan2(heading[:, 1], heading[:, 0])
+        move = 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
+        return np.where(length < 0.3, 0, move).astype(np.int64)
+
+
+RULES = SoccerRules
