@@ -1,0 +1,71 @@
+"""Rating engine of arena-league: pure numpy/scipy functions over outcome tables and payoff
+matrices (DESIGN.md: ratings know nothing of games or SQL).
+
+- :mod:`.outcomes`: per-seat match records, pairwise results, deduplicated win/draw counts.
+- :mod:`.elo`: classic online Elo.
+- :mod:`.bradley_terry`: Bradley-Terry on the Elo scale (draws as halves, or Davidson).
+- :mod:`.bootstrap`: bootstrap intervals for ratings, ranks, percentiles, Nash scores, alpha-Rank.
+- :mod:`.teams`: OpenSkill (Plackett-Luce) for team games and free-for-all.
+- :mod:`.nash`: Nash averaging (Balduzzi et al. 2018).
+- :mod:`.alpharank`: alpha-Rank (Omidshafiei et al. 2019), OpenSpiel's payoff-table convention.
+- :mod:`.population`: Arena's population performance, population vs population, effective
+  diversity, intransitivity.
+- :mod:`.placement`: placing an entrant against a frozen base population, adaptively.
+"""
+
+from arena_league.rating.alpharank import (
+    AlphaRankSweep,
+    ReducibleChainError,
+    alpha_rank,
+    alpha_rank_sweep,
+    fixation_probability,
+)
+from arena_league.rating.bootstrap import (
+    BootstrapInterval,
+    RatingIntervals,
+    alpha_rank_intervals,
+    bootstrap_ratings,
+    bootstrap_statistic,
+    nash_intervals,
+    rank_intervals,
+)
+from arena_league.rating.bradley_terry import (
+    DEFAULT_PRIOR_SD,
+    ELO_BASE,
+    ELO_SCALE,
+    BradleyTerryFit,
+    bradley_terry,
+    fit_bradley_terry,
+)
+from arena_league.rating.elo import elo_expected_score, elo_online
+from arena_league.rating.nash import check_antisymmetric, nash_averaging, zero_sum_value
+from arena_league.rating.outcomes import OUTCOME_PLACE, OutcomeTable, PairCounts, PairwiseResults, SeatResult
+from arena_league.rating.placement import (
+    MIN_PLACEMENT_MATCHES,
+    PLACEMENT_PRIOR_SD,
+    AdaptivePlacement,
+    Placement,
+    PlacementSimulation,
+    place_entrant,
+    simulate_placement,
+)
+from arena_league.rating.population import (
+    Intransitivity,
+    effective_diversity,
+    intransitivity,
+    population_performance,
+    population_vs_population,
+)
+from arena_league.rating.teams import SkillRatings, openskill_ratings
+
+__all__ = [
+    "AdaptivePlacement", "AlphaRankSweep", "BootstrapInterval", "BradleyTerryFit", "DEFAULT_PRIOR_SD",
+    "ELO_BASE", "ELO_SCALE", "Intransitivity", "MIN_PLACEMENT_MATCHES", "OUTCOME_PLACE", "OutcomeTable",
+    "PLACEMENT_PRIOR_SD", "PairCounts", "PairwiseResults", "Placement", "PlacementSimulation",
+    "RatingIntervals", "ReducibleChainError", "SeatResult", "SkillRatings", "alpha_rank",
+    "alpha_rank_intervals", "alpha_rank_sweep", "bootstrap_ratings", "bootstrap_statistic",
+    "bradley_terry", "check_antisymmetric", "effective_diversity", "elo_expected_score", "elo_online",
+    "fit_bradley_terry", "fixation_probability", "intransitivity", "nash_averaging", "nash_intervals",
+    "openskill_ratings", "place_entrant", "population_performance", "population_vs_population",
+    "rank_intervals", "simulate_placement", "zero_sum_value",
+]

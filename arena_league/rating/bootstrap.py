@@ -1,0 +1,166 @@
+"""Bootstrap confidence intervals for ratings, ranks, percentiles, Nash scores and alpha-Rank mass.
+
+Efron (1979), "Bootstrap methods: another look at the jackknife", Annals of Statistics 7: the
+matches are resampled with replacement, each statistic is recomputed on every replicate, and the
+percentile interval of the replicates is reported. As in Chatbot Arena (Chiang et al. 2024), the
+matches are resampled through their deduplicated outcome counts: one multinomial draw per round
+over the (pair, outcome) cells of :class:`PairCounts`, so that a round costs the size of the count
+matrix, not the number of matches. Bradley-Terry rounds are all solved at once by batched Newton
+steps warm-started from the point estimate.
+
+Ranks follow Chatbot Arena: an agent's rank is 1 + the number of agents whose lower bound is above
+its upper bound (the agents that are better beyond doubt), and its worst rank is n minus the
+number of agents whose upper bound is below its lower bound.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from arena_league.rating.alpharank import alpha_rank
+from arena_league.rating.bradley_terry import (
+    DEFAULT_PRIOR_SD,
+    ELO_BASE,
+    ELO_SCALE,
+    DrawModel,
+    StrengthFitter,
+    anchoring,
+)
+from arena_league.rating.nash import nash_averaging
+from arena_league.rating.outcomes import PairCounts
+
+__all__ = ["RatingIntervals", "BootstrapInterval", "bootstrap_ratings", "bootstrap_statistic",
+           "nash_intervals", "alpha_rank_intervals", "rank_intervals"]
+
+
+@dataclass(frozen=True)
+class RatingIntervals:
+    """Bradley-Terry ratings with bootstrap intervals, ranks and percentiles."""
+
+    agents: list[str]
+    rating: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    rank: np.ndarray
+    """1 + the number of agents whose lower bound is above this agent's upper bound."""
+    rank_worst: np.ndarray
+    """n - the number of agents whose upper bound is below this agent's lower bound."""
+    percentile: np.ndarray
+    """Share of the other agents rated below this one (point estimate), in percent."""
+    percentile_lower: np.ndarray
+    percentile_upper: np.ndarray
+    samples: np.ndarray
+    """Bootstrap replicates of the ratings, ``(rounds, n)``."""
+    level: float
+    draw_nu: float | None
+
+
+@dataclass(frozen=True)
+class BootstrapInterval:
+    """A statistic's point estimate and bootstrap percentile interval."""
+
+    point: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    samples: np.ndarray
+    level: float
+
+
+def rank_intervals(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rank, rank_worst) from per-agent interval bounds (see the module docstring)."""
+    above = (lower[None, :] > upper[:, None]).sum(axis=1)
+    below = (upper[None, :] < lower[:, None]).sum(axis=1)
+    return 1 + above, lower.size - below
+
+
+def bootstrap_ratings(
+    counts: PairCounts,
+    *,
+    rounds: int = 100,
+    level: float = 0.95,
+    seed: int = 0,
+    draw_model: DrawModel = "half",
+    prior_sd: float = DEFAULT_PRIOR_SD,
+    anchor: Sequence[str | int] | None = None,
+    pin: str | int | None = None,
+    base: float = ELO_BASE,
+    scale: float = ELO_SCALE,
+) -> RatingIntervals:
+    """Bradley-Terry ratings with percentile-bootstrap intervals over resampled matches.
+
+    Arguments are those of :func:`arena_league.rating.bradley_terry`, plus the number of bootstrap
+    ``rounds``, the interval ``level`` and the ``seed``. Each replicate is anchored like the point
+    estimate, so a pinned agent has a zero-width interval and the others are relative to it.
+    """
+    n = counts.n_agents
+    if n < 2:
+        raise ValueError("rating intervals need at least two agents")
+    _check_level(level, rounds)
+    fitter = StrengthFitter(n, draw_model, prior_sd)
+    fitter.check_identifiable(counts.wins, counts.draws)
+    point, _ = fitter.fit(counts.wins[None], counts.draws[None])
+    wins, draws = counts.resample(np.random.default_rng(seed), rounds)
+    fitter.check_identifiable(wins, draws)
+    replicates, _ = fitter.fit(wins, draws, x0=np.repeat(point, rounds, axis=0))
+    to_ratings = anchoring(counts.agents, anchor=anchor, pin=pin, base=base, scale=scale)
+    rating = to_ratings(point[0, :n])
+    samples = to_ratings(replicates[:, :n])
+    lower, upper = _percentile_interval(samples, level)
+    rank, rank_worst = rank_intervals(lower, upper)
+    others = n - 1
+    return RatingIntervals(
+        agents=counts.agents, rating=rating, lower=lower, upper=upper, rank=rank, rank_worst=rank_worst,
+        percentile=100.0 * (rating[None, :] < rating[:, None]).sum(axis=1) / others,
+        percentile_lower=100.0 * (n - rank_worst) / others, percentile_upper=100.0 * (n - rank) / others,
+        samples=samples, level=level,
+        draw_nu=float(np.exp(point[0, -1])) if draw_model == "davidson" else None)
+
+
+def bootstrap_statistic(
+    counts: PairCounts,
+    statistic: Callable[[PairCounts], np.ndarray],
+    *,
+    rounds: int = 100,
+    level: float = 0.95,
+    seed: int = 0,
+) -> BootstrapInterval:
+    """Percentile-bootstrap interval of any statistic of the counts (a function returning an
+    array), over leagues resampled match by match."""
+    _check_level(level, rounds)
+    point = np.asarray(statistic(counts), dtype=np.float64)
+    wins, draws = counts.resample(np.random.default_rng(seed), rounds)
+    samples = np.stack([np.asarray(statistic(PairCounts(counts.agents, w, d)), dtype=np.float64)
+                        for w, d in zip(wins, draws)])
+    lower, upper = _percentile_interval(samples, level)
+    return BootstrapInterval(point, lower, upper, samples, level)
+
+
+def nash_intervals(counts: PairCounts, *, pseudo_count: float = 0.5, rounds: int = 100,
+                   level: float = 0.95, seed: int = 0) -> BootstrapInterval:
+    """Bootstrap intervals of the Nash-averaged scores on A = logit(win rate) (pseudo-count 0.5,
+    so that unbeaten pairs stay finite)."""
+    return bootstrap_statistic(counts, lambda c: nash_averaging(c.logit_payoff(pseudo_count))[1],
+                               rounds=rounds, level=level, seed=seed)
+
+
+def alpha_rank_intervals(counts: PairCounts, *, alpha: float = 100.0, m: int = 50,
+                         pseudo_count: float = 0.5, rounds: int = 100, level: float = 0.95,
+                         seed: int = 0) -> BootstrapInterval:
+    """Bootstrap intervals of the single-population alpha-Rank mass on the win-rate table."""
+    return bootstrap_statistic(counts, lambda c: alpha_rank([c.win_rate(pseudo_count)], alpha=alpha, m=m),
+                               rounds=rounds, level=level, seed=seed)
+
+
+def _check_level(level: float, rounds: int) -> None:
+    if not 0 < level < 1:
+        raise ValueError(f"level must lie in (0, 1), got {level}")
+    if rounds < 2:
+        raise ValueError(f"the bootstrap needs at least 2 rounds (100 is usual), got {rounds}")
+
+
+def _percentile_interval(samples: np.ndarray, level: float) -> tuple[np.ndarray, np.ndarray]:
+    lower, upper = np.quantile(samples, [(1.0 - level) / 2.0, (1.0 + level) / 2.0], axis=0)
+    return lower, upper
