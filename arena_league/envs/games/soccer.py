@@ -163,9 +163,8 @@ def _field_outline(goal_half_width: float) -> list[tuple[float, float]]:
             (-L, -G), (-L, -W + c)]
 
 
-def _wall_segments(outline: list[tuple[float, float]]) -> list[tuple[tuple[float, float], tuple[float, float]]]:
-    """Centre lines of the wall segments: each edge of ``outline`` pushed outward by WALL_RADIUS,
-    joined where consecutive pushed edges meet (so the walls' inner faces follow ``outline``)."""
+def _offset_outline(outline: list[tuple[float, float]], offset: float) -> list[tuple[float, float]]:
+    """``outline`` with every edge pushed outward by ``offset``, joined where the pushed edges meet."""
     pts = np.asarray(outline, dtype=np.float64)
     edges = np.roll(pts, -1, axis=0) - pts
     normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1, keepdims=True)
@@ -173,11 +172,17 @@ def _wall_segments(outline: list[tuple[float, float]]) -> list[tuple[tuple[float
     for k in range(len(pts)):
         # vertex k joins edge k-1 and edge k; intersect their pushed lines
         n0, n1 = normals[k - 1], normals[k]
-        p0, p1 = pts[k] + WALL_RADIUS * n0, pts[k] + WALL_RADIUS * n1
+        p0, p1 = pts[k] + offset * n0, pts[k] + offset * n1
         d0 = edges[k - 1]
         denom = d0[0] * edges[k][1] - d0[1] * edges[k][0]
         t = ((p1 - p0)[0] * edges[k][1] - (p1 - p0)[1] * edges[k][0]) / denom
         corners.append(tuple(p0 + t * d0))
+    return corners
+
+
+def _wall_segments(outline: list[tuple[float, float]]) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """Centre lines of the wall segments (of radius WALL_RADIUS) whose inner faces follow ``outline``."""
+    corners = _offset_outline(outline, WALL_RADIUS)
     return [(corners[k], corners[(k + 1) % len(corners)]) for k in range(len(corners))]
 
 
@@ -568,6 +573,8 @@ class SoccerRules(GameRules):
         margin = D + 2 * R
         canvas = Canvas(-L - margin, L + margin, -W - 2 * R, W + 2 * R, size=400, background=(70, 70, 70))
         outline = _field_outline(self.goal_half_width)
+        walls = _offset_outline(outline, 2 * R)
+        canvas.draw.polygon([canvas.px(x, y) for x, y in walls], fill=(200, 200, 200))
         canvas.draw.polygon([canvas.px(x, y) for x, y in outline], fill=(60, 140, 60))
         G = self.goal_half_width
         for side, team in ((1, 1), (-1, 0)):  # goal box coloured by the team defending it
@@ -576,8 +583,6 @@ class SoccerRules(GameRules):
                         fill=tuple(int(0.5 * c + 0.5 * 240) for c in colour))
         canvas.line(0.0, -W, 0.0, W, fill=(230, 230, 230), width_px=2)
         canvas.circle(0.0, 0.0, 0.8, fill=None, outline=(230, 230, 230))
-        for a, b in self._walls:
-            canvas.line(a[0], a[1], b[0], b[1], fill=(200, 200, 200), width_px=max(1, int(2 * R * canvas.scale)))
         n = self.n_agents
         for seat in range(n):
             x, y = self._agent_pos[seat]
