@@ -1,0 +1,482 @@
+"""GoBang: five in a row on a 15x15 board, turn-based, as a batched numpy engine.
+
+One of the board games of Song et al., "Arena: A General Evaluation Platform and Building Toolkit
+for Multi-Agent Intelligence" (AAAI 2020). Ids: ``GoBang-2T1P-v1`` (two players) and
+``GoBang-2T2P-v1`` (two teams of two whose members alternate turns).
+
+Rules
+-----
+* Team 0 plays black and moves first, team 1 plays white; one stone per turn on an empty cell.
+* **Freestyle win**: a line of *five or more* stones of one colour (an overline of six or more
+  also wins) in any of the 4 directions (row, column, both diagonals). Only the 4 lines through
+  the stone just placed are counted, so a move is checked in constant time.
+* **Illegal move loses**: a seat to move that picks an occupied cell loses the game at once.
+* **Draw** when the board is full, or when the episode is cut at ``max_cycles`` (default: the
+  number of cells, so the board fills first).
+* **Turn order** with two players per team (2T2P): team 0's first player, team 1's first player,
+  team 0's second player, team 1's second player, and so on: seat
+  ``team * players_per_team + (moves_of_that_team % players_per_team)``. Teammates share a colour.
+* In the parallel API every seat sends an action each step; only the seat to move is played and
+  the others' (any in-range action) are ignored. The native AEC env (``make_aec``) asks only the
+  seat to move.
+
+Actions
+-------
+Discrete ``size * size`` (225): ``row * size + col``, row 0 at the top.
+``action_mask()`` marks the empty cells, for *every* seat (the seat not to move sees the same legal
+cells, so a masked sampler never meets an empty row; its action is ignored anyway). The mask is
+all False only once the board is full.
+
+Observation (``float32[2 * size * size + 5]`` = 455 per seat, from the seat's own perspective)
+---------------------------------------------------------------------------------------------
+====================  ===========================================================================
+index                 content
+====================  ===========================================================================
+``0 .. 224``          own team's stones: 1.0 at ``row * 15 + col`` where my colour stands, else 0
+``225 .. 449``        opponent's stones, same layout
+``450``               my turn: 1.0 when this seat is the one to move
+``451``               my team's turn: 1.0 when a seat of my team moves (differs from 450 in 2T2P)
+``452``               I play black (my team moved first)
+``453``               stones on the board / cells (0 .. 1)
+``454``               active: 1.0 (both seats play until the game ends)
+====================  ===========================================================================
+
+Global state (``float32[size * size + 2]``): the board from black's side (+1 black, -1 white,
+0 empty), then the colour to move (+1 black, -1 white) and stones / cells.
+
+Measures: ``active`` (True throughout) and ``outcome`` (+1 / -1 for the winning / losing team's
+seats, 0 for a draw; set when the game ends). ``team_result()``: 1 / 0 for a win / loss, 0.5 each
+for a draw.
+
+Default social tree: a CP ``win_loss`` root (scale 1) over the two agents (2T1P), or over two NL
+nodes holding each team (2T2P): the zero-sum game result, paid when the game ends.
+
+Heuristic (deterministic): for every empty cell it scores the line each player would form through
+that cell in each of the 4 directions (length and open ends); a five of its own wins outright,
+blocking the opponent's five comes next, then open and closed fours, threes, and so on, with the
+opponent's lines weighted 0.9 (blocking) and a small pull toward the centre. It beats uniformly
+random play essentially always.
+
+Game kwargs: ``size`` (board side, default 15, at least ``n_in_row``), ``n_in_row`` (default 5).
+
+Batched engine
+--------------
+:class:`GoBangBoards` steps many boards at once with a few whole-array numpy operations (the
+throughput benchmark and the single-match :class:`GoBangRules` both use it)::
+
+    boards = GoBangBoards(n_boards=4096, seed=0, autoreset=True)
+    while True:
+        boards.step(boards.random_actions())   # int64[B]: the cell played by the side to move
+        boards.done, boards.winner             # games that ended on this step, winning colour
+
+* ``GoBangBoards(n_boards, size=15, n_in_row=5, autoreset=False, seed=0)``
+* ``reset(boards=None)``: clear all boards, or those indexed by ``boards``.
+* ``step(actions: int64[B])``: each board's side to move plays its cell. Boards that are done
+  (without autoreset) ignore their action.
+* ``legal_mask() -> bool[B, size*size]`` (empty cells); ``random_actions() -> int64[B]``
+  (uniform over each board's empty cells, from the engine's own generator).
+* ``observe() -> float32[B, 2, obs_dim]``: each colour's observation (the 2T1P layout above).
+* State: ``cells int8[B, size*size]`` (0 empty, 1 black, 2 white), ``to_move int64[B]`` (0 black,
+  1 white), ``n_stones int64[B]``, ``done bool[B]``, ``winner int64[B]`` (0 black, 1 white,
+  -1 none or draw), ``illegal bool[B]`` (the game ended by an illegal move), ``last_action``.
+* ``autoreset=True``: a board whose game ends is cleared at the end of that same ``step`` while
+  ``done`` and ``winner`` still report the finished game until the next ``step``.
+
+``benchmark_boards(n_boards=4096, seconds=2.0, seed=0, observe=False) -> (board_steps, seconds)``
+times the engine with random legal moves (sampling included).
+"""
+
+from __future__ import annotations
+
+import time
+from functools import cache
+from typing import Any, ClassVar
+
+import numpy as np
+
+from arena_league.envs.core import GameRules
+from arena_league.envs.rendering import Canvas
+
+EMPTY, BLACK, WHITE = 0, 1, 2
+#: (row step, col step) of the four lines: row, column, diagonal, anti-diagonal.
+LINES: tuple[tuple[int, int], ...] = ((0, 1), (1, 0), (1, 1), (1, -1))
+#: Observation scalars after the two stone planes.
+N_SCALARS = 5
+
+# Heuristic line values by (stones in the line through the cell, open ends 0/1/2); five wins.
+_WIN_VALUE = 1.0e6
+_LINE_VALUE = np.array([
+    [0.0, 0.0, 0.0],        # 0 stones (unused)
+    [0.0, 2.0, 10.0],       # 1
+    [0.0, 30.0, 200.0],     # 2
+    [0.0, 300.0, 5000.0],   # 3
+    [0.0, 10000.0, 50000.0],  # 4
+])
+_BLOCK_WEIGHT = 0.9
+
+
+def _ray_table(size: int, reach: int) -> np.ndarray:
+    """``int64[size*size, reach, 8]``: for each cell, the cells 1..reach steps away along each line
+    (sides ``+`` for lines 0..3, ``-`` for lines 4..7); ``size*size`` (an always-empty sentinel)
+    past the edge."""
+    n_cells = size * size
+    rows, cols = np.divmod(np.arange(n_cells), size)
+    steps = np.arange(1, reach + 1)
+    table = np.empty((n_cells, reach, 8), dtype=np.int64)
+    for k, (dr, dc) in enumerate(LINES):
+        for side, sign in ((0, 1), (1, -1)):
+            r = rows[:, None] + sign * dr * steps[None, :]
+            c = cols[:, None] + sign * dc * steps[None, :]
+            inside = (r >= 0) & (r < size) & (c >= 0) & (c < size)
+            table[:, :, k + 4 * side] = np.where(inside, r * size + c, n_cells)
+    return table
+
+
+class GoBangBoards:
+    """``n_boards`` GoBang games stepped together (see the module docstring for the API)."""
+
+    def __init__(self, n_boards: int, size: int = 15, n_in_row: int = 5, autoreset: bool = False,
+                 seed: int = 0) -> None:
+        if int(n_boards) < 1:
+            raise ValueError(f"n_boards must be a positive integer, not {n_boards!r}")
+        _check_geometry(size, n_in_row)
+        self.n_boards = int(n_boards)
+        self.size = int(size)
+        self.n_in_row = int(n_in_row)
+        self.n_cells = self.size * self.size
+        self.autoreset = bool(autoreset)
+        self.rng = np.random.default_rng(seed)
+        self.obs_dim = 2 * self.n_cells + N_SCALARS
+        self._rays = _ray_table(self.size, self.n_in_row - 1)
+        self._arange = np.arange(self.n_boards)
+        # one extra always-empty column: the sentinel the rays point to past the edge
+        self._padded = np.zeros((self.n_boards, self.n_cells + 1), dtype=np.int8)
+        self._flat = self._padded.reshape(-1)
+        self._row_offset = self._arange * (self.n_cells + 1)
+        self.to_move = np.zeros(self.n_boards, dtype=np.int64)
+        self.n_stones = np.zeros(self.n_boards, dtype=np.int64)
+        self.done = np.zeros(self.n_boards, dtype=bool)
+        self.winner = np.full(self.n_boards, -1, dtype=np.int64)
+        self.illegal = np.zeros(self.n_boards, dtype=bool)
+        self.last_action = np.full(self.n_boards, -1, dtype=np.int64)
+
+    @property
+    def cells(self) -> np.ndarray:
+        """``int8[B, size*size]`` view of the boards: 0 empty, 1 black, 2 white."""
+        return self._padded[:, : self.n_cells]
+
+    def reset(self, boards: np.ndarray | None = None) -> None:
+        """Clear every board, or the boards indexed by ``boards``."""
+        sel = slice(None) if boards is None else np.asarray(boards)
+        self._padded[sel] = EMPTY
+        self.to_move[sel] = 0
+        self.n_stones[sel] = 0
+        self.done[sel] = False
+        self.winner[sel] = -1
+        self.illegal[sel] = False
+        self.last_action[sel] = -1
+
+    def step(self, actions: np.ndarray) -> None:
+        """Play ``actions[b]`` (a cell) for the side to move on every unfinished board."""
+        actions = np.asarray(actions)
+        if actions.shape != (self.n_boards,) or actions.dtype.kind not in "iu":
+            raise ValueError(f"GoBangBoards.step takes one integer cell per board, shape ({self.n_boards},); "
+                             f"got shape {actions.shape} dtype {actions.dtype}")
+        if actions.size and (actions.min() < 0 or actions.max() >= self.n_cells):
+            raise ValueError(f"GoBang cells are 0..{self.n_cells - 1} (row * {self.size} + col); got "
+                             f"{int(actions.min()) if actions.min() < 0 else int(actions.max())}")
+        actions = actions.astype(np.int64, copy=False)
+        if self.autoreset:
+            self.done[:] = False
+            self.winner[:] = -1
+            self.illegal[:] = False
+        live = ~self.done
+        colour = (self.to_move + 1).astype(np.int8)
+        flat_cell = self._row_offset + actions
+        before = self._flat[flat_cell]
+        place = live & (before == EMPTY)
+        illegal = live & (before != EMPTY)
+        self._flat[flat_cell] = np.where(place, colour, before)
+        # the 4 lines through the new stone: runs of the mover's colour on both sides
+        same = self._flat[self._row_offset[:, None, None] + self._rays[actions]] == colour[:, None, None]
+        unbroken = same[:, 0]
+        run = unbroken.astype(np.int8)
+        for k in range(1, self.n_in_row - 1):
+            unbroken = unbroken & same[:, k]
+            run += unbroken
+        longest = (run[:, :4] + run[:, 4:]).max(axis=1) + 1
+        five = place & (longest >= self.n_in_row)
+        self.n_stones += place
+        full = place & ~five & (self.n_stones == self.n_cells)
+        ended = five | illegal | full
+        self.winner = np.where(five, self.to_move, np.where(illegal, 1 - self.to_move, self.winner))
+        self.illegal |= illegal
+        self.last_action = np.where(live, actions, self.last_action)
+        self.to_move = np.where(place & ~ended, 1 - self.to_move, self.to_move)
+        self.done |= ended
+        if self.autoreset and ended.any():
+            finished = np.flatnonzero(ended)
+            self._padded[finished] = EMPTY
+            self.to_move[finished] = 0
+            self.n_stones[finished] = 0
+
+    def legal_mask(self) -> np.ndarray:
+        """``bool[B, size*size]``: the empty cells of each board."""
+        return self.cells == EMPTY
+
+    def random_actions(self) -> np.ndarray:
+        """A uniformly random empty cell per board (cell 0 on a full board), drawn from ``self.rng``."""
+        actions = self.rng.integers(self.n_cells, size=self.n_boards)
+        retry = np.flatnonzero(self._flat[self._row_offset + actions] != EMPTY)
+        for _ in range(8):  # rejection sampling stays uniform; few boards need a second draw
+            if not retry.size:
+                return actions
+            actions[retry] = self.rng.integers(self.n_cells, size=retry.size)
+            retry = retry[self._flat[self._row_offset[retry] + actions[retry]] != EMPTY]
+        if retry.size:  # nearly full boards: draw among the empty cells directly
+            keys = self.rng.random((retry.size, self.n_cells))
+            keys[self.cells[retry] != EMPTY] = -1.0
+            actions[retry] = keys.argmax(axis=1)
+        return actions
+
+    def observe(self) -> np.ndarray:
+        """``float32[B, 2, obs_dim]``: black's and white's observations (2T1P layout)."""
+        obs = np.zeros((self.n_boards, 2, self.obs_dim), dtype=np.float32)
+        cells = self.cells
+        n = self.n_cells
+        for colour in (0, 1):
+            obs[:, colour, :n] = cells == colour + 1
+            obs[:, colour, n:2 * n] = cells == 2 - colour
+            obs[:, colour, 2 * n] = self.to_move == colour
+            obs[:, colour, 2 * n + 1] = self.to_move == colour
+            obs[:, colour, 2 * n + 2] = colour == 0
+        obs[:, :, 2 * n + 3] = (self.n_stones / n)[:, None]
+        obs[:, :, 2 * n + 4] = 1.0
+        return obs
+
+
+def benchmark_boards(n_boards: int = 4096, seconds: float = 2.0, seed: int = 0, observe: bool = False
+                     ) -> tuple[int, float]:
+    """Step ``n_boards`` auto-resetting boards with uniformly random legal moves (sampling
+    included) for about ``seconds``; returns (board steps, elapsed seconds). With ``observe``,
+    both colours' observations are built every step too."""
+    boards = GoBangBoards(n_boards, autoreset=True, seed=seed)
+    for _ in range(10):  # warm up: fill the boards a little
+        boards.step(boards.random_actions())
+    steps = 0
+    start = time.perf_counter()
+    while True:
+        for _ in range(16):
+            boards.step(boards.random_actions())
+            if observe:
+                boards.observe()
+        steps += 16
+        elapsed = time.perf_counter() - start
+        if elapsed >= seconds:
+            return steps * n_boards, elapsed
+
+
+def _check_geometry(size: Any, n_in_row: Any) -> None:
+    if isinstance(n_in_row, bool) or not isinstance(n_in_row, (int, np.integer)) or n_in_row < 2:
+        raise ValueError(f"n_in_row must be an integer >= 2 (5 for GoBang), not {n_in_row!r}")
+    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < n_in_row:
+        raise ValueError(f"size must be an integer >= n_in_row ({n_in_row}), not {size!r}; GoBang uses 15")
+
+
+@cache
+def _rays(size: int, reach: int) -> np.ndarray:
+    return _ray_table(size, reach)
+
+
+def heuristic_moves(own: np.ndarray, opponent: np.ndarray, n_in_row: int = 5) -> np.ndarray:
+    """The heuristic's cell for each of N boards given ``bool[N, size * size]`` stone planes.
+
+    Every empty cell scores, over the 4 lines through it, the value of the line its own stone
+    would make plus 0.9 times the value of the line the opponent's would make (what a block
+    denies), with a tiny pull toward the centre; the best cell wins (lowest index on ties).
+    """
+    n, n_cells = own.shape
+    size = round(float(np.sqrt(n_cells)))
+    rays = _rays(size, n_in_row - 1)  # [cells, reach, 8], the sentinel past the edge
+    stones = np.zeros((n, 2, n_cells + 1), dtype=bool)
+    stones[:, 0, :n_cells] = own
+    stones[:, 1, :n_cells] = opponent
+    empty = np.zeros((n, n_cells + 1), dtype=bool)
+    empty[:, :n_cells] = ~(own | opponent)
+    stone_rays = stones[:, :, rays]  # [N, 2, cells, reach, 8]
+    empty_rays = empty[:, None, rays]  # [N, 1, cells, reach, 8]
+    running = np.ones((n, 2, n_cells, 8), dtype=bool)  # still on an unbroken run of stones
+    open_end = np.zeros((n, 2, n_cells, 8), dtype=bool)  # the run ends on an empty cell
+    run = np.zeros((n, 2, n_cells, 8), dtype=np.int64)
+    for k in range(n_in_row - 1):
+        open_end |= running & empty_rays[:, :, :, k]
+        running &= stone_rays[:, :, :, k]
+        run += running
+    length = 1 + run[..., :4] + run[..., 4:]  # [N, 2, cells, 4 lines]
+    value = _LINE_VALUE[np.minimum(length, 4), open_end[..., :4].astype(np.int64) + open_end[..., 4:]]
+    value[length >= n_in_row] = _WIN_VALUE
+    score = value[:, 0].sum(axis=2) + _BLOCK_WEIGHT * value[:, 1].sum(axis=2)
+    rows, cols = np.divmod(np.arange(n_cells), size)
+    centre = (size - 1) / 2.0
+    score -= 1e-3 * np.maximum(np.abs(rows - centre), np.abs(cols - centre))
+    score[~empty[:, :n_cells]] = -np.inf
+    return score.argmax(axis=1).astype(np.int64)
+
+
+class GoBangRules(GameRules):
+    """One GoBang match (the batched engine with one board); the module docstring is its manual."""
+
+    name: ClassVar[str] = "GoBang"
+    version: ClassVar[int] = 1
+    layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2))
+    action_types: ClassVar[tuple[str, ...]] = ("discrete",)
+    turn_based: ClassVar[bool] = True
+    measures_provided: ClassVar[frozenset[str]] = frozenset({"active", "outcome"})
+    default_max_cycles: ClassVar[int] = 225
+    summary: ClassVar[str] = "15x15 five in a row (freestyle), turn-based; an illegal move loses"
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str, size: int = 15,
+                 n_in_row: int = 5, **unknown: Any) -> None:
+        if unknown:
+            raise ValueError(f"GoBang has no option(s) {sorted(unknown)}; valid: size (board side, default 15), "
+                             "n_in_row (stones to win, default 5)")
+        if n_teams != 2:
+            raise ValueError(f"GoBang is played by 2 teams, not {n_teams}; layouts: 2T1P, 2T2P")
+        if action_type != "discrete":
+            raise ValueError(f"GoBang has only the 'discrete' action variant, not {action_type!r}")
+        _check_geometry(size, n_in_row)
+        super().__init__(n_teams, players_per_team, action_type)
+        self.size = int(size)
+        self.n_in_row = int(n_in_row)
+        self.n_cells = self.size * self.size
+        self.obs_dim = 2 * self.n_cells + N_SCALARS
+        self.state_dim = self.n_cells + 2
+        self.n_actions = self.n_cells
+        self.act_dim = 0
+        self.action_meanings = (f"place a stone at row * {self.size} + col",)
+        self.default_max_cycles = self.n_cells  # type: ignore[misc]  # the board fills first
+        self.engine = GoBangBoards(1, self.size, self.n_in_row)
+        self._seat_of_colour = np.arange(2) * players_per_team
+        self._events: list[dict] = []
+
+    # --- the match -------------------------------------------------------------------------
+    def reset(self, seed: int) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.engine.reset()
+        self.measures.active[:] = True
+        self.measures.outcome[:] = 0.0
+        self.game_over = False
+        self._events = []
+
+    def current_player(self) -> int:
+        """The seat to move: the colour to move, and within a team the players in turn."""
+        team = int(self.engine.to_move[0])
+        moves_of_team = int(self.engine.n_stones[0]) // 2
+        return team * self.players_per_team + moves_of_team % self.players_per_team
+
+    def step(self, actions: np.ndarray) -> None:
+        if self.game_over:
+            raise RuntimeError("GoBang: the game is over; call reset() before step()")
+        seat = self.current_player()
+        cell = int(actions[seat])
+        engine = self.engine
+        engine.step(np.array([cell], dtype=np.int64))
+        self._events = [{"kind": "move", "seat": seat, "cell": cell}]
+        if engine.done[0]:
+            self.game_over = True
+            winner = int(engine.winner[0])
+            if engine.illegal[0]:
+                self._events.append({"kind": "illegal_move", "seat": seat, "cell": cell})
+            if winner >= 0:
+                self.measures.outcome[:] = np.where(self.team_of == winner, 1.0, -1.0)
+                if not engine.illegal[0]:
+                    self._events.append({"kind": "five", "team": winner})
+            else:
+                self._events.append({"kind": "draw", "reason": "board full"})
+
+    def finish(self) -> None:
+        self.measures.outcome[:] = 0.0  # cut at max_cycles: a draw
+
+    def team_result(self) -> np.ndarray:
+        winner = int(self.engine.winner[0])
+        if winner < 0:
+            return np.full(2, 0.5)
+        return (np.arange(2) == winner).astype(np.float64)
+
+    def events(self) -> list[dict]:
+        return list(self._events)
+
+    # --- what seats see ----------------------------------------------------------------------
+    def observe(self) -> np.ndarray:
+        engine = self.engine
+        n = self.n_cells
+        cells = engine.cells[0]
+        mover = self.current_player()
+        obs = np.zeros((self.n_agents, self.obs_dim), dtype=np.float32)
+        for seat in range(self.n_agents):
+            team = int(self.team_of[seat])
+            obs[seat, :n] = cells == team + 1
+            obs[seat, n:2 * n] = cells == 2 - team
+            obs[seat, 2 * n] = seat == mover and not self.game_over
+            obs[seat, 2 * n + 1] = team == engine.to_move[0] and not self.game_over
+            obs[seat, 2 * n + 2] = team == 0
+        obs[:, 2 * n + 3] = engine.n_stones[0] / n
+        obs[:, 2 * n + 4] = self.measures.active
+        return obs
+
+    def action_mask(self) -> np.ndarray:
+        return np.repeat(self.engine.legal_mask(), self.n_agents, axis=0)
+
+    def state(self) -> np.ndarray:
+        cells = self.engine.cells[0]
+        board = np.where(cells == BLACK, 1.0, np.where(cells == WHITE, -1.0, 0.0))
+        to_move = 1.0 if self.engine.to_move[0] == 0 else -1.0
+        return np.concatenate([board, [to_move, self.engine.n_stones[0] / self.n_cells]]).astype(np.float32)
+
+    def render_topdown(self) -> np.ndarray:
+        size = self.size
+        canvas = Canvas(0.0, float(size), 0.0, float(size), size=max(240, 20 * size), background=(222, 184, 110))
+        for k in range(size):
+            canvas.line(0.5, k + 0.5, size - 0.5, k + 0.5, fill=(90, 60, 30))
+            canvas.line(k + 0.5, 0.5, k + 0.5, size - 0.5, fill=(90, 60, 30))
+        cells = self.engine.cells[0]
+        for cell in np.flatnonzero(cells):
+            row, col = divmod(int(cell), size)
+            colour = (25, 25, 25) if cells[cell] == BLACK else (245, 245, 245)
+            canvas.circle(col + 0.5, size - row - 0.5, 0.44, fill=colour, outline=(60, 60, 60))
+        last = int(self.engine.last_action[0])
+        if last >= 0 and cells[last] != EMPTY:
+            row, col = divmod(last, size)
+            canvas.circle(col + 0.5, size - row - 0.5, 0.12, fill=(220, 40, 40))
+        return canvas.array()
+
+    # --- the social tree and the scripted player ----------------------------------------------
+    @classmethod
+    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
+        if players_per_team == 1:
+            children: list = [f"player_{t}" for t in range(n_teams)]
+        else:
+            children = [{"scheme": "NL", "reward": "none",
+                         "children": [f"player_{t * players_per_team + p}" for p in range(players_per_team)]}
+                        for t in range(n_teams)]
+        return {"scheme": "CP", "reward": "win_loss", "scale": 1, "children": children}
+
+    @staticmethod
+    def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
+        obs = np.asarray(obs, dtype=np.float32)
+        n_cells = (obs.shape[1] - N_SCALARS) // 2
+        size = round(float(np.sqrt(n_cells)))
+        if size * size != n_cells or obs.shape[1] != 2 * n_cells + N_SCALARS:
+            raise ValueError(f"GoBang heuristic: observations of {obs.shape[1]} floats are not GoBang's "
+                             "(2 * size * size + 5)")
+        own = obs[:, :n_cells] > 0.5
+        opponent = obs[:, n_cells:2 * n_cells] > 0.5
+        # seats not to move get the first empty cell (legal, and ignored by the rules)
+        actions = (~(own | opponent)).argmax(axis=1).astype(np.int64)
+        movers = np.flatnonzero(obs[:, 2 * n_cells] > 0.5)
+        if movers.size:
+            actions[movers] = heuristic_moves(own[movers], opponent[movers])
+        return actions
+
+
+RULES = GoBangRules
