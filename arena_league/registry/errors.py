@@ -1,0 +1,97 @@
+"""Errors raised by the league registry.
+
+Every refusal names its cause and, where one exists, the fix. Nothing already stored changes when
+one of these is raised: the registry raises before it writes, and the caller's transaction rolls
+back on the way out.
+
+Arena's league service (Song et al., "Arena: A General Evaluation Platform and Building Toolkit for
+Multi-Agent Intelligence", AAAI 2020) keeps results for good; these errors are how it refuses
+input that would corrupt them.
+"""
+
+from __future__ import annotations
+
+
+class RegistryError(Exception):
+    """Base class of every error the registry raises on purpose."""
+
+
+class DatabaseUnreachableError(RegistryError):
+    """The database URL could not be connected to."""
+
+
+class NotADatabaseError(RegistryError):
+    """The league database path holds a file that is not an SQLite database."""
+
+
+class ForeignDatabaseError(RegistryError):
+    """The database holds tables but was never set up by arena-league."""
+
+
+class SchemaTooNewError(RegistryError):
+    """The database was migrated by a newer arena-league than this one."""
+
+
+class SchemaOutOfDateError(RegistryError):
+    """The database is behind this code's schema and the caller asked not to migrate."""
+
+
+class InvalidRecordError(RegistryError, ValueError):
+    """A value does not fit the registry's schema (unknown status, negative seed, ...)."""
+
+
+class UnknownGameError(RegistryError, LookupError):
+    """The game is not registered in this league."""
+
+
+class GameMismatchError(RegistryError):
+    """A game id is already registered with other team sizes."""
+
+
+class UnknownAgentError(RegistryError, LookupError):
+    """No agent of that name is registered."""
+
+
+class NameTakenError(RegistryError):
+    """A unique name (agent, schedule) is already in use.
+
+    Attributes:
+        what: the kind of record ("agent", "schedule").
+        name: the name that was asked for.
+        existing: a one-line description of the record that holds the name.
+        suggestion: a free name close to the one asked for.
+    """
+
+    def __init__(self, what: str, name: str, existing: str, suggestion: str) -> None:
+        self.what = what
+        self.name = name
+        self.existing = existing
+        self.suggestion = suggestion
+        super().__init__(
+            f"{what} name {name!r} is already taken by {existing}; "
+            f"choose another name, for example {suggestion!r}"
+        )
+
+
+class ArtifactError(RegistryError):
+    """An artifact cannot be stored (missing file, symlink inside a folder, ...)."""
+
+
+class ArtifactTooLargeError(ArtifactError):
+    """An artifact is larger than the caller's size limit; it was not read."""
+
+
+class PopulationFrozenError(RegistryError):
+    """A frozen population cannot gain members."""
+
+
+class MatchKeyConflictError(RegistryError):
+    """A match key is already stored for a different match (other game, seed or agents)."""
+
+
+class LeaseLostError(RegistryError):
+    """A worker's lease on a job expired and the job was claimed again (or finished)."""
+
+
+class InvalidScheduleError(RegistryError, ValueError):
+    """A schedule's interval or cron expression is not usable."""

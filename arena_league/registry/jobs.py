@@ -1,0 +1,485 @@
+"""The league's job queue: leased jobs, claimed by workers, retried after a crash without duplicates.
+
+Arena's league (Song et al., AAAI 2020) keeps evaluating: every new agent plays the base
+population, and schedules re-rank the league. That work is queued here as jobs, each a `kind`
+(which handler runs it) and a JSON `payload`.
+
+A worker *claims* a job by taking a *lease* on it until `lease_expires_at`, and renews the lease
+while it works. If the worker dies, the lease runs out and the next claim takes the job again;
+each claim counts one attempt, and a job that has used `max_attempts` is failed with its error
+kept. The attempt number is a fencing token: renewing, completing or failing a job needs the
+attempt one claimed, so a worker that lost its lease can no longer complete the job.
+
+Claims never hand one job to two workers:
+- SQLite: one `UPDATE ... WHERE id = (SELECT ... LIMIT 1) RETURNING ...` inside a BEGIN IMMEDIATE
+  transaction, which holds the database's single write lock;
+- PostgreSQL: the same UPDATE with `FOR UPDATE SKIP LOCKED` on the inner SELECT, so concurrent
+  workers skip each other's rows instead of waiting on them.
+
+Handlers must make their results idempotent (the registry's `record_match` with a match key
+derived from the job does this), since a job retried after a crash runs again from the start.
+Times come from the workers' clocks (keep them in sync with NTP) and are stored as UTC.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import os
+import socket
+import threading
+import traceback
+import uuid
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from datetime import UTC, datetime, timedelta
+from typing import Any
+
+from sqlalchemy import and_, func, or_, select, update
+from sqlalchemy.exc import SQLAlchemyError
+from sqlalchemy.orm import Session
+
+from arena_league.registry.db import League
+from arena_league.registry.errors import InvalidRecordError, LeaseLostError
+from arena_league.registry.models import Job, JobStatus, utcnow
+
+logger = logging.getLogger(__name__)
+
+_EXHAUSTED_LEASE_ERROR = (
+    "the lease expired on the last allowed attempt (the worker crashed or stalled); not retried"
+)
+
+
+@dataclass(frozen=True)
+class ClaimedJob:
+    """A job as one worker holds it: what to run, and the attempt that fences its lease."""
+
+    id: int
+    kind: str
+    payload: dict[str, Any]
+    attempt: int  # 1 for the first claim; the lease is valid only for this attempt
+    max_attempts: int
+    worker_id: str
+    lease_expires_at: datetime
+
+
+@dataclass(frozen=True)
+class JobContext:
+    """What a handler receives: the league, the job, and whether the lease has been lost."""
+
+    league: League
+    job: ClaimedJob
+    lease_lost: threading.Event
+
+    def raise_if_lease_lost(self) -> None:
+        """Stop a long handler early once another worker may have taken the job."""
+        if self.lease_lost.is_set():
+            raise LeaseLostError(f"worker {self.job.worker_id} lost its lease on job {self.job.id}")
+
+
+Handler = Callable[[JobContext], Any]
+
+
+@dataclass
+class WorkerReport:
+    """What a worker loop did: jobs completed, handler failures, and leases lost."""
+
+    completed: int = 0
+    failed: int = 0
+    lost: int = 0
+    job_ids: list[int] = field(default_factory=list)  # every job claimed, in order
+
+
+def enqueue(
+    session: Session,
+    kind: str,
+    payload: Mapping[str, Any] | None = None,
+    *,
+    priority: int = 0,
+    max_attempts: int = 3,
+    run_after: datetime | None = None,
+    schedule_id: int | None = None,
+) -> Job:
+    """Queue a job in the caller's transaction; higher `priority` runs first, then older jobs."""
+    if max_attempts < 1:
+        raise InvalidRecordError(f"max_attempts must be at least 1, not {max_attempts}")
+    body = dict(payload or {})
+    _require_json(body, f"payload of the {kind!r} job")
+    job = Job(
+        kind=kind,
+        payload=body,
+        status=JobStatus.QUEUED.value,
+        priority=priority,
+        max_attempts=max_attempts,
+        run_after=run_after or utcnow(),
+        schedule_id=schedule_id,
+    )
+    session.add(job)
+    session.flush()
+    return job
+
+
+def claim_job(
+    league: League,
+    worker_id: str,
+    *,
+    lease_seconds: float = 60.0,
+    kinds: Iterable[str] | None = None,
+    now: datetime | None = None,
+) -> ClaimedJob | None:
+    """Claim the next runnable job (queued and due, or running with an expired lease), or None.
+
+    Jobs whose lease expired on their last allowed attempt are failed on the way.
+    """
+    moment = _naive_utc(now)
+    expires = moment + timedelta(seconds=lease_seconds)
+    wanted = sorted(set(kinds)) if kinds is not None else None
+    with league.transaction() as session:
+        session.execute(
+            update(Job)
+            .where(
+                Job.status == JobStatus.RUNNING.value,
+                Job.lease_expires_at < moment,
+                Job.attempts >= Job.max_attempts,
+            )
+            .values(
+                status=JobStatus.FAILED.value,
+                error=func.coalesce(Job.error + "\n", "") + _EXHAUSTED_LEASE_ERROR,
+                finished_at=moment,
+                lease_owner=None,
+                lease_expires_at=None,
+            )
+            .execution_options(synchronize_session=False)
+        )
+        candidate = (
+            select(Job.id)
+            .where(
+                or_(
+                    and_(Job.status == JobStatus.QUEUED.value, Job.run_after <= moment),
+                    and_(
+                        Job.status == JobStatus.RUNNING.value,
+                        Job.lease_expires_at < moment,
+                        Job.attempts < Job.max_attempts,
+                    ),
+                )
+            )
+            .order_by(Job.priority.desc(), Job.id)
+            .limit(1)
+        )
+        if wanted is not None:
+            candidate = candidate.where(Job.kind.in_(wanted))
+        if league.dialect == "postgresql":
+            candidate = candidate.with_for_update(skip_locked=True)
+        row = session.execute(
+            update(Job)
+            .where(Job.id == candidate.scalar_subquery())
+            .values(
+                status=JobStatus.RUNNING.value,
+                attempts=Job.attempts + 1,
+                lease_owner=worker_id,
+                lease_expires_at=expires,
+                started_at=moment,
+            )
+            .returning(Job.id, Job.kind, Job.payload, Job.attempts, Job.max_attempts)
+            .execution_options(synchronize_session=False)
+        ).one_or_none()
+    if row is None:
+        return None
+    return ClaimedJob(
+        id=row.id,
+        kind=row.kind,
+        payload=row.payload,
+        attempt=row.attempts,
+        max_attempts=row.max_attempts,
+        worker_id=worker_id,
+        lease_expires_at=expires.replace(tzinfo=UTC),
+    )
+
+
+def renew_lease(
+    league: League, job: ClaimedJob, *, lease_seconds: float = 60.0, now: datetime | None = None
+) -> ClaimedJob:
+    """Extend a held lease to `now + lease_seconds`; raises LeaseLostError if it is no longer held."""
+    expires = _naive_utc(now) + timedelta(seconds=lease_seconds)
+    with league.transaction() as session:
+        _fenced_update(session, job, "renew the lease of", lease_expires_at=expires)
+    return dataclasses.replace(job, lease_expires_at=expires.replace(tzinfo=UTC))
+
+
+def complete_job(league: League, job: ClaimedJob, result: Any = None, *, now: datetime | None = None) -> None:
+    """Mark a held job done with its (JSON) result; raises LeaseLostError if the lease was lost."""
+    _require_json(result, f"result of job {job.id}")
+    with league.transaction() as session:
+        _fenced_update(
+            session,
+            job,
+            "complete",
+            status=JobStatus.DONE.value,
+            result=result,
+            error=None,
+            finished_at=_naive_utc(now),
+            lease_owner=None,
+            lease_expires_at=None,
+        )
+
+
+def fail_job(
+    league: League,
+    job: ClaimedJob,
+    error: str,
+    *,
+    retry_delay_seconds: float = 0.0,
+    now: datetime | None = None,
+) -> JobStatus:
+    """Record a failed attempt: queue the job again (after the delay) or, on its last attempt, fail it.
+
+    Returns the job's new status. Raises LeaseLostError if the lease was lost.
+    """
+    moment = _naive_utc(now)
+    retry = job.attempt < job.max_attempts
+    with league.transaction() as session:
+        _fenced_update(
+            session,
+            job,
+            "fail",
+            status=JobStatus.QUEUED.value if retry else JobStatus.FAILED.value,
+            error=error,
+            run_after=moment + timedelta(seconds=retry_delay_seconds) if retry else Job.run_after,
+            finished_at=None if retry else moment,
+            lease_owner=None,
+            lease_expires_at=None,
+        )
+    return JobStatus.QUEUED if retry else JobStatus.FAILED
+
+
+def release_job(league: League, job: ClaimedJob) -> None:
+    """Hand a held job back to the queue without using up an attempt (e.g. on Ctrl-C)."""
+    with league.transaction() as session:
+        _fenced_update(
+            session,
+            job,
+            "release",
+            status=JobStatus.QUEUED.value,
+            attempts=Job.attempts - 1,
+            lease_owner=None,
+            lease_expires_at=None,
+        )
+
+
+def get_job(session: Session, job_id: int) -> Job | None:
+    """The job with this id, or None."""
+    return session.get(Job, job_id)
+
+
+def list_jobs(
+    session: Session,
+    *,
+    status: JobStatus | str | None = None,
+    kind: str | None = None,
+    limit: int | None = None,
+) -> list[Job]:
+    """Jobs, newest first, optionally of one status or kind."""
+    query = select(Job).order_by(Job.id.desc())
+    if status is not None:
+        query = query.where(Job.status == JobStatus(status).value)
+    if kind is not None:
+        query = query.where(Job.kind == kind)
+    if limit is not None:
+        query = query.limit(limit)
+    return list(session.scalars(query))
+
+
+def queue_counts(session: Session) -> dict[str, int]:
+    """How many jobs are in each status (every status listed, zero included)."""
+    counts = {
+        status: n
+        for status, n in session.execute(select(Job.status, func.count(Job.id)).group_by(Job.status))
+    }
+    return {status.value: int(counts.get(status.value, 0)) for status in JobStatus}
+
+
+def default_worker_id() -> str:
+    """`host:pid:random`, unique per worker process and readable in `lease_owner`."""
+    return f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:6]}"
+
+
+def run_worker(
+    league: League,
+    handlers: Mapping[str, Handler],
+    worker_id: str | None = None,
+    lease_seconds: float = 60.0,
+    poll_seconds: float = 1.0,
+    max_jobs: int | None = None,
+    stop_event: threading.Event | None = None,
+    *,
+    until_idle: bool = False,
+    retry_delay_seconds: float = 0.0,
+) -> WorkerReport:
+    """Claim and run jobs until stopped; returns what was done.
+
+    Only jobs whose kind has a handler are claimed. Each handler is called with a `JobContext`
+    while a background thread renews the lease every `lease_seconds / 3`; its return value (JSON)
+    becomes the job's result. A handler that raises fails the attempt (the traceback is kept as
+    the job's error). If the lease is lost meanwhile, the job is left to its new owner.
+
+    Args:
+        league: the open league.
+        handlers: job kind -> handler.
+        worker_id: written to `lease_owner`; default `host:pid:random`.
+        lease_seconds: how long a claim lasts without renewal; a crashed worker's job is retried
+            after at most this long.
+        poll_seconds: how long to wait when the queue is empty.
+        max_jobs: stop after claiming this many jobs.
+        stop_event: set it to stop after the current job.
+        until_idle: stop as soon as no job can be claimed.
+        retry_delay_seconds: how long a failed attempt waits before it can be claimed again.
+
+    Ctrl-C (KeyboardInterrupt) hands the current job back to the queue and re-raises.
+    """
+    worker = worker_id or default_worker_id()
+    stop = stop_event or threading.Event()
+    report = WorkerReport()
+    kinds = sorted(handlers)
+    while not stop.is_set() and (max_jobs is None or len(report.job_ids) < max_jobs):
+        try:
+            job = claim_job(league, worker, lease_seconds=lease_seconds, kinds=kinds)
+        except SQLAlchemyError:  # the database is briefly unreachable or locked: wait and retry
+            logger.exception("worker %s could not claim a job; retrying in %s s", worker, poll_seconds)
+            stop.wait(poll_seconds)
+            continue
+        if job is None:
+            if until_idle:
+                break
+            stop.wait(poll_seconds)
+            continue
+        report.job_ids.append(job.id)
+        logger.info("worker %s claimed job %d (%s), attempt %d", worker, job.id, job.kind, job.attempt)
+        try:
+            _run_one(league, handlers[job.kind], job, lease_seconds, retry_delay_seconds, report)
+        except SQLAlchemyError:  # could not record the outcome: the lease runs out and it is retried
+            report.lost += 1
+            logger.exception(
+                "job %d: could not record its outcome; it is retried once its lease expires", job.id
+            )
+    return report
+
+
+def _run_one(
+    league: League,
+    handler: Handler,
+    job: ClaimedJob,
+    lease_seconds: float,
+    retry_delay_seconds: float,
+    report: WorkerReport,
+) -> None:
+    """Run one claimed job under a renewed lease, then complete or fail it."""
+    lease_lost = threading.Event()
+    done = threading.Event()
+    keeper = threading.Thread(
+        target=_keep_lease,
+        args=(league, job, lease_seconds, lease_lost, done),
+        name=f"lease-{job.id}",
+        daemon=True,
+    )
+    keeper.start()
+    try:
+        result = handler(JobContext(league=league, job=job, lease_lost=lease_lost))
+    except LeaseLostError:
+        report.lost += 1
+        logger.warning("job %d: lease lost; leaving it to its new owner", job.id)
+        return
+    except KeyboardInterrupt:
+        done.set()
+        keeper.join()
+        release_job(league, job)
+        raise
+    except Exception:  # noqa: BLE001 - any handler error fails this attempt; the worker goes on
+        done.set()
+        keeper.join()
+        error = traceback.format_exc()
+        logger.error("job %d (%s) failed on attempt %d:\n%s", job.id, job.kind, job.attempt, error)
+        try:
+            fail_job(league, job, error, retry_delay_seconds=retry_delay_seconds)
+            report.failed += 1
+        except LeaseLostError:
+            report.lost += 1
+        return
+    finally:
+        done.set()
+        keeper.join()
+    if lease_lost.is_set():
+        report.lost += 1
+        logger.warning("job %d: lease lost while running; its result is discarded", job.id)
+        return
+    try:
+        complete_job(league, job, result)
+    except LeaseLostError:
+        report.lost += 1
+        logger.warning("job %d: lease lost before completion; its result is discarded", job.id)
+        return
+    except InvalidRecordError as error:  # a result that is not JSON
+        fail_job(league, job, str(error), retry_delay_seconds=retry_delay_seconds)
+        report.failed += 1
+        return
+    report.completed += 1
+    logger.info("job %d (%s) done", job.id, job.kind)
+
+
+def _keep_lease(
+    league: League, job: ClaimedJob, lease_seconds: float, lease_lost: threading.Event, done: threading.Event
+) -> None:
+    """Renew the lease every third of its length until `done`, or until it is lost."""
+    while not done.wait(lease_seconds / 3):
+        try:
+            renew_lease(league, job, lease_seconds=lease_seconds)
+        except LeaseLostError:
+            lease_lost.set()
+            return
+        except Exception:  # a database hiccup: try again at the next interval
+            logger.exception("job %d: could not renew the lease", job.id)
+
+
+def _fenced_update(session: Session, job: ClaimedJob, action: str, **values: Any) -> None:
+    """UPDATE the job only while this worker's attempt holds it; else LeaseLostError."""
+    updated = session.execute(
+        update(Job)
+        .where(
+            Job.id == job.id,
+            Job.status == JobStatus.RUNNING.value,
+            Job.lease_owner == job.worker_id,
+            Job.attempts == job.attempt,
+        )
+        .values(**values)
+        .returning(Job.id)
+        .execution_options(synchronize_session=False)
+    ).one_or_none()
+    if updated is None:
+        holder = session.execute(
+            select(Job.status, Job.lease_owner, Job.attempts).where(Job.id == job.id)
+        ).one_or_none()
+        now_held = (
+            "it no longer exists"
+            if holder is None
+            else f"it is now {holder.status}, attempt {holder.attempts}, held by {holder.lease_owner or 'nobody'}"
+        )
+        raise LeaseLostError(
+            f"worker {job.worker_id} cannot {action} job {job.id}: its lease on attempt {job.attempt} "
+            f"was lost ({now_held}); the job is retried by its new owner, and this worker's result is "
+            "discarded"
+        )
+
+
+def _naive_utc(moment: datetime | None) -> datetime:
+    """`moment` (default now) as naive UTC, the form timestamps are compared in SQL."""
+    chosen = moment or utcnow()
+    return chosen.astimezone(UTC).replace(tzinfo=None) if chosen.tzinfo else chosen
+
+
+def _require_json(value: Any, what: str) -> None:
+    try:
+        json.dumps(value, allow_nan=False)
+    except (TypeError, ValueError) as error:
+        raise InvalidRecordError(
+            f"the {what} is not JSON ({error}); use dicts, lists, strings and finite numbers"
+        ) from None

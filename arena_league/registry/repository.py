@@ -1,0 +1,661 @@
+"""Reading and writing league records: games, agents, populations, matches and rating snapshots.
+
+The league of Arena (Song et al., AAAI 2020) ranks new agents against a fixed base population
+from the outcomes of matches played against it. This module is the one way the layers above
+(the `arena-league` command, the match engine, population building) store and find those
+records. Every function works inside the caller's Session and transaction (see
+`League.transaction()`); a function that refuses raises before it writes, so the caller's
+rollback leaves the league exactly as it was.
+
+It holds no game rules and no rating maths: outcomes are stored as given, ratings as computed
+elsewhere (`arena_league.rating`).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from sqlalchemy import func, select
+from sqlalchemy.dialects.postgresql import insert as postgresql_insert
+from sqlalchemy.dialects.sqlite import insert as sqlite_insert
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session, selectinload
+
+from arena_league.registry.errors import (
+    GameMismatchError,
+    InvalidRecordError,
+    MatchKeyConflictError,
+    NameTakenError,
+    PopulationFrozenError,
+    UnknownAgentError,
+    UnknownGameError,
+)
+from arena_league.registry.models import (
+    Agent,
+    AgentKind,
+    AgentStatus,
+    Artifact,
+    Base,
+    Game,
+    Match,
+    MatchSeat,
+    Outcome,
+    Population,
+    PopulationMember,
+    RatingEntry,
+    RatingSnapshot,
+    utcnow,
+)
+
+GAME_ID_PATTERN = re.compile(
+    r"^(?P<name>[A-Za-z][A-Za-z0-9]*)-(?P<teams>\d+)T(?P<players>\d+)P-v(?P<version>\d+)$"
+)
+AGENT_NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:@+-]{0,127}$")
+MAX_SEED = 2**63 - 1  # seeds are stored as signed 64-bit integers
+# Agents of these kinds are code shipped with arena-league or a person; the others need weights.
+_KINDS_WITHOUT_ARTIFACT = {AgentKind.SCRIPTED, AgentKind.HUMAN}
+
+
+@dataclass(frozen=True)
+class SeatResult:
+    """One seat's result, as the match engine hands it to `record_match` (seat = list index)."""
+
+    agent_id: int
+    team: int
+    score: float
+    outcome: Outcome | str
+    position: int | None = None  # finishing place, 1 = first, for games of more than two teams
+
+
+@dataclass(frozen=True)
+class RatingRow:
+    """One agent's rating, as a rating method hands it to `write_rating_snapshot`."""
+
+    agent_id: int
+    rating: float
+    ci_low: float | None = None
+    ci_high: float | None = None
+    rank_low: int | None = None
+    rank_high: int | None = None
+    n_matches: int = 0
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def insert_ignoring_conflict(
+    session: Session, model: type[Base], values: Mapping[str, Any], conflict_columns: Sequence[str]
+) -> Any | None:
+    """INSERT a row unless one with the same `conflict_columns` exists; returns its primary key or None.
+
+    SQLite and PostgreSQL use `ON CONFLICT DO NOTHING`, so concurrent writers of the same key never
+    fail; other databases fall back to a savepoint.
+    """
+    table = model.__table__
+    primary_key = next(iter(table.primary_key.columns))
+    dialect = session.get_bind().dialect.name
+    if dialect in ("sqlite", "postgresql"):
+        insert = sqlite_insert if dialect == "sqlite" else postgresql_insert
+        statement = (
+            insert(table)
+            .values(**values)
+            .on_conflict_do_nothing(index_elements=list(conflict_columns))
+            .returning(primary_key)
+        )
+        return session.execute(statement).scalar_one_or_none()
+    try:
+        with session.begin_nested():
+            return session.execute(table.insert().values(**values).returning(primary_key)).scalar_one()
+    except IntegrityError:
+        return None
+
+
+# ----------------------------------------------------------------------------------------- games
+
+
+def ensure_game(
+    session: Session, game_id: str, n_teams: int | None = None, players_per_team: int | None = None
+) -> Game:
+    """The game with this id, registering it if new.
+
+    Team sizes default to those in an Arena id `<Game>-<x>T<y>P-v<N>` (x teams of y players).
+
+    Raises:
+        InvalidRecordError: the sizes are missing and the id does not say them, or disagree with it.
+        GameMismatchError: the game is registered with other team sizes.
+    """
+    parsed = GAME_ID_PATTERN.match(game_id)
+    if parsed is not None:
+        id_sizes = (int(parsed["teams"]), int(parsed["players"]))
+        given = (
+            n_teams if n_teams is not None else id_sizes[0],
+            players_per_team if players_per_team is not None else id_sizes[1],
+        )
+        if given != id_sizes:
+            raise InvalidRecordError(
+                f"game id {game_id!r} says {id_sizes[0]} teams of {id_sizes[1]}, but "
+                f"{given[0]} teams of {given[1]} were given; leave the sizes out or fix the id"
+            )
+        n_teams, players_per_team = id_sizes
+    elif n_teams is None or players_per_team is None:
+        raise InvalidRecordError(
+            f"game id {game_id!r} does not follow Arena's <Game>-<x>T<y>P-v<N> convention, so pass "
+            "n_teams and players_per_team"
+        )
+    if n_teams < 1 or players_per_team < 1:
+        raise InvalidRecordError(f"game {game_id!r} needs at least one team of one player")
+    game = session.get(Game, game_id)
+    if game is None:
+        insert_ignoring_conflict(
+            session,
+            Game,
+            {"id": game_id, "n_teams": n_teams, "players_per_team": players_per_team, "created_at": utcnow()},
+            ["id"],
+        )
+        game = session.get(Game, game_id)
+        assert game is not None
+    if (game.n_teams, game.players_per_team) != (n_teams, players_per_team):
+        raise GameMismatchError(
+            f"game {game_id!r} is registered with {game.n_teams} teams of {game.players_per_team}, "
+            f"not {n_teams} of {players_per_team}; use a new version in the game id"
+        )
+    return game
+
+
+def get_game(session: Session, game_id: str) -> Game | None:
+    """The game with this id, or None."""
+    return session.get(Game, game_id)
+
+
+def require_game(session: Session, game_id: str) -> Game:
+    """The game with this id; raises UnknownGameError naming the registered games closest to it."""
+    game = session.get(Game, game_id)
+    if game is None:
+        known = list(session.scalars(select(Game.id).order_by(Game.id)))
+        close = difflib.get_close_matches(game_id, known, n=3)
+        hint = f"did you mean {', '.join(map(repr, close))}? " if close else ""
+        raise UnknownGameError(
+            f"game {game_id!r} is not registered in this league; {hint}registered games: "
+            f"{', '.join(known) or 'none'}"
+        )
+    return game
+
+
+def list_games(session: Session) -> list[Game]:
+    """Every registered game, by id."""
+    return list(session.scalars(select(Game).order_by(Game.id)))
+
+
+# ---------------------------------------------------------------------------------------- agents
+
+
+def create_agent(
+    session: Session,
+    name: str,
+    game_id: str,
+    kind: AgentKind | str,
+    *,
+    owner: str | None = None,
+    artifact_sha256: str | None = None,
+    status: AgentStatus | str = AgentStatus.PENDING,
+    metadata: Mapping[str, Any] | None = None,
+) -> Agent:
+    """Register a new agent of a registered game.
+
+    Raises:
+        NameTakenError: another agent has this name (the error names it and suggests a free name).
+        UnknownGameError: the game is not registered.
+        InvalidRecordError: a malformed name, an unknown kind or status, or a base / submission /
+            trained agent without an artifact.
+    Nothing is stored when it raises.
+    """
+    if not AGENT_NAME_PATTERN.match(name):
+        raise InvalidRecordError(
+            f"agent name {name!r} is not allowed: use 1 to 128 letters, digits and . _ : @ + -, "
+            "starting with a letter or digit"
+        )
+    agent_kind = _parse(AgentKind, kind, "agent kind")
+    agent_status = _parse(AgentStatus, status, "agent status")
+    if artifact_sha256 is None and agent_kind not in _KINDS_WITHOUT_ARTIFACT:
+        raise InvalidRecordError(
+            f"a {agent_kind.value} agent needs an artifact; store it with store_artifact first"
+        )
+    _refuse_taken_name(session, name)
+    require_game(session, game_id)
+    if artifact_sha256 is not None and session.get(Artifact, artifact_sha256) is None:
+        raise InvalidRecordError(
+            f"artifact {artifact_sha256[:12]} is not in the store; store it with store_artifact first"
+        )
+    agent = Agent(
+        name=name,
+        game_id=game_id,
+        kind=agent_kind.value,
+        owner=owner,
+        status=agent_status.value,
+        artifact_sha256=artifact_sha256,
+        meta=dict(metadata or {}),
+    )
+    try:
+        with session.begin_nested():
+            session.add(agent)
+    except IntegrityError:
+        _refuse_taken_name(session, name)  # another writer took the name meanwhile
+        raise
+    return agent
+
+
+def get_agent(session: Session, name: str) -> Agent | None:
+    """The agent with this name, or None."""
+    return session.scalars(select(Agent).where(Agent.name == name)).one_or_none()
+
+
+def require_agent(session: Session, name: str) -> Agent:
+    """The agent with this name; raises UnknownAgentError naming the closest registered names."""
+    agent = get_agent(session, name)
+    if agent is None:
+        close = difflib.get_close_matches(name, list(session.scalars(select(Agent.name))), n=3)
+        hint = f"; did you mean {', '.join(map(repr, close))}?" if close else ""
+        raise UnknownAgentError(f"no agent named {name!r} in this league{hint}")
+    return agent
+
+
+def list_agents(
+    session: Session,
+    *,
+    game_id: str | None = None,
+    status: AgentStatus | str | None = None,
+    kind: AgentKind | str | None = None,
+) -> list[Agent]:
+    """Agents, oldest first, optionally only those of one game, status or kind."""
+    query = select(Agent).order_by(Agent.id)
+    if game_id is not None:
+        query = query.where(Agent.game_id == game_id)
+    if status is not None:
+        query = query.where(Agent.status == _parse(AgentStatus, status, "agent status").value)
+    if kind is not None:
+        query = query.where(Agent.kind == _parse(AgentKind, kind, "agent kind").value)
+    return list(session.scalars(query))
+
+
+def find_agents_by_artifact(session: Session, sha256: str, *, game_id: str | None = None) -> list[Agent]:
+    """Agents whose artifact is this content: how a re-submission of the same bytes is recognised."""
+    query = select(Agent).where(Agent.artifact_sha256 == sha256.lower()).order_by(Agent.id)
+    if game_id is not None:
+        query = query.where(Agent.game_id == game_id)
+    return list(session.scalars(query))
+
+
+def set_agent_status(
+    session: Session,
+    agent: Agent | str,
+    status: AgentStatus | str,
+    *,
+    reason: str | None = None,
+    log: str | None = None,
+) -> Agent:
+    """Move an agent to pending / active / rejected / retired.
+
+    `reason` is required for "rejected" (and cleared otherwise); `log`, when given, replaces the
+    stored validation log, so a rejected agent keeps the log that explains why.
+    """
+    target = require_agent(session, agent) if isinstance(agent, str) else agent
+    new_status = _parse(AgentStatus, status, "agent status")
+    if new_status is AgentStatus.REJECTED and not (reason and reason.strip()):
+        raise InvalidRecordError(f"rejecting agent {target.name!r} needs a reason the owner can act on")
+    target.status = new_status.value
+    target.reject_reason = reason if new_status is AgentStatus.REJECTED else None
+    if log is not None:
+        target.validation_log = log
+    session.flush()
+    return target
+
+
+def _refuse_taken_name(session: Session, name: str) -> None:
+    existing = get_agent(session, name)
+    if existing is None:
+        return
+    owner = f" owned by {existing.owner}" if existing.owner else ""
+    raise NameTakenError(
+        "agent",
+        name,
+        f"{existing.kind} agent #{existing.id}{owner} for {existing.game_id} ({existing.status})",
+        _free_name(session, name),
+    )
+
+
+def _free_name(session: Session, name: str) -> str:
+    """A free agent name next to `name`: its trailing number counted up, or `-2`, `-3`, ... added."""
+    numbered = re.match(r"^(.*?)(\d+)$", name)
+    stem, start = (numbered[1], int(numbered[2]) + 1) if numbered else (f"{name}-", 2)
+    taken = set(session.scalars(select(Agent.name).where(Agent.name.startswith(stem, autoescape=True))))
+    number = start
+    while f"{stem}{number}" in taken:
+        number += 1
+    return f"{stem}{number}"
+
+
+# ----------------------------------------------------------------------------------- populations
+
+
+def create_population(
+    session: Session,
+    name: str,
+    game_id: str,
+    *,
+    version: int | None = None,
+    provenance: Mapping[str, Any] | None = None,
+) -> Population:
+    """Create a population of a game: version `version`, or one past the latest of that name.
+
+    Raises NameTakenError if that name and version exist, UnknownGameError for an unknown game.
+    """
+    require_game(session, game_id)
+    latest = session.scalar(select(func.max(Population.version)).where(Population.name == name)) or 0
+    chosen = latest + 1 if version is None else version
+    if chosen < 1:
+        raise InvalidRecordError(f"population versions start at 1, not {chosen}")
+    if session.scalar(select(Population.id).where(Population.name == name, Population.version == chosen)):
+        raise NameTakenError(
+            "population", f"{name} v{chosen}", f"population {name} v{chosen}", f"{name} v{latest + 1}"
+        )
+    population = Population(name=name, version=chosen, game_id=game_id, provenance=dict(provenance or {}))
+    session.add(population)
+    session.flush()
+    return population
+
+
+def get_population(session: Session, name: str, version: int | None = None) -> Population | None:
+    """A population by name and version (the latest version when None), members loaded."""
+    query = select(Population).where(Population.name == name).options(selectinload(Population.members))
+    if version is None:
+        query = query.order_by(Population.version.desc()).limit(1)
+    else:
+        query = query.where(Population.version == version)
+    return session.scalars(query).first()
+
+
+def list_populations(session: Session, *, game_id: str | None = None) -> list[Population]:
+    """Every population (optionally of one game), by name then version."""
+    query = select(Population).order_by(Population.name, Population.version)
+    if game_id is not None:
+        query = query.where(Population.game_id == game_id)
+    return list(session.scalars(query))
+
+
+def add_population_member(
+    session: Session, population: Population, agent: Agent, metadata: Mapping[str, Any] | None = None
+) -> PopulationMember:
+    """Add an agent to an unfrozen population of its game; adding it again returns the same member.
+
+    Raises PopulationFrozenError for a frozen population, InvalidRecordError for an agent of
+    another game or a second add with different metadata.
+    """
+    if population.frozen:
+        raise PopulationFrozenError(
+            f"population {population.name} v{population.version} is frozen; create version "
+            f"{population.version + 1} to change its members"
+        )
+    if agent.game_id != population.game_id:
+        raise InvalidRecordError(
+            f"agent {agent.name!r} plays {agent.game_id}, but population {population.name} plays "
+            f"{population.game_id}"
+        )
+    new_meta = dict(metadata or {})
+    member = session.scalars(
+        select(PopulationMember).where(
+            PopulationMember.population_id == population.id, PopulationMember.agent_id == agent.id
+        )
+    ).one_or_none()
+    if member is not None:
+        if member.meta != new_meta:
+            raise InvalidRecordError(
+                f"agent {agent.name!r} is already a member of {population.name} v{population.version} "
+                "with other metadata"
+            )
+        return member
+    member = PopulationMember(population=population, agent=agent, meta=new_meta)
+    session.add(member)
+    session.flush()
+    return member
+
+
+def freeze_population(session: Session, population: Population) -> Population:
+    """Freeze a population: its members can no longer change. Freezing twice is harmless."""
+    if not population.frozen:
+        population.frozen = True
+        population.frozen_at = utcnow()
+        session.flush()
+    return population
+
+
+# --------------------------------------------------------------------------------------- matches
+
+
+def record_match(
+    session: Session,
+    game_id: str,
+    match_key: str,
+    seed: int,
+    seats: Sequence[SeatResult],
+    *,
+    job_id: int | None = None,
+    replay_path: str | None = None,
+) -> tuple[Match, bool]:
+    """Store a played match and its seats, once per `match_key`; returns (match, created).
+
+    A second call with the same key (a retried job replaying the same match) returns the stored
+    match and `created=False`, adding nothing; concurrent calls store it once. The seat index is
+    the position in `seats`.
+
+    Raises:
+        MatchKeyConflictError: the key is stored for another game, seed or seating.
+        InvalidRecordError: no seats, a team out of range, an unknown outcome, a score that is not
+            finite, a seed outside [0, 2**63), or an agent of another game.
+        UnknownGameError: the game is not registered.
+    """
+    game = require_game(session, game_id)
+    if not 0 <= seed <= MAX_SEED:
+        raise InvalidRecordError(f"match seed {seed} is outside [0, 2**63); reduce it modulo 2**63")
+    if not seats:
+        raise InvalidRecordError(f"match {match_key!r} has no seats")
+    rows = [_seat_row(game, index, seat) for index, seat in enumerate(seats)]
+    agent_ids = {row["agent_id"] for row in rows}
+    agent_games = {
+        agent_id: agent_game
+        for agent_id, agent_game in session.execute(
+            select(Agent.id, Agent.game_id).where(Agent.id.in_(agent_ids))
+        )
+    }
+    for agent_id in sorted(agent_ids):
+        if agent_id not in agent_games:
+            raise InvalidRecordError(f"match {match_key!r} seats agent #{agent_id}, which is not registered")
+        if agent_games[agent_id] != game_id:
+            raise InvalidRecordError(
+                f"match {match_key!r} of {game_id} seats agent #{agent_id}, which plays {agent_games[agent_id]}"
+            )
+
+    match_id = insert_ignoring_conflict(
+        session,
+        Match,
+        {
+            "game_id": game_id,
+            "match_key": match_key,
+            "seed": seed,
+            "job_id": job_id,
+            "replay_path": replay_path,
+            "created_at": utcnow(),
+        },
+        ["match_key"],
+    )
+    if match_id is not None:
+        session.execute(MatchSeat.__table__.insert(), [{"match_id": match_id, **row} for row in rows])
+        return _load_match(session, Match.id == match_id), True
+
+    existing = _load_match(session, Match.match_key == match_key)
+    seating = [(row["agent_id"], row["team"]) for row in rows]
+    if (existing.game_id, existing.seed, [(s.agent_id, s.team) for s in existing.seats]) != (
+        game_id,
+        seed,
+        seating,
+    ):
+        raise MatchKeyConflictError(
+            f"match key {match_key!r} is already stored for a different match (game "
+            f"{existing.game_id}, seed {existing.seed}); derive match keys from everything that "
+            "defines a match (job, pairing, index)"
+        )
+    return existing, False
+
+
+def get_match(session: Session, match_key: str) -> Match | None:
+    """The match with this key, seats loaded, or None."""
+    return session.scalars(
+        select(Match).where(Match.match_key == match_key).options(selectinload(Match.seats))
+    ).one_or_none()
+
+
+def list_matches(
+    session: Session,
+    game_id: str,
+    *,
+    agent_id: int | None = None,
+    after_id: int | None = None,
+    limit: int | None = None,
+) -> list[Match]:
+    """Matches of a game in the order they were stored, seats loaded.
+
+    `agent_id` keeps those where that agent sat; `after_id` and `limit` page through the table.
+    """
+    query = (
+        select(Match).where(Match.game_id == game_id).options(selectinload(Match.seats)).order_by(Match.id)
+    )
+    if agent_id is not None:
+        query = query.where(Match.id.in_(select(MatchSeat.match_id).where(MatchSeat.agent_id == agent_id)))
+    if after_id is not None:
+        query = query.where(Match.id > after_id)
+    if limit is not None:
+        query = query.limit(limit)
+    return list(session.scalars(query))
+
+
+def count_matches(session: Session, game_id: str | None = None) -> int:
+    """How many matches are stored (of one game, or of all)."""
+    query = select(func.count(Match.id))
+    if game_id is not None:
+        query = query.where(Match.game_id == game_id)
+    return int(session.scalar(query) or 0)
+
+
+def _seat_row(game: Game, index: int, seat: SeatResult) -> dict[str, Any]:
+    outcome = _parse(Outcome, seat.outcome, f"outcome of seat {index}")
+    if not 0 <= seat.team < game.n_teams:
+        raise InvalidRecordError(
+            f"seat {index} is on team {seat.team}, but {game.id} has teams 0..{game.n_teams - 1}"
+        )
+    if not math.isfinite(seat.score):
+        raise InvalidRecordError(f"seat {index} has score {seat.score}; scores must be finite numbers")
+    if seat.position is not None and seat.position < 1:
+        raise InvalidRecordError(f"seat {index} finished in position {seat.position}; positions start at 1")
+    return {
+        "seat": index,
+        "agent_id": seat.agent_id,
+        "team": seat.team,
+        "score": float(seat.score),
+        "outcome": outcome.value,
+        "position": seat.position,
+    }
+
+
+def _load_match(session: Session, condition: Any) -> Match:
+    return session.scalars(
+        select(Match)
+        .where(condition)
+        .options(selectinload(Match.seats))
+        .execution_options(populate_existing=True)
+    ).one()
+
+
+# --------------------------------------------------------------------------------------- ratings
+
+
+def write_rating_snapshot(
+    session: Session,
+    game_id: str,
+    method: str,
+    rows: Sequence[RatingRow],
+    *,
+    population: Population | None = None,
+    scope: str | None = None,
+    params: Mapping[str, Any] | None = None,
+) -> RatingSnapshot:
+    """Store the ratings one method computed over a population or a named scope, as of now."""
+    require_game(session, game_id)
+    seen: set[int] = set()
+    for row in rows:
+        if row.agent_id in seen:
+            raise InvalidRecordError(f"rating snapshot lists agent #{row.agent_id} twice")
+        seen.add(row.agent_id)
+        if not math.isfinite(row.rating):
+            raise InvalidRecordError(f"agent #{row.agent_id} has rating {row.rating}; ratings must be finite")
+    snapshot = RatingSnapshot(
+        game_id=game_id,
+        method=method,
+        population_id=population.id if population is not None else None,
+        scope=scope,
+        params=dict(params or {}),
+        entries=[
+            RatingEntry(
+                agent_id=row.agent_id,
+                rating=float(row.rating),
+                ci_low=row.ci_low,
+                ci_high=row.ci_high,
+                rank_low=row.rank_low,
+                rank_high=row.rank_high,
+                n_matches=row.n_matches,
+                extra=dict(row.extra),
+            )
+            for row in rows
+        ],
+    )
+    session.add(snapshot)
+    session.flush()
+    return snapshot
+
+
+def latest_rating_snapshot(
+    session: Session,
+    game_id: str,
+    method: str,
+    *,
+    population: Population | None = None,
+    scope: str | None = None,
+) -> RatingSnapshot | None:
+    """The most recent snapshot of exactly this game, method, population and scope (None = none).
+
+    Entries come loaded, best rating first.
+    """
+    query = (
+        select(RatingSnapshot)
+        .where(RatingSnapshot.game_id == game_id, RatingSnapshot.method == method)
+        .where(
+            RatingSnapshot.population_id.is_(None)
+            if population is None
+            else RatingSnapshot.population_id == population.id
+        )
+        .where(RatingSnapshot.scope.is_(None) if scope is None else RatingSnapshot.scope == scope)
+        .options(selectinload(RatingSnapshot.entries))
+        .order_by(RatingSnapshot.id.desc())
+        .limit(1)
+    )
+    return session.scalars(query).first()
+
+
+def _parse(enum_type: Any, value: Any, what: str) -> Any:
+    """`value` as a member of `enum_type`, or InvalidRecordError listing the allowed values."""
+    try:
+        return enum_type(value)
+    except ValueError:
+        allowed = ", ".join(repr(member.value) for member in enum_type)
+        raise InvalidRecordError(f"unknown {what} {value!r}; use one of {allowed}") from None
