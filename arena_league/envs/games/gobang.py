@@ -55,7 +55,7 @@ Heuristic (deterministic): for every empty cell it scores the line each player w
 that cell in each of the 4 directions (length and open ends); a five of its own wins outright,
 blocking the opponent's five comes next, then open and closed fours, threes, and so on, with the
 opponent's lines weighted 0.9 (blocking) and a small pull toward the centre. It beats uniformly
-random play essentially always.
+random play essentially always. It reads only the observation and assumes five in a row.
 
 Game kwargs: ``size`` (board side, default 15, at least ``n_in_row``), ``n_in_row`` (default 5).
 
