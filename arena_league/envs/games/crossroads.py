@@ -1,0 +1,742 @@
+"""Crossroads: teams drive across a crossing to targets on the far side; collisions are physical.
+
+After the Crossroads game of Arena (Song et al., "Arena: A General Evaluation Platform and Building
+Toolkit for Multi-Agent Intelligence", AAAI 2020), whose case study shows that the same rules
+give a traffic jam under isolated rewards, waiting under one collaborative reward, and blocking
+under two collaborative teams that compete.
+
+Arena
+    A cross-shaped intersection of two roads, each ``2 * ROAD_HALF_WIDTH`` = 5 wide, whose four
+    arms reach ``ARM_LENGTH`` = 10 from the centre (world box [-10, 10]^2, y up). Static pymunk
+    segments bound the roads. Each team starts on its own arm and drives to targets at the end of
+    the opposite arm, so the teams' paths cross in the middle: team 0 goes west -> east, team 1
+    south -> north and, with four teams, team 2 east -> west and team 3 north -> south.
+
+Agents
+    Pymunk bodies (discs of radius 0.5 by default, or 1 x 1 boxes with ``agent_shape="box"``) of
+    mass 1 that do not spin from contacts: collisions push and bounce them (elasticity 0.5), but
+    only the agent turns itself. Each env step (``DT`` = 0.1 s, simulated as ``SUBSTEPS`` = 2
+    pymunk steps) an agent applies a thrust of up to ``THRUST_FORCE`` = 6 along its heading at
+    the start of the step and turns at up to ``TURN_RATE`` = 3 rad/s; linear damping (a coasting
+    agent keeps 10% of its velocity after a second) gives a top speed ``TOP_SPEED`` of about 2.8.
+    Team members start side by side across their arm (``LANE_SPACING`` = 1.2 apart), about 8
+    from the centre, facing roughly down the road; their targets lie side by side, in the same
+    order, across the far end of the opposite arm. Start and target positions and headings are
+    jittered from the seed.
+
+Actions
+    ``discrete`` (default): 0 noop, 1 forward, 2 backward, 3 turn left, 4 turn right.
+    ``continuous``: ``[thrust, turn]`` in [-1, 1]; thrust scales the forward force (negative
+    reverses), turn scales the turning rate (positive turns left, counter-clockwise).
+
+Arrival and episode end
+    A seat whose centre comes within ``arrival_radius`` (default 1.0) of its target has *arrived*:
+    it becomes inactive, stops where it is and no longer collides with anything, so it blocks no
+    one. The match ends when every seat has arrived, or at ``max_cycles`` (default 300 steps; an
+    agent driving alone arrives in about 70, and heuristic teams of four in at most about 150).
+
+Result
+    Teams are ranked by the step at which their last member arrived (earlier is better); teams
+    that never finish rank last, tied. ``team_result``: with two teams 1 / 0.5 / 0 for first /
+    tie / last; with more teams the number of teams beaten plus half the number tied with.
+    ``outcome`` per seat maps that score linearly to [-1, 1]: +1 first, -1 last, 0 a draw.
+
+Measures (one value per seat, see ``MEASURE_DOCS``)
+    ``active``, ``arrived``, ``target_distance`` (frozen on arrival), ``velocity_to_target``,
+    ``facing_target``, ``energy`` (mean squared action: 0.5 for a discrete move or turn),
+    ``force`` (magnitude of the summed contact impulses on the seat this step divided by ``DT``,
+    from pymunk's arbiters: agent-agent and agent-wall contacts), ``speed``.
+
+Observation (``float32[10 + 5 * (n_agents - 1)]`` per seat)
+    Everything is expressed in the seat's *team frame*: the world rotated so that the team's
+    direction of travel is +x (team 0: the world frame; team 1: rotated by -90 degrees; ...), so
+    every seat sees its start at x ~ -0.8 and its target at x ~ +0.8, and one policy can play any
+    seat. ``L`` = ``ARM_LENGTH`` = 10, ``V`` = ``TOP_SPEED`` ~ 2.8.
+
+    ====  ==============================================================
+    cell  meaning
+    ====  ==============================================================
+    0, 1  own position (x, y) / L
+    2, 3  own velocity (vx, vy) / V
+    4, 5  own heading (cos, sin)
+    6, 7  target position minus own position (dx, dy) / (2 L)
+    8     distance to target / (2 L)
+    9     own active flag (1 playing, 0 arrived)
+    ====  ==============================================================
+
+    then, for every other seat (teammates first, then opponents, each group in seat order), 5
+    cells at ``10 + 5 * k``: its position minus own position (dx, dy) / (2 L), its velocity minus
+    own velocity (dvx, dvy) / (2 V), its active flag.
+
+State (``float32[9 * n_agents]``, world frame)
+    Per seat in seat order: position / L (2), velocity / V (2), heading (cos, sin), target
+    position / L (2), active flag.
+
+Default social tree (the paper's table)
+    CP ``ranking`` (``order="depart"``, scale 100) at the root over the teams; IS ``target``
+    (scale 1) at every agent leaf; with more than one player per team the root's children are
+    team nodes (NL ``none``) holding their members' leaves. ``CASE_STUDY_TREES`` holds the
+    paper's three case-study trees for 2T2P: ``all_IS``, ``all_CL`` and ``CL_under_CP``.
+
+Heuristic
+    Steer toward the target (toward the crossing first when pushed into a cross road), swerve to
+    the right of active agents close ahead, turn toward that direction, then drive.
+
+Game kwargs
+    ``arrival_radius`` (float > 0, default 1.0), ``agent_shape`` (``"circle"`` or ``"box"``).
+"""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+from typing import ClassVar
+
+import numpy as np
+import pymunk
+import pymunk.batch
+
+from arena_league.envs.core import GameRules
+from arena_league.envs.rendering import TEAM_COLOURS, Canvas
+
+#: Distance from the centre to the end of each arm.
+ARM_LENGTH = 10.0
+#: Half the width of each road.
+ROAD_HALF_WIDTH = 2.5
+#: Radius of an agent disc (half the side of an agent box).
+AGENT_RADIUS = 0.5
+AGENT_MASS = 1.0
+#: Seconds of simulation per env step.
+DT = 0.1
+#: Physics steps per env step. Chipmunk sees a contact only once two shapes overlap; at full
+#: speed two agents meeting head-on close 0.55 in 0.1 s, so one step of 0.1 s would let them sink
+#: more than half a radius into each other before the contact pushes back. Two halve that.
+SUBSTEPS = 2
+#: Seconds per physics step.
+PHYSICS_DT = DT / SUBSTEPS
+#: Force of full thrust.
+THRUST_FORCE = 6.0
+#: Turning rate (rad/s) of a full turn action.
+TURN_RATE = 3.0
+#: Fraction of velocity an agent keeps after one second of coasting.
+DAMPING = 0.1
+#: Terminal speed under full thrust: the fixed point of
+#: ``v = v * DAMPING**PHYSICS_DT + THRUST_FORCE * PHYSICS_DT / AGENT_MASS``.
+TOP_SPEED = THRUST_FORCE * PHYSICS_DT / AGENT_MASS / (1.0 - DAMPING**PHYSICS_DT)
+#: Distance from the centre of the start line and of the target line, along the team's road.
+START_DISTANCE = 8.0
+#: Uniform jitter, along the road, of every start and target position.
+ALONG_JITTER = 0.5
+#: Lateral distance between team-mates' lanes.
+LANE_SPACING = 1.2
+#: Uniform jitter of the initial heading around the road direction (radians).
+HEADING_JITTER = 0.25
+#: The heuristic swerves around active agents ahead closer than this (centre to centre).
+AVOID_RANGE = 2.0
+
+#: Direction of travel of each team: west->east, south->north, east->west, north->south.
+_TRAVEL = np.array([(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)])
+
+#: Discrete actions: (thrust, turn) in [-1, 1].
+ACTION_MEANINGS = ("noop", "forward", "backward", "turn_left", "turn_right")
+_DISCRETE_CONTROL = np.array([(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)])
+_NOOP, _FORWARD, _LEFT, _RIGHT = 0, 1, 3, 4
+
+_OWN_CELLS = 10
+_OTHER_CELLS = 5
+_STATE_CELLS = 9
+_AGENT_SHAPES = ("circle", "box")
+_GAME_KWARGS = {"arrival_radius": "float > 0, default 1.0",
+                "agent_shape": "'circle' (default) or 'box'"}
+
+#: Per discrete action and activity: (turn rate, thrust force, energy); an inactive seat's row
+#: (index + 5) is all zeros, so its action is ignored.
+_DISCRETE_TABLE = np.concatenate([
+    np.column_stack([_DISCRETE_CONTROL[:, 1] * TURN_RATE, _DISCRETE_CONTROL[:, 0] * THRUST_FORCE,
+                     0.5 * (_DISCRETE_CONTROL ** 2).sum(axis=1)]),
+    np.zeros((len(ACTION_MEANINGS), 3))])
+
+
+class _SpaceBatch:
+    """One pymunk space's step and its bulk transfers to and from numpy arrays, as direct C calls.
+
+    These are the iterators behind ``pymunk.batch.get_space_bodies``, ``set_space_bodies`` and
+    ``get_space_arbiters``, called with their request structs built once (the public functions
+    build one per call, which costs more than the transfer itself), over ``pymunk.batch.Buffer``
+    arrays that point at numpy memory. The arrays are sized so that pymunk never grows them (it
+    reallocates one push before an array is full, which on numpy memory would corrupt the heap):
+    body arrays hold every body of the space plus spare cells, contact arrays every shape pair.
+
+    Bodies are visited in the order they were added (the agents, in seat order, then the space's
+    static body); reads give x, y, angle, vx, vy per body; writes take angular velocity, fx, fy.
+
+    ``step`` is ``cpSpaceStep`` itself: ``Space.step`` wraps it in Python bookkeeping for objects
+    added or removed from callbacks and for post-step callbacks, and these spaces have none (no
+    collision handlers, nothing added or removed after construction).
+    """
+
+    READ_CELLS = 5
+    WRITE_CELLS = 3
+    SPARE = 4
+
+    def __init__(self, read_floats: np.ndarray, write_floats: np.ndarray, max_arbiters: int) -> None:
+        batch = pymunk.batch
+        self._ffi, lib = batch.ffi, batch.lib
+        self._each_body = lib.cpSpaceEachBody
+        self._each_arbiter = lib.cpSpaceEachCachedArbiter
+        self._space_step = lib.cpSpaceStep
+        self._get_body = self._ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
+        self._set_body = self._ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched")
+        self._get_arbiter = self._ffi.addressof(lib, "pmSpaceArbiterIteratorFuncBatched")
+        self.contact_floats = np.zeros(2 * max_arbiters + self.SPARE)
+        self.contact_ids = np.zeros(2 * max_arbiters + self.SPARE, dtype=np.uintp)
+        self._buffers = []
+        self._read = self._request(batch.BodyFields.POSITION | batch.BodyFields.ANGLE
+                                   | batch.BodyFields.VELOCITY, read_floats)
+        self._write = self._request(batch.BodyFields.ANGULAR_VELOCITY | batch.BodyFields.FORCE,
+                                    write_floats)
+        self._contacts = self._request(batch.ArbiterFields.BODY_A_ID | batch.ArbiterFields.BODY_B_ID
+                                       | batch.ArbiterFields.TOTAL_IMPULSE, self.contact_floats,
+                                       self.contact_ids)
+        self._contact_ints = self._buffers[-1]._int_arr
+        self._space = None
+
+    def _request(self, fields, floats: np.ndarray, ints: np.ndarray | None = None):
+        """A request for ``fields`` over ``floats`` (and ``ints``), with its float array's
+        header, whose ``num`` (cells pushed) is reset before every call."""
+        buffer = pymunk.batch.Buffer()
+        buffer.set_float_buf(floats)
+        if ints is not None:
+            buffer.set_int_buf(ints)
+        buffer.clear()
+        request = self._ffi.new("pmBatchedData *")
+        request.fields = fields.value
+        request.floatArray = buffer._float_arr
+        request.intArray = buffer._int_arr
+        self._buffers.append(buffer)  # keeps the arrays alive as long as the request
+        return buffer._float_arr, request
+
+    def bind(self, space: pymunk.Space) -> None:
+        self._space = space._space
+
+    def step(self, dt: float) -> None:
+        self._space_step(self._space, dt)
+
+    def read_bodies(self) -> None:
+        floats, request = self._read
+        floats.num = 0
+        self._each_body(self._space, self._get_body, request)
+
+    def write_bodies(self) -> None:
+        floats, request = self._write
+        floats.num = 0  # the setter reads from the start of the array
+        self._each_body(self._space, self._set_body, request)
+
+    def read_contacts(self) -> int:
+        """Fill ``contact_ids`` (body ids a, b) and ``contact_floats`` (total impulse x, y) for
+        every cached arbiter; returns how many. Arbiters not touching this step report 0."""
+        floats, request = self._contacts
+        floats.num = self._contact_ints.num = 0
+        self._each_arbiter(self._space, self._get_arbiter, request)
+        return floats.num // 2
+
+
+def _wall_outline() -> list[tuple[float, float]]:
+    """Corners of the cross-shaped road boundary, counter-clockwise from the west arm's end."""
+    L, H = ARM_LENGTH, ROAD_HALF_WIDTH
+    return [(-L, -H), (-H, -H), (-H, -L), (H, -L), (H, -H), (L, -H),
+            (L, H), (H, H), (H, L), (-H, L), (-H, H), (-L, H)]
+
+
+def _leaf(seat: int) -> dict:
+    return {"agent": f"player_{seat}", "scheme": "IS", "reward": "target", "scale": 1}
+
+
+def _players(seats: range) -> list[str]:
+    return [f"player_{s}" for s in seats]
+
+
+#: The paper's Crossroads case study, 2T2P: the same rules under three social trees.
+CASE_STUDY_TREES: dict[str, dict] = {
+    # Every agent for itself: each is rewarded for its own progress (a traffic jam).
+    "all_IS": {"scheme": "IS", "reward": "target", "scale": 1, "children": _players(range(4))},
+    # One collaborative group: everyone shares the mean progress (agents learn to wait).
+    "all_CL": {"scheme": "CL", "reward": "team_target", "scale": 1, "children": _players(range(4))},
+    # Two collaborative teams that compete to depart first (agents learn to block).
+    "CL_under_CP": {
+        "scheme": "CP", "reward": "ranking", "scale": 100, "params": {"order": "depart"},
+        "children": [
+            {"scheme": "CL", "reward": "team_target", "scale": 1, "children": _players(range(2))},
+            {"scheme": "CL", "reward": "team_target", "scale": 1, "children": _players(range(2, 4))},
+        ],
+    },
+}
+
+
+class CrossroadsRules(GameRules):
+    """Crossroads rules: pymunk bodies driven to targets across a crossing (see the module)."""
+
+    name: ClassVar[str] = "Crossroads"
+    version: ClassVar[int] = 1
+    layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2), (2, 3), (2, 4), (4, 1))
+    action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
+    measures_provided: ClassVar[frozenset[str]] = frozenset({
+        "active", "arrived", "target_distance", "velocity_to_target", "facing_target",
+        "energy", "force", "speed", "outcome"})
+    default_max_cycles: ClassVar[int] = 300
+    summary: ClassVar[str] = "teams drive across a crossing to targets on the far side; physical collisions"
+
+    n_actions = len(ACTION_MEANINGS)
+    act_dim = 2
+    action_meanings = ACTION_MEANINGS
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete",
+                 **game_kwargs) -> None:
+        unknown = sorted(set(game_kwargs) - set(_GAME_KWARGS))
+        if unknown:
+            valid = "; ".join(f"{k} ({v})" for k, v in _GAME_KWARGS.items())
+            raise TypeError(f"Crossroads got unknown game kwargs {unknown}; valid: {valid}")
+        if (n_teams, players_per_team) not in self.layouts:
+            offered = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
+            raise ValueError(f"Crossroads has no {n_teams}T{players_per_team}P layout; offered: {offered}")
+        if action_type not in self.action_types:
+            raise ValueError(f"Crossroads action_type {action_type!r} is not offered; "
+                             f"choose one of {self.action_types}")
+        arrival_radius = game_kwargs.get("arrival_radius", 1.0)
+        if (isinstance(arrival_radius, bool) or not isinstance(arrival_radius, (int, float))
+                or not 0 < arrival_radius < START_DISTANCE):
+            raise ValueError(f"arrival_radius must be a number in (0, {START_DISTANCE}), got {arrival_radius!r}")
+        agent_shape = game_kwargs.get("agent_shape", "circle")
+        if agent_shape not in _AGENT_SHAPES:
+            raise ValueError(f"agent_shape must be one of {_AGENT_SHAPES}, got {agent_shape!r}")
+        super().__init__(n_teams, players_per_team, action_type)
+        self.arrival_radius = float(arrival_radius)
+        self.agent_shape = agent_shape
+        n = self.n_agents
+        self.obs_dim = _OWN_CELLS + _OTHER_CELLS * (n - 1)
+        self.state_dim = _STATE_CELLS * n
+        self._travel = _TRAVEL[self.team_of]  # (n, 2) world direction of travel of each seat
+
+        # One flat float64 vector ``z`` holds everything observations and state are gathered from;
+        # pymunk writes the bodies' state straight into its first block.
+        read_len = _SpaceBatch.READ_CELLS * (n + 1) + _SpaceBatch.SPARE  # agents + static body
+        self._z_motion = read_len  # per seat: vx, vy, cos, sin
+        self._z_target = self._z_motion + 4 * n
+        self._z_active = self._z_target + 2 * n
+        self._z_distance = self._z_active + n
+        self._z_zero = self._z_distance + n  # always 0.0
+        self._z = z = np.zeros(self._z_zero + 1)
+        bodies = z[:_SpaceBatch.READ_CELLS * n].reshape(n, _SpaceBatch.READ_CELLS)
+        self._position, self._angle, self._velocity = bodies[:, 0:2], bodies[:, 2], bodies[:, 3:5]
+        self._motion = z[self._z_motion:self._z_target].reshape(n, 2, 2)  # [velocity, heading]
+        self._heading = self._motion[:, 1]
+        self._target = z[self._z_target:self._z_active].reshape(n, 2)
+        self._active_z = z[self._z_active:self._z_distance]
+        self._distance = z[self._z_distance:self._z_zero]
+        controls = np.zeros(_SpaceBatch.WRITE_CELLS * (n + 1) + _SpaceBatch.SPARE)
+        control_rows = controls[:_SpaceBatch.WRITE_CELLS * n].reshape(n, _SpaceBatch.WRITE_CELLS)
+        self._turn_rate, self._force = control_rows[:, 0], control_rows[:, 1:3]
+        n_walls = len(_wall_outline())
+        self._batch = _SpaceBatch(z[:read_len], controls, max_arbiters=n * (n - 1) // 2 + n * n_walls)
+        self._obs_index, self._obs_scale = self._observation_gather()
+        self._state_index, self._state_scale = self._state_gather()
+
+        # Per-seat gates, changed only when a seat arrives.
+        self._inactive_offset = np.zeros(n, dtype=np.int64)  # + n_actions: the all-zero control row
+        self._gain = np.zeros((n, 2))  # continuous: thrust force, turn rate
+        self._half_active = np.zeros(n)
+        self._arrival_gate = np.zeros(n)  # arrival radius while active, -inf after
+        # Scratch arrays reused every step.
+        self._action_row = np.zeros(n, dtype=np.int64)
+        self._control = np.zeros((n, 3))  # turn rate, thrust force, energy
+        self._squares = np.zeros((n, 2))
+        self._to_target = np.zeros((n, 2))
+        self._safe_distance = np.zeros(n)
+        self._dots = np.zeros((n, 2))  # velocity and heading along the unit vector to the target
+        self._arriving = np.zeros(n, dtype=bool)
+        self._gathered = np.zeros((2, n * self.obs_dim))
+        self._gathered_flat, self._plus, self._minus = self._gathered.reshape(-1), self._gathered[0], self._gathered[1]
+        self._difference = np.zeros(n * self.obs_dim)
+
+        # Measures read straight from the arrays above (views, updated in place every step).
+        m = self.measures
+        m.target_distance = self._distance
+        m.velocity_to_target, m.facing_target = self._dots[:, 0], self._dots[:, 1]
+        if action_type == "discrete":
+            m.energy = self._control[:, 2]
+        self._views = self._bind_views()
+
+        self._space: pymunk.Space | None = None
+        self._shapes: list[pymunk.Shape] = []
+        self._seat_of_body: dict[int, int] = {}  # pymunk body id -> seat (walls: absent)
+        self._impulses_of: list[list[float]] = [[] for _ in range(n)]  # per seat, this step
+        self._force_set = False
+        self._events: list[dict] = []
+        self._step_count = 0
+        self._team_finish = np.full(n_teams, -1, dtype=np.int64)
+
+    # --- construction ------------------------------------------------------------------------
+    def _frame(self, seat: int) -> np.ndarray:
+        """Rotation from world coordinates to the team frame of ``seat`` (travel along +x)."""
+        dx, dy = self._travel[seat]
+        return np.array([[dx, dy], [-dy, dx]])
+
+    def _others(self, seat: int) -> list[int]:
+        """The other seats as a seat observes them: teammates first, then opponents."""
+        team = self.team_of[seat]
+        mates = [j for j in range(self.n_agents) if j != seat and self.team_of[j] == team]
+        return mates + [j for j in range(self.n_agents) if self.team_of[j] != team]
+
+    def _observation_gather(self) -> tuple[np.ndarray, np.ndarray]:
+        """Indices into ``z`` and scales so that, over the flat seat-major observation,
+        ``obs = (z[index[0]] - z[index[1]]) * scale``.
+
+        Team frames are rotations by multiples of 90 degrees, so every observation cell is one
+        entry of ``z``, or a difference of two, times a signed scale: a gather, not a matmul."""
+        n, zero = self.n_agents, self._z_zero
+        index = np.full((2, n * self.obs_dim), zero, dtype=np.intp)
+        scale = np.zeros(n * self.obs_dim)
+
+        def put(cell: int, frame: np.ndarray, row: int, a: int, b: int | None, factor: float) -> None:
+            # Component ``row`` of frame @ (vector at a - vector at b): one nonzero per frame row.
+            k = int(np.flatnonzero(frame[row])[0])
+            index[0, cell] = a + k
+            index[1, cell] = zero if b is None else b + k
+            scale[cell] = frame[row, k] * factor
+
+        L2, V2 = 2 * ARM_LENGTH, 2 * TOP_SPEED
+        pos = [_SpaceBatch.READ_CELLS * s for s in range(n)]
+        vel = [self._z_motion + 4 * s for s in range(n)]
+        for s in range(n):
+            R, o = self._frame(s), s * self.obs_dim
+            for i in range(2):
+                put(o + i, R, i, pos[s], None, 1 / ARM_LENGTH)
+                put(o + 2 + i, R, i, vel[s], None, 1 / TOP_SPEED)
+                put(o + 4 + i, R, i, vel[s] + 2, None, 1.0)
+                put(o + 6 + i, R, i, self._z_target + 2 * s, pos[s], 1 / L2)
+            index[0, o + 8], scale[o + 8] = self._z_distance + s, 1 / L2
+            index[0, o + 9], scale[o + 9] = self._z_active + s, 1.0
+            for k, j in enumerate(self._others(s)):
+                q = o + _OWN_CELLS + _OTHER_CELLS * k
+                for i in range(2):
+                    put(q + i, R, i, pos[j], pos[s], 1 / L2)
+                    put(q + 2 + i, R, i, vel[j], vel[s], 1 / V2)
+                index[0, q + 4], scale[q + 4] = self._z_active + j, 1.0
+        return index.ravel(), scale
+
+    def _state_gather(self) -> tuple[np.ndarray, np.ndarray]:
+        """Index and scale arrays so that ``state = z[index] * scale`` (world frame)."""
+        index, scale = [], []
+        for s in range(self.n_agents):
+            p, m = _SpaceBatch.READ_CELLS * s, self._z_motion + 4 * s
+            index += [p, p + 1, m, m + 1, m + 2, m + 3,
+                      self._z_target + 2 * s, self._z_target + 2 * s + 1, self._z_active + s]
+            scale += [1 / ARM_LENGTH] * 2 + [1 / TOP_SPEED] * 2 + [1.0] * 2 + [1 / ARM_LENGTH] * 2 + [1.0]
+        return np.array(index, dtype=np.intp), np.array(scale)
+
+    def _bind_views(self) -> SimpleNamespace:
+        """Every array operand of the per-step arithmetic, sliced once."""
+        m = self.measures
+        return SimpleNamespace(
+            position_x=self._position[:, 0], position_y=self._position[:, 1],
+            angle=self._angle, velocity=self._velocity,
+            velocity_x=self._velocity[:, 0], velocity_y=self._velocity[:, 1],
+            motion=self._motion, motion_velocity=self._motion[:, 0], heading=self._heading,
+            cos=self._heading[:, 0], sin=self._heading[:, 1],
+            target_x=self._target[:, 0], target_y=self._target[:, 1],
+            distance=self._distance, safe_distance=self._safe_distance,
+            tiny=np.full(self.n_agents, 1e-12),
+            to_target_x=self._to_target[:, 0], to_target_y=self._to_target[:, 1],
+            to_target_column=self._to_target[:, :, None], dots_column=self._dots[:, :, None],
+            speed=m.speed, energy=m.energy,
+            control_turn=self._control[:, 0], control_thrust=self._control[:, 1:2],
+            control_continuous=self._control[:, 1::-1],  # thrust force, turn rate
+            squares_thrust=self._squares[:, 0], squares_turn=self._squares[:, 1],
+            turn_rate=self._turn_rate, force=self._force)
+
+    def _build_space(self, starts: np.ndarray, angles: np.ndarray) -> None:
+        space = pymunk.Space()
+        space.damping = DAMPING
+        space.collision_slop = 0.02  # overlap tolerated without correction
+        space.collision_bias = 0.5 ** (1.0 / PHYSICS_DT)  # half of any deeper overlap fixed per step
+        self._shapes = []
+        ids = []
+        for seat in range(self.n_agents):  # bodies are added, and batch-read, in seat order
+            body = pymunk.Body(AGENT_MASS, math.inf)  # contacts push an agent but never spin it
+            body.position = (float(starts[seat, 0]), float(starts[seat, 1]))
+            body.angle = float(angles[seat])
+            if self.agent_shape == "circle":
+                shape: pymunk.Shape = pymunk.Circle(body, AGENT_RADIUS)
+            else:
+                shape = pymunk.Poly.create_box(body, (2 * AGENT_RADIUS, 2 * AGENT_RADIUS))
+            shape.elasticity, shape.friction = 0.5, 0.2
+            space.add(body, shape)
+            self._shapes.append(shape)
+            ids.append(body.id)
+        outline = _wall_outline()
+        for a, b in zip(outline, outline[1:] + outline[:1]):
+            wall = pymunk.Segment(space.static_body, a, b, 0.05)
+            wall.elasticity, wall.friction = 0.5, 0.2
+            space.add(wall)
+        self._seat_of_body = {body_id: seat for seat, body_id in enumerate(ids)}
+        self._space = space  # owns the C space the batch points at: keep it alive
+        self._batch.bind(space)
+
+    # --- the match ---------------------------------------------------------------------------
+    def reset(self, seed: int) -> None:
+        self.rng = rng = np.random.default_rng(seed)
+        n, p = self.n_agents, self.players_per_team
+        lanes = (np.arange(p) - (p - 1) / 2) * LANE_SPACING
+        # A team's lanes may shift together as far as the road allows.
+        slack = ROAD_HALF_WIDTH - AGENT_RADIUS - lanes[-1] - 0.05
+        start_lateral = (lanes[None, :] + rng.uniform(-slack, slack, (self.n_teams, 1))).ravel()
+        target_lateral = (lanes[None, :] + rng.uniform(-slack, slack, (self.n_teams, 1))).ravel()
+        start_along = -START_DISTANCE + rng.uniform(-ALONG_JITTER, ALONG_JITTER, n)
+        target_along = START_DISTANCE + rng.uniform(-ALONG_JITTER, ALONG_JITTER, n)
+        heading_jitter = rng.uniform(-HEADING_JITTER, HEADING_JITTER, n)
+        d = self._travel
+        left = np.stack([-d[:, 1], d[:, 0]], axis=1)
+        starts = start_along[:, None] * d + start_lateral[:, None] * left
+        self._target[:] = target_along[:, None] * d + target_lateral[:, None] * left
+        angles = np.arctan2(d[:, 1], d[:, 0]) + heading_jitter
+        self._build_space(starts, angles)
+
+        self._active_z[:] = 1.0
+        self._inactive_offset[:] = 0
+        self._gain[:] = (THRUST_FORCE, TURN_RATE)
+        self._half_active[:] = 0.5
+        self._arrival_gate[:] = self.arrival_radius
+        self._control[:] = 0.0
+        self._turn_rate[:] = 0.0
+        self._force[:] = 0.0
+        m = self.measures
+        m.active[:] = True
+        m.arrived[:] = False
+        m.energy[:] = 0.0
+        m.force[:] = 0.0
+        m.outcome[:] = 0.0
+        self._force_set = False
+        for impulses in self._impulses_of:
+            impulses.clear()
+        self._batch.read_bodies()
+        self._update_kinematics()
+        self.game_over = False
+        self._step_count = 0
+        self._team_finish[:] = -1
+        self._events = []
+
+    def _update_kinematics(self) -> None:
+        """From the bodies just read into ``z``: headings, distances, the measures about the target,
+        speeds. (Every operand is a view bound in ``_bind_views``: slicing costs as much as the
+        arithmetic on arrays this small.)"""
+        v = self._views
+        np.copyto(v.motion_velocity, v.velocity)
+        np.cos(v.angle, out=v.cos)
+        np.sin(v.angle, out=v.sin)
+        np.subtract(v.target_x, v.position_x, out=v.to_target_x)
+        np.subtract(v.target_y, v.position_y, out=v.to_target_y)
+        np.hypot(v.to_target_x, v.to_target_y, out=v.distance)
+        np.maximum(v.distance, v.tiny, out=v.safe_distance)
+        np.divide(v.to_target_x, v.safe_distance, out=v.to_target_x)
+        np.divide(v.to_target_y, v.safe_distance, out=v.to_target_y)
+        np.matmul(v.motion, v.to_target_column, out=v.dots_column)  # velocity, heading . unit
+        np.hypot(v.velocity_x, v.velocity_y, out=v.speed)
+
+    def step(self, actions: np.ndarray) -> None:
+        self._step_count += 1
+        v = self._views
+        if self.action_type == "discrete":
+            np.add(actions, self._inactive_offset, out=self._action_row)
+            _DISCRETE_TABLE.take(self._action_row, axis=0, out=self._control)
+            np.copyto(v.turn_rate, v.control_turn)
+            np.multiply(v.heading, v.control_thrust, out=v.force)
+        else:
+            np.multiply(actions, self._gain, out=v.control_continuous)
+            np.copyto(v.turn_rate, v.control_turn)
+            np.multiply(v.heading, v.control_thrust, out=v.force)
+            np.multiply(actions, actions, out=self._squares)
+            np.add(v.squares_thrust, v.squares_turn, out=v.energy)
+            np.multiply(v.energy, self._half_active, out=v.energy)
+
+        batch = self._batch
+        touching = False
+        for _ in range(SUBSTEPS):
+            batch.write_bodies()  # chipmunk clears forces after every step
+            batch.step(PHYSICS_DT)
+            touching |= self._collect_contacts()
+        batch.read_bodies()
+        self._update_kinematics()
+        if touching:
+            self._sum_contact_forces()
+        elif self._force_set:
+            self.measures.force[:] = 0.0
+            self._force_set = False
+        if self._events:
+            self._events = []
+        np.less(v.distance, self._arrival_gate, out=self._arriving)
+        if np.count_nonzero(self._arriving):
+            self._arrive(np.flatnonzero(self._arriving))
+
+    def _collect_contacts(self) -> bool:
+        """After a physics step: the magnitude of every touching arbiter's impulse, per seat.
+        Returns whether any touched."""
+        n_arbiters = self._batch.read_contacts()
+        if not n_arbiters:
+            return False
+        impulses = self._batch.contact_floats[:2 * n_arbiters]
+        if not np.count_nonzero(impulses):  # nothing touching (cached arbiters report zero)
+            return False
+        # Few arbiters touch at once: a loop over them beats a dozen numpy calls.
+        body_ids = self._batch.contact_ids[:2 * n_arbiters].tolist()
+        impulse = impulses.tolist()
+        seat_of_body, impulses_of = self._seat_of_body.get, self._impulses_of
+        for i in range(0, 2 * n_arbiters, 2):
+            if impulse[i] or impulse[i + 1]:
+                magnitude = math.hypot(impulse[i], impulse[i + 1])
+                for seat in (seat_of_body(body_ids[i]), seat_of_body(body_ids[i + 1])):
+                    if seat is not None:
+                        impulses_of[seat].append(magnitude)
+        return True
+
+    def _sum_contact_forces(self) -> None:
+        """``force``: per seat, the summed contact impulses of this step over ``DT``. Arbiters come
+        out of a hash set keyed by addresses, so the sums are formed with ``math.fsum``, exact
+        and independent of their order."""
+        force = self.measures.force
+        for seat, impulses in enumerate(self._impulses_of):
+            force[seat] = math.fsum(impulses) / DT
+            impulses.clear()
+        self._force_set = True
+
+    def _arrive(self, seats: np.ndarray) -> None:
+        m = self.measures
+        for seat in seats.tolist():
+            m.active[seat] = False
+            m.arrived[seat] = True
+            self._active_z[seat] = 0.0
+            self._inactive_offset[seat] = len(ACTION_MEANINGS)
+            self._gain[seat] = 0.0
+            self._half_active[seat] = 0.0
+            self._arrival_gate[seat] = -np.inf
+            shape = self._shapes[seat]
+            shape.filter = pymunk.ShapeFilter(categories=0, mask=0)  # collides with nothing
+            shape.body.velocity = (0.0, 0.0)  # and stays where it arrived
+            self._velocity[seat] = 0.0
+            self._motion[seat, 0] = 0.0
+            self._events.append({"kind": "arrive", "seat": seat, "step": self._step_count})
+        self._dots[seats, 0] = 0.0
+        m.speed[seats] = 0.0
+        for team in np.unique(self.team_of[seats]).tolist():
+            if self._team_finish[team] < 0 and m.arrived[self.team_of == team].all():
+                self._team_finish[team] = self._step_count
+        if m.arrived.all():
+            self.game_over = True
+            m.outcome[:] = self._seat_outcome()
+
+    def observe(self) -> np.ndarray:
+        difference = self._difference
+        self._z.take(self._obs_index, out=self._gathered_flat)
+        np.subtract(self._plus, self._minus, out=difference)
+        obs = np.empty((self.n_agents, self.obs_dim), dtype=np.float32)
+        np.multiply(difference, self._obs_scale, out=obs.reshape(-1), casting="same_kind")
+        return obs
+
+    def state(self) -> np.ndarray:
+        return (self._z[self._state_index] * self._state_scale).astype(np.float32)
+
+    def finish(self) -> None:
+        self.measures.outcome[:] = self._seat_outcome()
+
+    # --- results -----------------------------------------------------------------------------
+    def team_result(self) -> np.ndarray:
+        finish = np.where(self._team_finish >= 0, self._team_finish, np.iinfo(np.int64).max)
+        beaten = (finish[:, None] < finish[None, :]).sum(axis=1)
+        tied = (finish[:, None] == finish[None, :]).sum(axis=1) - 1
+        return beaten + 0.5 * tied
+
+    def _seat_outcome(self) -> np.ndarray:
+        team_outcome = 2.0 * self.team_result() / (self.n_teams - 1) - 1.0
+        return team_outcome[self.team_of]
+
+    def events(self) -> list[dict]:
+        return self._events
+
+    # --- trees and policies ------------------------------------------------------------------
+    @classmethod
+    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
+        teams = [[_leaf(t * players_per_team + i) for i in range(players_per_team)] for t in range(n_teams)]
+        if players_per_team == 1:
+            children = [members[0] for members in teams]
+        else:
+            children = [{"scheme": "NL", "reward": "none", "children": members} for members in teams]
+        return {"scheme": "CP", "reward": "ranking", "scale": 100, "params": {"order": "depart"},
+                "children": children}
+
+    @staticmethod
+    def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
+        """Steer toward the target (from off the own road, toward the crossing first), keep to
+        the right of active agents close ahead, turn toward the resulting direction, then drive."""
+        obs = np.asarray(obs, dtype=np.float64)
+        position = obs[:, 0:2] * ARM_LENGTH
+        heading = obs[:, 4:6]
+        aim = obs[:, 6:8] / np.maximum(obs[:, 8:9], 1e-9)
+        # Pushed into a cross road (beyond the own road's edge, not yet past the crossing): the
+        # straight line to the target would run into a wall corner, so head for the centre first.
+        off_road = (np.abs(position[:, 1]) > ROAD_HALF_WIDTH - AGENT_RADIUS) & (position[:, 0] < ROAD_HALF_WIDTH)
+        to_centre = -position / np.maximum(np.hypot(position[:, 0], position[:, 1]), 1e-9)[:, None]
+        aim = np.where(off_road[:, None], to_centre, aim)
+        # Active agents within AVOID_RANGE ahead on the way push the aim to the right of the line
+        # toward them, so two agents meeting head-on both swerve right and pass each other.
+        others = obs[:, _OWN_CELLS:].reshape(len(obs), -1, _OTHER_CELLS)
+        offset = others[:, :, 0:2] * (2 * ARM_LENGTH)
+        gap = np.maximum(np.hypot(offset[:, :, 0], offset[:, :, 1]), 1e-9)
+        toward = offset / gap[:, :, None]
+        ahead = np.einsum("nkc,nc->nk", toward, aim) > 0.5  # ahead on the way, whatever the heading
+        weight = np.clip((AVOID_RANGE - gap) / (AVOID_RANGE - 2 * AGENT_RADIUS), 0.0, 1.0)
+        weight *= ahead * (others[:, :, 4] > 0.5)
+        right_of = np.stack([toward[:, :, 1], -toward[:, :, 0]], axis=2)
+        aim = aim + np.einsum("nk,nkc->nc", weight, right_of - 0.5 * toward)
+        error = np.arctan2(heading[:, 0] * aim[:, 1] - heading[:, 1] * aim[:, 0],
+                           heading[:, 0] * aim[:, 0] + heading[:, 1] * aim[:, 1])
+        active = obs[:, 9] > 0.5
+        if action_type == "discrete":
+            half_turn = 0.5 * TURN_RATE * DT
+            action = np.where(error > half_turn, _LEFT, np.where(error < -half_turn, _RIGHT, _FORWARD))
+            return np.where(active, action, _NOOP).astype(np.int64)
+        turn = np.clip(error / (TURN_RATE * DT), -1.0, 1.0)
+        thrust = np.clip(np.cos(error), 0.0, 1.0)
+        return (np.stack([thrust, turn], axis=1) * active[:, None]).astype(np.float32)
+
+    # --- picture -----------------------------------------------------------------------------
+    def render_topdown(self) -> np.ndarray:
+        L, H = ARM_LENGTH, ROAD_HALF_WIDTH
+        canvas = Canvas(-L, L, -L, L, size=400, background=(70, 110, 70))
+        road = (200, 200, 195)
+        canvas.rect(-L, -H, L, H, fill=road)
+        canvas.rect(-H, -L, H, L, fill=road)
+        outline = _wall_outline()
+        for (ax, ay), (bx, by) in zip(outline, outline[1:] + outline[:1]):
+            canvas.line(ax, ay, bx, by, fill=(40, 40, 40), width_px=3)
+        for seat in range(self.n_agents):
+            colour = TEAM_COLOURS[self.team_of[seat] % len(TEAM_COLOURS)]
+            tx, ty = self._target[seat]
+            canvas.circle(tx, ty, self.arrival_radius, fill=None, outline=colour)
+            canvas.circle(tx, ty, 0.12, fill=colour)
+        for seat in range(self.n_agents):
+            colour = TEAM_COLOURS[self.team_of[seat] % len(TEAM_COLOURS)]
+            if not self.measures.active[seat]:
+                colour = tuple((c + 255) // 2 for c in colour)
+            x, y = self._position[seat]
+            c, s = self._heading[seat]
+            if self.agent_shape == "circle":
+                canvas.circle(x, y, AGENT_RADIUS, fill=colour, outline=(20, 20, 20))
+            else:
+                corners = [(x + c * u - s * v, y + s * u + c * v) for u, v in
+                           ((AGENT_RADIUS, AGENT_RADIUS), (-AGENT_RADIUS, AGENT_RADIUS),
+                            (-AGENT_RADIUS, -AGENT_RADIUS), (AGENT_RADIUS, -AGENT_RADIUS))]
+                canvas.draw.polygon([canvas.px(px, py) for px, py in corners], fill=colour, outline=(20, 20, 20))
+            canvas.line(x, y, x + c * AGENT_RADIUS, y + s * AGENT_RADIUS, fill=(255, 255, 255), width_px=2)
+        return canvas.array()
+
+
+RULES = CrossroadsRules
