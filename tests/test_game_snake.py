@@ -189,6 +189,25 @@ def test_batched_engine_and_single_board_agree_step_for_step():
     assert eaten >= 2 * len(seeds), "food was eaten and respawned along the way"
 
 
+def test_every_body_holds_exactly_its_length_and_food_lies_on_free_cells():
+    engine = SnakeBoards(16, n_snakes=4, seed=4, autoreset=True)
+    rng = np.random.default_rng(4)
+    for _ in range(80):
+        actions = SnakeRules.heuristic(engine.observe().reshape(-1, engine.obs_dim), "discrete").reshape(16, 4)
+        actions = np.where(rng.random(actions.shape) < 0.1, rng.integers(4, size=actions.shape), actions)
+        engine.step(actions)
+        for b in range(16):
+            grid = engine.grid(b).reshape(-1)
+            for s in range(4):
+                expected = engine.length[b, s] if engine.alive[b, s] else 0
+                assert (grid == s).sum() == expected
+                if engine.alive[b, s]:
+                    assert grid[engine.head[b, s]] == s
+            food = engine.food[b]
+            assert (grid == -2).sum() == (food >= 0).sum() == engine.n_food
+    assert engine.length.max() > 3, "snakes grew along the way"
+
+
 def rollout(seed: int, steps: int = 120) -> list[np.ndarray]:
     rules = SnakeRules(2, 2, "discrete")
     rules.reset(seed)
