@@ -1,0 +1,96 @@
+"""Agent references: a small, picklable name for an agent that any process can load.
+
+The process-pool and Ray backends never ship torch objects between processes: each worker gets
+:class:`AgentRef` records (a few strings) and loads the policies itself through
+:mod:`arena_league.population`, once per worker process. A reference names
+
+* ``scripted``: a built-in agent by name (``random``, ``heuristic``);
+* ``onnx``: an ONNX file following DESIGN.md's I/O convention;
+* ``arena-policy``: an ``arena-policy`` folder (``manifest.json`` + ``weights.safetensors``).
+
+Its text form is ``<kind>:<name or path>`` (``scripted:heuristic``, ``onnx:/league/ab12.onnx``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from arena_league.population.policy import Policy
+
+__all__ = ["AGENT_KINDS", "AgentRef", "load_agents"]
+
+#: Kinds of agent a reference can name.
+AGENT_KINDS = ("scripted", "onnx", "arena-policy")
+
+
+@dataclass(frozen=True)
+class AgentRef:
+    """A loadable name of one agent for one game (see the module docstring)."""
+
+    kind: str
+    name: str
+    """The scripted agent's name, or the artifact's path."""
+    game_id: str
+    action_type: str | None = None
+    """The game's action variant the agent plays (None: the game's default)."""
+
+    def __post_init__(self) -> None:
+        if self.kind not in AGENT_KINDS:
+            raise ValueError(f"unknown agent kind {self.kind!r}; valid: {', '.join(AGENT_KINDS)}")
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"an agent reference needs a name or path, got {self.name!r}")
+
+    @classmethod
+    def parse(cls, text: str, game_id: str, action_type: str | None = None) -> AgentRef:
+        """From the text form ``<kind>:<name or path>``, e.g. ``scripted:random``."""
+        kind, sep, name = text.partition(":")
+        if not sep or kind not in AGENT_KINDS:
+            raise ValueError(f"agent reference {text!r} is not '<kind>:<name or path>' with kind one of "
+                             f"{', '.join(AGENT_KINDS)} (e.g. 'scripted:heuristic', 'onnx:agent.onnx')")
+        return cls(kind, name, game_id, action_type)
+
+    @property
+    def key(self) -> str:
+        """The text form, ``<kind>:<name or path>``."""
+        return f"{self.kind}:{self.name}"
+
+    def load(self) -> Policy:
+        """The agent's :class:`Policy`, loaded through :mod:`arena_league.population` (artifacts are
+        read safely: no pickle, TorchScript or .pt2; spaces are checked against the game)."""
+        if self.kind == "scripted":
+            from arena_league.population.scripted import scripted_policy
+
+            return scripted_policy(self.name, self.game_id, self.action_type)
+        return _load_artifact(self)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "name": self.name, "game_id": self.game_id, "action_type": self.action_type}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> AgentRef:
+        return cls(str(data["kind"]), str(data["name"]), str(data["game_id"]), data.get("action_type"))
+
+
+def _load_artifact(ref: AgentRef) -> Policy:
+    from arena_league.population.artifacts import load_policy
+
+    return load_policy(ref.name, ref.game_id, action_type=ref.action_type)
+
+
+def load_agents(agents: Mapping[str, AgentRef | Policy]) -> dict[str, Policy]:
+    """Loads every reference of ``agents`` (policies pass through); a reference named under several
+    keys is loaded once, so those keys share one policy (and one batched call)."""
+    loaded: dict[AgentRef, Policy] = {}
+    out: dict[str, Policy] = {}
+    for key, agent in agents.items():
+        if isinstance(agent, AgentRef):
+            if agent not in loaded:
+                loaded[agent] = agent.load()
+            out[key] = loaded[agent]
+        elif isinstance(agent, Policy):
+            out[key] = agent
+        else:
+            raise TypeError(f"agent {key!r} is a {type(agent).__name__}; give an AgentRef or a Policy")
+    return out
