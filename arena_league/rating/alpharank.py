@@ -27,12 +27,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import ArrayLike
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import spsolve
 
-__all__ = ["alpha_rank", "alpha_rank_sweep", "AlphaRankSweep", "ReducibleChainError", "fixation_probability"]
+__all__ = ["AlphaRankSweep", "ReducibleChainError", "alpha_rank", "alpha_rank_sweep", "fixation_probability"]
 
 _DENSE_LIMIT = 2000
 """Chains with more states than this are solved as sparse matrices."""
@@ -256,7 +257,7 @@ def _stationary_distribution(rows: np.ndarray, cols: np.ndarray, rates: np.ndarr
         q_t[-1, :] = 1.0
         rhs = np.zeros(n)
         rhs[-1] = 1.0
-        pi = np.linalg.solve(q_t, rhs)
+        pi = scipy.linalg.solve(q_t, rhs, check_finite=False)
     else:
         last = cols == n - 1
         q_t = sparse.csr_matrix(

@@ -32,8 +32,15 @@ from arena_league.rating.bradley_terry import (
 from arena_league.rating.nash import nash_averaging
 from arena_league.rating.outcomes import PairCounts
 
-__all__ = ["RatingIntervals", "BootstrapInterval", "bootstrap_ratings", "bootstrap_statistic",
-           "nash_intervals", "alpha_rank_intervals", "rank_intervals"]
+__all__ = [
+    "BootstrapInterval",
+    "RatingIntervals",
+    "alpha_rank_intervals",
+    "bootstrap_ratings",
+    "bootstrap_statistic",
+    "nash_intervals",
+    "rank_intervals",
+]
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["elo_online", "elo_expected_score"]
+__all__ = ["elo_expected_score", "elo_online"]
 
 
 def elo_expected_score(rating: ArrayLike, opponent: ArrayLike, scale: float = 400.0,

@@ -19,11 +19,12 @@ L-BFGS-B and polished by Newton steps).
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import ArrayLike
 from scipy.optimize import linprog, minimize
 from scipy.special import logsumexp, softmax
 
-__all__ = ["nash_averaging", "check_antisymmetric", "zero_sum_value"]
+__all__ = ["check_antisymmetric", "nash_averaging", "zero_sum_value"]
 
 
 def check_antisymmetric(A: ArrayLike, atol: float = 1e-8) -> np.ndarray:
@@ -90,9 +91,10 @@ def _max_entropy_on_support(A: np.ndarray, support: np.ndarray, p_start: np.ndar
     A_s = A[:, support]
     equalities = np.vstack([A_s[support], np.ones((1, m))])
     rhs = np.r_[np.zeros(m), 1.0]
-    if np.linalg.matrix_rank(equalities) == m:
+    singular_values = scipy.linalg.svdvals(equalities)
+    if (singular_values > singular_values[0] * max(equalities.shape) * 1e-12).sum() == m:
         # The equilibrium is unique: solve the (consistent) system exactly.
-        q = np.linalg.lstsq(equalities, rhs, rcond=None)[0]
+        q = scipy.linalg.lstsq(equalities, rhs)[0]
         return np.clip(q, 0.0, None) / np.clip(q, 0.0, None).sum()
 
     # Dual of max H(q) s.t. A_s q <= 0 (rows in S are equalities): q = softmax(-A_s^T y), with y
@@ -118,7 +120,7 @@ def _max_entropy_on_support(A: np.ndarray, support: np.ndarray, p_start: np.ndar
         if np.abs(residual).max() < 1e-14:
             break
         hessian = (B * q) @ B.T - np.outer(residual, residual)
-        y[active] += np.linalg.lstsq(hessian, residual, rcond=None)[0]
+        y[active] += scipy.linalg.lstsq(hessian, residual)[0]
         y[~on_support] = np.maximum(y[~on_support], 0.0)
     q = softmax(-A_s.T @ y)
     if (A_s @ q).max() > 1e-6 or np.abs(A_s[support] @ q).max() > 1e-6:

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["SeatResult", "OutcomeTable", "PairwiseResults", "PairCounts", "OUTCOME_PLACE"]
+__all__ = ["OUTCOME_PLACE", "OutcomeTable", "PairCounts", "PairwiseResults", "SeatResult"]
 
 OUTCOME_PLACE: dict[str, int] = {"win": 0, "draw": 0, "loss": 1}
 """Finishing place of a team given its two-team outcome word (0 is first; equal places tie)."""
@@ -324,10 +324,10 @@ class PairCounts:
         if not np.allclose(counts, np.round(counts)):
             raise ValueError("bootstrap resampling needs whole match counts, not weights")
         n = self.n_agents
-        draws_per_cell = rng.multinomial(int(round(total)), counts / total, size=rounds)
+        resampled = rng.multinomial(int(total), counts / total, size=rounds)
         wins = np.zeros((rounds, n * n))
         draws = np.zeros((rounds, n * n))
-        wins[:, win_cells] = draws_per_cell[:, : win_cells.size]
-        draws[:, draw_cells] = draws_per_cell[:, win_cells.size:]
+        wins[:, win_cells] = resampled[:, : win_cells.size]
+        draws[:, draw_cells] = resampled[:, win_cells.size:]
         draws = draws.reshape(rounds, n, n)
         return wins.reshape(rounds, n, n), draws + draws.transpose(0, 2, 1)

@@ -28,8 +28,15 @@ from scipy.stats import chi2
 
 from arena_league.rating.bradley_terry import ELO_SCALE
 
-__all__ = ["Placement", "place_entrant", "AdaptivePlacement", "PlacementSimulation", "simulate_placement",
-           "PLACEMENT_PRIOR_SD", "MIN_PLACEMENT_MATCHES"]
+__all__ = [
+    "MIN_PLACEMENT_MATCHES",
+    "PLACEMENT_PRIOR_SD",
+    "AdaptivePlacement",
+    "Placement",
+    "PlacementSimulation",
+    "place_entrant",
+    "simulate_placement",
+]
 
 PLACEMENT_PRIOR_SD = 1000.0
 """Prior sd of the entrant's rating (rating points) around the base mean: weak against any real

@@ -21,12 +21,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import ArrayLike
 
 from arena_league.rating.nash import check_antisymmetric, nash_averaging, zero_sum_value
 
-__all__ = ["population_performance", "population_vs_population", "effective_diversity", "intransitivity",
-           "Intransitivity"]
+__all__ = [
+    "Intransitivity",
+    "effective_diversity",
+    "intransitivity",
+    "population_performance",
+    "population_vs_population",
+]
 
 
 def population_performance(win_rate: ArrayLike, base: Sequence[int] | None = None) -> np.ndarray:
@@ -105,6 +111,6 @@ def intransitivity(A: ArrayLike) -> Intransitivity:
     total = float((A**2).sum())
     share = float((cyclic**2).sum()) / total if total > 0 else 0.0
     # eigenvalues of a real antisymmetric matrix are +-i s_k; the positive s_k are the block strengths
-    strengths = np.sort(np.linalg.eigvals(cyclic).imag)[::-1]
+    strengths = np.sort(scipy.linalg.eigvals(cyclic).imag)[::-1]
     strengths = strengths[strengths > 1e-12 * max(1.0, np.abs(A).max())]
     return Intransitivity(ratings, transitive, cyclic, share, strengths)
