@@ -1,0 +1,591 @@
+"""Agent artifacts: reading them safely, their content address, and loading them as policies.
+
+Arena (Song et al., AAAI 2020) ranks agents that people submit. The league accepts three kinds
+of agent (DESIGN.md, "ONNX agents"), and nothing that can carry code:
+
+* ``onnx``: one ONNX file following the I/O convention (see :mod:`.onnx_policy`);
+* ``arena-policy``: a folder holding ``manifest.json`` (a known family, its sizes, the game id
+  and its spaces) and ``weights.safetensors`` (the family's tensors), and optionally
+  ``README.md``; nothing else. Manifest example::
+
+      {"format": "arena-policy", "format_version": 1, "family": "mlp",
+       "game": "Crossroads-2T2P-v1",
+       "spaces": {"obs_dim": 25, "action_type": "discrete", "n_actions": 5},
+       "sizes": {"hidden": [32, 32], "activation": "tanh"},
+       "name": "crossroads-imitation"}
+
+  (``cnn`` adds ``"grid": {"channels", "height", "width", "offset"}``, ``"conv_channels"`` and
+  ``"kernel_size"``; ``gru`` adds ``"gru_size"``; see :mod:`.families`.)
+* ``scripted``: a built-in agent by name, ``scripted:random`` or ``scripted:heuristic``.
+
+Pickle (any protocol), PyTorch checkpoints and TorchScript archives (zip files holding pickles
+and code), ``.pt2`` exported programs and numpy ``.npy`` files are recognised from their bytes,
+whatever the file is called, and refused with the format named. Sizes are checked with ``stat``
+before a byte is read.
+
+Content address (the registry's): a file's is the SHA-256 of its bytes; a folder's is the
+SHA-256 of its ``sha256sum`` listing, one line ``<sha256 of the file>  <name>\\n`` per file,
+sorted by name.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import pickletools
+import stat
+import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import torch
+from safetensors import SafetensorError
+from safetensors.torch import load as load_safetensors
+from safetensors.torch import save as save_safetensors
+
+from arena_league.population.errors import (
+    ArtifactError,
+    ArtifactTooLargeError,
+    CorruptArtifactError,
+    ManifestError,
+    SpaceMismatchError,
+    UnsafeArtifactError,
+)
+from arena_league.population.families import (
+    Architecture,
+    TorchPolicy,
+    architecture_from_manifest,
+    check_parameters,
+)
+from arena_league.population.onnx_policy import OnnxPolicy, parse_onnx
+from arena_league.population.policy import ActionSpec, Policy
+from arena_league.population.scripted import (
+    SCRIPTED_FORMAT,
+    SCRIPTED_NAMES,
+    SCRIPTED_PREFIX,
+    scripted_descriptor,
+    scripted_policy,
+)
+from arena_league.population.spaces import action_types, game_action_spec
+
+MiB = 1 << 20
+#: Artifact kinds, named as the registry's ``ArtifactFormat`` values.
+ARTIFACT_KINDS: tuple[str, ...] = ("onnx", "arena-policy", "scripted")
+MANIFEST_FORMAT = "arena-policy"
+MANIFEST_VERSION = 1
+MANIFEST_FILE = "manifest.json"
+WEIGHTS_FILE = "weights.safetensors"
+README_FILE = "README.md"
+_MANIFEST_KEYS = frozenset({"format", "format_version", "family", "game", "spaces", "sizes", "name", "description",
+                            "provenance", "license"})
+_HEAD_BYTES = 512
+_PACK_MAGIC = b"arena-policy-pack 1\n"
+_SUBMIT_INSTEAD = ("submit an ONNX file (torch.onnx.export with input 'obs' and output 'logits' or 'action') or an "
+                   "arena-policy folder (manifest.json + weights.safetensors)")
+
+
+@dataclass(frozen=True)
+class ArtifactLimits:
+    """Size limits, checked with ``stat`` before anything is read."""
+
+    max_onnx_bytes: int = 256 * MiB
+    max_weights_bytes: int = 256 * MiB
+    max_manifest_bytes: int = 64 * 1024
+    max_readme_bytes: int = 256 * 1024
+
+
+DEFAULT_LIMITS = ArtifactLimits()
+
+
+@dataclass(frozen=True)
+class AgentArtifact:
+    """An artifact's bytes, read once and checked for format (not yet for the game).
+
+    ``files`` maps a name to its bytes: ``{"model.onnx": ...}`` for an ONNX file,
+    ``{"manifest.json": ..., "weights.safetensors": ...[, "README.md": ...]}`` for an
+    arena-policy folder, ``{"scripted.json": ...}`` for a scripted agent.
+    """
+
+    kind: str
+    files: Mapping[str, bytes]
+    source: str = "<bytes>"
+    digest: str = field(init=False)
+
+    def __post_init__(self) -> None:
+        if self.kind not in ARTIFACT_KINDS:
+            raise ValueError(f"unknown artifact kind {self.kind!r}; valid: {', '.join(ARTIFACT_KINDS)}")
+        if self.kind == "arena-policy":
+            listing = "".join(f"{hashlib.sha256(self.files[n]).hexdigest()}  {n}\n" for n in sorted(self.files))
+            digest = hashlib.sha256(listing.encode()).hexdigest()
+        else:
+            digest = hashlib.sha256(self.content).hexdigest()
+        object.__setattr__(self, "digest", digest)
+
+    @property
+    def content(self) -> bytes:
+        """The single file of an ``onnx`` or ``scripted`` artifact."""
+        if self.kind == "arena-policy":
+            raise ValueError("an arena-policy artifact is a folder of files; use .files or pack_artifact()")
+        return next(iter(self.files.values()))
+
+    @property
+    def size_bytes(self) -> int:
+        return sum(len(b) for b in self.files.values())
+
+    def manifest(self) -> dict[str, Any]:
+        """The parsed and checked ``manifest.json`` of an arena-policy folder."""
+        if self.kind != "arena-policy":
+            raise ValueError(f"a {self.kind} artifact has no manifest")
+        return parse_manifest(self.files[MANIFEST_FILE], self.source)
+
+
+# --- recognising formats ---------------------------------------------------------------------------
+
+def refused_format(head: bytes, path: str | os.PathLike[str] | None = None) -> str | None:
+    """The name of a code-carrying (or otherwise refused) format recognised from a file's first
+    bytes (and, for zip archives, its entry names), or None."""
+    if len(head) >= 2 and head[0] == 0x80 and 2 <= head[1] <= 5:
+        return f"a Python pickle (protocol {head[1]})"
+    if head.startswith(b"\x93NUMPY"):
+        return "a numpy .npy file (it may hold pickled objects)"
+    if head.startswith((b"PK\x03\x04", b"PK\x05\x06")):
+        return _zip_format(path)
+    if head.startswith((b"\x1f\x8b", b"BZh", b"\xfd7zXZ")):
+        return "a compressed archive"
+    if _looks_like_text_pickle(head):
+        return "a Python pickle (protocol 0 or 1)"
+    return None
+
+
+def _looks_like_text_pickle(head: bytes) -> bool:
+    """Protocols 0 and 1 have no header; a run of valid pickle opcodes (parsed, never executed)
+    from the first byte gives them away. ONNX's protobuf bytes fail at once."""
+    count = 0
+    try:
+        for opcode, _, _ in pickletools.genops(io.BytesIO(head)):
+            count += 1
+            if opcode.name == "STOP" or count >= 4:
+                return True
+    except ValueError:  # bytes that are not opcodes (UnicodeDecodeError is a ValueError too)
+        return False
+    return False
+
+
+def _zip_format(path: str | os.PathLike[str] | None) -> str:
+    names: list[str] = []
+    if path is not None:
+        try:
+            with zipfile.ZipFile(path) as archive:  # reads the central directory only
+                names = archive.namelist()
+        except (zipfile.BadZipFile, OSError):
+            return "a zip archive (truncated or damaged)"
+    base = [n.rsplit("/", 1)[-1] for n in names]
+    if "archive_format" in base or any(n.endswith(".pt2") for n in names):
+        return "a PyTorch .pt2 archive (torch.export / AOTInductor package, which can carry code)"
+    if any("/code/" in f"/{n}" for n in names) or "constants.pkl" in base:
+        return "a TorchScript archive (torch.jit.save, which carries code)"
+    if any(n.endswith(".pkl") for n in names):
+        return "a PyTorch checkpoint (torch.save: a pickle inside a zip archive)"
+    return "a zip archive"
+
+
+def _refuse(what: str, source: str) -> ArtifactError:
+    if what.startswith(("a zip archive", "a compressed archive")):
+        return ArtifactError(f"{source} is {what}, not an agent format; unpack it and {_SUBMIT_INSTEAD}")
+    return UnsafeArtifactError(f"{source} is {what}, which can carry code and is never loaded; {_SUBMIT_INSTEAD}")
+
+
+# --- reading ---------------------------------------------------------------------------------------
+
+def _stat_size(path: Path, limit: int, what: str) -> int:
+    info = path.stat()
+    if not stat.S_ISREG(info.st_mode):
+        raise ArtifactError(f"{path} is not a regular file; submit the file itself")
+    if info.st_size > limit:
+        raise ArtifactTooLargeError(f"{path} is {info.st_size} bytes ({human_size(info.st_size)}), over the limit "
+                                    f"of {human_size(limit)} for {what}; it was not read. Shrink the agent (fewer "
+                                    "or smaller layers) or raise the limit (ArtifactLimits)")
+    return info.st_size
+
+
+def human_size(n_bytes: int) -> str:
+    """``256 MiB``, ``2 GiB``, ``9.3 KiB``, ``512 bytes``."""
+    for unit, size in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if n_bytes >= size:
+            return f"{n_bytes / size:.3g} {unit}"
+    return f"{n_bytes} bytes"
+
+
+def _read_exact(path: Path, size: int) -> bytes:
+    with path.open("rb") as handle:
+        data = handle.read(size + 1)
+    if len(data) != size:
+        raise CorruptArtifactError(f"{path} changed size while it was read ({size} bytes, then {len(data)}); "
+                                   "submit it again once it is written")
+    return data
+
+
+def _head(path: Path) -> bytes:
+    with path.open("rb") as handle:
+        return handle.read(_HEAD_BYTES)
+
+
+def read_artifact(source: str | os.PathLike[str], limits: ArtifactLimits = DEFAULT_LIMITS) -> AgentArtifact:
+    """Read an agent artifact (ONNX file, arena-policy folder, or ``scripted:<name>``), refusing
+    code-carrying formats and over-size files before their content is read."""
+    if isinstance(source, str) and source.startswith(SCRIPTED_PREFIX):
+        return AgentArtifact("scripted", {"scripted.json": scripted_descriptor(source)}, source)
+    path = Path(source).expanduser()
+    if not path.exists():
+        hint = f"; built-in agents: {', '.join(SCRIPTED_PREFIX + n for n in SCRIPTED_NAMES)}" \
+            if isinstance(source, str) and "/" not in source and "." not in source else ""
+        raise ArtifactError(f"no agent file or folder at {path}{hint}")
+    if path.is_dir():
+        return _read_policy_folder(path, limits)
+    size = _stat_size(path, limits.max_onnx_bytes, "an ONNX agent")
+    head = _head(path)
+    refused = refused_format(head, path)
+    if refused:
+        raise _refuse(refused, str(path))
+    if _is_safetensors(head):
+        raise ManifestError(f"{path} is a bare safetensors weights file; put it in an arena-policy folder as "
+                            f"{WEIGHTS_FILE} next to a {MANIFEST_FILE} naming its family, sizes and game")
+    if head.lstrip()[:1] == b"{":
+        return _read_json_agent(path, size, limits)
+    if size == 0:
+        raise CorruptArtifactError(f"{path} is empty; submit the exported ONNX file")
+    return AgentArtifact("onnx", {"model.onnx": _read_exact(path, size)}, str(path))
+
+
+def _is_safetensors(head: bytes) -> bool:
+    if len(head) < 10:
+        return False
+    header_len = int.from_bytes(head[:8], "little")
+    return 2 <= header_len < (100 * MiB) and head[8:9] == b"{"
+
+
+def _read_json_agent(path: Path, size: int, limits: ArtifactLimits) -> AgentArtifact:
+    if size > limits.max_manifest_bytes:
+        raise ArtifactTooLargeError(f"{path} is a {size}-byte JSON file; agent descriptions are at most "
+                                    f"{limits.max_manifest_bytes} bytes")
+    data = _read_exact(path, size)
+    try:
+        document = json.loads(data)
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise CorruptArtifactError(f"{path} is neither ONNX nor valid JSON ({error})") from None
+    if isinstance(document, dict) and document.get("format") == SCRIPTED_FORMAT:
+        name = document.get("name")
+        if name not in SCRIPTED_NAMES:
+            raise ArtifactError(f"{path} names scripted agent {name!r}; built-in agents: {', '.join(SCRIPTED_NAMES)}")
+        return AgentArtifact("scripted", {"scripted.json": scripted_descriptor(name)}, str(path))
+    if isinstance(document, dict) and "family" in document:
+        raise ArtifactError(f"{path} is an arena-policy manifest; pass the folder that holds it and "
+                            f"{WEIGHTS_FILE}, not the manifest alone")
+    raise ArtifactError(f"{path} is a JSON file but not an agent; {_SUBMIT_INSTEAD}")
+
+
+def _read_policy_folder(folder: Path, limits: ArtifactLimits) -> AgentArtifact:
+    allowed = {MANIFEST_FILE: limits.max_manifest_bytes, WEIGHTS_FILE: limits.max_weights_bytes,
+               README_FILE: limits.max_readme_bytes}
+    sizes: dict[str, int] = {}
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.is_symlink():
+                raise ArtifactError(f"{folder} holds a link ({entry.name}); copy the real file in its place")
+            if entry.name not in allowed:
+                kind = "folder" if entry.is_dir(follow_symlinks=False) else "file"
+                raise ArtifactError(f"{folder} holds the {kind} {entry.name!r}; an arena-policy folder holds only "
+                                    f"{MANIFEST_FILE}, {WEIGHTS_FILE} and optionally {README_FILE}")
+            sizes[entry.name] = _stat_size(Path(entry.path), allowed[entry.name], entry.name)
+    for required in (MANIFEST_FILE, WEIGHTS_FILE):
+        if required not in sizes:
+            if not sizes:
+                raise ArtifactError(f"{folder} is an empty folder; an agent folder holds {MANIFEST_FILE} and "
+                                    f"{WEIGHTS_FILE}")
+            raise ManifestError(f"{folder} has no {required}; an arena-policy folder holds {MANIFEST_FILE} (family, "
+                                f"sizes, game, spaces) and {WEIGHTS_FILE}")
+    weights_path = folder / WEIGHTS_FILE
+    refused = refused_format(_head(weights_path), weights_path)
+    if refused:
+        raise _refuse(refused, str(weights_path))
+    files = {name: _read_exact(folder / name, size) for name, size in sorted(sizes.items())}
+    artifact = AgentArtifact("arena-policy", files, str(folder))
+    artifact.manifest()  # checked now, so a bad folder is refused when read
+    return artifact
+
+
+def parse_manifest(data: bytes, source: str = MANIFEST_FILE) -> dict[str, Any]:
+    """Parse ``manifest.json`` and check its fields (not yet against a game)."""
+    try:
+        manifest = json.loads(data)
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ManifestError(f"{source}: {MANIFEST_FILE} is not valid JSON ({error})") from None
+    if not isinstance(manifest, dict):
+        raise ManifestError(f"{source}: {MANIFEST_FILE} must be a JSON object")
+    if manifest.get("format", MANIFEST_FORMAT) != MANIFEST_FORMAT or \
+            manifest.get("format_version", MANIFEST_VERSION) != MANIFEST_VERSION:
+        raise ManifestError(f"{source}: manifest format {manifest.get('format')!r} version "
+                            f"{manifest.get('format_version')!r} is not known; use \"format\": \"{MANIFEST_FORMAT}\", "
+                            f"\"format_version\": {MANIFEST_VERSION}")
+    unknown = sorted(set(manifest) - _MANIFEST_KEYS)
+    if unknown:
+        raise ManifestError(f"{source}: unknown manifest field(s) {', '.join(map(repr, unknown))}; valid fields: "
+                            f"{', '.join(sorted(_MANIFEST_KEYS))}")
+    missing = [k for k in ("family", "game", "spaces", "sizes") if k not in manifest]
+    if missing:
+        raise ManifestError(f"{source}: the manifest lacks {', '.join(missing)}; it names the family (mlp, cnn, gru), "
+                            "its sizes, the game id and the game's spaces")
+    if not isinstance(manifest["game"], str):
+        raise ManifestError(f"{source}: manifest 'game' must be a game id string such as 'Crossroads-2T2P-v1'")
+    if not isinstance(manifest["spaces"], dict):
+        raise ManifestError(f"{source}: manifest 'spaces' must be an object such as "
+                            "{\"obs_dim\": 25, \"action_type\": \"discrete\", \"n_actions\": 5}")
+    try:
+        manifest_architecture(manifest)
+    except ManifestError as error:
+        raise ManifestError(f"{source}: {error}") from None
+    return manifest
+
+
+def manifest_architecture(manifest: Mapping[str, Any]) -> Architecture:
+    """The :class:`Architecture` a manifest describes."""
+    return architecture_from_manifest(manifest.get("family"), manifest.get("sizes"), manifest.get("spaces", {}))
+
+
+def artifact_digest(source: str | os.PathLike[str], limits: ArtifactLimits = DEFAULT_LIMITS) -> str:
+    """The content address (SHA-256 hex) of an artifact: of the file's bytes, or of a folder's
+    ``sha256sum`` listing (see the module docstring). Refuses what :func:`read_artifact` refuses."""
+    return read_artifact(source, limits).digest
+
+
+# --- writing, packing ------------------------------------------------------------------------------
+
+def manifest_for(arch: Architecture, game_id: str, *, name: str | None = None, description: str | None = None,
+                 provenance: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The manifest of an agent of ``arch`` for ``game_id``."""
+    manifest: dict[str, Any] = {"format": MANIFEST_FORMAT, "format_version": MANIFEST_VERSION, "family": arch.family,
+                                "game": game_id, "spaces": arch.spaces(), "sizes": arch.sizes()}
+    if name is not None:
+        manifest["name"] = name
+    if description is not None:
+        manifest["description"] = description
+    if provenance is not None:
+        manifest["provenance"] = dict(provenance)
+    return manifest
+
+
+def policy_folder_artifact(arch: Architecture, params: Mapping[str, Any], game_id: str, **manifest_fields: Any
+                           ) -> AgentArtifact:
+    """An arena-policy artifact in memory (canonical bytes: sorted-key JSON, safetensors)."""
+    manifest = manifest_for(arch, game_id, **manifest_fields)
+    files = {MANIFEST_FILE: (json.dumps(manifest, indent=2, sort_keys=True) + "\n").encode(),
+             WEIGHTS_FILE: save_safetensors(check_parameters(arch, params))}
+    return AgentArtifact("arena-policy", files, manifest.get("name") or "<policy>")
+
+
+def save_arena_policy(folder: str | os.PathLike[str], arch: Architecture, params: Mapping[str, Any], game_id: str,
+                      **manifest_fields: Any) -> Path:
+    """Write an arena-policy folder (``manifest.json`` + ``weights.safetensors``); returns its path.
+
+    ``manifest_fields``: ``name``, ``description``, ``provenance`` (a JSON object).
+    """
+    return write_artifact(policy_folder_artifact(arch, params, game_id, **manifest_fields), folder)
+
+
+def write_artifact(artifact: AgentArtifact, dest: str | os.PathLike[str]) -> Path:
+    """Restore an artifact to disk: a file for ``onnx``/``scripted``, a folder for ``arena-policy``."""
+    dest = Path(dest)
+    if artifact.kind == "arena-policy":
+        dest.mkdir(parents=True, exist_ok=True)
+        for name, data in artifact.files.items():
+            (dest / name).write_bytes(data)
+    else:
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        dest.write_bytes(artifact.content)
+    return dest
+
+
+def pack_artifact(artifact: AgentArtifact) -> bytes:
+    """One blob for any artifact (to send to a worker or keep in a database column): an ONNX or
+    scripted artifact is its own file; a folder becomes a small container (a header line, one
+    ``<name> <size> <sha256>`` line per file, a blank line, then the files' bytes)."""
+    if artifact.kind != "arena-policy":
+        return artifact.content
+    names = sorted(artifact.files)
+    header = b"".join(f"{n} {len(artifact.files[n])} {hashlib.sha256(artifact.files[n]).hexdigest()}\n".encode()
+                      for n in names)
+    return _PACK_MAGIC + header + b"\n" + b"".join(artifact.files[n] for n in names)
+
+
+def unpack_artifact(blob: bytes, limits: ArtifactLimits = DEFAULT_LIMITS, source: str = "<packed artifact>"
+                    ) -> AgentArtifact:
+    """The artifact packed by :func:`pack_artifact`, with the same checks as :func:`read_artifact`."""
+    if blob.startswith(_PACK_MAGIC):
+        header_end = blob.find(b"\n\n", len(_PACK_MAGIC) - 1)
+        if header_end < 0:
+            raise CorruptArtifactError(f"{source}: packed arena-policy has no end of header (truncated)")
+        lines = blob[len(_PACK_MAGIC): header_end + 1].decode("utf-8", "replace").splitlines()
+        offset = header_end + 2
+        files: dict[str, bytes] = {}
+        limit = {MANIFEST_FILE: limits.max_manifest_bytes, WEIGHTS_FILE: limits.max_weights_bytes,
+                 README_FILE: limits.max_readme_bytes}
+        for line in lines:
+            parts = line.split(" ")
+            if len(parts) != 3 or parts[0] not in limit or not parts[1].isdigit():
+                raise CorruptArtifactError(f"{source}: bad entry {line!r} in a packed arena-policy")
+            name, size = parts[0], int(parts[1])
+            if size > limit[name]:
+                raise ArtifactTooLargeError(f"{source}: {name} is {size} bytes, over the limit of {limit[name]}")
+            data = blob[offset: offset + size]
+            if len(data) != size or hashlib.sha256(data).hexdigest() != parts[2]:
+                raise CorruptArtifactError(f"{source}: {name} in the packed arena-policy is truncated or damaged")
+            files[name] = data
+            offset += size
+        if offset != len(blob) or MANIFEST_FILE not in files or WEIGHTS_FILE not in files:
+            raise CorruptArtifactError(f"{source}: packed arena-policy is incomplete or has trailing bytes")
+        refused = refused_format(files[WEIGHTS_FILE][:_HEAD_BYTES])
+        if refused:
+            raise _refuse(refused, f"{source} ({WEIGHTS_FILE})")
+        artifact = AgentArtifact("arena-policy", files, source)
+        artifact.manifest()
+        return artifact
+    if len(blob) > limits.max_onnx_bytes:
+        raise ArtifactTooLargeError(f"{source} is {len(blob)} bytes, over the limit of {limits.max_onnx_bytes}")
+    refused = refused_format(blob[:_HEAD_BYTES])
+    if refused:
+        raise _refuse(refused, source)
+    if blob.lstrip()[:1] == b"{":
+        try:
+            document = json.loads(blob)
+        except (UnicodeDecodeError, json.JSONDecodeError):
+            document = None
+        if isinstance(document, dict) and document.get("format") == SCRIPTED_FORMAT and \
+                document.get("name") in SCRIPTED_NAMES:
+            return AgentArtifact("scripted", {"scripted.json": scripted_descriptor(document["name"])}, source)
+        raise ArtifactError(f"{source} is JSON but not a scripted agent descriptor")
+    return AgentArtifact("onnx", {"model.onnx": bytes(blob)}, source)
+
+
+# --- loading as a policy ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class AgentInfo:
+    """What a loaded agent is, for logs, the registry and validation reports."""
+
+    kind: str
+    digest: str
+    size_bytes: int
+    game_id: str
+    action_type: str
+    obs_dim: int
+    n_actions: int
+    act_dim: int
+    recurrent: bool
+    state_shape: tuple[int, ...]
+    #: ``mlp`` / ``cnn`` / ``gru`` for arena-policy folders, ``random`` / ``heuristic`` for
+    #: scripted agents, None for ONNX.
+    family: str | None
+    #: The ONNX model's fixed batch size, None when dynamic (and for other kinds).
+    fixed_batch: int | None
+    name: str
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.__dict__.items()}
+
+
+@dataclass(frozen=True)
+class LoadedAgent:
+    policy: Policy
+    artifact: AgentArtifact
+    info: AgentInfo
+
+
+def load_agent(source: str | os.PathLike[str] | AgentArtifact, game_id: str, *, action_type: str | None = None,
+               limits: ArtifactLimits = DEFAULT_LIMITS, greedy: bool = False, intra_op_threads: int = 1,
+               compute_dtype: torch.dtype = torch.float64) -> LoadedAgent:
+    """Load an agent to play ``game_id``: its policy, its artifact (bytes and digest) and a summary.
+
+    Args:
+        source: an ONNX file, an arena-policy folder, ``scripted:random`` / ``scripted:heuristic``,
+            or an artifact already read.
+        game_id: the game it will play (unknown ids raise ``ValueError`` listing the valid ones).
+        action_type: the game's action variant; by default the one the agent declares (manifest
+            spaces, or an ONNX output ``logits`` / ``action``), else the game's default.
+        limits: size limits.
+        greedy: discrete agents play their most likely legal action instead of sampling.
+        intra_op_threads: onnxruntime threads for ONNX agents.
+        compute_dtype: dtype torch families compute in (float64: actions do not depend on batching).
+
+    Raises:
+        UnsafeArtifactError, ArtifactTooLargeError, CorruptArtifactError, ManifestError,
+        SpaceMismatchError (all :class:`ArtifactError`, a ``ValueError``).
+    """
+    offered = action_types(game_id)  # raises for an unknown game id
+    artifact = source if isinstance(source, AgentArtifact) else read_artifact(source, limits)
+    label = artifact.source
+    if artifact.kind == "scripted":
+        name = json.loads(artifact.content)["name"]
+        policy = scripted_policy(name, game_id, action_type)
+        return LoadedAgent(policy, artifact, _info(artifact, game_id, policy.spec, False, (), name, None, name))
+    if artifact.kind == "arena-policy":
+        manifest = artifact.manifest()
+        arch = manifest_architecture(manifest)
+        if manifest["game"] != game_id:
+            raise SpaceMismatchError(f"{label} was made for {manifest['game']}, not {game_id}; submit it for "
+                                     f"{manifest['game']} or train an agent on {game_id}")
+        spec = _game_spec(game_id, action_type or arch.action_type, offered, label)
+        _check_spaces(arch.spec, spec, game_id, label)
+        try:
+            weights = load_safetensors(artifact.files[WEIGHTS_FILE])
+        except (SafetensorError, ValueError, RuntimeError) as error:
+            raise CorruptArtifactError(f"{label}: {WEIGHTS_FILE} is truncated or not a safetensors file ({error}); "
+                                       "save it again with safetensors.torch.save_file") from None
+        name = manifest.get("name") or f"{arch.family}:{artifact.digest[:12]}"
+        policy = TorchPolicy(arch, weights, name=str(name), greedy=greedy, compute_dtype=compute_dtype)
+        return LoadedAgent(policy, artifact, _info(artifact, game_id, spec, arch.recurrent, arch.state_shape,
+                                                   arch.family, None, policy.name))
+    model = parse_onnx(artifact.content, label)
+    if action_type is None and len(offered) > 1:
+        outputs = {v.name for v in model.graph.output}
+        action_type = next((a for a, out in (("discrete", "logits"), ("continuous", "action"))
+                            if out in outputs and a in offered), None)
+    spec = _game_spec(game_id, action_type, offered, label)
+    policy = OnnxPolicy(artifact.content, spec, game_id, digest=artifact.digest, greedy=greedy,
+                        intra_op_threads=intra_op_threads, source=label, model=model)
+    sig = policy.signature
+    return LoadedAgent(policy, artifact, _info(artifact, game_id, spec, sig.recurrent, sig.state_shape, None,
+                                               sig.batch, policy.name))
+
+
+def load_policy(source: str | os.PathLike[str] | AgentArtifact, game_id: str, **kwargs: Any) -> Policy:
+    """The policy of :func:`load_agent` alone."""
+    return load_agent(source, game_id, **kwargs).policy
+
+
+def _game_spec(game_id: str, action_type: str | None, offered: tuple[str, ...], label: str) -> ActionSpec:
+    if action_type is not None and action_type not in offered:
+        raise SpaceMismatchError(f"{label} plays {action_type} actions, but {game_id} offers "
+                                 f"{' and '.join(offered)} actions")
+    return game_action_spec(game_id, action_type)
+
+
+def _check_spaces(agent: ActionSpec, game: ActionSpec, game_id: str, label: str) -> None:
+    def text(spec: ActionSpec) -> str:
+        out = f"n_actions {spec.n_actions}" if spec.action_type == "discrete" else f"act_dim {spec.act_dim}"
+        return f"obs_dim {spec.obs_dim}, {spec.action_type} actions, {out}"
+
+    if agent != game:
+        raise SpaceMismatchError(f"{label} declares {text(agent)}, but {game_id} has {text(game)}; fix the manifest's "
+                                 "spaces or train the agent for this game")
+
+
+def _info(artifact: AgentArtifact, game_id: str, spec: ActionSpec, recurrent: bool, state_shape: tuple[int, ...],
+          family: str | None, fixed_batch: int | None, name: str) -> AgentInfo:
+    return AgentInfo(kind=artifact.kind, digest=artifact.digest, size_bytes=artifact.size_bytes, game_id=game_id,
+                     action_type=spec.action_type, obs_dim=spec.obs_dim, n_actions=spec.n_actions,
+                     act_dim=spec.act_dim, recurrent=recurrent, state_shape=tuple(state_shape), family=family,
+                     fixed_batch=fixed_batch, name=name)

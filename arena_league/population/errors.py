@@ -1,0 +1,33 @@
+"""Why an agent artifact was refused.
+
+Arena (Song et al., AAAI 2020) ranks agents that people submit; the league only accepts
+artifacts that carry weights and a fixed graph, never code. Every refusal is one of these
+exceptions, raised where the cause is known, with the fix in the message. All are ``ValueError``s
+so a caller that only wants "was the input bad?" can catch that.
+"""
+
+from __future__ import annotations
+
+
+class ArtifactError(ValueError):
+    """An agent artifact cannot be used (base class of every refusal below)."""
+
+
+class UnsafeArtifactError(ArtifactError):
+    """The file is a format that can carry code (pickle, TorchScript, .pt2): it is never loaded."""
+
+
+class ArtifactTooLargeError(ArtifactError):
+    """The artifact is over the size limit; it was refused before its content was read."""
+
+
+class CorruptArtifactError(ArtifactError):
+    """The file is truncated, corrupt, or not the format it claims to be."""
+
+
+class ManifestError(ArtifactError):
+    """An ``arena-policy`` folder's manifest or weights do not describe a known policy family."""
+
+
+class SpaceMismatchError(ArtifactError):
+    """The agent's inputs or outputs do not match the game's observation and action spaces."""

@@ -1,0 +1,282 @@
+"""ONNX agents: checking a model's inputs and outputs against a game, and running it batched.
+
+Arena (Song et al., AAAI 2020) evaluates agents that people train anywhere; the league takes them
+as ONNX graphs (DESIGN.md, "ONNX agents"): input ``obs`` ``float32[N, obs_dim]``; output
+``logits`` ``float32[N, n_actions]`` (discrete) or ``action`` ``float32[N, act_dim]`` in [-1, 1]
+(continuous); recurrent agents add ``state_in`` / ``state_out`` ``float32[N, ...]`` of one shape.
+Other outputs (a value head, say) are allowed and not computed.
+
+:class:`OnnxPolicy` runs the graph with onnxruntime on the CPU, one intra-op thread by default
+and sequential execution, so the same observations always give the same outputs. The batch
+dimension should be dynamic; a model exported with a fixed batch B is run on chunks of B rows
+(padded), which for B = 1 means one call per row, and its name says so (``onnx-batch1:<sha>``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import onnx
+import onnxruntime as ort
+from google.protobuf.message import DecodeError
+from onnxruntime.capi import onnxruntime_pybind11_state as _ort_state
+
+from arena_league.population.errors import CorruptArtifactError, SpaceMismatchError
+from arena_league.population.families import legal_mask
+from arena_league.population.onnx_export import META_GAME
+from arena_league.population.policy import ActionSpec, Policy, sample_from_logits
+
+_FLOAT = onnx.TensorProto.FLOAT
+#: onnxruntime's exception types (they derive from Exception directly).
+_ORT_ERRORS: tuple[type[BaseException], ...] = (RuntimeError, ValueError) + tuple(
+    getattr(_ort_state, name) for name in ("Fail", "InvalidGraph", "InvalidArgument", "NotImplemented",
+                                           "RuntimeException", "InvalidProtobuf", "NoSuchFile", "EPFail")
+    if hasattr(_ort_state, name))
+_OUT_NAME = {"discrete": "logits", "continuous": "action"}
+
+
+class PolicyOutputError(RuntimeError):
+    """A policy produced NaN or infinite outputs during play (the agent, not the engine, is at fault)."""
+
+
+@dataclass(frozen=True)
+class OnnxSignature:
+    """What an ONNX agent reads and writes, as read from its graph."""
+
+    obs_dim: int | None  # None when the feature dimension is symbolic
+    output: str  # "logits" | "action"
+    out_dim: int | None
+    #: ``None`` for a dynamic batch dimension, else the fixed batch size.
+    batch: int | None
+    state_shape: tuple[int, ...] = ()
+
+    @property
+    def recurrent(self) -> bool:
+        return bool(self.state_shape)
+
+    @property
+    def action_type(self) -> str:
+        return "discrete" if self.output == "logits" else "continuous"
+
+
+def parse_onnx(data: bytes, source: str = "the ONNX file") -> onnx.ModelProto:
+    """Parse and check an ONNX model; a truncated or corrupt file raises :class:`CorruptArtifactError`."""
+    fix = "re-export the model (torch.onnx.export or arena_league.population.export_onnx) and submit the whole file"
+    try:
+        model = onnx.load_model_from_string(data)
+    except (DecodeError, ValueError, RuntimeError) as error:
+        raise CorruptArtifactError(f"{source} is not a readable ONNX model (truncated or corrupt: {error}); {fix}"
+                                   ) from None
+    if not model.HasField("graph") or not model.graph.output or not model.opset_import:
+        raise CorruptArtifactError(f"{source} is not a complete ONNX model (no graph, outputs or opset: the file is "
+                                   f"truncated or not ONNX); {fix}")
+    for tensor in _all_tensors(model):
+        if tensor.data_location == onnx.TensorProto.EXTERNAL:
+            raise CorruptArtifactError(f"{source} keeps tensor {tensor.name!r} in an external data file, which is not "
+                                       "accepted; save the model as one file (onnx.save_model(model, path, "
+                                       "save_as_external_data=False))")
+    try:
+        onnx.checker.check_model(model)
+    except (onnx.checker.ValidationError, ValueError, RuntimeError) as error:
+        message = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+        raise CorruptArtifactError(f"{source} is not a valid ONNX model ({message}); {fix}") from None
+    return model
+
+
+def _all_tensors(model: onnx.ModelProto):
+    yield from model.graph.initializer
+    for node in model.graph.node:
+        for attribute in node.attribute:
+            if attribute.HasField("t"):
+                yield attribute.t
+
+
+def _dims(value: onnx.ValueInfoProto) -> tuple[int, list[int | str | None]] | None:
+    """(element type, dims) of a tensor value; a dim is an int, a symbolic name, or None."""
+    tensor = value.type.tensor_type
+    if not value.type.HasField("tensor_type"):
+        return None
+    if not tensor.HasField("shape"):
+        return tensor.elem_type, []
+    dims: list[int | str | None] = []
+    for d in tensor.shape.dim:
+        dims.append(d.dim_value if d.HasField("dim_value") else (d.dim_param or None))
+    return tensor.elem_type, dims
+
+
+def _shape_text(value: onnx.ValueInfoProto) -> str:
+    info = _dims(value)
+    if info is None:
+        return "a non-tensor value"
+    elem, dims = info
+    kind = onnx.TensorProto.DataType.Name(elem).lower() if elem else "unknown"
+    return f"{kind}[{', '.join('N' if d is None else str(d) for d in dims)}]"
+
+
+def onnx_signature(model: onnx.ModelProto, spec: ActionSpec, game_id: str, source: str = "the ONNX model"
+                   ) -> OnnxSignature:
+    """Check the model's inputs and outputs against ``spec`` (DESIGN.md's convention).
+
+    Raises :class:`SpaceMismatchError` naming the wrong names or sizes and the expected ones.
+    """
+    graph = model.graph
+    initializers = {t.name for t in graph.initializer}
+    inputs = {v.name: v for v in graph.input if v.name not in initializers}
+    outputs = {v.name: v for v in graph.output}
+    out_name = _OUT_NAME[spec.action_type]
+    out_dim = spec.n_actions if spec.action_type == "discrete" else spec.act_dim
+    expected = (f"{game_id} ({spec.action_type} actions) expects input obs float32[N, {spec.obs_dim}] and output "
+                f"{out_name} float32[N, {out_dim}]")
+    for prop in model.metadata_props:
+        if prop.key == META_GAME and prop.value != game_id:
+            value = prop.value
+            raise SpaceMismatchError(f"{source} was exported for {value}, not {game_id}; submit it for {value} or "
+                                     f"export an agent trained on {game_id}")
+    unknown = sorted(set(inputs) - {"obs", "state_in"})
+    if "obs" not in inputs or unknown:
+        found = ", ".join(f"{n} {_shape_text(v)}" for n, v in inputs.items()) or "none"
+        raise SpaceMismatchError(f"{source} has inputs {found}; {expected} (recurrent agents add state_in / "
+                                 "state_out). Rename the inputs when exporting (input_names=['obs'])")
+    obs = _dims(inputs["obs"])
+    if obs is None or obs[0] != _FLOAT or len(obs[1]) != 2:
+        raise SpaceMismatchError(f"{source}: input obs is {_shape_text(inputs['obs'])}; {expected}")
+    batch_dim, obs_dim = obs[1]
+    if isinstance(obs_dim, int) and obs_dim != spec.obs_dim:
+        raise SpaceMismatchError(f"{source}: input obs has {obs_dim} features (float32[N, {obs_dim}]), but {expected}; "
+                                 f"re-export the agent for {game_id}'s observation (layout in the game's manual)")
+    if out_name not in outputs:
+        other = _OUT_NAME["continuous" if spec.action_type == "discrete" else "discrete"]
+        found = ", ".join(f"{n} {_shape_text(v)}" for n, v in outputs.items())
+        hint = (f" ({other} is the output of {'continuous' if other == 'action' else 'discrete'} agents)"
+                if other in outputs else "")
+        raise SpaceMismatchError(f"{source} has outputs {found}{hint}; {expected}. Name the output {out_name!r} "
+                                 f"when exporting (output_names=['{out_name}'])")
+    out = _dims(outputs[out_name])
+    if out is None or out[0] != _FLOAT or len(out[1]) not in (0, 2):
+        raise SpaceMismatchError(f"{source}: output {out_name} is {_shape_text(outputs[out_name])}; {expected}")
+    got_out = out[1][1] if len(out[1]) == 2 else None
+    if isinstance(got_out, int) and got_out != out_dim:
+        what = "actions" if spec.action_type == "discrete" else "action components"
+        raise SpaceMismatchError(f"{source}: output {out_name} has {got_out} {what} (float32[N, {got_out}]), but "
+                                 f"{expected}; re-export the agent for {game_id}")
+    state_shape: tuple[int, ...] = ()
+    if "state_in" in inputs or "state_out" in outputs:
+        if "state_in" not in inputs or "state_out" not in outputs:
+            raise SpaceMismatchError(f"{source}: a recurrent agent has both an input state_in and an output "
+                                     "state_out of the same shape float32[N, ...]; one of them is missing")
+        state_in, state_out = _dims(inputs["state_in"]), _dims(outputs["state_out"])
+        if (state_in is None or state_in[0] != _FLOAT or len(state_in[1]) < 2
+                or not all(isinstance(d, int) and d > 0 for d in state_in[1][1:])):
+            raise SpaceMismatchError(f"{source}: state_in is {_shape_text(inputs['state_in'])}; it must be "
+                                     "float32[N, ...] with fixed sizes after the batch dimension")
+        state_shape = tuple(int(d) for d in state_in[1][1:])  # type: ignore[arg-type]
+        if state_out is not None and state_out[1] and [d for d in state_out[1][1:]] != list(state_shape):
+            raise SpaceMismatchError(f"{source}: state_out is {_shape_text(outputs['state_out'])} but state_in is "
+                                     f"{_shape_text(inputs['state_in'])}; they must have the same shape")
+    batch = batch_dim if isinstance(batch_dim, int) and batch_dim > 0 else None
+    return OnnxSignature(obs_dim if isinstance(obs_dim, int) else None, out_name,
+                         got_out if isinstance(got_out, int) else None, batch, state_shape)
+
+
+def session_options(intra_op_threads: int = 1) -> ort.SessionOptions:
+    """onnxruntime options for deterministic CPU inference."""
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = intra_op_threads
+    options.inter_op_num_threads = 1
+    options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+    options.log_severity_level = 3
+    return options
+
+
+class OnnxPolicy(Policy):
+    """An ONNX agent, batched over seats (see the module docstring)."""
+
+    def __init__(self, data: bytes, spec: ActionSpec, game_id: str, *, digest: str = "", greedy: bool = False,
+                 intra_op_threads: int = 1, source: str = "the ONNX file", model: onnx.ModelProto | None = None
+                 ) -> None:
+        model = model if model is not None else parse_onnx(data, source)
+        self.signature = onnx_signature(model, spec, game_id, source)
+        self.spec = spec
+        self.game_id = game_id
+        self.greedy = greedy
+        self.recurrent = self.signature.recurrent
+        self.digest = digest
+        try:
+            self.session = ort.InferenceSession(data, session_options(intra_op_threads),
+                                                providers=["CPUExecutionProvider"])
+        except _ORT_ERRORS as error:
+            first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+            raise CorruptArtifactError(f"onnxruntime cannot run {source} ({first}); export with standard ONNX "
+                                       "operators (opset 13 to 21) and check it with onnx.checker") from None
+        self._outputs = [self.signature.output] + (["state_out"] if self.recurrent else [])
+        batch = self.signature.batch
+        prefix = "onnx" if batch is None else f"onnx-batch{batch}"
+        self.name = f"{prefix}:{digest[:12]}" if digest else prefix
+
+    def initial_state(self, n: int) -> np.ndarray | None:
+        return np.zeros((n, *self.signature.state_shape), dtype=np.float32) if self.recurrent else None
+
+    def forward(self, obs: np.ndarray, state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+        """Raw outputs (``logits`` or ``action``, and ``state_out``) for ``float32[N, obs_dim]``."""
+        obs = np.ascontiguousarray(obs, dtype=np.float32)
+        if obs.ndim != 2 or obs.shape[1] != self.spec.obs_dim:
+            raise ValueError(f"{self.name} reads observations float32[N, {self.spec.obs_dim}], got shape {obs.shape}")
+        n = obs.shape[0]
+        if self.recurrent and state is None:
+            state = self.initial_state(n)
+        if n == 0:
+            out_dim = self.spec.n_actions if self.spec.action_type == "discrete" else self.spec.act_dim
+            return np.zeros((0, out_dim), np.float32), state
+        batch = self.signature.batch
+        if batch is None:
+            return self._run(obs, state)
+        # A model exported with a fixed batch size: run chunks of exactly that many rows.
+        outs, states = [], []
+        for start in range(0, n, batch):
+            rows = obs[start: start + batch]
+            chunk_state = state[start: start + batch] if state is not None else None
+            missing = batch - rows.shape[0]
+            if missing:
+                rows = np.concatenate([rows, np.zeros((missing, rows.shape[1]), np.float32)])
+                if chunk_state is not None:
+                    chunk_state = np.concatenate([chunk_state, np.zeros((missing, *chunk_state.shape[1:]),
+                                                                        np.float32)])
+            out, next_state = self._run(rows, chunk_state)
+            outs.append(out[: batch - missing])
+            if next_state is not None:
+                states.append(next_state[: batch - missing])
+        return np.concatenate(outs), np.concatenate(states) if self.recurrent else None
+
+    def _run(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+        feeds = {"obs": obs}
+        if self.recurrent:
+            feeds["state_in"] = np.ascontiguousarray(state, dtype=np.float32)
+        results = self.session.run(self._outputs, feeds)
+        out = np.asarray(results[0], dtype=np.float32)
+        expected = (obs.shape[0], self.spec.n_actions if self.spec.action_type == "discrete" else self.spec.act_dim)
+        if out.shape != expected:
+            raise SpaceMismatchError(f"{self.name}: output {self.signature.output} has shape {out.shape} for "
+                                     f"{obs.shape[0]} observations; expected {expected}")
+        next_state = None
+        if self.recurrent:
+            next_state = np.asarray(results[1], dtype=np.float32)
+            if next_state.shape != (obs.shape[0], *self.signature.state_shape):
+                raise SpaceMismatchError(f"{self.name}: state_out has shape {next_state.shape}; expected "
+                                         f"{(obs.shape[0], *self.signature.state_shape)}")
+        return out, next_state
+
+    def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
+            state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+        out, next_state = self.forward(obs, state)
+        bad = ~np.isfinite(out).all(axis=1)
+        if bad.any():
+            raise PolicyOutputError(f"{self.name} output NaN or infinite {self.signature.output} for "
+                                    f"{int(bad.sum())} of {len(out)} observations (first: row {int(np.argmax(bad))})")
+        if self.spec.action_type == "continuous":
+            # The convention is tanh-bounded; clip float round-off just past +-1.
+            return np.clip(out, -1.0, 1.0), next_state
+        mask = legal_mask(mask, out.shape)
+        if self.greedy:
+            return np.where(mask, out, -np.inf).argmax(axis=1) if mask is not None else out.argmax(axis=1), next_state
+        return sample_from_logits(out, uniforms, mask), next_state

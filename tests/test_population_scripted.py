@@ -1,0 +1,63 @@
+"""Built-in scripted agents: random plays uniformly among legal actions from the engine's
+uniforms; heuristic is the game's own scripted policy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from arena_league.envs import game_spec, list_games, make
+from arena_league.population import game_action_spec, load_agent, scripted_descriptor, scripted_policy
+
+
+def test_random_respects_masks_and_is_uniform_over_legal_actions():
+    policy = scripted_policy("random", "GoBang-2T1P-v1")
+    n, n_actions = 6000, 225
+    rng = np.random.default_rng(0)
+    mask = np.zeros((n, n_actions), bool)
+    mask[:, [3, 17, 200]] = True
+    mask[:10, :] = False  # a full board: no legal move, the env ignores the seat
+    actions, state = policy.act(np.zeros((n, 455), np.float32), rng.random((n, 1)), mask)
+    assert state is None and actions.dtype == np.int64 and actions.shape == (n,)
+    assert np.isin(actions[10:], [3, 17, 200]).all()
+    assert ((actions[:10] >= 0) & (actions[:10] < n_actions)).all()
+    counts = np.bincount(actions[10:], minlength=n_actions)[[3, 17, 200]]
+    assert np.abs(counts / counts.sum() - 1 / 3).max() < 0.03
+
+
+def test_random_is_a_function_of_the_uniforms():
+    policy = scripted_policy("random", "Crossroads-2T2P-v1", action_type="continuous")
+    uniforms = np.random.default_rng(1).random((8, 2))
+    actions, _ = policy.act(np.zeros((8, 25), np.float32), uniforms)
+    np.testing.assert_allclose(actions, 2 * uniforms - 1, rtol=1e-6)
+    discrete = scripted_policy("random", "Crossroads-2T2P-v1")
+    u = np.array([[0.0], [0.19], [0.21], [0.99]])
+    np.testing.assert_array_equal(discrete.act(np.zeros((4, 25), np.float32), u)[0], [0, 0, 1, 4])
+
+
+@pytest.mark.parametrize("game_id", ["Crossroads-2T2P-v1", "Soccer-2T1P-v1", "GoBang-2T1P-v1", "Snake-2T1P-v1"])
+def test_heuristic_is_the_games_scripted_policy(game_id):
+    env = make(game_id)
+    obs = env.reset_arrays(3)
+    policy = scripted_policy("heuristic", game_id)
+    spec = game_action_spec(game_id)
+    for _ in range(5):
+        expected = game_spec(game_id).rules.heuristic(obs, spec.action_type)
+        mask = env.rules.action_mask()
+        actions, _ = policy.act(obs, np.zeros((len(obs), 1)), mask)
+        np.testing.assert_array_equal(actions, expected)
+        if mask is not None:
+            assert mask[np.arange(len(actions)), actions].all()
+        obs, _, terminated, truncated = env.step_arrays(actions)
+        if terminated or truncated:
+            break
+
+
+def test_every_game_has_both_scripted_agents_and_stable_descriptors():
+    for game_id in list_games():
+        for name in ("random", "heuristic"):
+            assert load_agent(f"scripted:{name}", game_id).info.kind == "scripted"
+    assert scripted_descriptor("scripted:heuristic") == scripted_descriptor("heuristic")
+    assert scripted_descriptor("random") != scripted_descriptor("heuristic")
+    with pytest.raises(ValueError, match="unknown scripted agent 'greedy'"):
+        scripted_policy("greedy", "Crossroads-2T2P-v1")
