@@ -22,6 +22,7 @@ from arena_league.registry import (
     League,
     Match,
     MatchKeyConflictError,
+    MatchRecord,
     MatchSeat,
     NameTakenError,
     PopulationFrozenError,
@@ -43,6 +44,7 @@ from arena_league.registry import (
     list_agents,
     list_matches,
     record_match,
+    record_matches,
     require_agent,
     require_game,
     set_agent_status,
@@ -256,6 +258,35 @@ def test_a_match_is_recorded_once_per_key(league: League) -> None:
     with pytest.raises(MatchKeyConflictError, match="eval-1/0"), league.transaction() as session:
         record_match(session, GAME_ID, "eval-1/0", 42, two_team_seats(red, blue))
     assert (_count(league, Match), _count(league, MatchSeat)) == (1, 4)
+
+
+def test_matches_are_recorded_in_batches_once_per_key(league: League) -> None:
+    red, blue = add_players(league)
+    batch = [
+        MatchRecord(f"rr/{index}", index, two_team_seats(red, blue, index % 3 == 0)) for index in range(1200)
+    ]
+    with league.transaction() as session:
+        record_matches(session, GAME_ID, batch[100:300], job_id=None)  # an earlier, partial attempt
+    with league.transaction() as session:
+        recorded = record_matches(session, GAME_ID, batch)
+    assert [r.match_key for r in recorded] == [m.match_key for m in batch]
+    assert [r.created for r in recorded] == [not 100 <= index < 300 for index in range(1200)]
+    assert len({r.match_id for r in recorded}) == 1200
+    assert (_count(league, Match), _count(league, MatchSeat)) == (1200, 4800)
+    with league.reading() as session:
+        assert [s.outcome for s in get_match(session, "rr/3").seats] == ["win", "win", "loss", "loss"]
+        assert [s.outcome for s in get_match(session, "rr/4").seats] == ["loss", "loss", "win", "win"]
+
+    # One conflicting match refuses the whole batch: nothing of it is stored.
+    clash = [
+        MatchRecord("rr/new-1", 1, two_team_seats(red, blue)),
+        MatchRecord("rr/7", 8, two_team_seats(red, blue)),
+    ]
+    with pytest.raises(MatchKeyConflictError, match="'rr/7'"), league.transaction() as session:
+        record_matches(session, GAME_ID, clash)
+    with pytest.raises(InvalidRecordError, match="more than once"), league.transaction() as session:
+        record_matches(session, GAME_ID, [batch[0], batch[0]])
+    assert (_count(league, Match), _count(league, MatchSeat)) == (1200, 4800)
 
 
 def test_bad_match_results_are_refused_and_nothing_is_stored(league: League) -> None:

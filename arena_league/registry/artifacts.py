@@ -90,17 +90,13 @@ def store_artifact(
 
     existing = session.get(Artifact, sha256)
     if existing is None:
-        insert_ignoring_conflict(
-            session,
-            Artifact,
-            {
-                "sha256": sha256,
-                "format": artifact_format.value,
-                "size_bytes": size,
-                "path": relative.as_posix(),
-            },
-            conflict_columns=["sha256"],
-        )
+        row = {
+            "sha256": sha256,
+            "format": artifact_format.value,
+            "size_bytes": size,
+            "path": relative.as_posix(),
+        }
+        insert_ignoring_conflict(session, Artifact, [row], conflict_columns=["sha256"])
         existing = session.get(Artifact, sha256)
         assert existing is not None
     if existing.format != artifact_format.value:

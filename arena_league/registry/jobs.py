@@ -384,19 +384,19 @@ def _run_one(
     )
     keeper.start()
     try:
-        result = handler(JobContext(league=league, job=job, lease_lost=lease_lost))
+        try:
+            result = handler(JobContext(league=league, job=job, lease_lost=lease_lost))
+        finally:
+            done.set()
+            keeper.join()
     except LeaseLostError:
         report.lost += 1
         logger.warning("job %d: lease lost; leaving it to its new owner", job.id)
         return
     except KeyboardInterrupt:
-        done.set()
-        keeper.join()
         release_job(league, job)
         raise
     except Exception:  # noqa: BLE001 - any handler error fails this attempt; the worker goes on
-        done.set()
-        keeper.join()
         error = traceback.format_exc()
         logger.error("job %d (%s) failed on attempt %d:\n%s", job.id, job.kind, job.attempt, error)
         try:
@@ -405,9 +405,6 @@ def _run_one(
         except LeaseLostError:
             report.lost += 1
         return
-    finally:
-        done.set()
-        keeper.join()
     if lease_lost.is_set():
         report.lost += 1
         logger.warning("job %d: lease lost while running; its result is discarded", job.id)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -57,6 +58,7 @@ GAME_ID_PATTERN = re.compile(
 )
 AGENT_NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:@+-]{0,127}$")
 MAX_SEED = 2**63 - 1  # seeds are stored as signed 64-bit integers
+_BATCH_ROWS = 500  # rows per INSERT or IN (...) list: far below SQLite's and PostgreSQL's bind limits
 # Agents of these kinds are code shipped with arena-league or a person; the others need weights.
 _KINDS_WITHOUT_ARTIFACT = {AgentKind.SCRIPTED, AgentKind.HUMAN}
 
@@ -70,6 +72,25 @@ class SeatResult:
     score: float
     outcome: Outcome | str
     position: int | None = None  # finishing place, 1 = first, for games of more than two teams
+
+
+@dataclass(frozen=True)
+class MatchRecord:
+    """A played match, as the match engine hands it to `record_matches`."""
+
+    match_key: str  # unique in the league; derive it from what defines the match (job, pairing, index)
+    seed: int
+    seats: Sequence[SeatResult]
+    replay_path: str | None = None
+
+
+@dataclass(frozen=True)
+class RecordedMatch:
+    """Where `record_matches` put a match, and whether this call stored it (False: already there)."""
+
+    match_id: int
+    match_key: str
+    created: bool
 
 
 @dataclass(frozen=True)
@@ -87,30 +108,41 @@ class RatingRow:
 
 
 def insert_ignoring_conflict(
-    session: Session, model: type[Base], values: Mapping[str, Any], conflict_columns: Sequence[str]
-) -> Any | None:
-    """INSERT a row unless one with the same `conflict_columns` exists; returns its primary key or None.
+    session: Session,
+    model: type[Base],
+    rows: Sequence[Mapping[str, Any]],
+    conflict_columns: Sequence[str],
+    returning: Sequence[str] | None = None,
+) -> list[tuple[Any, ...]]:
+    """INSERT rows, skipping those whose `conflict_columns` match a stored row.
 
-    SQLite and PostgreSQL use `ON CONFLICT DO NOTHING`, so concurrent writers of the same key never
-    fail; other databases fall back to a savepoint.
+    Returns the `returning` columns (default: the primary key) of the rows actually inserted.
+    SQLite and PostgreSQL use one `INSERT ... ON CONFLICT DO NOTHING`, so concurrent writers of
+    the same key never fail; other databases fall back to one savepoint per row. Every row must
+    name the same columns.
     """
+    if not rows:
+        return []
     table = model.__table__
-    primary_key = next(iter(table.primary_key.columns))
+    columns = [table.c[name] for name in returning] if returning else list(table.primary_key.columns)
     dialect = session.get_bind().dialect.name
     if dialect in ("sqlite", "postgresql"):
         insert = sqlite_insert if dialect == "sqlite" else postgresql_insert
         statement = (
-            insert(table)
-            .values(**values)
-            .on_conflict_do_nothing(index_elements=list(conflict_columns))
-            .returning(primary_key)
+            insert(table).on_conflict_do_nothing(index_elements=list(conflict_columns)).returning(*columns)
         )
-        return session.execute(statement).scalar_one_or_none()
-    try:
-        with session.begin_nested():
-            return session.execute(table.insert().values(**values).returning(primary_key)).scalar_one()
-    except IntegrityError:
-        return None
+        # Executemany: SQLAlchemy batches the rows into multi-row INSERTs ("insertmanyvalues").
+        return [tuple(row) for row in session.execute(statement, [dict(row) for row in rows])]
+    inserted = []
+    for row in rows:
+        try:
+            with session.begin_nested():
+                inserted.append(
+                    tuple(session.execute(table.insert().values(**row).returning(*columns)).one())
+                )
+        except IntegrityError:
+            continue
+    return inserted
 
 
 # ----------------------------------------------------------------------------------------- games
@@ -152,7 +184,14 @@ def ensure_game(
         insert_ignoring_conflict(
             session,
             Game,
-            {"id": game_id, "n_teams": n_teams, "players_per_team": players_per_team, "created_at": utcnow()},
+            [
+                {
+                    "id": game_id,
+                    "n_teams": n_teams,
+                    "players_per_team": players_per_team,
+                    "created_at": utcnow(),
+                }
+            ],
             ["id"],
         )
         game = session.get(Game, game_id)
@@ -434,6 +473,81 @@ def freeze_population(session: Session, population: Population) -> Population:
 # --------------------------------------------------------------------------------------- matches
 
 
+def record_matches(
+    session: Session, game_id: str, matches: Sequence[MatchRecord], *, job_id: int | None = None
+) -> list[RecordedMatch]:
+    """Store played matches and their seats, once per match key; returns one entry per match, in order.
+
+    A match whose key is already stored (a retried job replaying it) is left as it is and comes
+    back with `created=False`; concurrent writers of one key store it once. A seat's index is its
+    position in `MatchRecord.seats`. Matches are written in batches, a few statements per batch,
+    so the match engine can hand over thousands at once.
+
+    Raises:
+        MatchKeyConflictError: a key is stored for another game, seed or seating.
+        InvalidRecordError: a key twice in `matches`, no seats, a team out of range, an unknown
+            outcome, a score that is not finite, a seed outside [0, 2**63), or an agent that is not
+            registered for this game.
+        UnknownGameError: the game is not registered.
+    Nothing is stored when it raises.
+    """
+    game = require_game(session, game_id)
+    keys = [match.match_key for match in matches]
+    if len(set(keys)) != len(keys):
+        twice = sorted(key for key, count in Counter(keys).items() if count > 1)
+        raise InvalidRecordError(f"match keys {twice[:3]} appear more than once in one batch")
+    seat_rows = {match.match_key: _seat_rows(game, match) for match in matches}
+    _refuse_foreign_agents(session, game_id, seat_rows)
+
+    now = utcnow()
+    inserted: dict[str, int] = {}
+    for start in range(0, len(matches), _BATCH_ROWS):
+        batch = matches[start : start + _BATCH_ROWS]
+        match_rows = [
+            {
+                "game_id": game_id,
+                "match_key": match.match_key,
+                "seed": match.seed,
+                "job_id": job_id,
+                "replay_path": match.replay_path,
+                "created_at": now,
+            }
+            for match in batch
+        ]
+        for match_id, match_key in insert_ignoring_conflict(
+            session, Match, match_rows, ["match_key"], returning=["id", "match_key"]
+        ):
+            inserted[match_key] = match_id
+        new_seats = [
+            {"match_id": inserted[match.match_key], **row}
+            for match in batch
+            if match.match_key in inserted
+            for row in seat_rows[match.match_key]
+        ]
+        if new_seats:
+            # RETURNING makes SQLAlchemy send multi-row INSERTs, not one INSERT per seat.
+            session.execute(MatchSeat.__table__.insert().returning(MatchSeat.match_id), new_seats)
+
+    existing = _stored_seatings(session, [key for key in keys if key not in inserted])
+    for match in matches:
+        if match.match_key in inserted:
+            continue
+        stored_game, stored_seed, _, stored_seating = existing[match.match_key]
+        seating = [(row["agent_id"], row["team"]) for row in seat_rows[match.match_key]]
+        if (stored_game, stored_seed, stored_seating) != (game_id, match.seed, seating):
+            raise MatchKeyConflictError(
+                f"match key {match.match_key!r} is already stored for a different match (game "
+                f"{stored_game}, seed {stored_seed}); derive match keys from everything that "
+                "defines a match (job, pairing, index)"
+            )
+    return [
+        RecordedMatch(match_id=inserted[key], match_key=key, created=True)
+        if key in inserted
+        else RecordedMatch(match_id=existing[key][2], match_key=key, created=False)
+        for key in keys
+    ]
+
+
 def record_match(
     session: Session,
     game_id: str,
@@ -444,69 +558,17 @@ def record_match(
     job_id: int | None = None,
     replay_path: str | None = None,
 ) -> tuple[Match, bool]:
-    """Store a played match and its seats, once per `match_key`; returns (match, created).
-
-    A second call with the same key (a retried job replaying the same match) returns the stored
-    match and `created=False`, adding nothing; concurrent calls store it once. The seat index is
-    the position in `seats`.
-
-    Raises:
-        MatchKeyConflictError: the key is stored for another game, seed or seating.
-        InvalidRecordError: no seats, a team out of range, an unknown outcome, a score that is not
-            finite, a seed outside [0, 2**63), or an agent of another game.
-        UnknownGameError: the game is not registered.
-    """
-    game = require_game(session, game_id)
-    if not 0 <= seed <= MAX_SEED:
-        raise InvalidRecordError(f"match seed {seed} is outside [0, 2**63); reduce it modulo 2**63")
-    if not seats:
-        raise InvalidRecordError(f"match {match_key!r} has no seats")
-    rows = [_seat_row(game, index, seat) for index, seat in enumerate(seats)]
-    agent_ids = {row["agent_id"] for row in rows}
-    agent_games = {
-        agent_id: agent_game
-        for agent_id, agent_game in session.execute(
-            select(Agent.id, Agent.game_id).where(Agent.id.in_(agent_ids))
-        )
-    }
-    for agent_id in sorted(agent_ids):
-        if agent_id not in agent_games:
-            raise InvalidRecordError(f"match {match_key!r} seats agent #{agent_id}, which is not registered")
-        if agent_games[agent_id] != game_id:
-            raise InvalidRecordError(
-                f"match {match_key!r} of {game_id} seats agent #{agent_id}, which plays {agent_games[agent_id]}"
-            )
-
-    match_id = insert_ignoring_conflict(
-        session,
-        Match,
-        {
-            "game_id": game_id,
-            "match_key": match_key,
-            "seed": seed,
-            "job_id": job_id,
-            "replay_path": replay_path,
-            "created_at": utcnow(),
-        },
-        ["match_key"],
-    )
-    if match_id is not None:
-        session.execute(MatchSeat.__table__.insert(), [{"match_id": match_id, **row} for row in rows])
-        return _load_match(session, Match.id == match_id), True
-
-    existing = _load_match(session, Match.match_key == match_key)
-    seating = [(row["agent_id"], row["team"]) for row in rows]
-    if (existing.game_id, existing.seed, [(s.agent_id, s.team) for s in existing.seats]) != (
-        game_id,
-        seed,
-        seating,
-    ):
-        raise MatchKeyConflictError(
-            f"match key {match_key!r} is already stored for a different match (game "
-            f"{existing.game_id}, seed {existing.seed}); derive match keys from everything that "
-            "defines a match (job, pairing, index)"
-        )
-    return existing, False
+    """Store one played match (see `record_matches`); returns (match with its seats, created)."""
+    recorded = record_matches(
+        session, game_id, [MatchRecord(match_key, seed, seats, replay_path)], job_id=job_id
+    )[0]
+    match = session.scalars(
+        select(Match)
+        .where(Match.id == recorded.match_id)
+        .options(selectinload(Match.seats))
+        .execution_options(populate_existing=True)
+    ).one()
+    return match, recorded.created
 
 
 def get_match(session: Session, match_key: str) -> Match | None:
@@ -548,33 +610,77 @@ def count_matches(session: Session, game_id: str | None = None) -> int:
     return int(session.scalar(query) or 0)
 
 
-def _seat_row(game: Game, index: int, seat: SeatResult) -> dict[str, Any]:
-    outcome = _parse(Outcome, seat.outcome, f"outcome of seat {index}")
-    if not 0 <= seat.team < game.n_teams:
-        raise InvalidRecordError(
-            f"seat {index} is on team {seat.team}, but {game.id} has teams 0..{game.n_teams - 1}"
+def _seat_rows(game: Game, match: MatchRecord) -> list[dict[str, Any]]:
+    """The seat rows of one match, checked against the game."""
+    where = f"match {match.match_key!r}"
+    if not 0 <= match.seed <= MAX_SEED:
+        raise InvalidRecordError(f"{where} has seed {match.seed}, outside [0, 2**63); reduce it modulo 2**63")
+    if not match.seats:
+        raise InvalidRecordError(f"{where} has no seats")
+    rows = []
+    for index, seat in enumerate(match.seats):
+        outcome = _parse(Outcome, seat.outcome, f"outcome of seat {index} in {where}")
+        if not 0 <= seat.team < game.n_teams:
+            raise InvalidRecordError(
+                f"seat {index} of {where} is on team {seat.team}, but {game.id} has teams "
+                f"0..{game.n_teams - 1}"
+            )
+        if not math.isfinite(seat.score):
+            raise InvalidRecordError(f"seat {index} of {where} has score {seat.score}; scores must be finite")
+        if seat.position is not None and seat.position < 1:
+            raise InvalidRecordError(
+                f"seat {index} of {where} finished in position {seat.position}; positions start at 1"
+            )
+        rows.append(
+            {
+                "seat": index,
+                "agent_id": seat.agent_id,
+                "team": seat.team,
+                "score": float(seat.score),
+                "outcome": outcome.value,
+                "position": seat.position,
+            }
         )
-    if not math.isfinite(seat.score):
-        raise InvalidRecordError(f"seat {index} has score {seat.score}; scores must be finite numbers")
-    if seat.position is not None and seat.position < 1:
-        raise InvalidRecordError(f"seat {index} finished in position {seat.position}; positions start at 1")
-    return {
-        "seat": index,
-        "agent_id": seat.agent_id,
-        "team": seat.team,
-        "score": float(seat.score),
-        "outcome": outcome.value,
-        "position": seat.position,
-    }
+    return rows
 
 
-def _load_match(session: Session, condition: Any) -> Match:
-    return session.scalars(
-        select(Match)
-        .where(condition)
-        .options(selectinload(Match.seats))
-        .execution_options(populate_existing=True)
-    ).one()
+def _refuse_foreign_agents(
+    session: Session, game_id: str, seat_rows: Mapping[str, list[dict[str, Any]]]
+) -> None:
+    """Raise InvalidRecordError if a seat holds an agent that is not registered for this game."""
+    seated = {row["agent_id"]: key for key, rows in seat_rows.items() for row in rows}
+    agent_games: dict[int, str] = {}
+    ids = sorted(seated)
+    for start in range(0, len(ids), _BATCH_ROWS):
+        query = select(Agent.id, Agent.game_id).where(Agent.id.in_(ids[start : start + _BATCH_ROWS]))
+        agent_games.update({agent_id: agent_game for agent_id, agent_game in session.execute(query)})
+    for agent_id in ids:
+        if agent_games.get(agent_id) != game_id:
+            plays = (
+                f"which plays {agent_games[agent_id]}"
+                if agent_id in agent_games
+                else "which is not registered"
+            )
+            raise InvalidRecordError(
+                f"match {seated[agent_id]!r} of {game_id} seats agent #{agent_id}, {plays}"
+            )
+
+
+def _stored_seatings(
+    session: Session, keys: Sequence[str]
+) -> dict[str, tuple[str, int, int, list[tuple[int, int]]]]:
+    """match key -> (game id, seed, match id, [(agent id, team) by seat]) for stored matches."""
+    stored: dict[str, tuple[str, int, int, list[tuple[int, int]]]] = {}
+    for start in range(0, len(keys), _BATCH_ROWS):
+        query = (
+            select(Match.match_key, Match.game_id, Match.seed, Match.id, MatchSeat.agent_id, MatchSeat.team)
+            .join(MatchSeat, MatchSeat.match_id == Match.id)
+            .where(Match.match_key.in_(keys[start : start + _BATCH_ROWS]))
+            .order_by(Match.id, MatchSeat.seat)
+        )
+        for match_key, game_id, seed, match_id, agent_id, team in session.execute(query):
+            stored.setdefault(match_key, (game_id, seed, match_id, []))[3].append((agent_id, team))
+    return stored
 
 
 # --------------------------------------------------------------------------------------- ratings
