@@ -185,6 +185,8 @@ def _transitions(tables: list[np.ndarray], alpha: float, m: int, use_inf_alpha: 
 
     shape = tables[0].shape
     n_states = int(np.prod(shape))
+    if n_states == 1:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0), 1
     eta = 1.0 / sum(n_k - 1 for n_k in shape)
     state = np.arange(n_states).reshape(shape)
     rows, cols, rates = [], [], []

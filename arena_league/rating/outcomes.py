@@ -190,6 +190,9 @@ class OutcomeTable:
         pairwise reading: rate them with :func:`arena_league.rating.openskill_ratings`. Results
         between an agent and itself carry no information and are left out.
         """
+        if self.match.size == 0:
+            empty = np.zeros(0, dtype=np.int64)
+            return PairwiseResults(self.agents, empty, empty, empty, np.zeros(0))
         match, _, agent_lo, agent_hi, place = self._team_groups()
         mixed = np.flatnonzero(agent_lo != agent_hi)
         if mixed.size:
@@ -321,6 +324,8 @@ class PairCounts:
         ``(wins, draws)`` of shape ``(rounds, n, n)``. Counts must be whole numbers."""
         win_cells, draw_cells, counts = self.outcome_cells()
         total = counts.sum()
+        if total == 0:
+            raise ValueError("there are no matches to resample; play some first")
         if not np.allclose(counts, np.round(counts)):
             raise ValueError("bootstrap resampling needs whole match counts, not weights")
         n = self.n_agents

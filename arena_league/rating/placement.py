@@ -189,7 +189,7 @@ class _EntrantPosterior:
         sd = (self.upper[rows] - self.lower[rows]) / (2.0 * math.sqrt(2.0 * self.drop))
         x = self.mode[rows, None] + sd[:, None] * _HERMITE_X[None, :]
         p = expit(x[:, None, :] - self.base[None, :, None])
-        info = (p * (1.0 - p)) @ _HERMITE_W
+        info = (p * (1.0 - p) * _HERMITE_W).sum(axis=-1)
         near = info >= _NEAR_BEST * info.max(axis=1, keepdims=True)
         games = np.where(near, self.games[rows], np.inf)
         fewest = games == games.min(axis=1, keepdims=True)

@@ -66,8 +66,8 @@ def openskill_ratings(
     order = np.lexsort((table.team, table.match))
     match, team = table.match[order], table.team[order]
     agent, place = table.agent[order], table.place[order]
-    starts = np.flatnonzero(np.r_[True, np.diff(match) != 0])
-    for rows in np.split(np.arange(match.size), starts[1:]):
+    match_starts = np.flatnonzero(np.diff(match) != 0) + 1
+    for rows in np.split(np.arange(match.size), match_starts) if match.size else ():
         team_starts = np.flatnonzero(np.r_[True, np.diff(team[rows]) != 0])
         lineups = [np.unique(agent[rows][s:e]) for s, e in zip(team_starts, np.r_[team_starts[1:], rows.size])]
         seated = np.concatenate(lineups)
