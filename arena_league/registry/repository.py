@@ -489,7 +489,9 @@ def record_matches(
             outcome, a score that is not finite, a seed outside [0, 2**63), or an agent that is not
             registered for this game.
         UnknownGameError: the game is not registered.
-    Nothing is stored when it raises.
+    Every check but the key conflict runs before anything is written; a conflict is found after
+    the batch's inserts, so, as with any error, roll the transaction back (`League.transaction()`
+    does) and nothing of the batch is stored.
     """
     game = require_game(session, game_id)
     keys = [match.match_key for match in matches]
