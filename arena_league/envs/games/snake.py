@@ -139,6 +139,7 @@ from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from arena_league.envs.core import GameRules
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
@@ -159,6 +160,7 @@ DEFAULT_ROTATIONS: dict[int, tuple[int, ...]] = {1: (0,), 2: (0, 2), 3: (0, 1, 2
 _SPAWN_TRIES = 16
 _WALL, _EMPTY = -2, -1  # owner codes of cells without a snake
 _NEVER = np.iinfo(np.int64).max  # a body threshold no stamp exceeds
+_NEVER32 = np.iinfo(np.int32).max
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -187,12 +189,6 @@ def _turn_cells(q: np.ndarray, rows: np.ndarray, cols: np.ndarray, size: int) ->
     xr = m[..., 0, 0] * x + m[..., 0, 1] * y
     yr = m[..., 1, 0] * x + m[..., 1, 1] * y
     return (xr + size - 1) // 2, (yr + size - 1) // 2
-
-
-def _turn_vectors(q: np.ndarray, drow: np.ndarray, dcol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(row, col) vectors turned by ``q`` quarter turns."""
-    m = ROTATIONS[q % 4]
-    return m[..., 0, 0] * drow + m[..., 0, 1] * dcol, m[..., 1, 0] * drow + m[..., 1, 1] * dcol
 
 
 def _any_of(flags: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
@@ -259,6 +255,10 @@ class SnakeBoards:
         self.stamp = np.zeros((b, cells), dtype=np.int32)  # the step a head entered the cell
         self._owner_flat = self.owner.reshape(-1)
         self._stamp_flat = self.stamp.reshape(-1)
+        # every W x W block of the grids, as views (the grids are only ever updated in place)
+        w, side = self.window, self._side
+        self._owner_windows = sliding_window_view(self.owner.reshape(b, side, side), (w, w), axis=(1, 2))
+        self._stamp_windows = sliding_window_view(self.stamp.reshape(b, side, side), (w, w), axis=(1, 2))
         self._head = np.zeros((b, s), dtype=np.int64)  # padded cells
         self._food = np.full((b, f), -1, dtype=np.int64)  # padded cells, -1 for none
         self.direction = np.zeros((b, s), dtype=np.int64)
@@ -292,12 +292,12 @@ class SnakeBoards:
         r, c = _turn_cells(q[:, None], rows0[None, :], cols0[None, :], n)
         self._start_cells = (r + pad) * side + (c + pad)  # [S, L]
         self._start_direction = q.copy()
-        # local window offsets, own frame -> board, per snake
-        v = self.view_radius
-        fr, fc = np.meshgrid(np.arange(-v, v + 1), np.arange(-v, v + 1), indexing="ij")
-        wr, wc = _turn_vectors(q[:, None], fr.reshape(1, -1), fc.reshape(1, -1))
-        self._window_delta = wr * side + wc  # [S, W^2]
         self._frame_turn = (4 - q) % 4  # board -> own frame
+        self._frame_matrix = ROTATIONS[self._frame_turn].reshape(s, 4).T.copy()  # m00, m01, m10, m11 per snake
+        # window cell order of each snake's frame: its block turned by its quarter turns
+        square = np.arange(self.window ** 2).reshape(self.window, self.window)
+        self._window_turn = np.concatenate([s * square.size + np.rot90(square, int(k)).reshape(-1)
+                                            for s, k in enumerate(q)])  # [S * W^2], into [S, W^2] blocks
         same_team = self.team_of[:, None] == self.team_of[None, :]
         # the others in each snake's observation: teammates first, then opponents, in seat order
         others = []
@@ -312,6 +312,13 @@ class SnakeBoards:
         self._team_of_owner = np.concatenate([self.team_of, [-1, -1]])
 
     # --- board cells ----------------------------------------------------------------------------
+    def _to_frame(self, drow: np.ndarray, dcol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(row, col) vectors ``[B, S, ...]`` of each snake turned into its own frame."""
+        shape = (1, self.n_snakes) + (1,) * (drow.ndim - 2)
+        m = self._frame_matrix
+        return (m[0].reshape(shape) * drow + m[1].reshape(shape) * dcol,
+                m[2].reshape(shape) * drow + m[3].reshape(shape) * dcol)
+
     def _to_board(self, padded: np.ndarray) -> np.ndarray:
         row, col = np.divmod(padded, self._side)
         return (row - self._pad) * self.size + (col - self._pad)
@@ -532,6 +539,13 @@ class SnakeBoards:
         rows = (self._boards * width).reshape((-1,) + (1,) * (owner.ndim - 1))
         return np.take(threshold, rows + owner)
 
+    def _window_blocks(self, windows: np.ndarray, corner: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+        """``[B, S, W*W]``: each snake's ``W x W`` block of a grid (``windows``: its sliding-window
+        view) whose top-left cell is ``corner``, turned by the snake's quarter turns into its own
+        frame (frame offset ``(i, j)`` shows the board offset ``R^q (i, j)``: ``np.rot90`` by ``q``)."""
+        blocks = windows[corner].reshape(self.n_boards, -1)  # [B, S * W*W], a copy
+        return np.take(blocks, self._window_turn, axis=1).reshape(self.n_boards, self.n_snakes, -1)
+
     def _body_at(self, boards: np.ndarray, cells: np.ndarray) -> np.ndarray:
         """Whether each padded cell (on its board; arrays broadcast) holds a living snake's body now."""
         flat = boards * self._side ** 2 + cells
@@ -612,14 +626,15 @@ class SnakeBoards:
         """``float32[B, n_snakes, obs_dim]``: every snake's observation in its own frame."""
         n, n_snakes, n_boards = self.size, self.n_snakes, self.n_boards
         obs = np.zeros((n_boards, n_snakes, self.obs_dim), dtype=np.float32)
-        turn = self._frame_turn
         row, col = np.divmod(self._head, self._side)  # padded
         scale = 1.0 / (n - 1)
         obs[:, :, 0] = self.alive
-        frame_row, frame_col = _turn_cells(turn, row - self._pad, col - self._pad, n)
+        # the head in the own frame: the board centre-relative position turned
+        frame_row, frame_col = self._to_frame(2 * (row - self._pad) - (n - 1), 2 * (col - self._pad) - (n - 1))
+        frame_row, frame_col = (frame_row + n - 1) // 2, (frame_col + n - 1) // 2
         obs[:, :, 1] = frame_row * (2.0 * scale) - 1.0
         obs[:, :, 2] = frame_col * (2.0 * scale) - 1.0
-        heading = (self.direction + turn) % 4
+        heading = (self.direction + self._frame_turn) % 4
         for d in range(4):
             obs[:, :, 3 + d] = heading == d
         obs[:, :, 7] = self.length * (1.0 / n)
@@ -637,7 +652,7 @@ class SnakeBoards:
             best_dr = np.where(closer, dr, best_dr)
             best_dc = np.where(closer, dc, best_dc)
         found = best <= self._no_food
-        vr, vc = _turn_vectors(turn, best_dr, best_dc)
+        vr, vc = self._to_frame(best_dr, best_dc)
         obs[:, :, 8] = vr * scale
         obs[:, :, 9] = vc * scale
         obs[:, :, 10] = np.where(found, best * (0.5 * scale), 1.0)
@@ -663,27 +678,35 @@ class SnakeBoards:
             near = np.abs(target_row - row[:, k, None, None]) + np.abs(target_col - col[:, k, None, None]) == 1
             contested |= rival & near
         obs[:, :, 15:19] = contested
-        # local window, channel by channel
-        w2 = self.window ** 2
+        # local window: each head's W x W block of the padded grid, turned into the own frame
+        v, w = self.view_radius, self.window
+        w2 = w * w
         window = obs[:, :, N_HEADER:N_HEADER + N_CHANNELS * w2].reshape(n_boards, n_snakes, N_CHANNELS, w2)
-        cells = self._head[:, :, None] + self._window_delta
-        flat = self._cell_offset[:, None, None] + cells
-        owner = self._owner_flat[flat].astype(np.int64)
-        stamp = self._stamp_flat[flat]
-        body = stamp > self._body_threshold(self.t, self.length, owner)
-        mine = owner == self._snakes[:, None]
-        team = np.take(self._team_of_owner, owner)
-        mate = team == self.team_of[:, None]
+        corner = (self._boards[:, None], row - v, col - v)
+        owner = self._window_blocks(self._owner_windows, corner)
+        stamp = self._window_blocks(self._stamp_windows, corner)
+        threshold = np.where(self.alive, self.t[:, None] - self.length, _NEVER32).astype(np.int32)
+        body = np.zeros(owner.shape, dtype=bool)
+        mate = np.zeros(owner.shape, dtype=bool)  # a cell of my team (me included)
+        for k in range(n_snakes):
+            of_k = owner == k
+            body |= of_k & (stamp > threshold[:, k, None, None])
+            mate |= of_k & (self.team_of[k] == self.team_of)[None, :, None]
+        mine = owner == self._snakes[:, None].astype(np.int8)
         window[:, :, 0] = owner == _WALL
         window[:, :, 1] = body & mine
         window[:, :, 2] = body & ~mine & mate
         window[:, :, 3] = body & ~mate
         window[:, :, 4] = body & ~mine & (stamp == self.t[:, None, None])
-        window[:, :, 5] = _any_of([cells == self._food[:, j, None, None] for j in range(self.n_food)], cells.shape)
+        if self.n_food:
+            fr, fc = self._to_frame(food_row[:, None, :] - row[:, :, None],
+                                    food_col[:, None, :] - col[:, :, None])  # [B, S, F], own frame
+            b, k, j = np.nonzero((np.abs(fr) <= v) & (np.abs(fc) <= v))
+            window[b, k, 5, (fr[b, k, j] + v) * w + fc[b, k, j] + v] = 1.0
         # the others: teammates first, then opponents
         if n_snakes > 1:
             o = self._others  # [S, S-1]
-            vr, vc = _turn_vectors(turn[:, None], row[:, o] - row[:, :, None], col[:, o] - col[:, :, None])
+            vr, vc = self._to_frame(row[:, o] - row[:, :, None], col[:, o] - col[:, :, None])
             others = obs[:, :, N_HEADER + N_CHANNELS * w2:].reshape(n_boards, n_snakes, n_snakes - 1, PER_OTHER)
             others[..., 0] = vr * scale
             others[..., 1] = vc * scale
