@@ -7,15 +7,20 @@ specs with the same agents:
 
 * ``engine``: :class:`arena_league.matchmaking.LockstepRunner` with ``--batch-size`` matches in
   flight; the 100 agents stack into one bundle, so each step is one batched forward for every
-  acting seat of every match;
-* ``naive``: one match at a time, one forward per acting seat per step (each agent its own torch
-  module, no batching), uniforms drawn from the same per-match generators.
+  acting seat of every match. It steps the game rules directly (results need no social-tree
+  rewards), GoBang's matches all at once on its whole-array engine;
+* ``engine_env_path``: the same runner stepping one env per match through the env's array API
+  (rewards computed), as the naive loop does, on the first ``--env-path-matches``: what batching
+  the policy calls alone brings;
+* ``naive``: one match at a time through the env's array API, one forward per seat per step
+  (each agent its own torch module, no batching), uniforms drawn from the same per-match
+  generators; for turn-based games also ``naive_acting_seat_only``, asking only the seat to move.
 
 Both run on one core (the process is pinned and torch uses one thread), and their results are
 compared match by match. The estimate of a full round robin of 100 agents at 10 matches per pair
 (4950 pairs, 49,500 matches) divides that count by each side's measured matches/s.
 
-    python benchmarks/match_engine.py [--agents 100] [--matches 256] [--naive-matches 24] [--batch-size 128]
+    python benchmarks/match_engine.py [--agents 100] [--matches N] [--naive-matches 24] [--batch-size N] [--repeats 3]
 """
 
 from __future__ import annotations
@@ -42,6 +47,10 @@ from arena_league.matchmaking.specs import MatchResult
 from arena_league.population.families import Architecture, TorchPolicy
 
 GAMES = ("Crossroads-2T2P-v1", "GoBang-2T1P-v1")
+#: Per game: matches the engine plays, and matches in flight (the setting that ran fastest on the
+#: 2-core development machine: 256 pymunk spaces in flight fall out of the CPU caches, while GoBang's
+#: whole-array engine and the stacked forward want every agent present in each call).
+DEFAULTS = {"Crossroads-2T2P-v1": (256, 64), "GoBang-2T1P-v1": (2048, 1024)}
 
 
 def pin_to_one_core() -> str:
@@ -60,8 +69,9 @@ def population(game_id: str, n_agents: int) -> dict[str, TorchPolicy]:
     return {f"mlp-{i:03d}": TorchPolicy(arch, seed=i, name=f"mlp-{i:03d}") for i in range(n_agents)}
 
 
-def naive_play(spec: MatchSpec, policies: dict[str, TorchPolicy]) -> MatchResult:
-    """One match, one forward per acting seat per step (the same seeds and acting rule as the engine)."""
+def naive_play(spec: MatchSpec, policies: dict[str, TorchPolicy], acting_only: bool = False) -> MatchResult:
+    """One match, one forward per seat per step, no batching (the same seeds as the engine). With
+    ``acting_only``, only the seats whose action the rules take (the engine's rule) are asked."""
     env = make(spec.game_id)
     rules = env.rules
     obs = env.reset_arrays(spec.seed)
@@ -73,9 +83,14 @@ def naive_play(spec: MatchSpec, policies: dict[str, TorchPolicy]) -> MatchResult
     while not done:
         uniforms = rng.random((n, k))
         mask = rules.action_mask()
-        acting = [rules.current_player()] if rules.turn_based else np.flatnonzero(rules.measures.active)
+        if not acting_only:
+            seats = range(n)
+        elif rules.turn_based:
+            seats = [rules.current_player()]
+        else:
+            seats = np.flatnonzero(rules.measures.active)
         actions = np.zeros(n, dtype=np.int64)
-        for seat in acting:
+        for seat in seats:
             row = slice(seat, seat + 1)
             action, _ = seat_policies[seat].act(obs[row], uniforms[row], None if mask is None else mask[row])
             actions[seat] = action[0]
@@ -84,43 +99,59 @@ def naive_play(spec: MatchSpec, policies: dict[str, TorchPolicy]) -> MatchResult
     return MatchResult.from_team_result(spec, rules.team_of, env.team_result(), env.step_count)
 
 
-def measure(game_id: str, n_agents: int, n_matches: int, n_naive: int, batch_size: int) -> dict:
+def timed(play, repeats: int) -> tuple[list[MatchResult], dict]:
+    """Runs ``play()`` ``repeats`` times; the figures are those of the fastest run (the machine is
+    shared, so slower runs measure the neighbours)."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        results = play()
+        times.append(time.perf_counter() - start)
+    best = min(times)
+    steps = sum(r.steps for r in results)
+    return results, {"matches": len(results), "env_steps": steps, "seconds": round(best, 3),
+                     "seconds_all_runs": [round(t, 3) for t in times],
+                     "matches_per_s": round(len(results) / best, 2), "env_steps_per_s": round(steps / best)}
+
+
+def measure(game_id: str, n_agents: int, n_matches: int, n_naive: int, n_env_path: int, batch_size: int,
+            repeats: int) -> dict:
     policies = population(game_id, n_agents)
     seatings = round_robin(list(policies), 1, limit=n_matches)
     specs = specs_for_seatings(game_id, seatings, league_seed=2020)
-    agents_in_play = len({key for spec in specs for key in spec.seats})
+    naive_specs = specs[:n_naive]
+    turn_based = make(game_id).rules.turn_based
 
     runner = LockstepRunner(game_id, policies, batch_size=batch_size)
-    start = time.perf_counter()
-    engine_results = runner.play(specs)
-    engine_s = time.perf_counter() - start
-    engine_steps = sum(r.steps for r in engine_results)
-
-    start = time.perf_counter()
-    naive_results = [naive_play(spec, policies) for spec in specs[:n_naive]]
-    naive_s = time.perf_counter() - start
-    naive_steps = sum(r.steps for r in naive_results)
-
-    engine = {"matches": len(engine_results), "env_steps": engine_steps, "seconds": round(engine_s, 3),
-              "matches_per_s": round(len(engine_results) / engine_s, 2),
-              "env_steps_per_s": round(engine_steps / engine_s), "batch_size": batch_size}
-    naive = {"matches": len(naive_results), "env_steps": naive_steps, "seconds": round(naive_s, 3),
-             "matches_per_s": round(len(naive_results) / naive_s, 2),
-             "env_steps_per_s": round(naive_steps / naive_s)}
+    engine_results, engine = timed(lambda: runner.play(specs), repeats)
+    engine.update(batch_size=batch_size, path=runner.stepping_path())
+    figures = {"engine": engine}
+    # the same runner stepping one env per match through the env API (rewards computed), as the
+    # naive loop does: what batching the policies alone brings
+    env_path = LockstepRunner(game_id, policies, batch_size=min(batch_size, 64), path="env")
+    env_specs = specs[:n_env_path]
+    env_results, figures["engine_env_path"] = timed(lambda: env_path.play(env_specs), repeats)
+    figures["engine_env_path"]["batch_size"] = env_path.batch_size
+    assert env_results == engine_results[:n_env_path]
+    naive_results, figures["naive"] = timed(lambda: [naive_play(s, policies) for s in naive_specs], repeats)
+    if turn_based:
+        acting_results, figures["naive_acting_seat_only"] = timed(
+            lambda: [naive_play(s, policies, acting_only=True) for s in naive_specs], repeats)
+        assert acting_results == naive_results
     round_robin_matches = n_agents * (n_agents - 1) // 2 * 10
     return {
         "game_id": game_id,
         "agents": n_agents,
-        "agents_in_play": agents_in_play,
-        "mean_match_steps": round(engine_steps / len(engine_results), 1),
-        "engine": engine,
-        "naive": naive,
-        "speedup_env_steps_per_s": round(engine["env_steps_per_s"] / naive["env_steps_per_s"], 2),
-        "results_identical_to_naive": [r for r in engine_results[:n_naive]] == naive_results,
+        "agents_in_play": len({key for spec in specs for key in spec.seats}),
+        "mean_match_steps": round(engine["env_steps"] / engine["matches"], 1),
+        **figures,
+        "speedup_vs_naive": {name: round(engine["env_steps_per_s"] / f["env_steps_per_s"], 2)
+                             for name, f in figures.items() if name.startswith("naive")},
+        "results_identical_to_naive": engine_results[:n_naive] == naive_results,
         "round_robin_100x100_at_10_per_pair": {
             "matches": round_robin_matches,
             "engine_hours": round(round_robin_matches / engine["matches_per_s"] / 3600, 2),
-            "naive_hours": round(round_robin_matches / naive["matches_per_s"] / 3600, 2),
+            "naive_hours": round(round_robin_matches / figures["naive"]["matches_per_s"] / 3600, 2),
         },
     }
 
@@ -128,9 +159,12 @@ def measure(game_id: str, n_agents: int, n_matches: int, n_naive: int, batch_siz
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--agents", type=int, default=100)
-    parser.add_argument("--matches", type=int, default=256, help="matches the engine plays per game")
+    parser.add_argument("--matches", type=int, help="matches the engine plays per game (default: per game)")
     parser.add_argument("--naive-matches", type=int, default=24, help="matches the naive loop plays per game")
-    parser.add_argument("--batch-size", type=int, default=128)
+    parser.add_argument("--env-path-matches", type=int, default=128,
+                        help="matches the engine plays on its env path per game")
+    parser.add_argument("--batch-size", type=int, help="matches in flight (default: per game)")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each side; the fastest counts")
     parser.add_argument("--games", nargs="*", default=list(GAMES))
     args = parser.parse_args()
     pinning = pin_to_one_core()
@@ -141,7 +175,9 @@ def main() -> None:
         "machine": platform.machine(),
         "cpu_setting": pinning,
         "policy": "mlp (64, 64) tanh, float64 compute (the population default), sampled with the engine's uniforms",
-        "games": [measure(g, args.agents, args.matches, args.naive_matches, args.batch_size) for g in args.games],
+        "games": [measure(g, args.agents, args.matches or DEFAULTS.get(g, (256, 64))[0], args.naive_matches,
+                          args.env_path_matches, args.batch_size or DEFAULTS.get(g, (256, 64))[1], args.repeats)
+                  for g in args.games],
     }
     json.dump(report, sys.stdout, indent=2)
     sys.stdout.write("\n")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from arena_league.envs import make
+from arena_league.envs import game_spec, list_games, make
 from arena_league.matchmaking import (
     AgentRef,
     LockstepRunner,
@@ -20,7 +20,7 @@ from arena_league.matchmaking import (
     specs_for_seatings,
 )
 from arena_league.population.families import Architecture, TorchPolicy
-from arena_league.population.scripted import RandomPolicy
+from arena_league.population.scripted import HeuristicPolicy, RandomPolicy
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -130,3 +130,36 @@ def test_bad_input_is_refused_with_the_reason():
         AgentRef("pickle", "x.pkl", game)
     with pytest.raises(ValueError, match="unknown scripted agent"):
         load_agents({"x": AgentRef("scripted", "genius", game)})
+
+
+@pytest.mark.parametrize("game_id, env_kwargs", [("GoBang-2T1P-v1", {}), ("GoBang-2T2P-v1", {}),
+                                                 ("GoBang-2T1P-v1", {"max_cycles": 8}),
+                                                 ("GoBang-2T1P-v1", {"size": 7, "n_in_row": 4})])
+def test_whole_array_engine_plays_exactly_like_one_env_per_match(game_id, env_kwargs):
+    spec = action_spec_of(make(game_id, **env_kwargs))
+    agents = {"random": RandomPolicy(spec), "heuristic": HeuristicPolicy(game_id, spec)}
+    specs = specs_for_seatings(game_id, round_robin(list(agents), 6), league_seed=3)
+    per_env = LockstepRunner(game_id, agents, batch_size=5, env_kwargs=env_kwargs, path="env").play(specs)
+    engine = LockstepRunner(game_id, agents, batch_size=5, env_kwargs=env_kwargs)
+    assert engine.stepping_path() == "engine"
+    assert engine.play(specs) == per_env
+    if "max_cycles" in env_kwargs:
+        assert {r.steps for r in per_env} == {8} and {r.outcomes for r in per_env} == {("draw", "draw")}
+
+
+@pytest.mark.parametrize("game_id", list_games())
+def test_every_path_gives_the_env_results(game_id):
+    env_kwargs = {"max_cycles": 40}
+    agents = load_agents(_scripted(game_id))
+    n_teams = game_spec(game_id).n_teams
+    seatings = [tuple((["random", "heuristic"] * n_teams)[shift: shift + n_teams]) for shift in (0, 1)]
+    specs = specs_for_seatings(game_id, seatings * 2, league_seed=8)
+    expected = LockstepRunner(game_id, agents, batch_size=3, env_kwargs=env_kwargs, path="env").play(specs)
+    paths = ["rules"] + (["engine"] if game_id.startswith("GoBang") else [])
+    for path in paths:
+        runner = LockstepRunner(game_id, agents, batch_size=3, env_kwargs=env_kwargs, path=path)
+        assert runner.stepping_path() == path
+        assert runner.play(specs) == expected, path
+    assert all(0 < r.steps <= 40 for r in expected)
+    if n_teams > 2:
+        assert all(r.positions is not None and min(r.positions) == 1 for r in expected)

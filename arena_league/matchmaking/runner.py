@@ -22,13 +22,18 @@ different batch sizes could in principle flip a sample lying on a probability bo
 Acting seats: in turn-based games only the seat to move is asked for an action; elsewhere only
 active seats (not arrived, not eliminated). The others get a fixed legal filler (action 0, or
 zeros) that the rules ignore; recurrent states advance only when a seat acts.
+
+Stepping paths: a result needs the rules' outcome, not the social-tree rewards, so unless a replay
+is recorded (or observations carry broadcast boards or the global state) the runner steps each
+match's game rules directly, or, for games with a whole-array engine (GoBang), all matches at
+once on it; see :class:`LockstepRunner`'s ``path``. Every path gives the same results.
 """
 
 from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +43,10 @@ from arena_league.envs import make
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.population.policy import ActionSpec, Policy
 
-__all__ = ["LockstepRunner", "PolicyError", "PolicyUnit", "action_spec_of", "policy_units"]
+__all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "action_spec_of", "policy_units"]
+
+#: How a runner steps its matches (see :class:`LockstepRunner`).
+PATHS = ("auto", "env", "rules", "engine")
 
 
 class PolicyError(RuntimeError):
@@ -87,11 +95,126 @@ class _Slot:
 
     order: int  # position of the spec in the input, for returning results in order
     spec: MatchSpec
-    env: Any
     rng: np.random.Generator
-    obs: np.ndarray
     states: list[np.ndarray | None] = field(default_factory=list)
-    recorder: Any = None
+
+
+class _EnvMatches:
+    """One env per slot: the general path, and the only one that records replays. With ``direct``,
+    it steps each env's game rules itself and skips the social-tree rewards, which no result needs
+    (the env's own ``step_arrays`` minus the rewards: count the step, end when the rules say so,
+    cut at ``max_cycles`` with the rules' ``finish``)."""
+
+    def __init__(self, runner: LockstepRunner, width: int, first_env: Any, direct: bool) -> None:
+        self.runner = runner
+        self.direct = direct
+        self.envs = [first_env] + [make(runner.game_id, **runner.env_kwargs) for _ in range(width - 1)]
+        self.obs: list[np.ndarray | None] = [None] * width
+        self.recorders: list[Any] = [None] * width
+        self.steps = [0] * width
+        self.max_cycles = first_env.max_cycles
+
+    def start(self, position: int, spec: MatchSpec) -> None:
+        env = self.envs[position]
+        if self.direct:
+            env.rules.reset(spec.seed)
+            self.obs[position] = env.rules.observe()
+            self.steps[position] = 0
+            return
+        self.obs[position] = env.reset_arrays(spec.seed)
+        if self.runner.record_dir is not None:
+            from arena_league.replay.writer import MatchRecorder
+
+            self.recorders[position] = MatchRecorder.open(self.runner.record_dir, spec, env,
+                                                          self.runner.env_kwargs)
+
+    def gather(self, live: list[int], obs: np.ndarray, mask: np.ndarray | None, acting: np.ndarray) -> None:
+        n = self.runner.n_agents
+        turn_based = self.runner.turn_based
+        for position in live:
+            base = position * n
+            obs[base: base + n] = self.obs[position]
+            rules = self.envs[position].rules
+            if mask is not None:
+                mask[base: base + n] = rules.action_mask()
+            if turn_based:
+                acting[base: base + n] = False
+                acting[base + rules.current_player()] = True
+            else:
+                acting[base: base + n] = rules.measures.active
+
+    def step(self, live: list[int], actions: np.ndarray, acting: np.ndarray) -> list[int]:
+        n = self.runner.n_agents
+        ended = []
+        if self.direct:
+            for position in live:
+                rules = self.envs[position].rules
+                rules.step(actions[position * n: (position + 1) * n])
+                self.steps[position] += 1
+                if not rules.game_over and self.steps[position] >= self.max_cycles:
+                    rules.finish()
+                    ended.append(position)
+                elif rules.game_over:
+                    ended.append(position)
+                self.obs[position] = rules.observe()
+            return ended
+        for position in live:
+            base = position * n
+            seat_actions = actions[base: base + n]
+            recorder = self.recorders[position]
+            if recorder is not None:
+                recorder.before_step(self.obs[position], seat_actions, acting[base: base + n])
+            next_obs, rewards, terminated, truncated = self.envs[position].step_arrays(seat_actions)
+            self.obs[position] = next_obs
+            if recorder is not None:
+                recorder.after_step(rewards)
+            if terminated or truncated:
+                ended.append(position)
+        return ended
+
+    def result(self, position: int, spec: MatchSpec) -> MatchResult:
+        env = self.envs[position]
+        steps = self.steps[position] if self.direct else env.step_count
+        result = MatchResult.from_team_result(spec, self.runner.team_of, env.rules.team_result(), steps)
+        recorder, self.recorders[position] = self.recorders[position], None
+        if recorder is not None:
+            result = replace(result, replay_path=str(recorder.close(result)))
+        return result
+
+    def abort(self) -> None:
+        for position, recorder in enumerate(self.recorders):
+            if recorder is not None:
+                recorder.abort()
+                self.recorders[position] = None
+
+
+class _EngineMatches:
+    """All slots on one whole-array engine (:mod:`arena_league.matchmaking.batched`)."""
+
+    def __init__(self, runner: LockstepRunner, engine: Any) -> None:
+        self.runner = runner
+        self.engine = engine
+
+    def start(self, position: int, spec: MatchSpec) -> None:
+        self.engine.start(position, spec.seed)
+
+    def gather(self, live: list[int], obs: np.ndarray, mask: np.ndarray | None, acting: np.ndarray) -> None:
+        engine = self.engine
+        obs[...] = engine.observe().reshape(obs.shape)
+        if mask is not None:
+            mask[...] = engine.action_mask().reshape(mask.shape)
+        acting[...] = engine.acting().reshape(-1)
+
+    def step(self, live: list[int], actions: np.ndarray, acting: np.ndarray) -> list[int]:
+        n = self.runner.n_agents
+        return np.flatnonzero(self.engine.step(actions.reshape(-1, n))).tolist()
+
+    def result(self, position: int, spec: MatchSpec) -> MatchResult:
+        return MatchResult.from_team_result(spec, self.runner.team_of, self.engine.team_result(position),
+                                            self.engine.steps(position))
+
+    def abort(self) -> None:
+        pass
 
 
 class LockstepRunner:
@@ -105,10 +228,18 @@ class LockstepRunner:
             ``max_cycles``, game options); the same for every match.
         record_dir: when given, each match writes an MCAP replay there
             (:mod:`arena_league.replay`) and its result carries the path.
+        path: how matches are stepped. ``"env"``: one env per match through its array API (what
+            recording uses). ``"rules"``: one game-rules object per match stepped directly, without
+            the social-tree rewards no result needs. ``"engine"``: every match on the game's
+            whole-array engine (:mod:`arena_league.matchmaking.batched`). ``"auto"`` (default):
+            ``"env"`` when recording or when the observations carry broadcast boards or the global
+            state, else ``"engine"`` where the game has one, else ``"rules"``. Results are the same
+            on every path.
     """
 
     def __init__(self, game_id: str, policies: Mapping[str, Policy], *, batch_size: int = 64,
-                 env_kwargs: Mapping[str, Any] | None = None, record_dir: str | Path | None = None) -> None:
+                 env_kwargs: Mapping[str, Any] | None = None, record_dir: str | Path | None = None,
+                 path: str = "auto") -> None:
         if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
             raise ValueError(f"batch_size must be a positive integer (matches in flight), not {batch_size!r}")
         for key, policy in policies.items():
@@ -123,7 +254,11 @@ class LockstepRunner:
             raise ValueError("env_kwargs must not set render_mode: matches are played without pictures "
                              "(replays render afterwards from the recorded actions)")
         self.record_dir = None if record_dir is None else Path(record_dir)
+        self.path = path
+        if path not in PATHS:
+            raise ValueError(f"path must be one of {', '.join(PATHS)}, not {path!r}")
         probe = make(game_id, **self.env_kwargs)
+        self._probe = probe
         self.spec = action_spec_of(probe)
         rules = probe.rules
         self.n_agents = rules.n_agents
@@ -133,7 +268,6 @@ class LockstepRunner:
         self.uniforms_per_seat = self.spec.uniforms_per_seat
         probe.reset_arrays(0)
         self.masked = probe.rules.action_mask() is not None
-        self._envs: list[Any] = [probe]
         for key, policy in self.policies.items():
             if policy.spec.action_type != self.spec.action_type:
                 raise ValueError(f"agent {key!r} outputs {policy.spec.action_type} actions but {game_id} is "
@@ -165,29 +299,24 @@ class LockstepRunner:
         specs = list(specs)
         for spec in specs:
             self._check_spec(spec)
-        results: list[MatchResult | None] = [None] * len(specs)
-        n, k = self.n_agents, self.uniforms_per_seat
         width = min(self.batch_size, len(specs))
         if width == 0:
             return []
-        while len(self._envs) < width:
-            self._envs.append(make(self.game_id, **self.env_kwargs))
+        n, k = self.n_agents, self.uniforms_per_seat
         rows = width * n
-        obs_dim = self.spec.obs_dim
-        obs = np.zeros((rows, obs_dim), dtype=np.float32)
+        obs = np.zeros((rows, self.spec.obs_dim), dtype=np.float32)
         uniforms = np.zeros((rows, k), dtype=np.float64)
         mask = np.ones((rows, self.spec.n_actions), dtype=bool) if self.masked else None
         acting = np.zeros(rows, dtype=bool)
-        if self.discrete:
-            actions = np.zeros(rows, dtype=np.int64)
-        else:
-            actions = np.zeros((rows, self.spec.act_dim), dtype=np.float32)
+        actions = (np.zeros(rows, dtype=np.int64) if self.discrete
+                   else np.zeros((rows, self.spec.act_dim), dtype=np.float32))
         row_unit = np.full(rows, -1, dtype=np.int64)
         row_owner = np.full(rows, -1, dtype=np.int64)
         row_key: list[str | None] = [None] * rows
-
+        results: list[MatchResult | None] = [None] * len(specs)
         slots: list[_Slot | None] = [None] * width
         queue = iter(enumerate(specs))
+        matches = self._matches(width)
 
         def start(position: int) -> None:
             nxt = next(queue, None)
@@ -197,14 +326,8 @@ class LockstepRunner:
                 row_unit[base: base + n] = -1
                 return
             order, spec = nxt
-            env = self._envs[position]
-            first = env.reset_arrays(spec.seed)
-            slot = _Slot(order, spec, env, spec.seat_rng(), first)
-            slot.states = [self._initial_state(key) for key in spec.seats]
-            if self.record_dir is not None:
-                from arena_league.replay.writer import MatchRecorder
-
-                slot.recorder = MatchRecorder.open(self.record_dir, spec, env, self.env_kwargs)
+            slot = _Slot(order, spec, spec.seat_rng(), [self._initial_state(key) for key in spec.seats])
+            matches.start(position, spec)
             slots[position] = slot
             for seat, key in enumerate(spec.seats):
                 row_unit[base + seat] = self._unit_of_key[key]
@@ -214,65 +337,65 @@ class LockstepRunner:
         try:
             for position in range(width):
                 start(position)
-            self._run(slots, start, results, on_result, obs, uniforms, mask, acting, actions, row_unit, row_owner,
-                      row_key)
-        finally:
-            for slot in slots:
-                if slot is not None and slot.recorder is not None:
-                    slot.recorder.abort()
-        return [r for r in results if r is not None]
-
-    # --- internals ------------------------------------------------------------------------------
-    def _run(self, slots: list, start: Callable[[int], None], results: list, on_result: Callable | None,
-             obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None, acting: np.ndarray,
-             actions: np.ndarray, row_unit: np.ndarray, row_owner: np.ndarray, row_key: list) -> None:
-        n = self.n_agents
-        while any(slot is not None for slot in slots):
-            # gather: observations, uniforms, masks, who acts
-            for position, slot in enumerate(slots):
-                base = position * n
-                if slot is None:
-                    acting[base: base + n] = False
-                    continue
-                obs[base: base + n] = slot.obs
-                slot.rng.random(out=uniforms[base: base + n])
-                rules = slot.env.rules
-                if mask is not None:
-                    mask[base: base + n] = rules.action_mask()
-                if self.turn_based:
-                    acting[base: base + n] = False
-                    acting[base + rules.current_player()] = True
-                else:
-                    acting[base: base + n] = rules.measures.active
-            # act: one call per policy unit over all its acting rows
-            actions[...] = 0
-            live_rows = np.flatnonzero(acting)
-            units = row_unit[live_rows]
-            order = np.argsort(units, kind="stable")
-            live_rows, units = live_rows[order], units[order]
-            bounds = np.flatnonzero(np.diff(units)) + 1
-            for group in np.split(live_rows, bounds):
-                if group.size:
-                    self._act(int(row_unit[group[0]]), group, obs, uniforms, mask, actions, row_owner,
-                              row_key, slots)
-            # step every live match
-            for position, slot in enumerate(slots):
-                if slot is None:
-                    continue
-                base = position * n
-                seat_actions = actions[base: base + n]
-                if slot.recorder is not None:
-                    slot.recorder.before_step(slot.obs, seat_actions, acting[base: base + n])
-                next_obs, rewards, terminated, truncated = slot.env.step_arrays(seat_actions)
-                slot.obs = next_obs
-                if slot.recorder is not None:
-                    slot.recorder.after_step(rewards)
-                if terminated or truncated:
-                    result = self._finish(slot)
+            live = [p for p, slot in enumerate(slots) if slot is not None]
+            while live:
+                # gather: observations, masks and who acts; every live match draws its seats' uniforms
+                matches.gather(live, obs, mask, acting)
+                for position in live:
+                    slots[position].rng.random(out=uniforms[position * n: (position + 1) * n])
+                # act: one call per policy unit over all its acting rows
+                acting &= row_unit >= 0
+                actions[...] = 0
+                acting_rows = np.flatnonzero(acting)
+                units = row_unit[acting_rows]
+                order = np.argsort(units, kind="stable")
+                acting_rows, units = acting_rows[order], units[order]
+                for group in np.split(acting_rows, np.flatnonzero(np.diff(units)) + 1):
+                    if group.size:
+                        self._act(int(row_unit[group[0]]), group, obs, uniforms, mask, actions, row_owner,
+                                  row_key, slots)
+                # step every live match; ended ones report and their slots take the next spec
+                for position in matches.step(live, actions, acting):
+                    slot = slots[position]
+                    result = matches.result(position, slot.spec)
                     results[slot.order] = result
                     if on_result is not None:
                         on_result(result)
                     start(position)
+                live = [p for p, slot in enumerate(slots) if slot is not None]
+        finally:
+            matches.abort()
+        return [r for r in results if r is not None]
+
+    # --- internals ------------------------------------------------------------------------------
+    def _matches(self, width: int) -> _EnvMatches | _EngineMatches:
+        path = self.stepping_path(width)
+        if path == "engine":
+            from arena_league.matchmaking.batched import batched_engine
+
+            return _EngineMatches(self, batched_engine(self._probe, width))
+        return _EnvMatches(self, width, self._probe, direct=path == "rules")
+
+    def stepping_path(self, width: int = 1) -> str:
+        """The path (see the class docstring) this runner takes: ``"env"``, ``"rules"`` or ``"engine"``."""
+        from arena_league.matchmaking.batched import BATCHED_GAMES
+
+        probe = self._probe
+        plain = (not self.env_kwargs.get("state_in_obs")
+                 and probe.observation_space(probe.possible_agents[0]).shape[0] == probe.rules.obs_dim)
+        if self.path == "env" or self.record_dir is not None:
+            return "env"
+        if not plain:
+            if self.path != "auto":
+                raise ValueError(f"path {self.path!r} cannot build observations with broadcast boards or the "
+                                 "global state; use path='env' (or 'auto')")
+            return "env"
+        if self.path == "rules":
+            return "rules"
+        has_engine = probe.rules.name in BATCHED_GAMES
+        if self.path == "engine" and not has_engine:
+            raise ValueError(f"{self.game_id} has no whole-array engine; use path='rules' or 'auto'")
+        return "engine" if has_engine else "rules"
 
     def _check_spec(self, spec: MatchSpec) -> None:
         if spec.game_id != self.game_id:
@@ -334,12 +457,3 @@ class LockstepRunner:
                               + (f"integers 0..{spec.n_actions - 1}" if self.discrete
                                  else f"{spec.act_dim} finite floats in [-1, 1]"))
 
-    def _finish(self, slot: _Slot) -> MatchResult:
-        env = slot.env
-        replay_path = None
-        result = MatchResult.from_team_result(slot.spec, self.team_of, env.team_result(), env.step_count)
-        if slot.recorder is not None:
-            replay_path = slot.recorder.close(result)
-            result = MatchResult.from_team_result(slot.spec, self.team_of, env.team_result(), env.step_count,
-                                                  replay_path=str(replay_path))
-        return result
