@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import Any
@@ -125,7 +126,309 @@ def cmd_verify(args: argparse.Namespace) -> int:
     return 0 if report.ok else 1
 
 
+
+# --- league commands -----------------------------------------------------------------------------
+
+def _league(args: argparse.Namespace):
+    from arena_league.league import open_home
+
+    return open_home(args.home, args.db)
+
+
+def _print_record(title: str, record: dict[str, Any], keys: list[str] | None = None) -> None:
+    table = Table(title=title, show_header=False)
+    table.add_column("field", style="bold")
+    table.add_column("value")
+    for key in keys or list(record):
+        value = record.get(key)
+        if isinstance(value, float):
+            value = f"{value:.4g}"
+        table.add_row(key, str(value))
+    stdout.print(table)
+
+
+def cmd_submit(args: argparse.Namespace) -> int:
+    from arena_league.league import submit
+
+    with _league(args) as league:
+        result = submit(league, args.path, args.game, args.name, owner=args.owner)
+    if args.json:
+        emit_json(result.to_dict())
+    else:
+        colour = "green" if result.status == "active" else "bold red"
+        note = "registered" if result.created else "already registered (same bytes)"
+        stdout.print(f"[{colour}]{result.agent}: {result.status}[/] ({note}, sha256 {result.digest[:12]}, "
+                     f"{result.seconds:.1f} s)")
+        if result.reason:
+            stdout.print(f"reason: {result.reason}")
+    return 0 if result.status == "active" else 1
+
+
+def cmd_rank(args: argparse.Namespace) -> int:
+    from arena_league.league import rank
+
+    with _league(args) as league, progress_bar(f"ranking {args.agent}", args.budget) as update:
+        report = rank(league, args.agent, budget=args.budget, population=args.population, seed=args.seed,
+                      target_half_width=args.half_width, backend=args.backend, progress=update)
+    if args.json:
+        emit_json(report.to_dict())
+        return 0
+    level = int(round(report.level * 100))
+    stdout.print(f"[bold]{report.agent}[/] on {report.game_id} against {report.base} ({report.base_size} agents), "
+                 f"{report.matches} matches:")
+    stdout.print(f"  rating      {report.rating:.0f}  ({level}% CI {report.lower:.0f} .. {report.upper:.0f})")
+    stdout.print(f"  rank        {report.rank} of {report.base_size + 1}  ({level}% interval {report.rank_best} .. "
+                 f"{report.rank_worst})")
+    stdout.print(f"  percentile  {report.percentile:.1f}  ({report.percentile_lower:.1f} .. "
+                 f"{report.percentile_upper:.1f})")
+    stdout.print(f"  Nash score  {report.nash_score:+.3f}  (mass {report.nash_mass:.3f})")
+    return 0
+
+
+def cmd_leaderboard(args: argparse.Namespace) -> int:
+    from arena_league.league import leaderboard
+    from arena_league.league.leaderboard import render_terminal
+    from arena_league.league.report import write_html_report
+
+    with _league(args) as league:
+        board = leaderboard(league, args.game, args.method, population=args.population, rounds=args.rounds,
+                            seed=args.seed)
+    if args.html:
+        write_html_report(board, args.html)
+        stderr.print(f"wrote {args.html}")
+    if args.json:
+        emit_json(board.to_dict())
+    else:
+        stdout.print(render_terminal(board))
+    return 0
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from arena_league.league import evaluate, queue_evaluation
+
+    with _league(args) as league:
+        if args.queue:
+            job_id = queue_evaluation(league, args.game, args.agents, matches_per_pair=args.matches_per_pair,
+                                      seed=args.seed, backend=args.backend, workers=args.workers, record=args.record)
+            if args.json:
+                emit_json({"queued": job_id})
+            else:
+                stdout.print(f"queued evaluation job {job_id}; run `arena-league worker` to play it")
+            return 0
+        with progress_bar(f"evaluating {args.game}", 1) as update:
+            report = evaluate(league, args.game, args.agents, matches_per_pair=args.matches_per_pair, seed=args.seed,
+                              backend=args.backend, workers=args.workers, record=args.record, progress=update)
+    if args.json:
+        emit_json(report.to_dict())
+    else:
+        rate = report.played / report.seconds if report.seconds else float("nan")
+        stdout.print(f"{report.game_id}: played {report.played} matches ({report.stored} new) among "
+                     f"{len(report.agents)} agents in {report.seconds:.1f} s ({rate:.0f} matches/s, "
+                     f"{report.steps} env steps)")
+    return 0
+
+
+def cmd_matches(args: argparse.Namespace) -> int:
+    from arena_league.league import recent_matches
+
+    with _league(args) as league:
+        matches = recent_matches(league, args.game, agent=args.agent, limit=args.limit)
+    if args.json:
+        emit_json({"game_id": args.game, "matches": matches})
+        return 0
+    table = Table(title=f"last {len(matches)} matches of {args.game}")
+    for column in ("match", "seed", "result", "replay"):
+        table.add_column(column)
+    for m in matches:
+        teams: dict[int, list[str]] = {}
+        for seat in m["seats"]:
+            teams.setdefault(seat["team"], [])
+            if seat["agent"] not in teams[seat["team"]]:
+                teams[seat["team"]].append(f"{seat['agent']} ({seat['outcome']})")
+        table.add_row(m["match_key"], str(m["seed"])[:10], " vs ".join("+".join(v) for v in teams.values()),
+                      m["replay"] or "")
+    stdout.print(table)
+    return 0
+
+
+def cmd_worker(args: argparse.Namespace) -> int:
+    import logging
+
+    from arena_league.league import job_handlers
+    from arena_league.registry import run_worker
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s", stream=sys.stderr)
+    with _league(args) as league:
+        report = run_worker(league, job_handlers(), worker_id=args.worker_id, lease_seconds=args.lease,
+                            poll_seconds=args.poll, max_jobs=args.max_jobs, until_idle=args.until_idle)
+    summary = {"completed": report.completed, "failed": report.failed, "lost": report.lost, "jobs": report.job_ids}
+    if args.json:
+        emit_json(summary)
+    else:
+        stderr.print(f"worker stopped: {summary}")
+    return 0 if report.failed == 0 else 1
+
+
+def cmd_schedule(args: argparse.Namespace) -> int:
+    from arena_league.league import register_game
+    from arena_league.registry import add_schedule, list_schedules, remove_schedule
+
+    with _league(args) as league:
+        if args.action == "add":
+            if (args.every is None) == (args.cron is None):
+                raise CommandError("give exactly one of --every SECONDS or --cron 'MIN HOUR DOM MON DOW'")
+            register_game(league, args.game)
+            payload = {"game_id": args.game, "agents": None, "matches_per_pair": args.matches_per_pair,
+                       "seed": args.seed, "backend": args.backend, "workers": None, "record": False}
+            with league.transaction() as session:
+                schedule = add_schedule(session, args.name, "evaluate", payload, interval_seconds=args.every,
+                                        cron=args.cron)
+                row = _schedule_row(schedule)
+            if args.json:
+                emit_json(row)
+            else:
+                stdout.print(f"schedule {row['name']}: evaluate {args.game}, next run {row['next_run_at']}")
+            return 0
+        if args.action == "remove":
+            with league.transaction() as session:
+                remove_schedule(session, args.name)
+            if args.json:
+                emit_json({"removed": args.name})
+            return 0
+        with league.reading() as session:
+            rows = [_schedule_row(s) for s in list_schedules(session)]
+    if args.json:
+        emit_json({"schedules": rows})
+    else:
+        table = Table(title="schedules")
+        for column in ("name", "kind", "game", "every / cron", "next run", "enabled"):
+            table.add_column(column)
+        for r in rows:
+            table.add_row(r["name"], r["kind"], str(r["payload"].get("game_id")),
+                          f"{r['interval_seconds']} s" if r["interval_seconds"] else str(r["cron"]),
+                          r["next_run_at"], str(r["enabled"]))
+        stdout.print(table)
+    return 0
+
+
+def _schedule_row(schedule) -> dict[str, Any]:
+    return {"name": schedule.name, "kind": schedule.kind, "payload": schedule.payload,
+            "interval_seconds": schedule.interval_seconds, "cron": schedule.cron,
+            "next_run_at": schedule.next_run_at.isoformat(timespec="seconds"), "enabled": schedule.enabled}
+
+
+def cmd_scheduler(args: argparse.Namespace) -> int:
+    from arena_league.registry import run_scheduler, tick
+
+    with _league(args) as league:
+        if args.action == "tick":
+            jobs = tick(league)
+            if args.json:
+                emit_json({"queued": jobs})
+            else:
+                stdout.print(f"queued {len(jobs)} job(s): {jobs}")
+            return 0
+        ticks = run_scheduler(league, poll_seconds=args.poll, max_ticks=args.max_ticks)
+    if args.json:
+        emit_json({"ticks": ticks})
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from arena_league.replay import export_gif, read_replay
+
+    summary = read_replay(args.file)
+    document = asdict(summary) if hasattr(summary, "__dataclass_fields__") else dict(summary)
+    if args.gif:
+        frames = export_gif(args.file, args.gif, fps=args.fps, every=args.every)
+        document["gif"] = {"path": args.gif, "frames": frames}
+        stderr.print(f"wrote {args.gif} ({frames} frames)")
+    if args.json:
+        emit_json(document)
+    else:
+        _print_record(f"replay {args.file}", {k: v for k, v in document.items() if not isinstance(v, (dict, list))})
+    return 0
+
+
+def cmd_population(args: argparse.Namespace) -> int:
+    from arena_league.league import export_population, import_population
+    from arena_league.registry import list_populations
+
+    with _league(args) as league:
+        if args.action == "import":
+            label = import_population(league, args.folder, name=args.name)
+            if args.json:
+                emit_json({"imported": label})
+            else:
+                stdout.print(f"imported population {label}")
+            return 0
+        if args.action == "export":
+            path = export_population(league, args.population, args.destination)
+            if args.json:
+                emit_json({"exported": args.population, "path": str(path)})
+            else:
+                stdout.print(f"exported {args.population} to {path}")
+            return 0
+        with league.reading() as session:
+            rows = [{"name": p.name, "version": p.version, "game_id": p.game_id, "frozen": p.frozen,
+                     "members": len(p.members)} for p in list_populations(session, game_id=args.game)]
+    if args.json:
+        emit_json({"populations": rows})
+    else:
+        table = Table(title="populations")
+        for column in ("population", "game", "members", "frozen"):
+            table.add_column(column)
+        for r in rows:
+            table.add_row(f"{r['name']}:{r['version']}", r["game_id"], str(r["members"]), str(r["frozen"]))
+        stdout.print(table)
+    return 0
+
+
+def cmd_quickstart(args: argparse.Namespace) -> int:
+    """A whole league on the embedded default: home, agents, round robin, ranking, leaderboard."""
+    from arena_league.league import ensure_scripted_agents, evaluate, leaderboard, rank, submit
+    from arena_league.league.leaderboard import render_terminal
+
+    example = Path(__file__).resolve().parent.parent / "submissions" / "crossroads-2t2p-mlp.onnx"
+    game = args.game
+    with _league(args) as league:
+        stderr.print(f"league home: {league.home}")
+        names = ensure_scripted_agents(league, game)
+        entrant = None
+        if game == "Crossroads-2T2P-v1" and example.exists():
+            result = submit(league, example, game, "example-mlp", owner="arena-league")
+            entrant = result.agent if result.status == "active" else None
+            stderr.print(f"submitted {example.name}: {result.agent} {result.status}")
+        with progress_bar(f"round robin on {game}", 1) as update:
+            report = evaluate(league, game, names, matches_per_pair=args.matches_per_pair, seed=args.seed,
+                              progress=update)
+        stderr.print(f"base round robin: {report.played} matches in {report.seconds:.1f} s")
+        ranked = None
+        if entrant:
+            with progress_bar(f"ranking {entrant}", args.budget) as update:
+                ranked = rank(league, entrant, budget=args.budget, seed=args.seed, progress=update)
+        board = leaderboard(league, game, "bt", seed=args.seed)
+    if args.json:
+        emit_json({"home": str(league.home), "evaluation": report.to_dict(),
+                   "rank": ranked.to_dict() if ranked else None, "leaderboard": board.to_dict()})
+        return 0
+    if ranked:
+        stdout.print(f"[bold]{ranked.agent}[/]: rating {ranked.rating:.0f} ({ranked.lower:.0f} .. {ranked.upper:.0f}), "
+                     f"rank {ranked.rank} ({ranked.rank_best}..{ranked.rank_worst}) of {ranked.base_size + 1}, "
+                     f"percentile {ranked.percentile:.0f}, Nash score {ranked.nash_score:+.2f}")
+    stdout.print(render_terminal(board))
+    return 0
+
+
 # --- parser --------------------------------------------------------------------------------------
+
+def _league_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--home", default=None, help="league home (default: $ARENA_LEAGUE_HOME or ~/.arena-league)")
+    p.add_argument("--db", default=None, help="SQLAlchemy URL of the registry (default: $ARENA_LEAGUE_DB or "
+                                              "the home's league.db)")
+    p.add_argument("--json", action="store_true", help="one JSON document on stdout")
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="arena-league", description=__doc__.splitlines()[0])
@@ -144,7 +447,122 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--action-type", choices=("discrete", "continuous"), default=None)
     p.add_argument("--json", action="store_true", help="one JSON document on stdout")
     p.set_defaults(func=cmd_verify)
+
+    p = sub.add_parser("submit", help="validate an agent (ONNX file or arena-policy folder) and register it")
+    p.add_argument("path")
+    p.add_argument("--game", required=True)
+    p.add_argument("--name", required=True)
+    p.add_argument("--owner", default=None)
+    _league_options(p)
+    p.set_defaults(func=cmd_submit)
+
+    p = sub.add_parser("rank", help="place an agent against its game's base population")
+    p.add_argument("agent")
+    p.add_argument("--budget", type=_positive_int, default=200, help="at most this many matches (default 200)")
+    p.add_argument("--population", default=None, help="base population NAME[:VERSION] (default: all active agents)")
+    p.add_argument("--half-width", type=float, default=3.0, help="stop at this rank-interval half-width (places)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess")
+    _league_options(p)
+    p.set_defaults(func=cmd_rank)
+
+    p = sub.add_parser("leaderboard", help="ratings of a game's agents from the stored matches")
+    p.add_argument("game")
+    p.add_argument("--method", choices=("bt", "elo", "openskill", "nash", "alpharank"), default="bt")
+    p.add_argument("--population", default=None)
+    p.add_argument("--rounds", type=_positive_int, default=100, help="bootstrap rounds (default 100)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--html", default=None, help="also write a self-contained HTML report here")
+    _league_options(p)
+    p.set_defaults(func=cmd_leaderboard)
+
+    p = sub.add_parser("evaluate", help="round robin among a game's agents (fills its payoff table)")
+    p.add_argument("game")
+    p.add_argument("--agents", nargs="+", default=None, help="agent names (default: every active agent)")
+    p.add_argument("--matches-per-pair", type=_positive_int, default=10)
+    p.add_argument("--seed", type=int, default=0, help="league seed of the matches' seeds")
+    p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess")
+    p.add_argument("--workers", type=_positive_int, default=None)
+    p.add_argument("--record", action="store_true", help="write one MCAP replay per match under the home")
+    p.add_argument("--queue", action="store_true", help="queue the job for `arena-league worker` instead")
+    _league_options(p)
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("matches", help="the latest stored matches of a game")
+    p.add_argument("game")
+    p.add_argument("--agent", default=None)
+    p.add_argument("--limit", type=_positive_int, default=20)
+    _league_options(p)
+    p.set_defaults(func=cmd_matches)
+
+    p = sub.add_parser("worker", help="run queued and scheduled jobs")
+    p.add_argument("--worker-id", default=None)
+    p.add_argument("--lease", type=float, default=60.0, help="lease seconds (a crashed worker's job is retried after)")
+    p.add_argument("--poll", type=float, default=1.0)
+    p.add_argument("--max-jobs", type=_positive_int, default=None)
+    p.add_argument("--until-idle", action="store_true", help="stop when the queue is empty")
+    _league_options(p)
+    p.set_defaults(func=cmd_worker)
+
+    p = sub.add_parser("schedule", help="recurring evaluations: add, list, remove")
+    p.add_argument("action", choices=("add", "list", "remove"))
+    p.add_argument("name", nargs="?", default=None)
+    p.add_argument("--game", default=None)
+    p.add_argument("--every", type=_positive_int, default=None, help="interval in seconds")
+    p.add_argument("--cron", default=None, help="cron expression, 5 fields, UTC")
+    p.add_argument("--matches-per-pair", type=_positive_int, default=10)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess")
+    _league_options(p)
+    p.set_defaults(func=cmd_schedule)
+
+    p = sub.add_parser("scheduler", help="queue due scheduled jobs: run (a loop) or tick (once, for cron)")
+    p.add_argument("action", choices=("run", "tick"))
+    p.add_argument("--poll", type=float, default=30.0)
+    p.add_argument("--max-ticks", type=_positive_int, default=None)
+    _league_options(p)
+    p.set_defaults(func=cmd_scheduler)
+
+    p = sub.add_parser("replay", help="summarise an MCAP match replay; export a GIF of its top-down view")
+    p.add_argument("file")
+    p.add_argument("--gif", default=None)
+    p.add_argument("--fps", type=float, default=10.0)
+    p.add_argument("--every", type=_positive_int, default=1, help="keep one frame in N")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_replay)
+
+    p = sub.add_parser("population", help="populations: list, import FOLDER, export NAME[:V] DEST")
+    p.add_argument("action", choices=("list", "import", "export"))
+    p.add_argument("folder", nargs="?", default=None, help="import: the population folder")
+    p.add_argument("--game", default=None)
+    p.add_argument("--name", default=None, help="import: register under this name")
+    p.add_argument("--population", default=None, help="export: NAME[:VERSION]")
+    p.add_argument("--destination", default=None, help="export: a new folder")
+    _league_options(p)
+    p.set_defaults(func=cmd_population)
+
+    p = sub.add_parser("quickstart", help="a league end to end: agents, round robin, ranking, leaderboard")
+    p.add_argument("--game", default="Crossroads-2T2P-v1")
+    p.add_argument("--matches-per-pair", type=_positive_int, default=10)
+    p.add_argument("--budget", type=_positive_int, default=40)
+    p.add_argument("--seed", type=int, default=0)
+    _league_options(p)
+    p.set_defaults(func=cmd_quickstart)
     return parser
+
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    """Exceptions that describe the user's input (with the fix): printed as one line, exit 2."""
+    from arena_league.registry.errors import RegistryError
+
+    errors: list[type[BaseException]] = [CommandError, ValueError, FileNotFoundError, RegistryError]
+    try:
+        from arena_league.population.errors import ArtifactError
+
+        errors.append(ArtifactError)
+    except ImportError:
+        pass
+    return tuple(errors)
 
 
 def _positive_int(text: str) -> int:
@@ -161,7 +579,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (CommandError, ValueError, FileNotFoundError) as exc:
+    except _user_errors() as exc:
         message = str(exc)
         if getattr(args, "json", False):
             emit_json({"error": message, "kind": type(exc).__name__})

@@ -127,8 +127,10 @@ def claim_job(
     lease_seconds: float = 60.0,
     kinds: Iterable[str] | None = None,
     now: datetime | None = None,
+    job_id: int | None = None,
 ) -> ClaimedJob | None:
-    """Claim the next runnable job (queued and due, or running with an expired lease), or None.
+    """Claim the next runnable job (queued and due, or running with an expired lease), or None;
+    with `job_id`, that job only (e.g. one the caller just queued and runs itself).
 
     Jobs whose lease expired on their last allowed attempt are failed on the way.
     """
@@ -169,6 +171,8 @@ def claim_job(
         )
         if wanted is not None:
             candidate = candidate.where(Job.kind.in_(wanted))
+        if job_id is not None:
+            candidate = candidate.where(Job.id == job_id)
         if league.dialect == "postgresql":
             candidate = candidate.with_for_update(skip_locked=True)
         row = session.execute(
@@ -363,6 +367,44 @@ def run_worker(
                 "job %d: could not record its outcome; it is retried once its lease expires", job.id
             )
     return report
+
+
+def run_job_now(
+    league: League,
+    job_id: int,
+    handlers: Mapping[str, Handler],
+    *,
+    worker_id: str | None = None,
+    lease_seconds: float = 60.0,
+) -> Any:
+    """Claim the job `job_id` and run it here, in the caller's process, under a renewed lease (for
+    commands that queue work and wait for it). Returns its result; a handler error fails the
+    attempt and is re-raised, so the caller sees the cause."""
+    job = claim_job(league, worker_id or default_worker_id(), lease_seconds=lease_seconds, job_id=job_id)
+    if job is None:
+        raise InvalidRecordError(f"job {job_id} cannot be claimed: it is not queued (or already taken by a worker)")
+    if job.kind not in handlers:
+        release_job(league, job)
+        raise InvalidRecordError(f"job {job_id} is of kind {job.kind!r}, which has no handler here")
+    lease_lost = threading.Event()
+    done = threading.Event()
+    keeper = threading.Thread(target=_keep_lease, args=(league, job, lease_seconds, lease_lost, done),
+                              name=f"lease-{job.id}", daemon=True)
+    keeper.start()
+    try:
+        try:
+            result = handlers[job.kind](JobContext(league=league, job=job, lease_lost=lease_lost))
+        finally:
+            done.set()
+            keeper.join()
+    except KeyboardInterrupt:
+        release_job(league, job)
+        raise
+    except Exception:
+        fail_job(league, job, traceback.format_exc())
+        raise
+    complete_job(league, job, result)
+    return result
 
 
 def _run_one(

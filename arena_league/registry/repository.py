@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import func, or_, select
 from sqlalchemy.dialects.postgresql import insert as postgresql_insert
 from sqlalchemy.dialects.sqlite import insert as sqlite_insert
 from sqlalchemy.exc import IntegrityError
@@ -262,7 +262,7 @@ def create_agent(
         raise InvalidRecordError(
             f"a {agent_kind.value} agent needs an artifact; store it with store_artifact first"
         )
-    _refuse_taken_name(session, name)
+    refuse_taken_name(session, name)
     require_game(session, game_id)
     if artifact_sha256 is not None and session.get(Artifact, artifact_sha256) is None:
         raise InvalidRecordError(
@@ -281,7 +281,7 @@ def create_agent(
         with session.begin_nested():
             session.add(agent)
     except IntegrityError:
-        _refuse_taken_name(session, name)  # another writer took the name meanwhile
+        refuse_taken_name(session, name)  # another writer took the name meanwhile
         raise
     return agent
 
@@ -352,7 +352,8 @@ def set_agent_status(
     return target
 
 
-def _refuse_taken_name(session: Session, name: str) -> None:
+def refuse_taken_name(session: Session, name: str) -> None:
+    """Raise `NameTakenError` (naming the holder and a free name) if an agent has `name`."""
     existing = get_agent(session, name)
     if existing is None:
         return
@@ -602,6 +603,43 @@ def list_matches(
     if limit is not None:
         query = query.limit(limit)
     return list(session.scalars(query))
+
+
+def match_seat_rows(
+    session: Session,
+    game_id: str,
+    *,
+    agents: Sequence[str] | None = None,
+    exclude_job_id: int | None = None,
+) -> list[dict[str, Any]]:
+    """Every seat of a game's matches as plain rows, in match order: ``match_id``, ``match_key``,
+    ``job_id``, ``seat``, ``agent`` (name), ``team``, ``score``, ``outcome``, ``position``.
+
+    `agents` keeps the matches in which every seat is one of those agents; `exclude_job_id` drops
+    the matches a job recorded (a retried job recounts what others played).
+    """
+    query = (
+        select(Match.id, Match.match_key, Match.job_id, MatchSeat.seat, Agent.name, MatchSeat.team,
+               MatchSeat.score, MatchSeat.outcome, MatchSeat.position)
+        .join(MatchSeat, MatchSeat.match_id == Match.id)
+        .join(Agent, Agent.id == MatchSeat.agent_id)
+        .where(Match.game_id == game_id)
+        .order_by(Match.id, MatchSeat.seat)
+    )
+    if exclude_job_id is not None:
+        query = query.where(or_(Match.job_id.is_(None), Match.job_id != exclude_job_id))
+    keys = ("match_id", "match_key", "job_id", "seat", "agent", "team", "score", "outcome", "position")
+    rows = [dict(zip(keys, row)) for row in session.execute(query)]
+    if agents is None:
+        return rows
+    wanted = set(agents)
+    outside = {row["match_id"] for row in rows if row["agent"] not in wanted}
+    return [row for row in rows if row["match_id"] not in outside]
+
+
+def match_keys_of_job(session: Session, job_id: int) -> set[str]:
+    """The keys of the matches a job has recorded so far."""
+    return set(session.scalars(select(Match.match_key).where(Match.job_id == job_id)))
 
 
 def count_matches(session: Session, game_id: str | None = None) -> int:
