@@ -24,6 +24,7 @@ from arena_league.population import (
     stack_policies,
 )
 from arena_league.population.artifacts import manifest_architecture
+from arena_league.population.families import RowGroups
 
 ARCHITECTURES = {
     "mlp-discrete": Architecture("mlp", 25, "discrete", n_actions=5, hidden=(32, 32)),
@@ -180,3 +181,20 @@ def test_manifests_round_trip_and_bad_sizes_are_named():
     manifest["sizes"]["hiden"] = [3]
     with pytest.raises(ManifestError, match=r"unknown size\(s\) 'hiden' for the mlp family"):
         manifest_architecture(manifest)
+
+
+def test_row_groups_round_trip_and_keep_padding_bounded():
+    rng = np.random.default_rng(7)
+    n_members = 100
+    layouts = set()
+    for owners in (rng.integers(0, n_members, 800), rng.integers(0, 10, 50), np.array([3] * 500 + [1, 2, 9]),
+                   rng.zipf(1.5, 400) % n_members):
+        owners = torch.from_numpy(owners.astype(np.int64))
+        groups = RowGroups.of(owners, n_members)
+        rows = torch.arange(len(owners), dtype=torch.float64)[:, None]
+        assert torch.equal(groups.unpad(groups.pad(rows)), rows)
+        padded = groups.pad(rows)
+        assert torch.equal(groups.group_owner[groups.slot], owners[groups.order])  # each row meets its owner
+        assert padded.shape[0] * padded.shape[1] <= 4 * len(owners) + n_members
+        layouts.add(groups.identity)
+    assert layouts == {True, False}

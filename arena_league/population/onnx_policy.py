@@ -110,7 +110,10 @@ def _shape_text(value: onnx.ValueInfoProto) -> str:
     if info is None:
         return "a non-tensor value"
     elem, dims = info
-    kind = onnx.TensorProto.DataType.Name(elem).lower() if elem else "unknown"
+    try:
+        kind = onnx.helper.tensor_dtype_to_np_dtype(elem).name
+    except (KeyError, TypeError, ValueError):
+        kind = onnx.TensorProto.DataType.Name(elem).lower() if elem in onnx.TensorProto.DataType.values() else "unknown"
     return f"{kind}[{', '.join('N' if d is None else str(d) for d in dims)}]"
 
 
