@@ -116,13 +116,13 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
            kind: str = "submission", metadata: Mapping[str, Any] | None = None) -> SubmitResult:
     """Validate an agent artifact and register it under ``name``.
 
-    An artifact that cannot be read safely (pickle, TorchScript, .pt2, over the size limit,
-    truncated) is refused with an error and nothing is stored. One that reads but fails validation
+    An artifact that cannot be read safely (pickle, TorchScript, .pt2, over the size limit) or at
+    all (truncated, corrupt) is refused with an error and nothing is stored. One that reads but fails validation
     (wrong spaces, non-finite outputs, a crash in its validation match) is stored and registered as
     *rejected*, with the reason and the validation log. The same bytes submitted again return the
     agent already registered for them (idempotent by content hash).
     """
-    from arena_league.population import read_artifact, validate_submission
+    from arena_league.population import CorruptArtifactError, load_agent, read_artifact, validate_submission
 
     start = time.perf_counter()
     register_game(league, game_id)
@@ -132,6 +132,12 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
             return SubmitResult(existing.name, game_id, existing.status, False, artifact.digest,
                                 existing.reject_reason, existing.validation_log or "", time.perf_counter() - start)
         reg.refuse_taken_name(session, name)  # before anything is stored
+    try:
+        load_agent(artifact, game_id)
+    except CorruptArtifactError:
+        raise  # unreadable (truncated, corrupt): refused, nothing stored
+    except Exception:  # noqa: BLE001 - readable but unfit (spaces...): validation rejects it with the log
+        pass
     verdict = validate_submission(artifact, game_id)
     status = "active" if verdict.ok else "rejected"
     info = verdict.spec.as_dict() if verdict.spec else {}
