@@ -112,6 +112,13 @@ def test_onnx_export_equals_the_torch_forward(name):
     assert obs_input.type.tensor_type.shape.dim[0].dim_param == "N"  # the batch dimension is dynamic
 
 
+def test_a_stacked_member_exports_to_the_same_onnx_as_the_agent_alone():
+    arch = ARCHITECTURES["gru-discrete"]
+    stacked = StackedPolicy.from_seeds(arch, [5, 6, 7])
+    assert stacked.export_member_onnx(1, game_id="Crossroads-2T2P-v1") == export_onnx(
+        arch, init_parameters(arch, 6), game_id="Crossroads-2T2P-v1")
+
+
 def test_stacked_policy_acts_like_its_members_whatever_the_batch():
     arch = ARCHITECTURES["mlp-discrete"]
     policies = [TorchPolicy(arch, _sharpened(arch, s), name=f"agent-{s}") for s in range(5)]

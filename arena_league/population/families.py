@@ -644,6 +644,12 @@ class TorchPolicy(Policy):
         """The agent's float32 parameters (the safetensors layout)."""
         return {k: v.detach().clone() for k, v in self.module.state_dict().items()}
 
+    def export_onnx(self, path: str | None = None, game_id: str | None = None) -> bytes:
+        """This agent as ONNX bytes (written to ``path`` when given); see :mod:`.onnx_export`."""
+        from arena_league.population.onnx_export import export_onnx
+
+        return export_onnx(self.architecture, self.parameters(), path, game_id)
+
     def initial_state(self, n: int) -> np.ndarray | None:
         return np.zeros((n, *self.architecture.state_shape), dtype=np.float32) if self.recurrent else None
 
@@ -707,6 +713,10 @@ class StackedPolicy(Policy):
         """Agent ``index`` alone, as its own policy."""
         return TorchPolicy(self.architecture, self.bundle.member_parameters(index), name=self.member_names[index],
                            greedy=self.greedy, compute_dtype=self.compute_dtype)
+
+    def export_member_onnx(self, index: int, path: str | None = None, game_id: str | None = None) -> bytes:
+        """Member ``index`` as ONNX bytes (written to ``path`` when given)."""
+        return self.member(index).export_onnx(path, game_id)
 
     def initial_state(self, n: int) -> np.ndarray | None:
         return np.zeros((n, *self.architecture.state_shape), dtype=np.float32) if self.recurrent else None
