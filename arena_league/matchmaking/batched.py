@@ -1,7 +1,7 @@
 """Whole-array engines: many matches of a board game stepped by a few numpy operations.
 
-Some games ship a batched engine beside their single-match rules (GoBang's ``GoBangBoards``,
-whose one-board instance *is* ``GoBangRules``' engine). When the league only needs outcomes (no
+Some games ship a batched engine beside their single-match rules (GoBang's ``GoBangBoards`` and
+Snake's ``SnakeBoards``, whose one-board instances *are* the rules' engines). When the league only needs outcomes (no
 replay, no broadcast boards, no global state in the observations), the lockstep runner steps all
 its matches through such an engine instead of one env per match: the same moves, observations and
 results, without paying a Python env step per match. A match's result is still a function of its
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BATCHED_GAMES", "GoBangMatches", "batched_engine"]
+__all__ = ["BATCHED_GAMES", "GoBangMatches", "SnakeMatches", "batched_engine"]
 
 
 class GoBangMatches:
@@ -91,8 +91,55 @@ class GoBangMatches:
         return (np.arange(2) == winner).astype(np.float64)
 
 
+class SnakeMatches:
+    """Snake matches stepped together on a ``SnakeBoards`` engine built like ``SnakeRules``' own
+    one-board engine (same size, food, start length, view, teams and quarter turns); each match's
+    board key is drawn from its seed exactly as ``SnakeRules.reset`` draws it."""
+
+    def __init__(self, rules: Any, n_slots: int, max_cycles: int) -> None:
+        from arena_league.envs.games.snake import SnakeBoards
+
+        one = rules.engine
+        self.n_slots = n_slots
+        self.max_cycles = max_cycles
+        self.boards = SnakeBoards(n_slots, one.n_snakes, size=one.size, n_food=one.n_food,
+                                  start_length=one.start_length, view_radius=one.view_radius,
+                                  team_of=one.team_of, rotations=one.rotations)
+        self.boards.done[:] = True  # idle slots: the engine leaves finished boards alone
+        self._steps = np.zeros(n_slots, dtype=np.int64)
+
+    def start(self, slot: int, seed: int) -> None:
+        key = np.random.default_rng(seed).integers(0, 2**64, size=1, dtype=np.uint64)
+        self.boards.reset(np.array([slot]), keys=key)
+        self._steps[slot] = 0
+
+    def observe(self) -> np.ndarray:
+        return self.boards.observe()
+
+    def action_mask(self) -> None:
+        return None
+
+    def acting(self) -> np.ndarray:
+        return self.boards.alive & ~self.boards.done[:, None]
+
+    def step(self, actions: np.ndarray) -> np.ndarray:
+        boards = self.boards
+        live = ~boards.done
+        boards.step(actions.astype(np.int64, copy=False))
+        self._steps += live
+        cut = live & ~boards.done & (self._steps >= self.max_cycles)  # the env's max_cycles
+        boards.done[cut] = True
+        return live & boards.done
+
+    def steps(self, slot: int) -> int:
+        return int(self._steps[slot])
+
+    def team_result(self, slot: int) -> np.ndarray:
+        return self.boards.team_scores(np.array([slot]))[0]
+
+
 #: Batched engines by game name (``GameRules.name``).
-BATCHED_GAMES: dict[str, type] = {"GoBang": GoBangMatches}
+BATCHED_GAMES: dict[str, type] = {"GoBang": GoBangMatches, "Snake": SnakeMatches}
 
 
 def batched_engine(probe_env: Any, n_slots: int) -> Any | None:

@@ -25,7 +25,7 @@ zeros) that the rules ignore; recurrent states advance only when a seat acts.
 
 Stepping paths: a result needs the rules' outcome, not the social-tree rewards, so unless a replay
 is recorded (or observations carry broadcast boards or the global state) the runner steps each
-match's game rules directly, or, for games with a whole-array engine (GoBang), all matches at
+match's game rules directly, or, for games with a whole-array engine (GoBang, Snake), all matches at
 once on it; see :class:`LockstepRunner`'s ``path``. Every path gives the same results.
 """
 
