@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
@@ -122,7 +123,13 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     *rejected*, with the reason and the validation log. The same bytes submitted again return the
     agent already registered for them (idempotent by content hash).
     """
-    from arena_league.population import CorruptArtifactError, load_agent, read_artifact, validate_submission
+    from arena_league.population import (
+        CorruptArtifactError,
+        load_agent,
+        read_artifact,
+        validate_submission,
+        write_artifact,
+    )
 
     start = time.perf_counter()
     register_game(league, game_id)
@@ -144,8 +151,10 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     meta = {**dict(metadata or {}), "artifact_kind": artifact.kind,
             **({"action_type": info["action_type"]} if info.get("action_type") else {})}
     fmt = "onnx" if artifact.kind == "onnx" else "arena-policy"
-    with league.transaction() as session:
-        stored = reg.store_artifact(session, league.home, Path(path), fmt)
+    with tempfile.TemporaryDirectory() as scratch, league.transaction() as session:
+        # store the bytes that were validated, not the file as it may be by now
+        source = artifact.content if fmt == "onnx" else write_artifact(artifact, Path(scratch) / "agent")
+        stored = reg.store_artifact(session, league.home, source, fmt)
         agent = reg.create_agent(session, name, game_id, kind, owner=owner, artifact_sha256=stored.sha256,
                                  status="pending", metadata=meta)
         reg.set_agent_status(session, agent, status, reason=verdict.reason, log=verdict.log)
