@@ -15,10 +15,13 @@ from contextlib import contextmanager
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 stdout = Console()
+if not stdout.is_terminal:  # piped or captured: no terminal width to fit, keep rows readable
+    stdout = Console(width=160)
 stderr = Console(stderr=True)
 
 
@@ -82,7 +85,7 @@ def cmd_games(args: argparse.Namespace) -> int:
     for row in rows:
         table.add_row(row["game_id"], f"{row['teams']} x {row['players_per_team']}",
                       "/".join(row["action_types"]) + (" (turns)" if row["turn_based"] else ""),
-                      str(row["obs_dim"]), tree_outline(row["default_tree"]))
+                      str(row["obs_dim"]), escape(tree_outline(row["default_tree"])))
     stdout.print(table)
     return 0
 
