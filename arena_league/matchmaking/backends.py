@@ -5,9 +5,10 @@ match specs and return the same results: a match's outcome depends only on its s
 (see :mod:`arena_league.matchmaking.specs`), never on which worker played it or with which others.
 
 * ``"inprocess"``: one runner per game in this process (agents may be loaded policies).
-* ``"process"``: a ``concurrent.futures.ProcessPoolExecutor`` (``spawn`` start method, so no
-  torch or pymunk state is forked); each worker loads the agents from their :class:`AgentRef` once
-  and plays chunks of specs.
+* ``"process"``: a ``concurrent.futures.ProcessPoolExecutor`` whose workers fork from a fork server
+  (``forkserver`` start method) that imported the league's modules once, so no state of this
+  process is inherited and later pools start at once; each worker loads the agents from their
+  :class:`AgentRef` records once and plays chunks of specs.
 * ``"ray"``: the same chunks as Ray tasks; ``ray.init(address=...)`` joins a cluster when an
   address is given (or ``RAY_ADDRESS`` is set), else starts a local instance with ``num_cpus``
   workers. Every node needs ``arena_league`` importable and the agents' artifacts at the same paths
@@ -19,7 +20,9 @@ Results come back in the order of the specs.
 from __future__ import annotations
 
 import math
+import multiprocessing
 import os
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -57,6 +60,21 @@ def _worker_init() -> None:
     # one compute thread per worker: the pool already uses every core
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("MKL_NUM_THREADS", "1")
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(1)
+
+
+#: Modules the fork server imports once, so that every pool's workers start without importing them.
+_PRELOAD = ["arena_league.matchmaking", "arena_league.population"]
+
+
+def _process_context() -> multiprocessing.context.BaseContext:
+    """A fork server that has imported the league's modules (torch included) once: its workers fork
+    from it, without inheriting this process's threads or state, and start in milliseconds."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(_PRELOAD)
+    return context
 
 
 def _chunks(specs: Sequence[MatchSpec], chunk_size: int) -> list[list[MatchSpec]]:
@@ -128,10 +146,8 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
                 on_result(result)
 
     if backend == "process":
-        import multiprocessing
-
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=n_workers, mp_context=context, initializer=_worker_init) as pool:
+        with ProcessPoolExecutor(max_workers=n_workers, mp_context=_process_context(),
+                                 initializer=_worker_init) as pool:
             futures = [(part, pool.submit(play_chunk, *args)) for part, args in tasks]
             for part, future in futures:
                 collect(part, future.result())
