@@ -88,3 +88,18 @@ def test_adaptive_placement_hook_plays_the_chosen_opponents():
     assert chooser.games.tolist() == [2, 2] and chooser.points.tolist() == [2.0, 2.0]  # the heuristic wins
     assert pair_counts(results) == {("entrant", "r0"): 1, ("r0", "entrant"): 1, ("entrant", "r1"): 1,
                                     ("r1", "entrant"): 1}
+
+
+def test_the_rating_engines_adaptive_placement_is_an_opponent_chooser():
+    from arena_league.rating.placement import AdaptivePlacement
+
+    game = "GoBang-2T1P-v1"
+    agents = {"entrant": AgentRef("scripted", "heuristic", game), "weak": AgentRef("scripted", "random", game),
+              "strong": AgentRef("scripted", "heuristic", game)}
+    chooser = AdaptivePlacement([-200.0, 200.0], budget=6)
+    assert isinstance(chooser, OpponentChooser)
+    results = play_adaptive("entrant", ["weak", "strong"], chooser, lambda specs: play_matches(specs, agents), game,
+                            league_seed=2)
+    assert len(results) == chooser.matches == 6
+    assert [r.match_id for r in results] == list(range(6))
+    assert chooser.placement.matches == 6
