@@ -566,6 +566,10 @@ def import_population(league: League, source: str | Path, *, name: str | None = 
 
 def job_handlers(progress: Progress | None = None) -> dict[str, Callable[[reg.JobContext], Any]]:
     """The job kinds a league worker runs."""
+    import torch
+
+    # a league process runs many tiny batched forwards: one thread beats OpenMP's hand-offs
+    torch.set_num_threads(1)
     return {
         "evaluate": lambda ctx: handle_evaluate(ctx, progress),
         "rank": lambda ctx: handle_rank(ctx, progress),

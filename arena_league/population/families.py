@@ -65,7 +65,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from arena_league.population.errors import ManifestError
-from arena_league.population.policy import ActionSpec, Policy, sample_from_logits
+from arena_league.population.policy import ActionSpec, Policy, legal_mask, sample_from_logits
 
 FAMILIES: tuple[str, ...] = ("mlp", "cnn", "gru")
 ACTIVATIONS: tuple[str, ...] = ("tanh", "relu")
@@ -445,7 +445,8 @@ class RowGroups:
         groups_per_owner = (counts + cap - 1) // cap
         first_group = torch.cumsum(groups_per_owner, 0) - groups_per_owner
         slot = first_group[sorted_owners] + torch.div(rank, cap, rounding_mode="floor")
-        group_owner = torch.repeat_interleave(torch.arange(n_members), groups_per_owner)
+        # computed in numpy: torch.repeat_interleave syncs its output size and stalls on busy threads
+        group_owner = torch.from_numpy(np.repeat(np.arange(n_members), groups_per_owner.numpy()))
         return cls(order, slot, rank % cap, group_owner, n, max(1, min(cap, largest)), False)
 
     @property
@@ -595,22 +596,6 @@ def _actions(values: np.ndarray, arch: Architecture, uniforms: np.ndarray, mask:
         masked = np.where(mask, values, -np.inf) if mask is not None else values
         return masked.argmax(axis=1).astype(np.int64)
     return sample_from_logits(values, uniforms, mask)
-
-
-def legal_mask(mask: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray | None:
-    """``mask`` checked against ``[N, n_actions]``; rows with no legal action (a finished board)
-    become all legal, since the env ignores those seats' actions."""
-    if mask is None:
-        return None
-    mask = np.asarray(mask, dtype=bool)
-    if mask.shape != shape:
-        raise ValueError(f"action mask has shape {mask.shape}, expected {shape} (one row per seat, one column "
-                         "per action)")
-    empty = ~mask.any(axis=1)
-    if empty.any():
-        mask = mask.copy()
-        mask[empty] = True
-    return mask
 
 
 def _check_obs(obs: np.ndarray, spec: ActionSpec, name: str) -> np.ndarray:

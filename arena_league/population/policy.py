@@ -67,3 +67,19 @@ def sample_from_logits(logits: np.ndarray, uniforms: np.ndarray, mask: np.ndarra
     u = uniforms[:, :1]
     choice = (cdf < u).sum(axis=1)
     return np.minimum(choice, logits.shape[1] - 1).astype(np.int64)
+
+
+def legal_mask(mask: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray | None:
+    """``mask`` checked against ``[N, n_actions]``; rows with no legal action (a finished board)
+    become all legal, since the env ignores those seats' actions."""
+    if mask is None:
+        return None
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != shape:
+        raise ValueError(f"action mask has shape {mask.shape}, expected {shape} (one row per seat, one column "
+                         "per action)")
+    empty = ~mask.any(axis=1)
+    if empty.any():
+        mask = mask.copy()
+        mask[empty] = True
+    return mask

@@ -20,8 +20,7 @@ import json
 import numpy as np
 
 from arena_league.envs import game_spec
-from arena_league.population.families import legal_mask
-from arena_league.population.policy import ActionSpec, Policy, sample_from_logits
+from arena_league.population.policy import ActionSpec, Policy, legal_mask, sample_from_logits
 from arena_league.population.spaces import game_action_spec
 
 SCRIPTED_NAMES: tuple[str, ...] = ("random", "heuristic")
