@@ -13,8 +13,21 @@ from arena_league.envs.core import GameRules, Measures
 from arena_league.envs.env import ArenaParallelEnv
 from arena_league.envs.social.tree import SocialTree, TreeSpecError
 
-__all__ = ["make", "make_aec", "list_games", "game_spec", "default_tree", "make_rules", "build_tree",
-           "ArenaParallelEnv", "GameRules", "Measures", "SocialTree", "TreeSpecError", "GameSpec"]
+__all__ = [
+    "ArenaParallelEnv",
+    "GameRules",
+    "GameSpec",
+    "Measures",
+    "SocialTree",
+    "TreeSpecError",
+    "build_tree",
+    "default_tree",
+    "game_spec",
+    "list_games",
+    "make",
+    "make_aec",
+    "make_rules",
+]
 
 ACTION_TYPES = ("discrete", "continuous")
 

@@ -24,7 +24,14 @@ import numpy as np
 
 from arena_league import registry as reg
 from arena_league.envs import game_spec
-from arena_league.matchmaking import AgentRef, MatchResult, play_adaptive, play_matches, round_robin, specs_for_seatings
+from arena_league.matchmaking import (
+    AgentRef,
+    MatchResult,
+    play_adaptive,
+    play_matches,
+    round_robin,
+    specs_for_seatings,
+)
 from arena_league.registry import League
 
 MATCH_IDS_PER_JOB = 2**20
@@ -463,7 +470,7 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
             raise ValueError(f"no matches of {game_id} in this league yet; play some with "
                              f"`arena-league evaluate {game_id}`")
         if population is not None:
-            label, names, _ = base_population(league, game_id, "", population)
+            _, names, _ = base_population(league, game_id, "", population)
             agents = [reg.require_agent(session, n) for n in names]
         else:
             agents = [a for a in reg.list_agents(session, game_id=game_id) if a.status in ("active", "retired")]

@@ -23,9 +23,8 @@ from google.protobuf.message import DecodeError
 from onnxruntime.capi import onnxruntime_pybind11_state as _ort_state
 
 from arena_league.population.errors import CorruptArtifactError, SpaceMismatchError
-from arena_league.population.policy import legal_mask
 from arena_league.population.onnx_export import META_GAME
-from arena_league.population.policy import ActionSpec, Policy, sample_from_logits
+from arena_league.population.policy import ActionSpec, Policy, legal_mask, sample_from_logits
 
 _FLOAT = onnx.TensorProto.FLOAT
 #: onnxruntime's exception types (they derive from Exception directly).

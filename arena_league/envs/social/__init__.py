@@ -13,5 +13,17 @@ from arena_league.envs.social.rewards import (
 )
 from arena_league.envs.social.tree import SocialNode, SocialTree, TreeSpecError, load_tree_spec
 
-__all__ = ["REWARD_FUNCTIONS", "SCHEMES", "NodeView", "RewardContext", "RewardFunction", "lookup_reward",
-           "register_reward", "unregister_reward", "SocialNode", "SocialTree", "TreeSpecError", "load_tree_spec"]
+__all__ = [
+    "REWARD_FUNCTIONS",
+    "SCHEMES",
+    "NodeView",
+    "RewardContext",
+    "RewardFunction",
+    "SocialNode",
+    "SocialTree",
+    "TreeSpecError",
+    "load_tree_spec",
+    "lookup_reward",
+    "register_reward",
+    "unregister_reward",
+]

@@ -185,7 +185,7 @@ def _classify(node, node_index: int, deltas: np.ndarray, perturbed: np.ndarray) 
                 corr = sxy / np.sqrt(sxx * syy) if sxx > 0 and syy > 0 else 0.0
                 sign = int(np.sign(slope)) if abs(slope) >= SLOPE_THRESHOLD and abs(corr) >= CORRELATION_THRESHOLD else 0
                 counted[sign] += 1
-                signs[f"{a}~{b}"] = {"slope": round(slope, 4), "correlation": round(float(corr), 4), "pairs": int(len(x)),
+                signs[f"{a}~{b}"] = {"slope": round(slope, 4), "correlation": round(float(corr), 4), "pairs": len(x),
                                      "sign": sign}
     if not learnable:
         verified = "NL"
@@ -201,5 +201,5 @@ def _classify(node, node_index: int, deltas: np.ndarray, perturbed: np.ndarray) 
         verified = "IS"
     declared = node.scheme
     ok = verified == declared or (n_groups == 1 and verified == "IS" and declared == "CL")
-    return NodeVerdict(node.path, declared, verified, ok, node.reward.name, [int(a) for a in agents], int(len(rows)),
+    return NodeVerdict(node.path, declared, verified, ok, node.reward.name, [int(a) for a in agents], len(rows),
                        round(learnable_share, 4), signs)
