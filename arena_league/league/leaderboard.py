@@ -1,0 +1,547 @@
+"""Leaderboards: a league's stored matches turned into ranked, interval-carrying tables.
+
+Arena (Song et al., "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent
+Intelligence", AAAI 2020) ranks agents against a population by their results; this module is the
+view of those results a user reads. It knows nothing of SQL: the registry hands it per-seat rows in
+match order, and every figure comes from the pure functions of :mod:`arena_league.rating`:
+
+- ``"bt"`` (primary): Bradley-Terry ratings on the Elo scale with percentile-bootstrap intervals
+  over resampled matches, and Chatbot Arena's rank intervals (Chiang et al. 2024);
+- ``"elo"``: classic online Elo (Elo 1978) played in match order, with the Bradley-Terry interval
+  columns beside it under ``bt_*`` names (Elo itself has no interval);
+- ``"openskill"``: Plackett-Luce skill mu and uncertainty sigma (Weng & Lin 2011), for team games
+  and free-for-all matches; sorted by the conservative score mu - 3 sigma;
+- ``"nash"``: Nash averaging (Balduzzi et al. 2018, "Re-evaluating Evaluation") of the logit
+  win-rate meta-game, with bootstrap intervals of the Nash-averaged score;
+- ``"alpharank"``: single-population alpha-Rank mass (Omidshafiei et al. 2019) on the win-rate
+  table, alpha from the automatic sweep unless given, with bootstrap intervals.
+
+Every method also returns what it can of the others at no great cost: wherever the league reduces
+to pairwise results, the Bradley-Terry columns, the Nash equilibrium, the alpha-Rank mass and the
+intransitivity share (the cyclic part of the Hodge decomposition) come with the board, so that a
+report always shows them. The win-rate matrices use the pseudo-count 0.5 (Haldane-Anscombe) where
+logits or a complete payoff table are needed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Hashable, Iterable, Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from arena_league.rating import (
+    DEFAULT_PRIOR_SD,
+    OutcomeTable,
+    PairCounts,
+    alpha_rank,
+    alpha_rank_intervals,
+    alpha_rank_sweep,
+    bootstrap_ratings,
+    elo_online,
+    intransitivity,
+    nash_averaging,
+    nash_intervals,
+    openskill_ratings,
+    rank_intervals,
+)
+
+__all__ = [
+    "ALPHA_RANK_M",
+    "ELO_INITIAL",
+    "ELO_K",
+    "METHODS",
+    "OPENSKILL_BAND",
+    "PSEUDO_COUNT",
+    "SCORE_RESOLUTION",
+    "Leaderboard",
+    "LeaderboardError",
+    "LeaderboardRow",
+    "Method",
+    "compute_leaderboard",
+    "leaderboard_cells",
+    "outcome_table",
+    "render_terminal",
+]
+
+Method = Literal["bt", "elo", "openskill", "nash", "alpharank"]
+METHODS: tuple[str, ...] = ("bt", "elo", "openskill", "nash", "alpharank")
+
+PSEUDO_COUNT = 0.5
+"""Pseudo-count added to each side of every pair before logits or alpha-Rank payoffs are taken, so
+that unbeaten pairs stay finite and unplayed pairs read as even."""
+ELO_K = 32.0
+"""Online Elo's K-factor."""
+ELO_INITIAL = 1000.0
+"""Online Elo's starting rating (also the Bradley-Terry mean)."""
+ALPHA_RANK_M = 50
+"""Population size of alpha-Rank's evolutionary model (the paper's and OpenSpiel's default)."""
+OPENSKILL_BAND = 3.0
+"""OpenSkill intervals are mu -+ 3 sigma; the lower end is the conservative score sorted by."""
+
+SCORE_RESOLUTION = 9
+"""Nash scores and alpha-Rank masses are compared to this many decimals: the solvers are exact to
+about 1e-12, and at a swept alpha the mass of every agent outside the top underflows to ~1e-30 or
+0, so that smaller differences order agents by rounding noise. Ties go to the Bradley-Terry rating."""
+
+RATING_LABELS: dict[str, str] = {
+    "bt": "Bradley-Terry rating (Elo scale)",
+    "elo": "Elo rating (online, match order)",
+    "openskill": "OpenSkill mu (interval mu ± 3 sigma)",
+    "nash": "Nash-averaged score (logit win rate)",
+    "alpharank": "alpha-Rank mass",
+}
+_DECIMALS = {"bt": 0, "elo": 0, "openskill": 2, "nash": 3, "alpharank": 3}
+
+
+class LeaderboardError(ValueError):
+    """A leaderboard cannot be computed from these matches; the message names the fix."""
+
+
+@dataclass
+class LeaderboardRow:
+    """One agent's line on a leaderboard. Rating fields are None for an agent without rated matches
+    (it is listed, unrated, at the bottom)."""
+
+    agent: str
+    kind: str | None
+    rank: int | None
+    """1 + the number of agents better beyond doubt (their interval lies above this one's)."""
+    rank_worst: int | None
+    """n - the number of agents worse beyond doubt; ``rank == rank_worst`` when the rank is sure."""
+    rating: float | None
+    """The method's primary score (see :attr:`Leaderboard.rating_label`)."""
+    lower: float | None
+    upper: float | None
+    """Interval of ``rating`` at the board's level (OpenSkill: mu -+ 3 sigma; online Elo: none)."""
+    matches: int
+    """Rated matches against other agents (matches against copies of itself say nothing)."""
+    win_rate: float | None
+    """Share of opposing teams finished ahead of, draws and ties counting half, over those matches."""
+    percentile: float | None
+    """Share of the other rated agents with a lower sort score, in percent."""
+    method_columns: dict[str, float | int | None] = field(default_factory=dict)
+    """Method-specific figures: ``mu``, ``sigma``, ``conservative`` (OpenSkill); ``nash_mass``,
+    ``nash_score``, ``alpharank_mass`` (point estimates, wherever pairwise results exist);
+    ``bt_rating``, ``bt_lower``, ``bt_upper``, ``bt_rank``, ``bt_rank_worst`` (the Bradley-Terry
+    columns, for every method but ``"bt"``); ``percentile_lower``, ``percentile_upper`` (``"bt"``)."""
+
+    @property
+    def rated(self) -> bool:
+        return self.rating is not None
+
+
+@dataclass
+class Leaderboard:
+    """A game's leaderboard by one method, with the league-level matrices it was computed from.
+
+    The matrices and vectors are indexed by :attr:`agents`: the rated agents in leaderboard order.
+    They are None when the matches do not reduce to pairwise results (teams of mixed agents).
+    """
+
+    game_id: str
+    method: str
+    level: float
+    rounds: int
+    seed: int
+    rows: list[LeaderboardRow]
+    """Best first; unrated agents last, by name."""
+    rating_label: str
+    sort_by: str
+    """The row field sorted by, descending: ``"rating"``, or ``"lower"`` (OpenSkill's mu - 3 sigma)."""
+    n_matches: int
+    agents: list[str]
+    win_rate: np.ndarray | None
+    """``win_rate[i, j]``: share of points agent i took from agent j (draws half); NaN if unplayed."""
+    games: np.ndarray | None
+    """``games[i, j]``: matches played between agents i and j (pairwise results of free-for-all)."""
+    nash_p: np.ndarray | None
+    """Maximum-entropy Nash equilibrium of the logit win-rate meta-game."""
+    nash_score: np.ndarray | None
+    alpharank_pi: np.ndarray | None
+    alpharank_alpha: float | None
+    intransitivity: float | None
+    """Cyclic share of the logit win-rate meta-game: 0 transitive, 1 rock-paper-scissors."""
+    params: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def rated_rows(self) -> list[LeaderboardRow]:
+        return [row for row in self.rows if row.rated]
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready document: plain lists, floats and None (for NaN and missing values)."""
+        return {
+            "game_id": self.game_id,
+            "method": self.method,
+            "rating_label": self.rating_label,
+            "sort_by": self.sort_by,
+            "level": float(self.level),
+            "rounds": int(self.rounds),
+            "seed": int(self.seed),
+            "n_matches": int(self.n_matches),
+            "n_agents": len(self.rows),
+            "n_rated": len(self.agents),
+            "params": _plain(self.params),
+            "rows": [_plain(asdict(row)) for row in self.rows],
+            "agents": list(self.agents),
+            "win_rate": _plain(self.win_rate),
+            "games": _plain(self.games),
+            "nash": {"p": _plain(self.nash_p), "score": _plain(self.nash_score)},
+            "alpharank": {"pi": _plain(self.alpharank_pi), "alpha": _plain(self.alpharank_alpha)},
+            "intransitivity": _plain(self.intransitivity),
+        }
+
+
+def outcome_table(rows: Iterable[Mapping[str, Any]]) -> OutcomeTable:
+    """The rating engine's :class:`OutcomeTable` from registry seat rows.
+
+    Each row maps ``match_id``, ``seat``, ``agent``, ``team``, ``score``, ``outcome`` (``"win"``,
+    ``"loss"``, ``"draw"``) and optionally ``position`` (finishing place, 1 first, for matches of more
+    than two teams). A match whose seats all carry a position is ordered by position; otherwise by
+    the outcome words (in a free-for-all without positions, the winner ahead of the others, tied).
+    """
+    by_match: dict[Hashable, list[Mapping[str, Any]]] = {}
+    for row in rows:
+        missing = [key for key in ("match_id", "seat", "agent", "team", "score", "outcome") if key not in row]
+        if missing:
+            raise LeaderboardError(f"a seat row lacks {', '.join(missing)}; pass registry seat rows "
+                                   "(match_id, seat, agent, team, score, outcome, position)")
+        by_match.setdefault(row["match_id"], []).append(row)
+    records = []
+    for match_id, seats in by_match.items():
+        positions = [seat.get("position") for seat in seats]
+        given = [position is not None for position in positions]
+        if any(given) and not all(given):
+            raise LeaderboardError(f"match {match_id!r} gives a finishing position for some seats only; "
+                                   "give every seat its team's position, or none")
+        for seat, position in zip(seats, positions):
+            place = int(position) - 1 if all(given) else seat["outcome"]
+            records.append((match_id, seat["seat"], seat["agent"], seat["team"], seat["score"], place))
+    try:
+        return OutcomeTable.from_rows(records)
+    except ValueError as error:
+        raise LeaderboardError(str(error)) from error
+
+
+def compute_leaderboard(
+    rows: Iterable[Mapping[str, Any]],
+    agents_info: Mapping[str, Mapping[str, Any]],
+    game_id: str,
+    method: Method = "bt",
+    *,
+    rounds: int = 100,
+    level: float = 0.95,
+    seed: int = 0,
+    alpha: float | None = None,
+) -> Leaderboard:
+    """The leaderboard of one game's matches by ``method`` (see the module docstring).
+
+    Args:
+        rows: per-seat rows in match order (see :func:`outcome_table`).
+        agents_info: ``{name: {"kind": ..., ...}}`` for the agents to list; those without a rated
+            match appear unrated at the bottom. Agents seated in ``rows`` but absent here are listed
+            with kind None.
+        game_id: the game, for the board's title and error messages.
+        method: ``"bt"``, ``"elo"``, ``"openskill"``, ``"nash"`` or ``"alpharank"``.
+        rounds: bootstrap rounds of every interval.
+        level: interval level (OpenSkill's intervals are always mu -+ 3 sigma).
+        seed: seed of the bootstrap.
+        alpha: alpha-Rank's selection intensity; None picks it by the sweep (as large as the
+            stationary distribution allows).
+
+    Raises:
+        LeaderboardError: an unknown method; no matches or fewer than two rated agents; more than
+            two teams or teams of mixed agents with a method other than ``"openskill"``.
+    """
+    if method not in METHODS:
+        raise LeaderboardError(f"unknown leaderboard method {method!r}; choose one of {', '.join(METHODS)}")
+    if not 0 < level < 1 or rounds < 2:
+        raise LeaderboardError(f"intervals need 0 < level < 1 and at least 2 bootstrap rounds (100 is usual); "
+                               f"got level={level}, rounds={rounds}")
+    table = outcome_table(rows)
+    if table.n_matches == 0:
+        raise LeaderboardError(f"no matches of {game_id} to rank yet; play matches first: "
+                               f"`arena-league evaluate {game_id}`")
+    n_teams = np.bincount(np.unique(np.stack([table.match, table.team], axis=1), axis=0)[:, 0])
+    if n_teams.max() > 2 and method != "openskill":
+        raise LeaderboardError(f"{game_id} has matches of {int(n_teams.max())} teams (free-for-all); "
+                               f"{method!r} rates two-team games only: use --method openskill")
+    try:
+        results = table.pairwise()
+    except ValueError as error:
+        if method != "openskill":
+            raise LeaderboardError(f"{game_id}: a team holds several different agents, so its matches are "
+                                   f"not one agent against another; {method!r} needs that: use --method "
+                                   "openskill") from error
+        results = None
+
+    skill = openskill_ratings(table) if method == "openskill" else None
+    if skill is not None:
+        rated = np.flatnonzero(skill.matches > 0)
+    else:
+        rated = np.flatnonzero(np.bincount(np.r_[results.first, results.second], minlength=table.n_agents) > 0)
+    if rated.size < 2:
+        raise LeaderboardError(f"{game_id} needs rated matches between at least two different agents "
+                               f"(it has {rated.size}); play matches first: `arena-league evaluate {game_id}`")
+    names = [table.agents[i] for i in rated]
+    params: dict[str, Any] = {"pseudo_count": PSEUDO_COUNT, "draw_model": "half", "prior_sd": DEFAULT_PRIOR_SD}
+
+    # League matrices (wherever matches reduce to pairwise results), for every method.
+    league = counts = None
+    if results is not None:
+        all_counts = PairCounts.from_results(results.first, results.second, results.score, table.agents)
+        counts = PairCounts(names, all_counts.wins[np.ix_(rated, rated)], all_counts.draws[np.ix_(rated, rated)])
+        league = _league_matrices(counts, alpha, rounds=rounds, level=level, seed=seed)
+        params.update(alpha=league["alpha"], alpha_from_sweep=alpha is None, alpha_rank_m=ALPHA_RANK_M)
+
+    # The method's primary score, its interval and its own columns.
+    columns: dict[str, np.ndarray] = {}
+    if league is not None:
+        columns.update(nash_mass=league["nash_p"], nash_score=league["nash_score"], alpharank_mass=league["pi"])
+        if method != "bt":
+            bt = league["bt"]
+            columns.update(bt_rating=bt.rating, bt_lower=bt.lower, bt_upper=bt.upper, bt_rank=bt.rank,
+                           bt_rank_worst=bt.rank_worst)
+    lower = upper = None
+    if method == "bt":
+        bt = league["bt"]
+        rating, lower, upper = bt.rating, bt.lower, bt.upper
+        columns.update(percentile_lower=bt.percentile_lower, percentile_upper=bt.percentile_upper)
+    elif method == "elo":
+        rating = elo_online(results.first, results.second, results.score, table.n_agents, k=ELO_K,
+                            initial=ELO_INITIAL)[rated]
+        params.update(elo_k=ELO_K, elo_initial=ELO_INITIAL)
+    elif method == "openskill":
+        mu, sigma = skill.mu[rated], skill.sigma[rated]
+        rating, lower, upper = mu, mu - OPENSKILL_BAND * sigma, mu + OPENSKILL_BAND * sigma
+        columns.update(mu=mu, sigma=sigma, conservative=lower)
+        params.update(openskill_model="plackett_luce", openskill_band=OPENSKILL_BAND,
+                      openskill_skipped_matches=skill.skipped)
+    elif method == "nash":
+        interval = nash_intervals(counts, pseudo_count=PSEUDO_COUNT, rounds=rounds, level=level, seed=seed)
+        rating, lower, upper = interval.point, interval.lower, interval.upper
+        del columns["nash_score"]
+    else:
+        interval = alpha_rank_intervals(counts, alpha=league["alpha"], m=ALPHA_RANK_M,
+                                        pseudo_count=PSEUDO_COUNT, rounds=rounds, level=level, seed=seed)
+        rating, lower, upper = league["pi"], interval.lower, interval.upper
+        del columns["alpharank_mass"]
+
+    # Ranks, percentiles and the order, from the sort score.
+    sort_score = {"openskill": lower, "nash": np.round(rating, SCORE_RESOLUTION),
+                  "alpharank": np.round(rating, SCORE_RESOLUTION)}.get(method, rating)
+    if method == "bt":
+        rank, rank_worst = league["bt"].rank, league["bt"].rank_worst
+    elif lower is None:
+        # competition ranking of a point score: tied agents share the range of places
+        rank = 1 + (sort_score[None, :] > sort_score[:, None]).sum(axis=1)
+        rank_worst = (sort_score[None, :] >= sort_score[:, None]).sum(axis=1)
+    else:
+        # percentile-bootstrap intervals need not hold their point estimate (an agent at the edge of
+        # the Nash support); widened to hold it, the rank range always contains the sorted position
+        rank, rank_worst = rank_intervals(np.minimum(lower, sort_score), np.maximum(upper, sort_score))
+    percentile = 100.0 * (sort_score[None, :] < sort_score[:, None]).sum(axis=1) / (rated.size - 1)
+    tie_break = league["bt"].rating if league is not None else np.zeros(rated.size)
+    order = np.array(sorted(range(rated.size), key=lambda i: (-sort_score[i], -tie_break[i], names[i])))
+
+    played, points = _matches_and_points(table)
+    board_rows = []
+    for i in order:
+        agent = rated[i]
+        board_rows.append(LeaderboardRow(
+            agent=names[i], kind=_kind(agents_info.get(names[i])), rank=int(rank[i]),
+            rank_worst=int(rank_worst[i]), rating=float(rating[i]),
+            lower=None if lower is None else float(lower[i]), upper=None if upper is None else float(upper[i]),
+            matches=int(played[agent]), win_rate=float(points[agent] / played[agent]) if played[agent] else None,
+            percentile=float(percentile[i]),
+            method_columns={key: _plain(values[i]) for key, values in columns.items()}))
+    agent_index = {name: i for i, name in enumerate(table.agents)}
+    for name in sorted((set(agents_info) | set(table.agents)) - set(names)):
+        board_rows.append(LeaderboardRow(
+            agent=name, kind=_kind(agents_info.get(name)), rank=None, rank_worst=None, rating=None,
+            lower=None, upper=None, matches=int(played[agent_index[name]]) if name in agent_index else 0,
+            win_rate=None, percentile=None))
+
+    def in_order(key: str) -> np.ndarray | None:
+        return None if league is None else league[key][order]
+
+    return Leaderboard(
+        game_id=game_id, method=method, level=level, rounds=rounds, seed=seed, rows=board_rows,
+        rating_label=RATING_LABELS[method], sort_by="lower" if method == "openskill" else "rating",
+        n_matches=table.n_matches, agents=[names[i] for i in order],
+        win_rate=None if league is None else league["win_rate"][np.ix_(order, order)],
+        games=None if league is None else league["games"][np.ix_(order, order)],
+        nash_p=in_order("nash_p"), nash_score=in_order("nash_score"), alpharank_pi=in_order("pi"),
+        alpharank_alpha=None if league is None else league["alpha"],
+        intransitivity=None if league is None else league["intransitivity"], params=params)
+
+
+def _league_matrices(counts: PairCounts, alpha: float | None, *, rounds: int, level: float,
+                     seed: int) -> dict[str, Any]:
+    """Win rates, Bradley-Terry intervals, Nash equilibrium, alpha-Rank and intransitivity."""
+    payoff = counts.logit_payoff(PSEUDO_COUNT)
+    nash_p, nash_score = nash_averaging(payoff)
+    smoothed = counts.win_rate(PSEUDO_COUNT)
+    if alpha is None:
+        sweep = alpha_rank_sweep([smoothed], m=ALPHA_RANK_M)
+        pi, alpha = sweep.pi, sweep.alpha
+    else:
+        pi = alpha_rank([smoothed], alpha=alpha, m=ALPHA_RANK_M)
+    return {
+        "win_rate": counts.win_rate(), "games": counts.games,
+        "bt": bootstrap_ratings(counts, rounds=rounds, level=level, seed=seed),
+        "nash_p": nash_p, "nash_score": nash_score, "pi": pi, "alpha": float(alpha),
+        "intransitivity": intransitivity(payoff).cyclic_share,
+    }
+
+
+def _matches_and_points(table: OutcomeTable) -> tuple[np.ndarray, np.ndarray]:
+    """Per agent: matches against other agents, and the points won in them (for each match, the
+    share of opposing teams finished ahead of, ties half). Matches where the agent sat on two teams
+    are left out."""
+    n = table.n_agents
+    n_teams_max = int(table.team.max()) + 1
+    # one entry per (match, team): its place, in (match, team) order
+    group_key = table.match * n_teams_max + table.team
+    groups, first = np.unique(group_key, return_index=True)
+    group_match, group_place = table.match[first], table.place[first]
+    starts = np.flatnonzero(np.r_[True, np.diff(group_match) != 0])
+    sizes = np.diff(np.r_[starts, groups.size])
+    group_points = np.zeros(groups.size)
+    for k in np.unique(sizes):
+        index = starts[sizes == k][:, None] + np.arange(k)[None, :]
+        place = group_place[index]
+        ahead = (place[:, None, :] > place[:, :, None]).sum(axis=-1)
+        tied = (place[:, None, :] == place[:, :, None]).sum(axis=-1) - 1
+        group_points[index] = (ahead + 0.5 * tied) / (k - 1)
+    # one entry per (match, team, agent); an agent on two teams of a match is a mirror
+    triples = np.unique(np.stack([table.match, table.agent, group_key], axis=1), axis=0)
+    _, where, seen = np.unique(triples[:, 0] * n + triples[:, 1], return_inverse=True, return_counts=True)
+    keep = seen[where] == 1
+    agent = triples[keep, 1]
+    points = group_points[np.searchsorted(groups, triples[keep, 2])]
+    return np.bincount(agent, minlength=n), np.bincount(agent, weights=points, minlength=n)
+
+
+def _kind(info: Mapping[str, Any] | None) -> str | None:
+    kind = None if info is None else info.get("kind")
+    return None if kind is None else str(kind)
+
+
+def _plain(value: Any) -> Any:
+    """numpy values and containers as JSON-ready Python values; NaN and infinities as None."""
+    if value is None or isinstance(value, (str, bool)):
+        return value
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return [_plain(v) for v in value.tolist()]
+    if isinstance(value, (np.integer, int)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        return float(value) if math.isfinite(value) else None
+    return value
+
+
+# --- views: the terminal table and the cells the HTML report shares -------------------------------
+
+def _number(value: float | None, decimals: int) -> str:
+    if value is None:
+        return ""
+    text = f"{value:.{decimals}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text  # no "-0.000"
+
+
+def _interval_text(row: LeaderboardRow, decimals: int) -> str:
+    if row.rating is None:
+        return "unrated"
+    point = _number(row.rating, decimals)
+    if row.lower is None or row.upper is None:
+        return point
+    up, down = _number(row.upper - row.rating, decimals), _number(row.rating - row.lower, decimals)
+    return f"{point} ± {up}" if up == down else f"{point} +{up}/-{down}"
+
+
+def _rank_text(row: LeaderboardRow) -> str:
+    if row.rank is None:
+        return "-"
+    return str(row.rank) if row.rank == row.rank_worst else f"{row.rank}-{row.rank_worst}"
+
+
+def _method_column_specs(board: Leaderboard) -> list[tuple[str, str, Any]]:
+    """(header, method column key, formatter) of the method-specific columns shown."""
+    def mass(v: float) -> str:
+        return _number(v, 3)
+
+    def two(v: float) -> str:
+        return _number(v, 2)
+
+    specs: list[tuple[str, str, Any]] = []
+    if board.method == "openskill":
+        specs += [("mu", "mu", two), ("sigma", "sigma", two), ("mu - 3 sigma", "conservative", two)]
+    if board.method != "bt" and board.win_rate is not None:
+        specs.append((f"BT rating ({board.level:.0%} CI)", "bt_rating", None))
+    if board.method == "bt":
+        specs.append(("Percentile CI", "percentile_lower", None))
+    if board.nash_p is not None and board.method != "nash":
+        specs.append(("Nash score", "nash_score", mass))
+    if board.nash_p is not None:
+        specs.append(("Nash mass", "nash_mass", mass))
+    if board.alpharank_pi is not None and board.method != "alpharank":
+        specs.append(("alpha-Rank mass", "alpharank_mass", mass))
+    return specs
+
+
+def _method_cell(row: LeaderboardRow, key: str, formatter: Any) -> str:
+    columns = row.method_columns
+    if key == "bt_rating":
+        if columns.get("bt_rating") is None:
+            return ""
+        return (f"{columns['bt_rating']:.0f} [{columns['bt_lower']:.0f}, {columns['bt_upper']:.0f}]")
+    if key == "percentile_lower":
+        if columns.get("percentile_lower") is None:
+            return ""
+        low, high = f"{columns['percentile_lower']:.0f}", f"{columns['percentile_upper']:.0f}"
+        return f"{low}%" if low == high else f"{low}-{high}%"
+    value = columns.get(key)
+    return "" if value is None else formatter(value)
+
+
+def leaderboard_cells(board: Leaderboard) -> tuple[list[str], list[list[str]]]:
+    """The leaderboard as text: headers and one list of cells per row (terminal and HTML views)."""
+    decimals = _DECIMALS[board.method]
+    specs = _method_column_specs(board)
+    rating_header = {"bt": "BT rating", "elo": "Elo", "openskill": "mu ± 3 sigma", "nash": "Nash score",
+                     "alpharank": "alpha-Rank mass"}[board.method]
+    if board.method in ("bt", "nash", "alpharank"):
+        rating_header += f" ({board.level:.0%} CI)"
+    headers = ["Rank", "Agent", "Kind", rating_header, "Matches", "Win rate", "Percentile"]
+    headers += [header for header, _, _ in specs]
+    cells = []
+    for row in board.rows:
+        line = [_rank_text(row), row.agent, row.kind or "", _interval_text(row, decimals), str(row.matches),
+                "" if row.win_rate is None else f"{100 * row.win_rate:.1f}%",
+                "" if row.percentile is None else f"{row.percentile:.0f}"]
+        line += [_method_cell(row, key, formatter) if row.rated else "" for _, key, formatter in specs]
+        cells.append(line)
+    return headers, cells
+
+
+def render_terminal(board: Leaderboard):
+    """The leaderboard as a :class:`rich.table.Table` (print it with a rich console)."""
+    from rich.table import Table
+
+    title = f"{board.game_id} · {board.method} · {board.n_matches} matches"
+    if board.intransitivity is not None:
+        title += f" · intransitivity {board.intransitivity:.2f}"
+    table = Table(title=title, caption=board.rating_label)
+    headers, cells = leaderboard_cells(board)
+    for i, header in enumerate(headers):
+        table.add_column(header, justify="left" if i in (1, 2) else "right", no_wrap=i == 1)
+    for line, row in zip(cells, board.rows):
+        table.add_row(*line, style=None if row.rated else "dim")
+    return table

@@ -1,0 +1,350 @@
+"""Leaderboards from stored matches (issue 4): every method on simulated leagues of known strength."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from rich.console import Console
+
+from arena_league.league.leaderboard import (
+    METHODS,
+    Leaderboard,
+    LeaderboardError,
+    compute_leaderboard,
+    outcome_table,
+    render_terminal,
+)
+
+GAME = "Duel-2T1P-v1"
+STRENGTHS = [-300.0, -150.0, 0.0, 100.0, 250.0, 400.0]  # Elo points; agent-5 is the best
+
+
+def simulated_league(strengths, n_matches, seed=0, draw_share=0.05, prefix="agent"):
+    """Seat rows of a two-team league, one agent per team, Bradley-Terry outcomes on the Elo scale."""
+    rng = np.random.default_rng(seed)
+    names = [f"{prefix}-{i}" for i in range(len(strengths))]
+    strengths = np.asarray(strengths, dtype=float)
+    rows = []
+    for match in range(n_matches):
+        a, b = rng.choice(len(names), 2, replace=False)
+        p_first = 1.0 / (1.0 + 10 ** ((strengths[b] - strengths[a]) / 400.0))
+        u = rng.random()
+        if u < draw_share:
+            outcomes = ("draw", "draw")
+        elif u < draw_share + (1 - draw_share) * p_first:
+            outcomes = ("win", "loss")
+        else:
+            outcomes = ("loss", "win")
+        for seat, (agent, outcome) in enumerate(zip((a, b), outcomes)):
+            rows.append({"match_id": match, "seat": seat, "agent": names[agent], "team": seat,
+                         "score": 1.0 if outcome == "win" else 0.0, "outcome": outcome, "position": None})
+    return rows, names
+
+
+def free_for_all(strengths, n_matches, n_teams=4, seed=0):
+    """Seat rows of free-for-all matches with finishing positions drawn from Plackett-Luce."""
+    rng = np.random.default_rng(seed)
+    names = [f"ffa-{i}" for i in range(len(strengths))]
+    theta = np.asarray(strengths, dtype=float) * math.log(10) / 400.0
+    rows = []
+    for match in range(n_matches):
+        seated = rng.choice(len(names), n_teams, replace=False)
+        finish = np.argsort(-(theta[seated] + rng.gumbel(size=n_teams)))
+        position = np.empty(n_teams, dtype=int)
+        position[finish] = np.arange(1, n_teams + 1)
+        for team, (agent, pos) in enumerate(zip(seated, position)):
+            rows.append({"match_id": f"m{match}", "seat": team, "agent": names[agent], "team": team,
+                         "score": float(n_teams - pos), "outcome": "win" if pos == 1 else "loss",
+                         "position": int(pos)})
+    return rows, names
+
+
+def cyclic_league(per_pair=50, wins=40):
+    """Rock-paper-scissors: rock beats scissors, scissors beat paper, paper beats rock, 40 of 50."""
+    rows = []
+    match = 0
+    for winner, loser in (("rock", "scissors"), ("scissors", "paper"), ("paper", "rock")):
+        for k in range(per_pair):
+            first, second = (winner, loser) if k < wins else (loser, winner)
+            for seat, (agent, outcome) in enumerate(((first, "win"), (second, "loss"))):
+                rows.append({"match_id": match, "seat": seat, "agent": agent, "team": seat, "score": 0.0,
+                             "outcome": outcome, "position": None})
+            match += 1
+    return rows
+
+
+def kinds(names, kind="trained"):
+    return {name: {"kind": kind} for name in names}
+
+
+@pytest.fixture(scope="module")
+def league():
+    rows, names = simulated_league(STRENGTHS, 600, seed=3)
+    info = kinds(names) | {"idle-submission": {"kind": "submission"}}
+    return rows, names, info
+
+
+def walk(value):
+    """Every leaf of a nested JSON-like value."""
+    if isinstance(value, dict):
+        for item in value.values():
+            yield from walk(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from walk(item)
+    else:
+        yield value
+
+
+def test_bradley_terry_recovers_the_true_order_with_intervals(league):
+    rows, names, info = league
+    board = compute_leaderboard(rows, info, GAME, "bt", rounds=100, seed=0)
+    rated = board.rated_rows
+    assert [r.agent for r in rated] == names[::-1]  # strongest first
+    assert board.agents == names[::-1] and board.n_matches == 600
+    for position, row in enumerate(rated, start=1):
+        assert row.lower <= row.rating <= row.upper
+        assert row.rank <= position <= row.rank_worst
+        assert 0.0 <= row.win_rate <= 1.0
+        assert row.kind == "trained"
+    assert sum(r.matches for r in rated) == 2 * 600
+    assert rated[0].percentile == 100.0 and rated[-1].percentile == 0.0
+    assert rated[0].rank == 1 and rated[-1].rank_worst == len(names)
+    # 700 Elo points between the ends: ratings spread accordingly around the mean of 1000
+    assert 500 < rated[0].rating - rated[-1].rating < 900
+    assert np.isclose(np.mean([r.rating for r in rated]), 1000.0)
+    # every method's point estimates come with the board
+    assert {"nash_mass", "nash_score", "alpharank_mass", "percentile_lower"} <= set(rated[0].method_columns)
+    assert rated[0].method_columns["nash_mass"] == pytest.approx(1.0, abs=1e-6)  # transitive league
+
+
+def test_an_agent_without_matches_is_listed_unrated_at_the_bottom(league):
+    rows, names, info = league
+    board = compute_leaderboard(rows, info, GAME, "bt")
+    idle = board.rows[-1]
+    assert idle.agent == "idle-submission" and idle.kind == "submission"
+    assert idle.rating is None and idle.rank is None and idle.matches == 0 and not idle.rated
+    assert "idle-submission" not in board.agents
+    assert len(board.rows) == len(names) + 1
+
+
+def test_win_rate_matrix_holds_counts_in_leaderboard_order(league):
+    rows, names, info = league
+    board = compute_leaderboard(rows, info, GAME, "bt")
+    W, games = board.win_rate, board.games
+    assert W.shape == games.shape == (len(names), len(names))
+    played = games > 0
+    np.testing.assert_allclose((W + W.T)[played], 1.0)
+    assert games.sum() / 2 == 600
+    # the best agent beats the worst far more often than not
+    assert W[0, -1] > 0.8
+    match_counts = {r.agent: r.matches for r in board.rated_rows}
+    np.testing.assert_array_equal(games.sum(axis=1), [match_counts[a] for a in board.agents])
+
+
+def test_to_dict_is_plain_json_and_deterministic(league):
+    rows, _, info = league
+    first = compute_leaderboard(rows, info, GAME, "nash", rounds=20, seed=1).to_dict()
+    second = compute_leaderboard(rows, info, GAME, "nash", rounds=20, seed=1).to_dict()
+    assert json.dumps(first, allow_nan=False) == json.dumps(second, allow_nan=False)
+    assert all(v is None or type(v) in (str, int, float, bool) for v in walk(first))
+    assert first["method"] == "nash" and first["n_rated"] == 6 and first["n_agents"] == 7
+    assert first["win_rate"][0][0] == 0.5
+    assert len(first["rows"]) == 7 and first["rows"][-1]["rating"] is None
+    # a pair that never played has no win rate: NaN in the board, null in JSON
+    chain = [{"match_id": m, "seat": s, "agent": agent, "team": s, "score": 0.0, "outcome": outcome}
+             for m, pair in enumerate((("a", "b"), ("b", "c"), ("b", "a"))) for s, (agent, outcome) in
+             enumerate(zip(pair, ("win", "loss")))]
+    board = compute_leaderboard(chain, kinds("abc"), GAME, "bt", rounds=10)
+    a, c = board.agents.index("a"), board.agents.index("c")
+    assert np.isnan(board.win_rate[a, c]) and board.to_dict()["win_rate"][a][c] is None
+
+
+def test_elo_is_sorted_by_online_elo_with_bradley_terry_columns(league):
+    rows, names, info = league
+    board = compute_leaderboard(rows, info, GAME, "elo")
+    rated = board.rated_rows
+    elo = [r.rating for r in rated]
+    assert elo == sorted(elo, reverse=True)
+    assert rated[0].agent == names[-1] and rated[-1].agent == names[0]
+    for row in rated:
+        assert row.lower is None and row.upper is None
+        c = row.method_columns
+        assert c["bt_lower"] <= c["bt_rating"] <= c["bt_upper"]
+        assert c["bt_rank"] <= c["bt_rank_worst"]
+    assert board.params["elo_k"] == 32.0
+    # online Elo starts everyone at 1000 and is zero-sum
+    assert np.mean(elo) == pytest.approx(1000.0)
+
+
+def test_nash_and_alpharank_are_uniform_on_rock_paper_scissors():
+    rows = cyclic_league()
+    info = kinds(["rock", "paper", "scissors"])
+    nash = compute_leaderboard(rows, info, GAME, "nash", rounds=50)
+    np.testing.assert_allclose(nash.nash_p, 1 / 3, atol=1e-6)
+    np.testing.assert_allclose([r.rating for r in nash.rows], 0.0, atol=1e-9)  # all in the support
+    assert all(r.lower <= r.upper for r in nash.rows)
+    assert nash.intransitivity > 0.99
+    alpharank = compute_leaderboard(rows, info, GAME, "alpharank", rounds=50)
+    np.testing.assert_allclose(alpharank.alpharank_pi, 1 / 3, atol=1e-6)
+    np.testing.assert_allclose([r.rating for r in alpharank.rows], 1 / 3, atol=1e-6)
+    assert all(r.lower <= r.rating + 1e-9 and r.rating - 1e-9 <= r.upper for r in alpharank.rows)
+    assert alpharank.params["alpha_from_sweep"] and alpharank.alpharank_alpha > 0
+    # with no agent better beyond doubt, every rank range is 1-3
+    assert all((r.rank, r.rank_worst) == (1, 3) for r in alpharank.rows)
+    # win rates: 80% around the cycle
+    assert nash.win_rate[nash.agents.index("rock"), nash.agents.index("scissors")] == pytest.approx(0.8)
+
+
+def test_nash_and_alpharank_favour_the_strong_in_a_transitive_league(league):
+    rows, names, info = league
+    nash = compute_leaderboard(rows, info, GAME, "nash", rounds=30)
+    assert nash.rated_rows[0].agent == names[-1] and nash.rated_rows[0].rating == pytest.approx(0.0, abs=1e-9)
+    assert all(r.rating <= 1e-9 for r in nash.rated_rows)
+    alpharank = compute_leaderboard(rows, info, GAME, "alpharank", rounds=30, alpha=1.0)
+    assert alpharank.alpharank_alpha == 1.0 and not alpharank.params["alpha_from_sweep"]
+    masses = {r.agent: r.rating for r in alpharank.rated_rows}
+    assert masses[names[-1]] > masses[names[0]]
+    assert sum(masses.values()) == pytest.approx(1.0)
+
+
+def test_openskill_rates_a_four_team_free_for_all_by_position():
+    rows, names = free_for_all([-400.0, -200.0, 0.0, 200.0, 400.0], 400, n_teams=4, seed=5)
+    board = compute_leaderboard(rows, kinds(names), "Race-4T1P-v1", "openskill")
+    rated = board.rated_rows
+    assert rated[0].agent == "ffa-4" and rated[-1].agent == "ffa-0"
+    conservative = [r.method_columns["conservative"] for r in rated]
+    assert conservative == sorted(conservative, reverse=True) and board.sort_by == "lower"
+    for row in rated:
+        c = row.method_columns
+        assert c["sigma"] > 0 and c["mu"] == row.rating
+        assert row.lower == pytest.approx(c["mu"] - 3 * c["sigma"]) and row.upper == pytest.approx(c["mu"] + 3 * c["sigma"])
+    # 4 seats per match, the winner beats 3 teams
+    assert sum(r.matches for r in rated) == 4 * 400
+    assert rated[0].win_rate > 0.6 and rated[-1].win_rate < 0.4
+    # one agent per team: the free-for-all still reduces to pairwise results for Nash and alpha-Rank
+    assert board.nash_p is not None and board.alpharank_pi is not None
+    assert board.games.sum() / 2 == 6 * 400
+
+
+@pytest.mark.parametrize("method", ["bt", "elo", "nash", "alpharank"])
+def test_pairwise_methods_refuse_free_for_all_and_name_openskill(method):
+    rows, names = free_for_all([0.0, 100.0, 200.0, 300.0], 20)
+    with pytest.raises(LeaderboardError, match="openskill"):
+        compute_leaderboard(rows, kinds(names), "Race-4T1P-v1", method)
+
+
+def test_teams_of_mixed_agents_need_openskill():
+    rng = np.random.default_rng(0)
+    names = ["a", "b", "c", "d"]
+    strength = {"a": 2.0, "b": 1.0, "c": 0.0, "d": -1.0}
+    rows = []
+    for match in range(200):
+        lineup = rng.permutation(names)
+        teams = (lineup[:2], lineup[2:])
+        edge = sum(strength[x] for x in teams[0]) - sum(strength[x] for x in teams[1])
+        first_wins = rng.random() < 1 / (1 + math.exp(-edge))
+        for seat, agent in enumerate(lineup):
+            team = seat // 2
+            won = first_wins == (team == 0)
+            rows.append({"match_id": match, "seat": seat, "agent": str(agent), "team": team, "score": 0.0,
+                         "outcome": "win" if won else "loss", "position": None})
+    board = compute_leaderboard(rows, kinds(names), "Soccer-2T2P-v1", "openskill")
+    assert board.rated_rows[0].agent == "a" and board.rated_rows[-1].agent == "d"
+    assert board.win_rate is None and board.nash_p is None and board.intransitivity is None
+    assert json.dumps(board.to_dict(), allow_nan=False)
+    with pytest.raises(LeaderboardError, match="openskill"):
+        compute_leaderboard(rows, kinds(names), "Soccer-2T2P-v1", "bt")
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_no_matches_says_to_play_matches_first(method):
+    with pytest.raises(LeaderboardError, match=f"arena-league evaluate {GAME}"):
+        compute_leaderboard([], kinds(["a", "b"]), GAME, method)
+
+
+def test_fewer_than_two_rated_agents_says_to_play_matches_first():
+    # an agent against copies of itself (the validation match) rates nobody
+    mirror = [{"match_id": 1, "seat": s, "agent": "solo", "team": s, "score": 0.0, "outcome": o,
+               "position": None} for s, o in enumerate(("win", "loss"))]
+    with pytest.raises(LeaderboardError, match="at least two.*arena-league evaluate"):
+        compute_leaderboard(mirror, kinds(["solo", "other"]), GAME, "bt")
+    with pytest.raises(LeaderboardError, match="arena-league evaluate"):
+        compute_leaderboard(mirror, kinds(["solo"]), GAME, "openskill")
+
+
+def test_matches_against_itself_are_not_counted(league):
+    rows, names, info = league
+    mirror = [{"match_id": "self", "seat": s, "agent": names[0], "team": s, "score": 0.0, "outcome": o,
+               "position": None} for s, o in enumerate(("win", "loss"))]
+    plain = compute_leaderboard(rows, info, GAME, "bt", rounds=20)
+    with_mirror = compute_leaderboard(rows + mirror, info, GAME, "bt", rounds=20)
+    assert with_mirror.n_matches == 601
+    before = {r.agent: (r.matches, r.win_rate, r.rating) for r in plain.rows}
+    after = {r.agent: (r.matches, r.win_rate, r.rating) for r in with_mirror.rows}
+    assert before == after
+
+
+def test_seated_agents_missing_from_agents_info_are_listed_without_kind(league):
+    rows, names, _ = league
+    board = compute_leaderboard(rows, kinds(names[1:]), GAME, "bt", rounds=20)
+    stray = next(r for r in board.rows if r.agent == names[0])
+    assert stray.kind is None and stray.rated
+
+
+def test_bad_input_is_refused_with_the_reason():
+    with pytest.raises(LeaderboardError, match="unknown leaderboard method 'glicko'"):
+        compute_leaderboard([], {}, GAME, "glicko")
+    partial = [{"match_id": 1, "seat": 0, "agent": "a", "team": 0, "score": 0.0, "outcome": "win", "position": 1},
+               {"match_id": 1, "seat": 1, "agent": "b", "team": 1, "score": 0.0, "outcome": "loss",
+                "position": None}]
+    with pytest.raises(LeaderboardError, match="position for some seats only"):
+        compute_leaderboard(partial, {}, GAME, "openskill")
+    with pytest.raises(LeaderboardError, match="lacks outcome"):
+        outcome_table([{"match_id": 1, "seat": 0, "agent": "a", "team": 0, "score": 0.0}])
+    both_win = [{"match_id": 1, "seat": s, "agent": a, "team": s, "score": 0.0, "outcome": "win"}
+                for s, a in enumerate("ab")]
+    with pytest.raises(LeaderboardError, match="every team has outcome 'win'"):
+        compute_leaderboard(both_win, {}, GAME, "bt")
+
+
+def test_positions_order_a_free_for_all_and_words_do_without_them():
+    table = outcome_table([
+        {"match_id": 1, "seat": 0, "agent": "a", "team": 0, "score": 0, "outcome": "loss", "position": 3},
+        {"match_id": 1, "seat": 1, "agent": "b", "team": 1, "score": 0, "outcome": "win", "position": 1},
+        {"match_id": 1, "seat": 2, "agent": "c", "team": 2, "score": 0, "outcome": "loss", "position": 2},
+        {"match_id": 2, "seat": 0, "agent": "a", "team": 0, "score": 0, "outcome": "win"},
+        {"match_id": 2, "seat": 1, "agent": "b", "team": 1, "score": 0, "outcome": "loss"},
+        {"match_id": 2, "seat": 2, "agent": "c", "team": 2, "score": 0, "outcome": "loss"},
+    ])
+    assert table.place.tolist() == [2, 0, 1, 0, 1, 1]
+
+
+def test_terminal_table_shows_rank_ranges_intervals_and_method_columns(league):
+    rows, names, info = league
+    for method, header in (("bt", "BT rating"), ("elo", "Elo"), ("openskill", "mu - 3 sigma"),
+                           ("nash", "Nash score"), ("alpharank", "alpha-Rank mass")):
+        board = compute_leaderboard(rows, info, GAME, method, rounds=20)
+        console = Console(record=True, width=250)
+        console.print(render_terminal(board))
+        text = console.export_text()
+        assert header in text and "Win rate" in text and "Matches" in text
+        assert all(name in text for name in names) and "unrated" in text
+        if method != "elo":
+            assert "±" in text or "+" in text
+    # a close league has uncertain ranks, shown as ranges
+    close_rows, close_names = simulated_league([0.0, 10.0, 20.0, 30.0], 80, seed=1)
+    console = Console(record=True, width=250)
+    console.print(render_terminal(compute_leaderboard(close_rows, kinds(close_names), GAME, "bt")))
+    assert "1-4" in console.export_text()
+
+
+def test_every_method_returns_a_board(league):
+    rows, _, info = league
+    for method in METHODS:
+        board = compute_leaderboard(rows, info, GAME, method, rounds=10)
+        assert isinstance(board, Leaderboard) and board.method == method
+        assert len(board.rated_rows) == 6 and board.rows[-1].agent == "idle-submission"
+        assert board.nash_p is not None and board.alpharank_pi is not None
+        assert 0.0 <= board.intransitivity < 0.3  # a transitive league
