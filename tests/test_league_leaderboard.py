@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from arena_league.league.leaderboard import (
+from arena_league.league.leaderboards import (
     METHODS,
     Leaderboard,
     LeaderboardError,

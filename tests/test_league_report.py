@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from test_league_leaderboard import GAME, STRENGTHS, kinds, simulated_league
 
-from arena_league.league.leaderboard import METHODS, compute_leaderboard
+from arena_league.league.leaderboards import METHODS, compute_leaderboard
 from arena_league.league.report import leaderboard_json, report_figures, write_html_report
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"

@@ -4,7 +4,7 @@ It shows what Arena (Song et al., AAAI 2020) asks of a league's evaluation, side
 leaderboard table with rank and rating intervals, a plot of every rated agent's interval, the
 win-rate matrix as a heatmap in leaderboard order, and the mass each agent gets under the Nash
 equilibrium of the logit win-rate meta-game (Balduzzi et al. 2018) and under alpha-Rank
-(Omidshafiei et al. 2019). The report is a view of :class:`~arena_league.league.leaderboard.
+(Omidshafiei et al. 2019). The report is a view of :class:`~arena_league.league.leaderboards.
 Leaderboard` and of its JSON twin (:func:`leaderboard_json`); it computes nothing the board lacks.
 
 Figures are drawn with matplotlib's Agg canvas (no display, no pyplot state) and embedded as base64
@@ -24,7 +24,7 @@ import numpy as np
 from matplotlib.colors import LinearSegmentedColormap
 from matplotlib.figure import Figure
 
-from arena_league.league.leaderboard import SCORE_RESOLUTION, Leaderboard, leaderboard_cells
+from arena_league.league.leaderboards import SCORE_RESOLUTION, Leaderboard, leaderboard_cells
 
 __all__ = ["ANNOTATE_LIMIT", "MASS_BARS_LIMIT", "leaderboard_json", "report_figures", "write_html_report"]
 
@@ -51,7 +51,7 @@ def write_html_report(board: Leaderboard, path: str | Path, *, title: str | None
     """Writes the leaderboard report to ``path`` as one self-contained HTML file; returns the path.
 
     Args:
-        board: the leaderboard (see :func:`~arena_league.league.leaderboard.compute_leaderboard`).
+        board: the leaderboard (see :func:`~arena_league.league.leaderboards.compute_leaderboard`).
         path: the file to write (its folder must exist).
         title: the page's heading; default ``"<game> leaderboard"``.
         generated_at: the time printed as the generation time (default now, UTC).

@@ -288,9 +288,13 @@ def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> di
     start = time.perf_counter()
     payload = ctx.job.payload
     game_id = payload["game_id"]
-    names = list(payload["agents"])
     with ctx.league.reading() as session:
-        refs = {a.name: agent_ref(ctx.league, a) for a in _active_agents(session, game_id, names)}
+        # a scheduled evaluation names no agents: every agent active when it runs
+        agents = _active_agents(session, game_id, payload.get("agents"))
+        if len(agents) < 2:
+            raise ValueError(f"{game_id} has {len(agents)} active agent(s); an evaluation needs two")
+        names = [a.name for a in agents]
+        refs = {a.name: agent_ref(ctx.league, a) for a in agents}
         rows = reg.match_seat_rows(session, game_id, agents=names, exclude_job_id=ctx.job.id)
         done_keys = reg.match_keys_of_job(session, ctx.job.id)
     seatings = round_robin(names, int(payload["matches_per_pair"]), _played_seatings(rows))
@@ -462,7 +466,7 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
     """The leaderboard of ``game_id`` from its stored matches (all agents, or one population's
     members), by ``method``: bt, elo, openskill, nash or alpharank. The ratings are kept as a
     snapshot in the registry."""
-    from arena_league.league.leaderboard import compute_leaderboard
+    from arena_league.league.leaderboards import compute_leaderboard
 
     game_spec(game_id)
     with league.reading() as session:
