@@ -190,7 +190,7 @@ def cmd_rank(args: argparse.Namespace) -> int:
 
 def cmd_leaderboard(args: argparse.Namespace) -> int:
     from arena_league.league import leaderboard
-    from arena_league.league.leaderboard import render_terminal
+    from arena_league.league.leaderboards import render_terminal
     from arena_league.league.report import write_html_report
 
     with _league(args) as league:
@@ -392,7 +392,7 @@ def cmd_population(args: argparse.Namespace) -> int:
 def cmd_quickstart(args: argparse.Namespace) -> int:
     """A whole league on the embedded default: home, agents, round robin, ranking, leaderboard."""
     from arena_league.league import ensure_scripted_agents, evaluate, leaderboard, rank, submit
-    from arena_league.league.leaderboard import render_terminal
+    from arena_league.league.leaderboards import render_terminal
 
     example = Path(__file__).resolve().parent.parent / "submissions" / "crossroads-2t2p-mlp.onnx"
     game = args.game
