@@ -1,0 +1,447 @@
+"""Rollouts: K copies of one game stepped in lockstep, every seat's action from one batched forward.
+
+Arena (Song et al., "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent
+Intelligence", AAAI 2020) trains its baselines on many parallel games; here, as in the league's
+match engine, the rows of all seats of all K envs are grouped by who controls them, so each
+learner makes one actor forward (and one critic forward) per step over every seat it holds, and
+each fixed opponent policy (a scripted agent, a snapshot, or a whole stacked pool of snapshots
+with owner indices) one ``act`` call.
+
+Slots: seat ``i`` of env ``k`` is slot ``s = k * n_agents + i``; every array of a
+:class:`Rollout` is ``[T, S, ...]`` over T steps and S = K * n_agents slots. Who controls a slot is
+chosen when its env starts an episode, by the *seating* callback ``seating(env_index, episode)``
+that returns one controller code per seat: ``c >= 0`` is learner ``c`` (of the list passed to
+:meth:`RolloutCollector.collect`), ``c < 0`` is fixed opponent ``-1 - c`` of
+:attr:`RolloutCollector.opponents`. The callback may instead return ``(codes, owners)``, where
+``owners[i]`` is the member a stacked opponent plays in seat i. Controllers change only at episode
+boundaries, so every learner's slot trajectory is cut by ``dones`` exactly where it starts and
+ends, and one GAE pass over all slots serves every learner (:func:`learner_batch`).
+
+Episodes run across rollouts (the collector keeps its envs); an env whose episode ends is reset at
+once with a seed drawn from the collector's generator. The actors read the game's base
+observation (its first ``rules.obs_dim`` cells, what an exported agent reads); the critic reads
+what :meth:`~arena_league.training.ppo.Learner.critic_features` builds from the observation, the
+env's global state ``env.state()`` (recorded when a learner sets ``needs_state``) and the seat.
+
+Determinism: every draw (env seeds, action noise, the opponents' uniforms) comes from the
+collector's generator, one fixed-size draw per step whoever acts, so a run is a function of its
+seed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+
+from arena_league.population.policy import Policy
+from arena_league.training.ppo import Batch, Learner, gae
+
+__all__ = ["Episode", "Opponent", "Rollout", "RolloutCollector", "check_trainable", "learner_batch"]
+
+#: A seating callback: ``(env_index, episode_number) -> codes`` or ``(codes, owners)``.
+SeatingFn = Callable[[int, int], Any]
+
+
+def check_trainable(env: Any) -> None:
+    """Raise when ``env`` cannot be trained on by these learners (with the fix)."""
+    if getattr(env.tree, "boards", None):
+        raise ValueError(f"{env.game_id}: this social tree has broadcast boards, whose message actions the PPO "
+                         "learners do not produce; train with a tree without 'board' nodes")
+
+
+@dataclass(frozen=True)
+class Opponent:
+    """A fixed policy in some seats: ``policy`` (any league Policy), and for a stacked pool the
+    member it plays (``owner``)."""
+
+    policy: Policy
+    owner: int | None = None
+    name: str = "opponent"
+
+
+@dataclass
+class Episode:
+    """A finished episode of one env."""
+
+    env_index: int
+    controllers: np.ndarray
+    """Controller code of each seat (see the module docstring)."""
+    owners: np.ndarray
+    returns: np.ndarray
+    """Undiscounted return of each seat."""
+    team_scores: np.ndarray
+    """``env.team_result()``: each team's score, higher is better (two teams: 1 win, 0.5 draw, 0 loss)."""
+    team_of: np.ndarray
+    length: int
+
+    @property
+    def mean_return(self) -> float:
+        """Mean return of the learners' seats (all seats when no learner played)."""
+        mine = self.controllers >= 0
+        return float(self.returns[mine].mean() if mine.any() else self.returns.mean())
+
+    def score_of_team(self, team: int) -> float:
+        """A team's result scaled to [0, 1]: 1 for beating every other team, 0.5 a draw, 0 last."""
+        n_teams = len(self.team_scores)
+        return float(self.team_scores[team]) / max(n_teams - 1, 1)
+
+    def score_of_controller(self, code: int) -> float | None:
+        """The result of the team controller ``code`` played (its first seat's team), in [0, 1]."""
+        seats = np.flatnonzero(self.controllers == code)
+        return None if seats.size == 0 else self.score_of_team(int(self.team_of[seats[0]]))
+
+
+@dataclass
+class Rollout:
+    """T lockstep steps of K envs, every array over slots ``s = k * n_agents + seat``."""
+
+    obs: np.ndarray
+    """``float32[T, S, obs_dim]`` base observations (what the actors read)."""
+    actions: np.ndarray
+    """Learner rows: the sampled action the loss re-evaluates (discrete index, or the Gaussian
+    sample before clipping / squashing); other rows: the action played."""
+    env_actions: np.ndarray
+    """The action every seat played (``int64[T, S]`` or ``float32[T, S, act_dim]``)."""
+    logprobs: np.ndarray
+    values: np.ndarray
+    """Denormalised value of the controlling learner's critic (0 for opponents' rows)."""
+    value_preds: np.ndarray
+    """The critic's raw outputs (normalised when ``norm_value``)."""
+    rewards: np.ndarray
+    dones: np.ndarray
+    """The episode ended with this step."""
+    acting: np.ndarray
+    """The seat's action counted (active; its turn in a turn-based game)."""
+    controllers: np.ndarray
+    owners: np.ndarray
+    masks: np.ndarray | None
+    """``bool[T, S, n_actions]`` legal actions, for games that mask actions."""
+    states: np.ndarray | None
+    """``float32[T, K, state_dim]`` global states ``env.state()``, when recorded."""
+    policy_states: dict[int, np.ndarray]
+    """Learner code -> ``float32[T, S, gru_size]`` the recurrent state each step started from."""
+    critic_inputs: dict[int, np.ndarray]
+    """Learner code -> ``float32[T, S, critic_dim]`` when its critic reads more than the observation."""
+    next_values: np.ndarray
+    """``float32[S]`` value of the observation after the last step, under the slot's then controller."""
+    n_agents: int
+    episodes: list[Episode] = field(default_factory=list)
+
+    @property
+    def num_steps(self) -> int:
+        return int(self.rewards.shape[0])
+
+    @property
+    def num_envs(self) -> int:
+        return int(self.rewards.shape[1]) // self.n_agents
+
+    @property
+    def env_steps(self) -> int:
+        """Env steps taken: ``num_steps * num_envs``."""
+        return self.num_steps * self.num_envs
+
+    @property
+    def seats(self) -> np.ndarray:
+        """Seat index of every slot, ``int64[S]``."""
+        return np.tile(np.arange(self.n_agents), self.num_envs)
+
+
+class RolloutCollector:
+    """Steps ``num_envs`` envs in lockstep and records every seat's trajectory.
+
+    Args:
+        env_fn: makes one env (``arena_league.envs.make(game_id, ...)`` or any env with the array API).
+        num_envs: K, the envs stepped together.
+        seed: seeds the collector's generator (env resets, action noise, opponents' uniforms).
+        seating: ``(env_index, episode) -> codes`` or ``(codes, owners)``, called whenever an env
+            starts an episode (see the module docstring).
+        opponents: the fixed policies that negative codes name (may be replaced between rollouts).
+        on_episode: called with every finished :class:`Episode` (win-rate tracking, Elo).
+    """
+
+    def __init__(self, env_fn: Callable[[], Any], num_envs: int, seed: int, seating: SeatingFn,
+                 opponents: Sequence[Opponent] = (), on_episode: Callable[[Episode], None] | None = None) -> None:
+        self.envs = [env_fn() for _ in range(num_envs)]
+        for env in self.envs:
+            check_trainable(env)
+        rules = self.envs[0].rules
+        self.n_agents = int(rules.n_agents)
+        self.obs_dim = int(rules.obs_dim)
+        self.discrete = rules.action_type == "discrete"
+        self.n_actions = int(getattr(rules, "n_actions", 0))
+        self.act_dim = int(getattr(rules, "act_dim", 0))
+        self.turn_based = bool(rules.turn_based)
+        self.state_dim = int(rules.state_dim)
+        self.team_of = np.asarray(rules.team_of, dtype=np.int64)
+        self.seating = seating
+        self.opponents: list[Opponent] = list(opponents)
+        self.on_episode = on_episode
+        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 1]))
+        K, n = num_envs, self.n_agents
+        self.num_envs = K
+        self.n_slots = K * n
+        self.controllers = np.zeros(self.n_slots, dtype=np.int64)
+        self.owners = np.zeros(self.n_slots, dtype=np.int64)
+        self.episode_count = np.zeros(K, dtype=np.int64)
+        self.episode_return = np.zeros(self.n_slots, dtype=np.float64)
+        self.episode_length = np.zeros(K, dtype=np.int64)
+        self.obs = np.zeros((self.n_slots, self.obs_dim), dtype=np.float32)
+        self.masked = False
+        self._learner_state: dict[int, np.ndarray] = {}
+        self._opponent_state: list[np.ndarray | None] = [None] * self.n_slots
+        for k in range(K):
+            self._start(k)
+        self.masked = self.envs[0].rules.action_mask() is not None
+
+    # --- episodes -----------------------------------------------------------------------------------
+    def _start(self, k: int) -> None:
+        """Reset env k with a fresh seed and seat its controllers for the next episode."""
+        n = self.n_agents
+        env = self.envs[k]
+        obs = env.reset_arrays(int(self.rng.integers(2**62)))
+        self.obs[k * n:(k + 1) * n] = obs[:, : self.obs_dim]
+        seats = self.seating(k, int(self.episode_count[k]))
+        codes, owners = (seats if isinstance(seats, tuple) else (seats, np.zeros(n, dtype=np.int64)))
+        codes = np.asarray(codes, dtype=np.int64)
+        if codes.shape != (n,):
+            raise ValueError(f"the seating callback returned {codes.shape} controller codes; give one per seat ({n})")
+        self.controllers[k * n:(k + 1) * n] = codes
+        self.owners[k * n:(k + 1) * n] = np.asarray(owners, dtype=np.int64)
+        self.episode_return[k * n:(k + 1) * n] = 0.0
+        self.episode_length[k] = 0
+        for states in self._learner_state.values():
+            states[k * n:(k + 1) * n] = 0.0
+        for slot in range(k * n, (k + 1) * n):
+            code = int(self.controllers[slot])
+            if code < 0:
+                policy = self._opponent(code).policy
+                initial = policy.initial_state(1) if policy.recurrent else None
+                self._opponent_state[slot] = None if initial is None else np.asarray(initial)[0]
+
+    def _opponent(self, code: int) -> Opponent:
+        index = -1 - code
+        if not 0 <= index < len(self.opponents):
+            raise ValueError(f"controller code {code} names opponent {index}, but the collector holds "
+                             f"{len(self.opponents)}; set collector.opponents before seating them")
+        return self.opponents[index]
+
+    def _acting(self) -> np.ndarray:
+        acting = np.zeros(self.n_slots, dtype=bool)
+        n = self.n_agents
+        for k, env in enumerate(self.envs):
+            if self.turn_based:
+                acting[k * n + int(env.rules.current_player())] = True
+            else:
+                acting[k * n:(k + 1) * n] = env.rules.measures.active
+        return acting
+
+    # --- the rollout ----------------------------------------------------------------------------------
+    def collect(self, learners: Sequence[Learner], num_steps: int) -> Rollout:
+        """``num_steps`` lockstep steps of every env; learner ``c`` acts for the slots coded ``c``."""
+        T, S, n, K = num_steps, self.n_slots, self.n_agents, self.num_envs
+        needs_state = any(getattr(lr, "needs_state", False) for lr in learners)
+        seats = np.tile(np.arange(n), K)
+        env_of = np.repeat(np.arange(K), n)
+        obs_buf = np.zeros((T, S, self.obs_dim), dtype=np.float32)
+        if self.discrete:
+            actions = np.zeros((T, S), dtype=np.int64)
+            env_actions = np.zeros((T, S), dtype=np.int64)
+        else:
+            actions = np.zeros((T, S, self.act_dim), dtype=np.float32)
+            env_actions = np.zeros((T, S, self.act_dim), dtype=np.float32)
+        logprobs = np.zeros((T, S), dtype=np.float32)
+        values = np.zeros((T, S), dtype=np.float32)
+        value_preds = np.zeros((T, S), dtype=np.float32)
+        rewards = np.zeros((T, S), dtype=np.float32)
+        dones = np.zeros((T, S), dtype=bool)
+        acting_buf = np.zeros((T, S), dtype=bool)
+        controllers = np.zeros((T, S), dtype=np.int64)
+        owners = np.zeros((T, S), dtype=np.int64)
+        masks = np.zeros((T, S, self.n_actions), dtype=bool) if self.masked else None
+        states = np.zeros((T, K, self.state_dim), dtype=np.float32) if needs_state else None
+        policy_states: dict[int, np.ndarray] = {}
+        critic_inputs: dict[int, np.ndarray] = {}
+        for code, learner in enumerate(learners):
+            if learner.architecture.recurrent:
+                self._learner_state.setdefault(code, np.zeros((S, learner.architecture.gru_size), dtype=np.float32))
+                policy_states[code] = np.zeros((T, S, learner.architecture.gru_size), dtype=np.float32)
+        episodes: list[Episode] = []
+        k_uniform = max(1, self.act_dim) if not self.discrete else 1
+        for t in range(T):
+            # observe: observations, legal actions, who acts, global states
+            obs = self.obs
+            obs_buf[t] = obs
+            acting = self._acting()
+            acting_buf[t] = acting
+            controllers[t] = self.controllers
+            owners[t] = self.owners
+            mask = None
+            if masks is not None:
+                mask = masks[t]
+                for k, env in enumerate(self.envs):
+                    mask[k * n:(k + 1) * n] = env.rules.action_mask()
+            state_rows = None
+            if states is not None:
+                for k, env in enumerate(self.envs):
+                    states[t, k] = env.state()
+                state_rows = states[t][env_of]
+            # one fixed-size draw per step, whoever acts: learners' noise and opponents' uniforms
+            noise = self.rng.random(S) if self.discrete else self.rng.standard_normal((S, self.act_dim))
+            uniforms = self.rng.random((S, k_uniform))
+            # act: one batched forward per learner over every slot it holds
+            for code in np.unique(self.controllers):
+                code = int(code)
+                rows = np.flatnonzero(self.controllers == code)
+                if code >= 0:
+                    self._learner_act(t, code, learners[code], rows, obs, noise, mask, state_rows, seats, acting,
+                                      actions, env_actions, logprobs, values, value_preds, policy_states,
+                                      critic_inputs)
+            self._opponents_act(obs, uniforms, mask, acting, env_actions[t])
+            if not self.discrete:
+                opp = self.controllers < 0
+                actions[t][opp] = env_actions[t][opp]
+            else:
+                actions[t][self.controllers < 0] = env_actions[t][self.controllers < 0]
+            # step every env; an ended episode is recorded and its env reset at once
+            for k, env in enumerate(self.envs):
+                seat_actions = env_actions[t, k * n:(k + 1) * n]
+                if self.discrete:
+                    seat_actions = np.where(acting[k * n:(k + 1) * n], seat_actions, 0)
+                next_obs, reward, terminated, truncated = env.step_arrays(seat_actions)
+                rewards[t, k * n:(k + 1) * n] = reward
+                self.episode_return[k * n:(k + 1) * n] += reward
+                self.episode_length[k] += 1
+                self.obs[k * n:(k + 1) * n] = next_obs[:, : self.obs_dim]
+                if terminated or truncated:
+                    dones[t, k * n:(k + 1) * n] = True
+                    episode = Episode(k, self.controllers[k * n:(k + 1) * n].copy(),
+                                      self.owners[k * n:(k + 1) * n].copy(),
+                                      self.episode_return[k * n:(k + 1) * n].copy(),
+                                      np.asarray(env.team_result(), dtype=np.float64).copy(), self.team_of,
+                                      int(self.episode_length[k]))
+                    episodes.append(episode)
+                    if self.on_episode is not None:
+                        self.on_episode(episode)
+                    self.episode_count[k] += 1
+                    self._start(k)
+        # bootstrap: the value of the observation after the last step, under the slot's controller
+        next_values = np.zeros(S, dtype=np.float32)
+        next_state_rows = None
+        if needs_state:
+            next_state_rows = np.stack([env.state() for env in self.envs])[env_of]
+        for code in np.unique(self.controllers):
+            code = int(code)
+            if code < 0:
+                continue
+            rows = np.flatnonzero(self.controllers == code)
+            learner = learners[code]
+            features = learner.critic_features(self.obs[rows], None if next_state_rows is None else
+                                               next_state_rows[rows], seats[rows], n)
+            next_values[rows] = learner.values(features)
+        return Rollout(obs_buf, actions, env_actions, logprobs, values, value_preds, rewards, dones, acting_buf,
+                       controllers, owners, masks, states, policy_states, critic_inputs, next_values, n, episodes)
+
+    def _learner_act(self, t: int, code: int, learner: Learner, rows: np.ndarray, obs: np.ndarray,
+                     noise: np.ndarray, mask: np.ndarray | None, state_rows: np.ndarray | None, seats: np.ndarray,
+                     acting: np.ndarray, actions: np.ndarray, env_actions: np.ndarray, logprobs: np.ndarray,
+                     values: np.ndarray, value_preds: np.ndarray, policy_states: dict[int, np.ndarray],
+                     critic_inputs: dict[int, np.ndarray]) -> None:
+        h = None
+        if code in policy_states:
+            h = self._learner_state[code][rows]
+            policy_states[code][t, rows] = h
+        critic_input = learner.critic_features(obs[rows], None if state_rows is None else state_rows[rows],
+                                               seats[rows], self.n_agents)
+        if _own_critic_features(learner):
+            store = critic_inputs.get(code)
+            if store is None:
+                store = critic_inputs[code] = np.zeros((actions.shape[0], self.n_slots, critic_input.shape[1]),
+                                                       dtype=np.float32)
+            store[t, rows] = critic_input
+        out = learner.act(obs[rows], noise[rows], None if mask is None else mask[rows], h, critic_input)
+        actions[t, rows] = out.actions
+        env_actions[t, rows] = out.env_actions
+        logprobs[t, rows] = out.logprobs
+        values[t, rows] = out.values
+        value_preds[t, rows] = out.value_preds
+        if out.policy_state is not None:
+            moved = acting[rows]  # a recurrent state advances only when the seat acts, as in matches
+            self._learner_state[code][rows[moved]] = out.policy_state[moved]
+
+    def _opponents_act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None, acting: np.ndarray,
+                       env_actions: np.ndarray) -> None:
+        """One ``act`` call per distinct opponent policy over its acting rows (stacked pools get owners)."""
+        rows_all = np.flatnonzero((self.controllers < 0) & acting)
+        if rows_all.size == 0:
+            return
+        by_policy: dict[int, list[int]] = {}
+        policy_of: dict[int, Policy] = {}
+        for row in rows_all.tolist():
+            opponent = self._opponent(int(self.controllers[row]))
+            key = id(opponent.policy)
+            by_policy.setdefault(key, []).append(row)
+            policy_of[key] = opponent.policy
+        for key, row_list in by_policy.items():
+            policy = policy_of[key]
+            rows = np.asarray(row_list, dtype=np.int64)
+            width = policy.spec.obs_dim
+            state = None
+            if policy.recurrent:
+                state = np.stack([self._opponent_state[r] for r in rows])
+            kwargs = {}
+            if self._opponent(int(self.controllers[rows[0]])).owner is not None:
+                kwargs["owners"] = np.asarray([self._opponent(int(self.controllers[r])).owner for r in rows])
+            out, next_state = policy.act(obs[rows, :width], uniforms[rows], None if mask is None else mask[rows],
+                                         state, **kwargs)
+            env_actions[rows] = out
+            if policy.recurrent and next_state is not None:
+                for i, r in enumerate(rows):
+                    self._opponent_state[r] = np.asarray(next_state)[i]
+
+
+def learner_batch(rollout: Rollout, code: int, learner: Learner, advantages: np.ndarray | None = None) -> Batch:
+    """The :class:`Batch` of learner ``code``'s slots: GAE with the learner's gamma and lambda over
+    every slot (controllers change only where episodes end), then the steps it controlled.
+
+    ``advantages``: ``float32[T, S]`` from another estimator (returns are then advantages + values).
+    """
+    config = learner.config
+    if advantages is None:
+        advantages, returns = gae(rollout.rewards, rollout.values, rollout.dones, rollout.next_values, config.gamma,
+                                  config.gae_lambda)
+    else:
+        returns = (advantages + rollout.values).astype(np.float32)
+    t_idx, s_idx = np.nonzero(rollout.controllers == code)
+    if t_idx.size == 0:
+        raise ValueError(f"learner {code} ({learner.name}) held no seat in this rollout; check the seating callback")
+
+    def take(array: np.ndarray) -> torch.Tensor:
+        return torch.from_numpy(np.ascontiguousarray(array[t_idx, s_idx]))
+
+    critic_input = None
+    if code in rollout.critic_inputs:
+        critic_input = take(rollout.critic_inputs[code])
+    return Batch(
+        obs=take(rollout.obs), actions=take(rollout.actions), logprobs=take(rollout.logprobs),
+        advantages=take(advantages), returns=take(returns), values=take(rollout.value_preds),
+        critic_input=critic_input, masks=None if rollout.masks is None else _legal(take(rollout.masks)),
+        policy_states=take(rollout.policy_states[code]) if code in rollout.policy_states else None,
+        policy_mask=take(rollout.acting))
+
+
+def _own_critic_features(learner: Learner) -> bool:
+    """True when the learner's critic reads something other than the observation."""
+    return type(learner).critic_features is not Learner.critic_features
+
+
+def _legal(masks: torch.Tensor) -> torch.Tensor:
+    """Rows with no legal action (a finished board) become all legal, as the samplers treat them."""
+    empty = ~masks.any(dim=1)
+    if bool(empty.any()):
+        masks = masks.clone()
+        masks[empty] = True
+    return masks

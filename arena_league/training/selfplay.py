@@ -1,0 +1,227 @@
+"""SP: self-play against snapshots of oneself, with prioritised fictitious self-play.
+
+One of the five baselines of Arena (Song et al., "Arena: A General Evaluation Platform and Building
+Toolkit for Multi-Agent Intelligence", AAAI 2020). One PPO learner plays one team of each episode;
+every other team is played by a frozen snapshot of the learner drawn from its *pool* (the learner's
+parameters are added to the pool every ``pool_every`` updates; the initial ones are its first
+member). Seats are swapped per episode: env ``k``'s episode ``e`` gives the learner team
+``(k + e) mod n_teams``, so the learner plays every team in turn.
+
+Opponent sampling (``opponent_sampling``):
+
+* ``"latest"``: the most recent snapshot;
+* ``"uniform"``: uniform over the pool (fictitious self-play, Heinrich et al. 2015; Bansal et al.,
+  "Emergent Complexity via Multi-Agent Competition", ICLR 2018);
+* ``"80/20"``: the latest with probability 0.8, else uniform over the older ones (the mix OpenAI
+  Five played; Berner et al. 2019);
+* ``"pfsp_hard"`` / ``"pfsp_var"``: prioritised fictitious self-play (Vinyals et al., "Grandmaster
+  level in StarCraft II using multi-agent reinforcement learning", Nature 2019): snapshot ``j`` is
+  drawn with probability proportional to ``f(x_j)``, where ``x_j`` is the learner's recent win
+  rate against it (draws count half); ``f_hard(x) = (1 - x)^p`` favours the snapshots the learner
+  still loses to, ``f_var(x) = x (1 - x)`` those it beats about half the time.
+
+Win rates are tracked from the results of the learner's episodes: each snapshot starts at 0.5 (a
+prior worth one match) and then follows a running mean whose step never falls below
+``win_rate_step`` (0.05), so old results fade as the learner changes. With more than two teams one
+opponent snapshot plays all other teams of an episode, and the learner's score is its team's
+``team_result()`` scaled to [0, 1].
+
+The pool holds at most ``pool_size`` snapshots; once full, a new snapshot replaces the oldest in
+place. All pool members play as one stacked policy (one batched forward for every opponent seat
+of every env, with owner indices; :class:`~arena_league.population.families.StackedPolicy`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import torch
+
+from arena_league.population.families import Architecture, StackedPolicy
+from arena_league.training.ppo import (
+    Learner,
+    PPOConfig,
+    annealed_lr,
+    format_record,
+    game_architecture,
+    iteration_record,
+)
+from arena_league.training.rollout import Episode, Opponent, RolloutCollector, check_trainable, learner_batch
+
+__all__ = ["OPPONENT_SAMPLING", "OpponentPool", "SelfPlay", "pfsp_weights"]
+
+OPPONENT_SAMPLING = ("latest", "uniform", "80/20", "pfsp_hard", "pfsp_var")
+
+
+def pfsp_weights(win_rates: np.ndarray, weighting: str, p: float = 2.0) -> np.ndarray:
+    """PFSP sampling probabilities from win rates ``x`` against each opponent (Vinyals et al. 2019):
+    ``"hard"``: ``(1 - x)^p``; ``"variance"``: ``x (1 - x)``. Uniform when every weight is 0."""
+    x = np.clip(np.asarray(win_rates, dtype=np.float64), 0.0, 1.0)
+    if weighting == "hard":
+        weights = (1.0 - x) ** p
+    elif weighting == "variance":
+        weights = x * (1.0 - x)
+    else:
+        raise ValueError(f"PFSP weighting must be 'hard' or 'variance', not {weighting!r}")
+    total = weights.sum()
+    return np.full(x.size, 1.0 / x.size) if total <= 0 else weights / total
+
+
+class OpponentPool:
+    """Snapshots of the learner, their ages and the learner's running win rate against each."""
+
+    def __init__(self, capacity: int, win_rate_step: float = 0.05) -> None:
+        if capacity < 1:
+            raise ValueError(f"pool_size must be at least 1, not {capacity}")
+        self.capacity = capacity
+        self.win_rate_step = win_rate_step
+        self.params: list[dict[str, torch.Tensor]] = []
+        self.added_at: list[int] = []
+        """The learner update count at which each member was added."""
+        self.win_rate: list[float] = []
+        self.games: list[int] = []
+        self.latest = -1
+
+    def __len__(self) -> int:
+        return len(self.params)
+
+    def add(self, params: dict[str, torch.Tensor], update: int) -> int:
+        """Add a snapshot (replacing the oldest when full); returns its index."""
+        if len(self.params) < self.capacity:
+            self.params.append(params)
+            self.added_at.append(update)
+            self.win_rate.append(0.5)
+            self.games.append(0)
+            index = len(self.params) - 1
+        else:
+            index = int(np.argmin(self.added_at))
+            self.params[index], self.added_at[index] = params, update
+            self.win_rate[index], self.games[index] = 0.5, 0
+        self.latest = index
+        return index
+
+    def record(self, index: int, score: float) -> None:
+        """The learner scored ``score`` (1 win, 0.5 draw, 0 loss) against member ``index``."""
+        self.games[index] += 1
+        step = max(1.0 / (self.games[index] + 1), self.win_rate_step)  # the 0.5 prior counts as one match
+        self.win_rate[index] += step * (score - self.win_rate[index])
+
+    def sample(self, rule: str, rng: np.random.Generator, pfsp_p: float) -> int:
+        """One member index under the sampling rule."""
+        n = len(self.params)
+        if rule == "latest" or n == 1:
+            return self.latest
+        if rule == "uniform":
+            return int(rng.integers(n))
+        if rule == "80/20":
+            if rng.random() < 0.8:
+                return self.latest
+            past = [i for i in range(n) if i != self.latest]
+            return past[int(rng.integers(len(past)))]
+        weights = pfsp_weights(np.asarray(self.win_rate), "hard" if rule == "pfsp_hard" else "variance", pfsp_p)
+        return int(rng.choice(n, p=weights))
+
+
+class SelfPlay:
+    """Self-play of one PPO learner against its own snapshots (see the module docstring).
+
+    Args:
+        env_fn: makes one env of the game.
+        config: hyper-parameters.
+        seed: seeds the learner, env resets, action noise and opponent draws.
+        opponent_sampling: one of :data:`OPPONENT_SAMPLING`.
+        pfsp_p: the exponent of ``f_hard``.
+        pool_every: learner updates between two snapshots added to the pool.
+        pool_size: the most snapshots the pool keeps.
+        win_rate_step: the smallest step of the running win rates.
+        architecture: the actor's family and sizes (default from ``config``).
+        total_steps: env steps of the run, for learning-rate annealing.
+        log: called with a line per iteration.
+    """
+
+    scheme = "sp"
+
+    def __init__(self, env_fn: Callable[[], Any], config: PPOConfig | None = None, seed: int = 0, *,
+                 opponent_sampling: str = "pfsp_hard", pfsp_p: float = 2.0, pool_every: int = 5,
+                 pool_size: int = 64, win_rate_step: float = 0.05, architecture: Architecture | None = None,
+                 total_steps: int | None = None, log: Callable[[str], None] | None = None) -> None:
+        if opponent_sampling not in OPPONENT_SAMPLING:
+            raise ValueError(f"unknown opponent_sampling {opponent_sampling!r}; valid: {', '.join(OPPONENT_SAMPLING)}")
+        if pool_every < 1:
+            raise ValueError(f"pool_every must be at least 1 update, not {pool_every}")
+        # seeding first
+        torch.set_num_threads(1)
+        torch.manual_seed(seed)
+        self.config = config or PPOConfig()
+        self.seed = seed
+        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
+        self.opponent_rng = np.random.default_rng(np.random.SeedSequence([seed, 3]))
+        probe = env_fn()
+        check_trainable(probe)
+        self.team_of = np.asarray(probe.rules.team_of, dtype=np.int64)
+        self.n_teams = int(probe.rules.n_teams)
+        self.architecture = architecture or game_architecture(self.config, probe)
+        self.learners = [Learner(self.architecture, self.config, seed, name="sp")]
+        self.opponent_sampling = opponent_sampling
+        self.pfsp_p = pfsp_p
+        self.pool_every = pool_every
+        self.pool = OpponentPool(pool_size, win_rate_step)
+        self.pool.add(self.learners[0].actor_parameters(), 0)
+        self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating,
+                                          opponents=self._pool_opponents(), on_episode=self._record)
+        self.total_steps = total_steps
+        self.log = log
+        self.env_steps = 0
+        self.iteration = 0
+
+    # --- opponents --------------------------------------------------------------------------------
+    def _pool_opponents(self) -> list[Opponent]:
+        """Every pool member as an opponent of one stacked policy (one forward for all their seats)."""
+        stacked = StackedPolicy(self.architecture, self.pool.params, compute_dtype=torch.float32)
+        return [Opponent(stacked, owner=i, name=f"sp@{self.pool.added_at[i]}") for i in range(len(self.pool))]
+
+    def _seating(self, env_index: int, episode: int) -> tuple[np.ndarray, np.ndarray]:
+        """The learner's team swaps every episode; one sampled snapshot plays the other teams."""
+        learner_team = (env_index + episode) % self.n_teams
+        member = self.pool.sample(self.opponent_sampling, self.opponent_rng, self.pfsp_p)
+        codes = np.where(self.team_of == learner_team, 0, -1 - member)
+        return codes, np.full(len(codes), member)
+
+    def _record(self, episode: Episode) -> None:
+        opponent_seats = np.flatnonzero(episode.controllers < 0)
+        score = episode.score_of_controller(0)
+        if opponent_seats.size and score is not None:
+            self.pool.record(-1 - int(episode.controllers[opponent_seats[0]]), score)
+
+    # --- training ---------------------------------------------------------------------------------
+    def iterate(self) -> dict[str, Any]:
+        """One iteration: rollout against pool snapshots, GAE, update, and maybe a new snapshot."""
+        start = time.perf_counter()
+        # rollout: the learner's seats in one forward, the snapshots' seats in one stacked forward
+        rollout = self.collector.collect(self.learners, self.config.num_steps)
+        self.env_steps += rollout.env_steps
+        collect_time = time.perf_counter() - start
+        # GAE and the update
+        learner = self.learners[0]
+        batch = learner_batch(rollout, 0, learner)
+        stats = learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps, self.total_steps))
+        self.iteration += 1
+        # the pool: add the learner as it is now
+        if learner.updates % self.pool_every == 0:
+            self.pool.add(learner.actor_parameters(), learner.updates)
+            self.collector.opponents = self._pool_opponents()
+        record = iteration_record(self, rollout, [stats], start, collect_time)
+        scores = [s for s in (e.score_of_controller(0) for e in rollout.episodes) if s is not None]
+        record["win_rate"] = float(np.mean(scores)) if scores else float("nan")
+        record["pool_size"] = len(self.pool)
+        if self.log:
+            self.log(format_record(record) + f" win_rate {record['win_rate']:.2f} pool {len(self.pool)}")
+        return record
+
+    def snapshot_metrics(self, index: int) -> dict[str, Any]:
+        """What a snapshot records besides its weights: the sampling rule and pool win rates."""
+        return {"opponent_sampling": self.opponent_sampling, "pool_size": len(self.pool),
+                "mean_pool_win_rate": float(np.mean(self.pool.win_rate))}
