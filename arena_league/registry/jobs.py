@@ -386,17 +386,8 @@ def run_job_now(
     if job.kind not in handlers:
         release_job(league, job)
         raise InvalidRecordError(f"job {job_id} is of kind {job.kind!r}, which has no handler here")
-    lease_lost = threading.Event()
-    done = threading.Event()
-    keeper = threading.Thread(target=_keep_lease, args=(league, job, lease_seconds, lease_lost, done),
-                              name=f"lease-{job.id}", daemon=True)
-    keeper.start()
     try:
-        try:
-            result = handlers[job.kind](JobContext(league=league, job=job, lease_lost=lease_lost))
-        finally:
-            done.set()
-            keeper.join()
+        result, _ = _under_lease(league, handlers[job.kind], job, lease_seconds)
     except KeyboardInterrupt:
         release_job(league, job)
         raise
@@ -416,21 +407,8 @@ def _run_one(
     report: WorkerReport,
 ) -> None:
     """Run one claimed job under a renewed lease, then complete or fail it."""
-    lease_lost = threading.Event()
-    done = threading.Event()
-    keeper = threading.Thread(
-        target=_keep_lease,
-        args=(league, job, lease_seconds, lease_lost, done),
-        name=f"lease-{job.id}",
-        daemon=True,
-    )
-    keeper.start()
     try:
-        try:
-            result = handler(JobContext(league=league, job=job, lease_lost=lease_lost))
-        finally:
-            done.set()
-            keeper.join()
+        result, lease_lost = _under_lease(league, handler, job, lease_seconds)
     except LeaseLostError:
         report.lost += 1
         logger.warning("job %d: lease lost; leaving it to its new owner", job.id)
@@ -463,6 +441,22 @@ def _run_one(
         return
     report.completed += 1
     logger.info("job %d (%s) done", job.id, job.kind)
+
+
+def _under_lease(league: League, handler: Handler, job: ClaimedJob, lease_seconds: float
+                 ) -> tuple[Any, threading.Event]:
+    """Call the handler while a background thread renews the job's lease; returns its result and
+    the event that tells whether the lease was lost meanwhile."""
+    lease_lost = threading.Event()
+    done = threading.Event()
+    keeper = threading.Thread(target=_keep_lease, args=(league, job, lease_seconds, lease_lost, done),
+                              name=f"lease-{job.id}", daemon=True)
+    keeper.start()
+    try:
+        return handler(JobContext(league=league, job=job, lease_lost=lease_lost)), lease_lost
+    finally:
+        done.set()
+        keeper.join()
 
 
 def _keep_lease(
