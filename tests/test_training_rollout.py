@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from line_race import make_line_race
 
-from arena_league.population import scripted_policy
+from arena_league.population import StackedPolicy, init_parameters, scripted_policy
 from arena_league.training import Learner, Opponent, PPOConfig, RolloutCollector, learner_batch, make_env_fn
 from arena_league.training.ppo import game_architecture
 
@@ -41,6 +41,23 @@ def test_learner_seats_and_opponent_seats():
         assert episode.length == 15
         assert episode.team_scores.shape == (2,)
         assert list(episode.controllers) == [0, 0, -1, -1]
+
+
+def test_stacked_opponents_play_their_own_members():
+    env_fn = make_env_fn("Crossroads-2T1P-v1", max_cycles=10)
+    learner = learner_for(env_fn)
+    arch = learner.architecture
+    pool = StackedPolicy(arch, [init_parameters(arch, 11), init_parameters(arch, 12)], greedy=True)
+    # env k's opponent seat is played by pool member k % 2, all in one stacked forward
+    collector = RolloutCollector(env_fn, 4, seed=0, seating=lambda k, e: np.array([0, -1 - (k % 2)]),
+                                 opponents=[Opponent(pool, owner=0), Opponent(pool, owner=1)])
+    rollout = collector.collect([learner], 12)
+    for member in (0, 1):
+        slots = [2 * k + 1 for k in range(4) if k % 2 == member]
+        acted = rollout.acting[:, slots].reshape(-1)
+        obs = rollout.obs[:, slots].reshape(-1, arch.obs_dim)[acted]
+        expected, _ = pool.member(member).act(obs, np.zeros((len(obs), 1)))
+        np.testing.assert_array_equal(rollout.env_actions[:, slots].reshape(-1)[acted], expected)
 
 
 def test_same_seed_same_rollout():

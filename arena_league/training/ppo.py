@@ -31,7 +31,8 @@ when the game masks actions; continuous actions are a Gaussian around the actor'
 with a state-independent learned log standard deviation, either clipped to [-1, 1] by the env
 (``continuous_head="clip"``, CleanRL's choice) or squashed by ``tanh`` (``"tanh"``, with the
 log-determinant correction of Haarnoja et al. 2018). The exported agent plays the actor's
-deterministic ``tanh`` output.
+deterministic ``tanh`` output. GRU actors are re-evaluated, step by step, from the recurrent
+state each step started from (stored at collection), so gradients do not flow back through time.
 """
 
 from __future__ import annotations

@@ -12,8 +12,9 @@ Slots: seat ``i`` of env ``k`` is slot ``s = k * n_agents + i``; every array of 
 chosen when its env starts an episode, by the *seating* callback ``seating(env_index, episode)``
 that returns one controller code per seat: ``c >= 0`` is learner ``c`` (of the list passed to
 :meth:`RolloutCollector.collect`), ``c < 0`` is fixed opponent ``-1 - c`` of
-:attr:`RolloutCollector.opponents`. The callback may instead return ``(codes, owners)``, where
-``owners[i]`` is the member a stacked opponent plays in seat i. Controllers change only at episode
+:attr:`RolloutCollector.opponents` (an :class:`Opponent`: a policy, and for a stacked pool of
+snapshots the member it plays). The callback may instead return ``(codes, owners)``; the owners
+are kept with the rollout and its episodes for bookkeeping. Controllers change only at episode
 boundaries, so every learner's slot trajectory is cut by ``dones`` exactly where it starts and
 ends, and one GAE pass over all slots serves every learner (:func:`learner_batch`).
 
@@ -270,6 +271,7 @@ class RolloutCollector:
                 self._learner_state.setdefault(code, np.zeros((S, learner.architecture.gru_size), dtype=np.float32))
                 policy_states[code] = np.zeros((T, S, learner.architecture.gru_size), dtype=np.float32)
         episodes: list[Episode] = []
+        opponent_tables = self._opponent_tables()
         k_uniform = max(1, self.act_dim) if not self.discrete else 1
         for t in range(T):
             # observe: observations, legal actions, who acts, global states
@@ -300,12 +302,10 @@ class RolloutCollector:
                     self._learner_act(t, code, learners[code], rows, obs, noise, mask, state_rows, seats, acting,
                                       actions, env_actions, logprobs, values, value_preds, policy_states,
                                       critic_inputs)
-            self._opponents_act(obs, uniforms, mask, acting, env_actions[t])
-            if not self.discrete:
-                opp = self.controllers < 0
-                actions[t][opp] = env_actions[t][opp]
-            else:
-                actions[t][self.controllers < 0] = env_actions[t][self.controllers < 0]
+            # act: one call per distinct fixed opponent policy over its acting rows
+            self._opponents_act(opponent_tables, obs, uniforms, mask, acting, env_actions[t])
+            opponent_rows = self.controllers < 0
+            actions[t][opponent_rows] = env_actions[t][opponent_rows]
             # step every env; an ended episode is recorded and its env reset at once
             for k, env in enumerate(self.envs):
                 seat_actions = env_actions[t, k * n:(k + 1) * n]
@@ -372,34 +372,44 @@ class RolloutCollector:
             moved = acting[rows]  # a recurrent state advances only when the seat acts, as in matches
             self._learner_state[code][rows[moved]] = out.policy_state[moved]
 
-    def _opponents_act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None, acting: np.ndarray,
+    def _opponent_tables(self) -> tuple[list[Policy], np.ndarray, np.ndarray]:
+        """The distinct opponent policies, and per opponent index its policy's position and owner."""
+        policies: list[Policy] = []
+        position: dict[int, int] = {}
+        policy_index = np.zeros(len(self.opponents), dtype=np.int64)
+        owner = np.full(len(self.opponents), -1, dtype=np.int64)
+        for j, opponent in enumerate(self.opponents):
+            if id(opponent.policy) not in position:
+                position[id(opponent.policy)] = len(policies)
+                policies.append(opponent.policy)
+            policy_index[j] = position[id(opponent.policy)]
+            owner[j] = -1 if opponent.owner is None else opponent.owner
+        return policies, policy_index, owner
+
+    def _opponents_act(self, tables: tuple[list[Policy], np.ndarray, np.ndarray], obs: np.ndarray,
+                       uniforms: np.ndarray, mask: np.ndarray | None, acting: np.ndarray,
                        env_actions: np.ndarray) -> None:
-        """One ``act`` call per distinct opponent policy over its acting rows (stacked pools get owners)."""
+        """One ``act`` call per distinct opponent policy over its acting rows (a stacked pool gets
+        each row's owner); recurrent opponents' states advance only when they act."""
+        policies, policy_index, owner = tables
         rows_all = np.flatnonzero((self.controllers < 0) & acting)
         if rows_all.size == 0:
             return
-        by_policy: dict[int, list[int]] = {}
-        policy_of: dict[int, Policy] = {}
-        for row in rows_all.tolist():
-            opponent = self._opponent(int(self.controllers[row]))
-            key = id(opponent.policy)
-            by_policy.setdefault(key, []).append(row)
-            policy_of[key] = opponent.policy
-        for key, row_list in by_policy.items():
-            policy = policy_of[key]
-            rows = np.asarray(row_list, dtype=np.int64)
-            width = policy.spec.obs_dim
-            state = None
-            if policy.recurrent:
-                state = np.stack([self._opponent_state[r] for r in rows])
-            kwargs = {}
-            if self._opponent(int(self.controllers[rows[0]])).owner is not None:
-                kwargs["owners"] = np.asarray([self._opponent(int(self.controllers[r])).owner for r in rows])
-            out, next_state = policy.act(obs[rows, :width], uniforms[rows], None if mask is None else mask[rows],
-                                         state, **kwargs)
+        opponent = -1 - self.controllers[rows_all]
+        if opponent.max() >= len(self.opponents):
+            self._opponent(int(self.controllers[rows_all[np.argmax(opponent)]]))  # raises, naming the fix
+        for p in np.unique(policy_index[opponent]).tolist():
+            chosen = policy_index[opponent] == p
+            rows = rows_all[chosen]
+            policy = policies[p]
+            owners = owner[opponent[chosen]]
+            kwargs = {"owners": owners} if (owners >= 0).all() else {}
+            state = np.stack([self._opponent_state[r] for r in rows]) if policy.recurrent else None
+            out, next_state = policy.act(obs[rows, : policy.spec.obs_dim], uniforms[rows],
+                                         None if mask is None else mask[rows], state, **kwargs)
             env_actions[rows] = out
             if policy.recurrent and next_state is not None:
-                for i, r in enumerate(rows):
+                for i, r in enumerate(rows.tolist()):
                     self._opponent_state[r] = np.asarray(next_state)[i]
 
 
