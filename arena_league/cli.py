@@ -425,6 +425,31 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_train(args: argparse.Namespace) -> int:
+    from arena_league.training.curves import train
+
+    def log(line: str) -> None:
+        if not args.json:
+            stderr.print(line, highlight=False)
+
+    report = train(args.game, args.scheme, steps=args.steps, seed=args.seed, report_dir=args.report,
+                   eval_every=args.eval_every, eval_matches=args.eval_matches,
+                   reference=args.reference or ("scripted:random", "scripted:heuristic"),
+                   snapshot_every=args.snapshot_every, out_dir=args.out, log=log)
+    document = report.as_dict()
+    if args.json:
+        emit_json(document)
+        return 0
+    last = report.evaluations[-1] if report.evaluations else {}
+    stdout.print(f"{args.scheme} on {args.game}: {args.steps} env steps, {len(report.snapshots)} snapshot(s); "
+                 f"population performance {last.get('population_performance', float('nan')):.3f}")
+    for name, path in report.plots.items():
+        stdout.print(f"  {name}: {path}")
+    for snapshot in report.snapshots[-3:]:
+        stdout.print(f"  snapshot {snapshot.name}: {snapshot.path} (submit it with `arena-league submit`)")
+    return 0
+
+
 # --- parser --------------------------------------------------------------------------------------
 
 def _league_options(p: argparse.ArgumentParser) -> None:
@@ -543,6 +568,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--destination", default=None, help="export: a new folder")
     _league_options(p)
     p.set_defaults(func=cmd_population)
+
+    p = sub.add_parser("train", help="train agents with a scheme (ppo, dppo, sp, pbt, cc, cf); plot the curves")
+    p.add_argument("game")
+    p.add_argument("--scheme", default="sp", help="ppo, dppo, sp, pbt, cc or cf (default sp)")
+    p.add_argument("--steps", type=_positive_int, default=100_000, help="env steps (default 100000)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--report", default=None, help="write episode_reward.png, population_performance.png and "
+                                                  "curves.json here")
+    p.add_argument("--eval-every", type=_positive_int, default=10, help="iterations between evaluations")
+    p.add_argument("--eval-matches", type=_positive_int, default=20, help="matches per reference agent")
+    p.add_argument("--reference", nargs="+", default=None,
+                   help="the fixed reference population (default scripted:random scripted:heuristic)")
+    p.add_argument("--snapshot-every", type=_positive_int, default=None, help="env steps between snapshots")
+    p.add_argument("--out", default=None, help="where snapshots (arena-policy folders) go")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("quickstart", help="a league end to end: agents, round robin, ranking, leaderboard")
     p.add_argument("--game", default="Crossroads-2T2P-v1")
