@@ -336,10 +336,10 @@ class Learner:
         out, h_out = self.actor(x, h)
         n = x.shape[0]
         if self.architecture.action_type == "discrete":
-            mask = legal_mask(mask, tuple(out.shape))
-            logits = out.masked_fill(~torch.from_numpy(mask), _ILLEGAL_LOGIT) if mask is not None else out
-            actions = sample_from_logits(logits.numpy(), np.asarray(noise, dtype=np.float64).reshape(n, 1), mask)
-            logprobs = torch.log_softmax(logits, dim=1)[torch.arange(n), torch.from_numpy(actions)]
+            logits = out.numpy()
+            mask = legal_mask(mask, logits.shape)
+            actions = sample_from_logits(logits, np.asarray(noise, dtype=np.float64).reshape(n, 1), mask)
+            logprobs = _categorical_logprob(logits, actions, mask)
             env_actions = actions
         else:
             mean, std = self._gaussian(out)
@@ -347,12 +347,13 @@ class Learner:
             logprobs = self._continuous_logprob(mean, std, raw)
             actions = raw.numpy()
             env_actions = (torch.tanh(raw) if self.config.continuous_head == "tanh" else raw.clamp(-1.0, 1.0)).numpy()
+            logprobs = logprobs.numpy()
         values = value_preds = np.zeros(n, dtype=np.float32)
         if self.critic is not None:
             features = obs if critic_input is None else critic_input
             value_preds = self.critic(torch.from_numpy(np.ascontiguousarray(features, dtype=np.float32))).numpy()
             values = self.denormalize(value_preds)
-        return ActResult(env_actions, actions, logprobs.numpy().astype(np.float32), values, value_preds,
+        return ActResult(env_actions, actions, logprobs.astype(np.float32), values, value_preds,
                          None if h_out is None else h_out.numpy())
 
     @torch.no_grad()
@@ -401,6 +402,17 @@ class Learner:
         stats = ppo_update(self, batch, self.config, self.optimiser, rng, learning_rate=learning_rate)
         self.updates += 1
         return stats
+
+
+def _categorical_logprob(logits: np.ndarray, actions: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
+    """``log softmax(logits)[action]`` over the legal actions, in float64 (numpy: a few
+    microseconds where the torch ops cost tens on small batches)."""
+    z = logits.astype(np.float64)
+    if mask is not None:
+        z = np.where(mask, z, -np.inf)
+    z -= z.max(axis=1, keepdims=True)
+    log_total = np.log(np.exp(z).sum(axis=1))
+    return z[np.arange(len(actions)), actions] - log_total
 
 
 # --- advantages -------------------------------------------------------------------------------------
