@@ -71,3 +71,13 @@ def test_dppo_run_saves_one_agent_per_seat(tmp_path):
     assert [s.learner for s in snapshots] == ["seat0", "seat1"]
     assert [s.metrics["seats"] for s in snapshots] == [[0], [1]]
     assert snapshots[0].name == "dppo-s1-seat0-64"
+
+
+@pytest.mark.parametrize("scheme", ["dppo", "sp", "pbt"])
+def test_same_seed_same_snapshots(tmp_path, scheme):
+    options = {"population_size": 2, "interval": 1, "min_matches": 1} if scheme == "pbt" else {}
+    runs = [run_scheme(scheme, GAME, steps=128, seed=5, snapshot_every=None, out_dir=tmp_path / name, **TINY,
+                       **options) for name in ("a", "b")]
+    for first, second in zip(*runs, strict=True):
+        for name, tensor in first.params.items():
+            assert torch.equal(second.params[name], tensor), (scheme, first.learner, name)
