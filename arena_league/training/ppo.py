@@ -256,6 +256,10 @@ class Learner:
         name: for logs and snapshots.
     """
 
+    #: True when :meth:`critic_features` reads the env's global state (the collector then records
+    #: ``env.state()`` every step).
+    needs_state: bool = False
+
     def __init__(self, arch: Architecture, config: PPOConfig, seed: int, *, critic_dim: int | None = None,
                  name: str = "learner") -> None:
         self.architecture = arch
