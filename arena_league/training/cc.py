@@ -171,7 +171,7 @@ class TeamSeats:
         rules = env.rules
         self.team_of = np.asarray(rules.team_of, dtype=np.int64)
         self.n_teams = int(rules.n_teams)
-        if team is not None and not (isinstance(team, int) and 0 <= team < self.n_teams):
+        if team is not None and (isinstance(team, bool) or not isinstance(team, int) or not 0 <= team < self.n_teams):
             raise ValueError(f"team must be a team index 0..{self.n_teams - 1} of {env.game_id}, or None to swap "
                              f"teams every episode; got {team!r}")
         if opponent_sampling not in OPPONENT_SAMPLING:

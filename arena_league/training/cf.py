@@ -281,7 +281,8 @@ class CF:
 
     def iterate(self) -> dict[str, Any]:
         """One iteration: rollout, critic update on TD(lambda) targets, counterfactual advantages,
-        the actor's clipped update."""
+        the actor's clipped update. The record's losses report the Q critic's loss as
+        ``value_loss`` and its explained variance of the targets as ``explained_variance``."""
         start = time.perf_counter()
         config = self.config
         # rollout: the learner's seats in one actor forward per step; states and every seat's action recorded
