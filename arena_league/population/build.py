@@ -1,0 +1,820 @@
+"""Base-population build: train with several schemes, play a round robin, select, rate and freeze.
+
+Arena (Song et al., "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent
+Intelligence", AAAI 2020) ships, for each game, 100 agents that different training schemes produce,
+as the base population new agents are ranked against. :func:`build_population` makes one:
+
+1. **train**: each scheme (``sp``, ``pbt``, ``dppo``, plus ``cc`` for team games, by default) runs
+   once through :func:`arena_league.training.run_scheme`, saving every learner every
+   ``steps / snapshots`` env steps, so that each run leaves a ladder of snapshots from weak
+   (early) to strong (late);
+2. **candidates**: every snapshot (evenly thinned per learner down to ``max_candidates``), plus
+   the built-in ``scripted:random`` and ``scripted:heuristic`` agents as references;
+3. **round robin**: every pair of candidates meets ``matches_per_pair`` times, seats balanced,
+   on the batched match engine (torch agents of one architecture stacked into one forward);
+4. **rate**: Bradley-Terry over the round robin (Elo scale);
+5. **select**: ``size`` candidates spanning the rating range from just above the random agent to
+   the strongest, differing in whom they beat (:mod:`arena_league.population.selection`);
+6. **figures**: the members' ratings with bootstrap intervals (over the matches among members
+   and the scripted references), the Bradley-Terry spread, the best member against the worst
+   (``verify_matches`` extra matches), the random agent's rank, the schemes present, the
+   effective diversity, each checked against the issue's criteria (:data:`CRITERIA`);
+7. **freeze**: ``out_dir`` (default ``checkpoints/<game>/<name>/``) gets ``population.json``
+   (readable by :func:`arena_league.league.service.import_population`), one arena-policy
+   folder per member under ``agents/``, one stacked safetensors bundle per architecture (every
+   member's weights as ``[P, ...]`` tensors, :func:`load_bundles`) and a ``README.md``;
+8. **register** (when a league is given): the population is imported, frozen, with its members'
+   ratings, so that ``league.service.rank`` places entrants against it.
+
+Resumable: everything lands in ``work_dir`` as it is made: a finished training run leaves its
+``run.json`` (``run_scheme`` reads it back instead of training again), and the round robin is
+played in chunks of ``CHUNK_MATCHES`` matches, each saved once played, under a folder named after
+the candidates and the schedule. A build interrupted at any stage and started again with the same
+arguments redoes only what was not saved; its report says what was reused.
+
+Layout of a frozen population::
+
+    population.json        name, version, game_id, provenance (build, figures, criteria), bundles, members
+    README.md              provenance and figures for people
+    mlp-0.safetensors      stacked bundle: tensor <param> of shape [P, ...], header metadata naming members
+    agents/<member>/       manifest.json + weights.safetensors (an arena-policy folder per member)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import shutil
+import subprocess
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from safetensors.torch import load_file, save_file
+
+from arena_league.population.artifacts import manifest_architecture, save_arena_policy
+from arena_league.population.families import Architecture, StackedPolicy, TorchPolicy, check_parameters
+from arena_league.population.selection import select_spanning
+
+__all__ = [
+    "BUNDLE_FORMAT",
+    "CHUNK_MATCHES",
+    "CRITERIA",
+    "DEFAULT_SCHEMES",
+    "POPULATION_FORMAT",
+    "RECIPES",
+    "BuildReport",
+    "Candidate",
+    "MemberRecord",
+    "PopulationFigures",
+    "Recipe",
+    "build_population",
+    "default_schemes",
+    "load_bundles",
+    "recipe_for",
+]
+
+#: Schemes of every build; team games add :data:`TEAM_SCHEMES`.
+DEFAULT_SCHEMES: tuple[str, ...] = ("sp", "pbt", "dppo")
+#: Added for games whose teams have several players (a centralised critic, MAPPO-style).
+TEAM_SCHEMES: tuple[str, ...] = ("cc",)
+#: Matches per saved chunk of the round robin (the unit an interrupted build replays at most).
+CHUNK_MATCHES = 512
+POPULATION_FORMAT = "arena-population"
+BUNDLE_FORMAT = "arena-population-bundle"
+FORMAT_VERSION = 1
+#: The issue's must-show criteria for a shipped population, as (figure, comparison, threshold).
+CRITERIA: dict[str, tuple[str, str, float]] = {
+    "best_beats_worst": ("best_vs_worst_win_rate", ">=", 0.90),
+    "bradley_terry_spread": ("spread", ">=", 800.0),
+    "random_in_bottom_5_percent": ("random_bottom_share", "<=", 0.05),
+    "three_schemes": ("n_schemes", ">=", 3),
+}
+_REFERENCES = ("random", "heuristic")
+
+Progress = Callable[[str, int, int], None]
+
+
+# --- recipes ---------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Recipe:
+    """How a game's base population is trained unless the caller says otherwise."""
+
+    steps: int
+    """Env steps of each scheme's run."""
+    snapshots: int
+    """Snapshots per run (every ``steps // snapshots`` env steps)."""
+    hidden: tuple[int, ...]
+    """Hidden widths of the MLP actors: small, so that a member weighs tens of KB."""
+    common: Mapping[str, Any] = field(default_factory=dict)
+    """Overrides of :func:`arena_league.training.run_scheme` for every scheme."""
+    per_scheme: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    """Overrides for one scheme (``{"pbt": {"population_size": 4}}``)."""
+
+    def overrides(self, scheme: str) -> dict[str, Any]:
+        return {"hidden": tuple(self.hidden), **dict(self.common), **dict(self.per_scheme.get(scheme, {}))}
+
+
+#: Per game (the name before the layout): budgets sized for a 2-core machine, many snapshots per
+#: run (early ones are weak, late ones strong), and small actors.
+RECIPES: dict[str, Recipe] = {
+    "Crossroads": Recipe(steps=300_000, snapshots=16, hidden=(32, 32),
+                         per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}}),
+    "Soccer": Recipe(steps=400_000, snapshots=16, hidden=(32, 32),
+                     per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}}),
+    "GoBang": Recipe(steps=600_000, snapshots=16, hidden=(8,), common={"learning_rate": 1e-3},
+                     per_scheme={"pbt": {"population_size": 4}}),
+    "Snake": Recipe(steps=400_000, snapshots=16, hidden=(16, 16),
+                    per_scheme={"pbt": {"population_size": 4}}),
+}
+_FALLBACK_RECIPE = Recipe(steps=200_000, snapshots=12, hidden=(32, 32), per_scheme={"pbt": {"population_size": 4}})
+
+
+def recipe_for(game_id: str) -> Recipe:
+    """The default recipe of ``game_id`` (:data:`RECIPES`, or a generic one)."""
+    return RECIPES.get(game_id.split("-", 1)[0], _FALLBACK_RECIPE)
+
+
+def default_schemes(game_id: str) -> tuple[str, ...]:
+    """``sp``, ``pbt`` and ``dppo``, plus ``cc`` when teams have several players."""
+    from arena_league.envs import game_spec
+
+    return DEFAULT_SCHEMES + (TEAM_SCHEMES if game_spec(game_id).players_per_team > 1 else ())
+
+
+# --- records ---------------------------------------------------------------------------------------
+
+@dataclass
+class Candidate:
+    """A snapshot that may join the population."""
+
+    key: str
+    """Its name within the build: ``<scheme>-s<seed>-<learner>-<steps>``."""
+    scheme: str
+    steps: int
+    seed: int
+    learner: str
+    architecture: Architecture
+    params: dict[str, torch.Tensor]
+
+
+@dataclass
+class MemberRecord:
+    """One member of a built population."""
+
+    name: str
+    """Its agent name in a league: ``<population>.<key>@<game>``."""
+    key: str
+    scheme: str
+    steps: int
+    seed: int
+    learner: str
+    rating: float
+    rating_lower: float
+    rating_upper: float
+    rank: int
+    """1 = strongest member."""
+    artifact: str
+    """Its arena-policy folder, relative to the population folder."""
+    bundle: str
+    bundle_index: int
+
+
+@dataclass
+class PopulationFigures:
+    """The figures a shipped population is judged by (see :data:`CRITERIA`)."""
+
+    size: int
+    spread: float
+    """Bradley-Terry rating of the best member minus that of the worst (Elo points)."""
+    best: str
+    worst: str
+    best_vs_worst_matches: int
+    best_vs_worst_win_rate: float
+    """Share of those matches the best member won (draws not counted as wins)."""
+    best_vs_worst_score: float
+    """Its points share (draws count half)."""
+    random_rating: float
+    random_rank: int
+    """Rank of the random agent among the members and itself (1 = strongest)."""
+    random_bottom_share: float
+    """(members rated below random + 1) / (members + 1): the random agent's place from the bottom."""
+    heuristic_rating: float
+    heuristic_rank: int
+    schemes: dict[str, int]
+    """Members per training scheme."""
+    n_schemes: int
+    effective_diversity: float
+    """Of the members' logit payoff meta-game (Balduzzi et al. 2018): 0 when transitive."""
+    round_robin_matches: int
+    """Matches among members and references the ratings come from."""
+
+
+@dataclass
+class BuildReport:
+    """What :func:`build_population` did and made."""
+
+    game_id: str
+    name: str
+    out_dir: str | None
+    work_dir: str
+    schemes: list[str]
+    steps_per_scheme: dict[str, int]
+    seed: int
+    candidates: int
+    members: list[MemberRecord]
+    figures: PopulationFigures | None
+    criteria: dict[str, bool]
+    passed: bool
+    trained: list[str]
+    """Schemes trained by this call."""
+    reused_runs: list[str]
+    """Schemes whose finished runs were read back from ``work_dir``."""
+    matches_played: int
+    """Round-robin and verification matches played by this call."""
+    matches_reused: int
+    """Matches read back from ``work_dir``."""
+    stage: str
+    """The last stage completed ("train", "round_robin", ..., "register")."""
+    population: str | None = None
+    """``name:version`` in the league, when registered."""
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+class _StopBuild(Exception):
+    """Raised inside the build to stop after ``stop_after``."""
+
+
+# --- the build -------------------------------------------------------------------------------------
+
+def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", schemes: Sequence[str] | None = None,
+                     steps_per_scheme: int | Mapping[str, int] | None = None, seed: int = 0,
+                     work_dir: str | Path | None = None, out_dir: str | Path | None = None, league: Any = None,
+                     matches_per_pair: int = 2, verify_matches: int = 200, snapshots: int | None = None,
+                     scheme_options: Mapping[str, Mapping[str, Any]] | None = None, max_candidates: int = 240,
+                     floor_margin: float = 50.0, bootstrap_rounds: int = 200, batch_size: int = 256,
+                     overwrite: bool = False, stop_after: str | None = None, progress: Progress | None = None,
+                     log: Callable[[str], None] | None = None) -> BuildReport:
+    """Train, rate, select and freeze a base population of ``game_id`` (see the module docstring).
+
+    Args:
+        game_id: a two-team game of :func:`arena_league.envs.list_games`.
+        size: members of the population (Arena: 100).
+        name: the population's name (``base-v1``); members are named ``<name>.<key>@<game_id>``.
+        schemes: training schemes (default :func:`default_schemes`).
+        steps_per_scheme: env steps of each run, one number or one per scheme (default: the game's
+            :class:`Recipe`).
+        seed: seeds every run and the match schedule.
+        work_dir: where runs and matches are kept (default ``runs/population/<game>/<name>``); a
+            build started again with the same arguments resumes from it.
+        out_dir: the frozen population (default ``checkpoints/<game>/<name>``).
+        league: a :class:`arena_league.registry.League`: register the population there, frozen.
+        matches_per_pair: round-robin matches per pair of candidates (seats balanced).
+        verify_matches: extra matches of the best member against the worst.
+        snapshots: snapshots per run (default: the recipe's).
+        scheme_options: overrides of ``run_scheme`` per scheme, over the recipe's.
+        max_candidates: trained snapshots that enter the round robin at most (evenly thinned per
+            learner, its first and last kept).
+        floor_margin: members must be rated this far above the random agent while enough are.
+        bootstrap_rounds: bootstrap rounds of the rating intervals.
+        batch_size: matches in flight on the engine.
+        overwrite: replace an ``out_dir`` that holds a population built with other arguments.
+        stop_after: stop after this stage (``"train"``, ``"round_robin"``, ``"select"``,
+            ``"freeze"``); the report says how far it got.
+        progress: called as ``progress(stage, done, total)``.
+        log: called with a line per build step.
+    """
+    from arena_league.envs import game_spec
+
+    started = time.perf_counter()
+    spec = game_spec(game_id)
+    if spec.n_teams != 2:
+        raise ValueError(f"{game_id} has {spec.n_teams} teams; base populations are rated by two-team matches. "
+                         f"Build one for a two-team layout such as {spec.rules.name}-2T{spec.players_per_team}P-v1")
+    stages = ("train", "round_robin", "select", "freeze", "register")
+    if stop_after is not None and stop_after not in stages:
+        raise ValueError(f"stop_after must be one of {', '.join(stages)}, not {stop_after!r}")
+    if size < 2:
+        raise ValueError(f"a population needs at least 2 members, not {size}")
+    if matches_per_pair < 1 or verify_matches < 1:
+        raise ValueError("matches_per_pair and verify_matches must be at least 1")
+    recipe = recipe_for(game_id)
+    schemes = list(schemes) if schemes is not None else list(default_schemes(game_id))
+    if not schemes or len(set(schemes)) != len(schemes):
+        raise ValueError(f"schemes must be distinct scheme names, got {schemes!r}")
+    steps = _steps_per_scheme(schemes, steps_per_scheme, recipe)
+    n_snapshots = int(snapshots or recipe.snapshots)
+    if n_snapshots < 1:
+        raise ValueError(f"snapshots must be at least 1, not {snapshots}")
+    work = Path(work_dir) if work_dir is not None else Path("runs") / "population" / game_id / name
+    out = Path(out_dir) if out_dir is not None else Path("checkpoints") / game_id / name
+    say = log or (lambda line: None)
+    report = BuildReport(game_id=game_id, name=name, out_dir=None, work_dir=str(work), schemes=schemes,
+                         steps_per_scheme=steps, seed=seed, candidates=0, members=[], figures=None, criteria={},
+                         passed=False, trained=[], reused_runs=[], matches_played=0, matches_reused=0, stage="")
+    work.mkdir(parents=True, exist_ok=True)
+
+    # 1. train every scheme (a finished run is read back)
+    clock = time.perf_counter()
+    snapshots_by_scheme = {}
+    for k, scheme in enumerate(schemes):
+        overrides = {**recipe.overrides(scheme), **dict((scheme_options or {}).get(scheme, {}))}
+        every = max(1, steps[scheme] // n_snapshots)
+        finished = (work / "runs" / f"{scheme}-seed{seed}" / "run.json").exists()
+        say(f"train {scheme}: {steps[scheme]} env steps, a snapshot every {every}"
+            + (" (finished run: reading it back)" if finished else ""))
+        if progress:
+            progress("train", k, len(schemes))
+        snapshots_by_scheme[scheme] = _run_scheme(scheme, game_id, steps[scheme], seed, every, work, overrides)
+        (report.reused_runs if finished else report.trained).append(scheme)
+    if progress:
+        progress("train", len(schemes), len(schemes))
+    report.seconds["train"] = round(time.perf_counter() - clock, 1)
+    report.stage = "train"
+    if stop_after == "train":
+        return report
+
+    # 2-3. candidates and the round robin
+    clock = time.perf_counter()
+    candidates = _thin([s for scheme in schemes for s in snapshots_by_scheme[scheme]], max_candidates)
+    report.candidates = len(candidates)
+    if len(candidates) < size:
+        say(f"only {len(candidates)} snapshots for {size} members: every candidate will be a member; "
+            "train longer or take more snapshots for a choice")
+    keys = [c.key for c in candidates] + list(_REFERENCES)
+    schedule = _Schedule(game_id, keys, matches_per_pair, seed)
+    policies = _policies(game_id, candidates)
+    table = schedule.play(work, policies, batch_size, report, progress, say)
+    report.seconds["round_robin"] = round(time.perf_counter() - clock, 1)
+    report.stage = "round_robin"
+    if stop_after == "round_robin":
+        return report
+
+    # 4-5. rate and select
+    clock = time.perf_counter()
+    from arena_league.rating import PairCounts, fit_bradley_terry
+
+    counts = PairCounts.from_results(table[:, 0], table[:, 1], table[:, 2], keys)
+    ratings = fit_bradley_terry(counts).ratings
+    payoff = counts.logit_payoff(pseudo_count=0.5)
+    payoff[counts.games == 0] = np.nan
+    np.fill_diagonal(payoff, np.nan)
+    n_trained = len(candidates)
+    random_index = keys.index("random")
+    chosen = select_spanning(ratings[:n_trained], payoff[:n_trained], size,
+                             floor=float(ratings[random_index]) + floor_margin)
+    say(f"selected {len(chosen)} of {n_trained} candidates (random agent rated {ratings[random_index]:.0f}, "
+        f"candidates {ratings[:n_trained].min():.0f} .. {ratings[:n_trained].max():.0f})")
+    report.seconds["select"] = round(time.perf_counter() - clock, 1)
+
+    # 6. figures over the members and the references
+    clock = time.perf_counter()
+    members = [candidates[i] for i in chosen]
+    figures, member_ratings = _figures(game_id, members, keys, counts, policies, seed, bootstrap_rounds,
+                                       verify_matches, batch_size, work, schedule.digest, report)
+    report.figures = figures
+    report.criteria = check_criteria(figures)
+    report.passed = all(report.criteria.values())
+    say(f"figures: spread {figures.spread:.0f} Elo, best beats worst {figures.best_vs_worst_win_rate:.3f}, "
+        f"random rank {figures.random_rank}/{figures.size + 1}, schemes {figures.schemes}; "
+        f"criteria {'met' if report.passed else 'NOT met'}: {report.criteria}")
+    report.members = _member_records(name, game_id, members, member_ratings)
+    report.seconds["figures"] = round(time.perf_counter() - clock, 1)
+    report.stage = "select"
+    if stop_after == "select":
+        return report
+
+    # 7. freeze
+    clock = time.perf_counter()
+    build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest)
+    _freeze(out, report, members, build_id, overwrite, recipe, matches_per_pair, verify_matches, n_snapshots,
+            max_candidates, scheme_options)
+    report.out_dir = str(out)
+    report.seconds["freeze"] = round(time.perf_counter() - clock, 1)
+    report.stage = "freeze"
+    say(f"froze {len(members)} members in {out}")
+    if stop_after == "freeze" or league is None:
+        report.seconds["total"] = round(time.perf_counter() - started, 1)
+        return report
+
+    # 8. register
+    report.population = _register(league, out, name, [m.name for m in report.members])
+    report.stage = "register"
+    say(f"registered {report.population} (frozen)")
+    report.seconds["total"] = round(time.perf_counter() - started, 1)
+    return report
+
+
+def check_criteria(figures: PopulationFigures) -> dict[str, bool]:
+    """Each criterion of :data:`CRITERIA` checked against ``figures``."""
+    result = {}
+    for criterion, (figure, comparison, threshold) in CRITERIA.items():
+        value = float(getattr(figures, figure))
+        result[criterion] = value >= threshold if comparison == ">=" else value <= threshold
+    return result
+
+
+# --- stage helpers ---------------------------------------------------------------------------------
+
+def _steps_per_scheme(schemes: list[str], steps: int | Mapping[str, int] | None, recipe: Recipe) -> dict[str, int]:
+    if steps is None:
+        return {s: recipe.steps for s in schemes}
+    if isinstance(steps, Mapping):
+        missing = [s for s in schemes if s not in steps]
+        if missing:
+            raise ValueError(f"steps_per_scheme gives no budget for {', '.join(missing)}; give one per scheme or "
+                             "a single number")
+        return {s: int(steps[s]) for s in schemes}
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ValueError(f"steps_per_scheme must be a positive number of env steps, not {steps!r}")
+    return {s: int(steps) for s in schemes}
+
+
+def _run_scheme(scheme: str, game_id: str, steps: int, seed: int, every: int, work: Path,
+                overrides: Mapping[str, Any]) -> list[Candidate]:
+    from arena_league.training import run_scheme
+
+    log_path = work / f"train-{scheme}.log"
+    with log_path.open("a") as handle:
+        def log_line(line: str) -> None:
+            handle.write(line + "\n")
+            handle.flush()
+
+        snapshots = run_scheme(scheme, game_id, steps=steps, seed=seed, snapshot_every=every,
+                               out_dir=work / "runs", log=log_line, **overrides)
+    return [Candidate(s.name, s.scheme, int(s.steps), int(s.seed), s.learner, s.architecture,
+                      {k: v.detach().to(torch.float32).contiguous() for k, v in s.params.items()})
+            for s in snapshots]
+
+
+def _thin(candidates: list[Candidate], limit: int) -> list[Candidate]:
+    """At most ``limit`` candidates: each (scheme, learner) ladder keeps a share proportional to its
+    length, evenly spaced over its steps, its first and last snapshots included."""
+    if len(candidates) <= limit:
+        return candidates
+    ladders: dict[tuple[str, str], list[Candidate]] = {}
+    for c in candidates:
+        ladders.setdefault((c.scheme, c.learner), []).append(c)
+    quota = {k: max(2, int(limit * len(v) / len(candidates))) for k, v in ladders.items()}
+    kept = []
+    for k, ladder in ladders.items():
+        ladder = sorted(ladder, key=lambda c: c.steps)
+        index = np.unique(np.round(np.linspace(0, len(ladder) - 1, min(quota[k], len(ladder)))).astype(int))
+        kept += [ladder[i] for i in index]
+    return kept
+
+
+def _policies(game_id: str, candidates: list[Candidate]) -> dict[str, Any]:
+    from arena_league.population.scripted import scripted_policy
+
+    policies: dict[str, Any] = {c.key: TorchPolicy(c.architecture, c.params, name=c.key) for c in candidates}
+    for ref in _REFERENCES:
+        policies[ref] = scripted_policy(ref, game_id)
+    return policies
+
+
+class _Schedule:
+    """The round robin of a build, played and saved chunk by chunk."""
+
+    def __init__(self, game_id: str, keys: list[str], matches_per_pair: int, seed: int) -> None:
+        from arena_league.matchmaking import round_robin
+
+        self.game_id = game_id
+        self.keys = keys
+        self.index = {k: i for i, k in enumerate(keys)}
+        self.seed = seed
+        self.seatings = round_robin(keys, matches_per_pair)
+        identity = json.dumps({"game": game_id, "agents": keys, "matches_per_pair": matches_per_pair, "seed": seed})
+        self.digest = hashlib.sha256(identity.encode()).hexdigest()[:16]
+
+    def play(self, work: Path, policies: Mapping[str, Any], batch_size: int, report: BuildReport,
+             progress: Progress | None, say: Callable[[str], None]) -> np.ndarray:
+        """``float64[matches, 3]``: team 0's agent index, team 1's, team 0's score."""
+        folder = work / "matches" / self.digest
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "schedule.json").write_text(json.dumps({"game_id": self.game_id, "agents": self.keys,
+                                                          "matches": len(self.seatings), "seed": self.seed}))
+        n_chunks = math.ceil(len(self.seatings) / CHUNK_MATCHES)
+        rows = []
+        say(f"round robin: {len(self.keys)} agents, {len(self.seatings)} matches in {n_chunks} chunks")
+        for chunk in range(n_chunks):
+            path = folder / f"chunk-{chunk:06d}.json"
+            first = chunk * CHUNK_MATCHES
+            seatings = self.seatings[first: first + CHUNK_MATCHES]
+            if path.exists():
+                scores = json.loads(path.read_text())["scores"]
+                report.matches_reused += len(scores)
+            else:
+                scores = play_seatings(self.game_id, seatings, policies, self.seed, first, batch_size)
+                _write_json(path, {"first_match_id": first, "seatings": seatings, "scores": scores})
+                report.matches_played += len(scores)
+            rows += [(self.index[a], self.index[b], s) for (a, b), s in zip(seatings, scores)]
+            if progress:
+                progress("round_robin", min(len(self.seatings), first + CHUNK_MATCHES), len(self.seatings))
+        return np.asarray(rows, dtype=np.float64).reshape(-1, 3)
+
+
+def play_seatings(game_id: str, seatings: Sequence[Sequence[str]], policies: Mapping[str, Any], seed: int,
+                  first_match_id: int, batch_size: int = 256) -> list[float]:
+    """Team 0's score (1 win, 0.5 draw, 0 loss) in each match of ``seatings`` (team 0's agent,
+    team 1's), played in process on the batched engine with match ids from ``first_match_id``."""
+    from arena_league.matchmaking import play_matches, specs_for_seatings
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # many small batched forwards: one thread beats OpenMP's hand-offs
+    try:
+        specs = specs_for_seatings(game_id, [tuple(s) for s in seatings], seed, first_match_id)
+        used = {k for s in seatings for k in s}
+        results = play_matches(specs, {k: policies[k] for k in used}, batch_size=batch_size)
+    finally:
+        torch.set_num_threads(threads)
+    return [float(r.scores[r.teams.index(0)]) for r in results]
+
+
+def _figures(game_id: str, members: list[Candidate], keys: list[str], counts: Any, policies: Mapping[str, Any],
+             seed: int, rounds: int, verify_matches: int, batch_size: int, work: Path, digest: str,
+             report: BuildReport) -> tuple[PopulationFigures, Any]:
+    from arena_league.rating import PairCounts, bootstrap_ratings, effective_diversity
+
+    names = [m.key for m in members] + list(_REFERENCES)
+    index = np.asarray([keys.index(n) for n in names])
+    sub = PairCounts(names, counts.wins[np.ix_(index, index)], counts.draws[np.ix_(index, index)])
+    fit = bootstrap_ratings(sub, rounds=rounds, seed=seed, anchor=[m.key for m in members])
+    n = len(members)
+    member_ratings = fit.rating[:n]
+    best, worst = int(np.argmax(member_ratings)), int(np.argmin(member_ratings))
+    wins, draws, played = _best_vs_worst(game_id, members[best].key, members[worst].key, policies, seed,
+                                         verify_matches, batch_size, work, digest, report)
+    random_rating, heuristic_rating = float(fit.rating[n]), float(fit.rating[n + 1])
+    below_random = int((member_ratings < random_rating).sum())
+    schemes: dict[str, int] = {}
+    for m in members:
+        schemes[m.scheme] = schemes.get(m.scheme, 0) + 1
+    member_payoff = PairCounts(names[:n], sub.wins[:n, :n], sub.draws[:n, :n]).logit_payoff(pseudo_count=0.5)
+    figures = PopulationFigures(
+        size=n, spread=round(float(member_ratings.max() - member_ratings.min()), 1),
+        best=members[best].key, worst=members[worst].key, best_vs_worst_matches=played,
+        best_vs_worst_win_rate=round(wins / played, 4), best_vs_worst_score=round((wins + 0.5 * draws) / played, 4),
+        random_rating=round(random_rating, 1), random_rank=1 + int((member_ratings > random_rating).sum()),
+        random_bottom_share=round((below_random + 1) / (n + 1), 4), heuristic_rating=round(heuristic_rating, 1),
+        heuristic_rank=1 + int((member_ratings > heuristic_rating).sum()), schemes=dict(sorted(schemes.items())),
+        n_schemes=len(schemes), effective_diversity=round(effective_diversity(member_payoff), 4),
+        round_robin_matches=round(sub.n_matches))
+    return figures, fit
+
+
+def _best_vs_worst(game_id: str, best: str, worst: str, policies: Mapping[str, Any], seed: int, n: int,
+                   batch_size: int, work: Path, digest: str, report: BuildReport) -> tuple[int, int, int]:
+    """(wins, draws, matches) of ``best`` against ``worst`` over ``n`` matches, seats alternating."""
+    path = work / "matches" / digest / f"verify-{hashlib.sha256(f'{best}|{worst}|{n}'.encode()).hexdigest()[:12]}.json"
+    seatings = [(best, worst) if k % 2 == 0 else (worst, best) for k in range(n)]
+    if path.exists():
+        scores = json.loads(path.read_text())["scores"]
+        report.matches_reused += len(scores)
+    else:
+        # match ids after any round robin's, so these matches never share seeds with it
+        scores = play_seatings(game_id, seatings, policies, seed, 1 << 40, batch_size)
+        _write_json(path, {"best": best, "worst": worst, "scores": scores})
+        report.matches_played += len(scores)
+    best_scores = [s if k % 2 == 0 else 1.0 - s for k, s in enumerate(scores)]
+    return sum(s == 1.0 for s in best_scores), sum(s == 0.5 for s in best_scores), n
+
+
+def _member_records(name: str, game_id: str, members: list[Candidate], fit: Any) -> list[MemberRecord]:
+    n = len(members)
+    rating = fit.rating[:n]
+    order = np.argsort(-rating, kind="stable")
+    rank = np.empty(n, dtype=int)
+    rank[order] = np.arange(1, n + 1)
+    records = []
+    for i, m in enumerate(members):
+        records.append(MemberRecord(
+            name=member_name(name, m.key, game_id), key=m.key, scheme=m.scheme, steps=m.steps, seed=m.seed,
+            learner=m.learner, rating=round(float(rating[i]), 1), rating_lower=round(float(fit.lower[i]), 1),
+            rating_upper=round(float(fit.upper[i]), 1), rank=int(rank[i]), artifact=f"agents/{m.key}",
+            bundle="", bundle_index=-1))
+    return records
+
+
+def member_name(population: str, key: str, game_id: str) -> str:
+    """A member's agent name in a league: ``<population>.<key>@<game_id>``."""
+    return f"{population}.{key}@{game_id}"
+
+
+def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, int], seed: int, snapshots: int,
+              size: int, matches_per_pair: int, digest: str) -> str:
+    identity = json.dumps([game_id, name, schemes, dict(steps), seed, snapshots, size, matches_per_pair, digest])
+    return hashlib.sha256(identity.encode()).hexdigest()[:16]
+
+
+# --- freezing --------------------------------------------------------------------------------------
+
+def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: str, overwrite: bool,
+            recipe: Recipe, matches_per_pair: int, verify_matches: int, snapshots: int, max_candidates: int,
+            scheme_options: Mapping[str, Mapping[str, Any]] | None) -> None:
+    manifest_path = out / "population.json"
+    if manifest_path.exists() and not overwrite:
+        existing = json.loads(manifest_path.read_text()).get("provenance", {}).get("build", {}).get("build_id")
+        if existing != build_id:
+            raise ValueError(f"{out} holds a population built with other arguments (build {existing}); pass "
+                             "overwrite=True to replace it, or another out_dir or name")
+    staging = out.with_name(out.name + ".partial")
+    shutil.rmtree(staging, ignore_errors=True)
+    (staging / "agents").mkdir(parents=True)
+    by_key = {m.key: m for m in members}
+    records = {r.key: r for r in report.members}
+    # one stacked bundle per architecture, members in rating order (weakest first)
+    groups: dict[Architecture, list[Candidate]] = {}
+    for m in sorted(members, key=lambda m: records[m.key].rating):
+        groups.setdefault(m.architecture, []).append(m)
+    bundles = []
+    for k, (arch, group) in enumerate(groups.items()):
+        file = f"{arch.family}-{k}.safetensors"
+        tensors = {param: torch.stack([check_parameters(arch, m.params)[param] for m in group])
+                   for param in arch.parameter_shapes()}
+        header = {"family": arch.family, "sizes": arch.sizes(), "spaces": arch.spaces(),
+                  "game": report.game_id, "members": [records[m.key].name for m in group]}
+        save_file(tensors, str(staging / file), metadata={"format": BUNDLE_FORMAT,
+                                                           "format_version": str(FORMAT_VERSION),
+                                                           "bundle": json.dumps(header, sort_keys=True)})
+        bundles.append({"file": file, **header})
+        for i, m in enumerate(group):
+            records[m.key].bundle, records[m.key].bundle_index = file, i
+    entries = []
+    for record in sorted(report.members, key=lambda r: r.rating):
+        member = by_key[record.key]
+        provenance = {"scheme": record.scheme, "game": report.game_id, "steps": record.steps, "seed": record.seed,
+                      "learner": record.learner, "population": report.name, "rating": record.rating,
+                      "rating_interval": [record.rating_lower, record.rating_upper]}
+        save_arena_policy(staging / record.artifact, member.architecture, member.params, report.game_id,
+                          name=record.name, provenance=provenance,
+                          description=f"{record.scheme} snapshot after {record.steps} env steps (seed {record.seed}), "
+                                      f"member of {report.name}")
+        entries.append({
+            "name": record.name, "kind": "base", "artifact": record.artifact, "format": "arena-policy",
+            "bundle": record.bundle, "bundle_index": record.bundle_index,
+            "metadata": {"rating": record.rating, "rating_lower": record.rating_lower,
+                         "rating_upper": record.rating_upper, "rank": record.rank, "scheme": record.scheme,
+                         "steps": record.steps, "seed": record.seed, "learner": record.learner},
+            "agent_metadata": {"scheme": record.scheme, "steps": record.steps, "seed": record.seed,
+                               "learner": record.learner, "population": report.name,
+                               "family": member.architecture.family}})
+    figures = asdict(report.figures) if report.figures else {}
+    manifest = {
+        "format": POPULATION_FORMAT, "format_version": FORMAT_VERSION, "name": report.name, "version": 1,
+        "game_id": report.game_id, "frozen": True,
+        "provenance": {
+            "build": {"build_id": build_id, "schemes": report.schemes, "steps_per_scheme": report.steps_per_scheme,
+                      "seed": report.seed, "snapshots_per_run": snapshots, "candidates": report.candidates,
+                      "max_candidates": max_candidates, "matches_per_pair": matches_per_pair,
+                      "verify_matches": verify_matches,
+                      "recipe": {"hidden": list(recipe.hidden), "common": _jsonable(recipe.common),
+                                 "per_scheme": _jsonable(recipe.per_scheme)},
+                      "scheme_options": _jsonable(scheme_options or {}), "code": _code_version()},
+            "figures": figures, "criteria": report.criteria, "passed": report.passed,
+            "rating": "Bradley-Terry (Elo scale, members' mean 1000) over the round robin among members and the "
+                      "scripted random and heuristic agents; 95% bootstrap intervals",
+            "references": {"random": figures.get("random_rating"), "heuristic": figures.get("heuristic_rating")}},
+        "bundles": bundles,
+        "members": entries,
+    }
+    _write_json(staging / "population.json", manifest)
+    (staging / "README.md").write_text(population_readme(manifest))
+    if out.exists():
+        shutil.rmtree(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    os.replace(staging, out)
+
+
+def _register(league: Any, out: Path, name: str, member_names: list[str]) -> str:
+    """Import the frozen population unless the league already holds it with these members."""
+    from arena_league import registry as reg
+    from arena_league.league.service import import_population
+
+    with league.reading() as session:
+        for population in reg.list_populations(session):
+            if population.name == name and sorted(m.agent.name for m in population.members) == sorted(member_names):
+                return f"{population.name}:{population.version}"
+    return import_population(league, out)
+
+
+def load_bundles(folder: str | Path, *, compute_dtype: torch.dtype = torch.float64) -> list[StackedPolicy]:
+    """The stacked bundles of a frozen population folder, as :class:`StackedPolicy` objects whose
+    ``member_names`` are the members' agent names (one batched forward for a whole family)."""
+    folder = Path(folder)
+    manifest = json.loads((folder / "population.json").read_text())
+    policies = []
+    for bundle in manifest.get("bundles", []):
+        tensors = load_file(str(folder / bundle["file"]))
+        arch = manifest_architecture({"family": bundle["family"], "sizes": bundle["sizes"],
+                                      "spaces": bundle["spaces"]})
+        members = bundle["members"]
+        for param, shape in arch.parameter_shapes().items():
+            if param not in tensors or tuple(tensors[param].shape) != (len(members), *shape):
+                raise ValueError(f"{folder / bundle['file']}: tensor {param} is missing or not [{len(members)}, "
+                                 f"{', '.join(map(str, shape))}]; the bundle does not match population.json")
+        params = [{p: tensors[p][i] for p in arch.parameter_shapes()} for i in range(len(members))]
+        policies.append(StackedPolicy(arch, params, names=members, compute_dtype=compute_dtype))
+    return policies
+
+
+def population_readme(manifest: Mapping[str, Any]) -> str:
+    """The README of a frozen population: provenance, figures and criteria, members per scheme."""
+    prov = manifest["provenance"]
+    build, figures = prov["build"], prov["figures"]
+    game, name = manifest["game_id"], manifest["name"]
+    steps = ", ".join(f"{s} {n:,}" for s, n in build["steps_per_scheme"].items())
+    criteria_rows = "\n".join(
+        f"| {criterion.replace('_', ' ')} | {figure} {comparison} {threshold:g} | {figures.get(figure)} | "
+        f"{'yes' if prov['criteria'].get(criterion) else 'NO'} |"
+        for criterion, (figure, comparison, threshold) in CRITERIA.items())
+    ratings = sorted(m["metadata"]["rating"] for m in manifest["members"])
+    by_scheme: dict[str, list[float]] = {}
+    for m in manifest["members"]:
+        by_scheme.setdefault(m["metadata"]["scheme"], []).append(m["metadata"]["rating"])
+    scheme_rows = "\n".join(f"| {s} | {len(r)} | {min(r):.0f} | {np.median(r):.0f} | {max(r):.0f} |"
+                            for s, r in sorted(by_scheme.items()))
+    options = json.dumps(build["scheme_options"]) if build["scheme_options"] else "none"
+    return f"""# {name}: the base population of {game}
+
+{len(manifest['members'])} agents that {len(figures.get('schemes', {}))} training schemes produced, frozen as
+the base population new {game} agents are ranked against (after Arena, Song et al., AAAI 2020).
+Built by `arena_league.population.build.build_population` (code {build['code']}).
+
+## Provenance
+
+* schemes and env steps per run: {steps}; seed {build['seed']}; {build['snapshots_per_run']} snapshots per run
+  (early snapshots are weak, late ones strong); actors: MLP, hidden {build['recipe']['hidden']};
+  recipe overrides {json.dumps(build['recipe']['per_scheme'])}; build options {options}.
+* candidates: {build['candidates']} snapshots plus the scripted `random` and `heuristic` agents, in a round
+  robin of {build['matches_per_pair']} matches per pair (seats balanced).
+* selection: {len(manifest['members'])} candidates spanning the rating range above the random agent,
+  preferring, among candidates of similar rating, those whose results against the others differ most.
+* ratings: {prov['rating']}. Every member's scheme, env steps, seed, learner, rating and interval are in
+  `population.json` and in its `agents/<member>/manifest.json`.
+
+## Figures
+
+| figure | value |
+|---|---|
+| members | {figures.get('size')} |
+| Bradley-Terry spread (best - worst) | {figures.get('spread')} Elo |
+| best member vs worst ({figures.get('best_vs_worst_matches')} matches) | wins {figures.get('best_vs_worst_win_rate')}, score {figures.get('best_vs_worst_score')} |
+| random agent | rating {figures.get('random_rating')}, rank {figures.get('random_rank')} of {figures.get('size', 0) + 1} |
+| heuristic agent | rating {figures.get('heuristic_rating')}, rank {figures.get('heuristic_rank')} of {figures.get('size', 0) + 1} |
+| effective diversity | {figures.get('effective_diversity')} |
+| matches behind the ratings | {figures.get('round_robin_matches')} |
+| member ratings (min / median / max) | {ratings[0]:.0f} / {np.median(ratings):.0f} / {ratings[-1]:.0f} |
+
+| scheme | members | min rating | median | max |
+|---|---|---|---|---|
+{scheme_rows}
+
+## Criteria (issue 5)
+
+| criterion | rule | value | met |
+|---|---|---|---|
+{criteria_rows}
+
+## Use
+
+    arena-league population import checkpoints/{game}/{name}
+    arena-league rank my-agent --population {name}
+
+or, in Python, `arena_league.league.service.import_population(league, "checkpoints/{game}/{name}")`
+and `arena_league.population.build.load_bundles("checkpoints/{game}/{name}")` for the stacked weights.
+"""
+
+
+# --- small helpers ---------------------------------------------------------------------------------
+
+def _write_json(path: Path, document: Any) -> None:
+    """Write JSON atomically (a reader never sees half a file; an interrupted write leaves none)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(document, indent=1, sort_keys=False) + "\n")
+    os.replace(tmp, path)
+
+
+def _jsonable(value: Any) -> Any:
+    from arena_league.training.schemes import json_safe
+
+    return json_safe(value)
+
+
+def _code_version() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], check=False, capture_output=True, text=True,
+                             timeout=5, cwd=Path(__file__).resolve().parent)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"

@@ -1,0 +1,149 @@
+"""Base-population build end to end at size 8 on a tiny budget: the frozen folder (manifest, stacked
+bundle, member folders), registration in a league (frozen, rated), resuming after an interruption
+at every stage; and the selection rule on its own."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from safetensors.torch import load_file
+
+from arena_league.league.service import base_population, open_home
+from arena_league.population import build as build_module
+from arena_league.population.build import build_population, load_bundles
+from arena_league.population.selection import behaviour_distances, select_spanning, target_order
+from arena_league.registry import get_population
+
+GAME = "GoBang-2T1P-v1"
+SCHEMES = ["sp", "pbt", "dppo"]
+TINY = {"num_envs": 4, "num_steps": 32}
+OPTIONS = {"sp": TINY, "pbt": {**TINY, "population_size": 2}, "dppo": TINY}
+
+
+def build(work, out, **kwargs):
+    return build_population(GAME, size=8, name="base-t", schemes=SCHEMES, steps_per_scheme=384, snapshots=3,
+                            seed=0, work_dir=work, out_dir=out, scheme_options=OPTIONS, verify_matches=20,
+                            bootstrap_rounds=20, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """The training stage alone, run once for the module: 3 snapshots per learner."""
+    work = tmp_path_factory.mktemp("work")
+    report = build(work, work / "unused", stop_after="train")
+    return work, report
+
+
+def test_training_stage_trains_every_scheme_and_stops(trained):
+    work, report = trained
+    assert report.stage == "train" and report.trained == SCHEMES and report.reused_runs == []
+    assert all((work / "runs" / f"{s}-seed0" / "run.json").exists() for s in SCHEMES)
+    assert not (work / "matches").exists()
+
+
+def test_build_resumes_freezes_and_registers_frozen(trained, tmp_path, monkeypatch):
+    work, _ = trained
+    finished = {s: (work / "runs" / f"{s}-seed0" / "run.json").stat().st_mtime_ns for s in SCHEMES}
+    monkeypatch.setattr(build_module, "CHUNK_MATCHES", 64)
+    out = tmp_path / "checkpoints" / GAME / "base-t"
+    league = open_home(tmp_path / "league")
+
+    # interrupted in the middle of the round robin ...
+    def interrupt(stage, done, total):
+        if stage == "round_robin" and done >= 128:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        build(work, out, league=league, progress=interrupt)
+    # ... then started again: no scheme retrains, saved matches are read back, the rest is played
+    report = build(work, out, league=league)
+    assert report.trained == [] and report.reused_runs == SCHEMES
+    assert {s: (work / "runs" / f"{s}-seed0" / "run.json").stat().st_mtime_ns for s in SCHEMES} == finished
+    n_agents = report.candidates + 2
+    round_robin = n_agents * (n_agents - 1)  # two matches per pair
+    assert report.matches_reused == 128
+    assert report.matches_played == round_robin - 128 + 20  # the rest, and best vs worst
+    assert report.stage == "register" and report.population == "base-t:1"
+
+    # the manifest: members with provenance and rating intervals, the population's figures
+    manifest = json.loads((out / "population.json").read_text())
+    assert manifest["name"] == "base-t" and manifest["game_id"] == GAME and manifest["frozen"]
+    members = manifest["members"]
+    assert len(members) == 8 and len({m["name"] for m in members}) == 8
+    for m in members:
+        meta = m["metadata"]
+        assert meta["scheme"] in SCHEMES and meta["steps"] > 0 and meta["seed"] == 0
+        assert meta["rating_lower"] <= meta["rating"] <= meta["rating_upper"]
+        assert (out / m["artifact"] / "manifest.json").exists()
+    ratings = [m["metadata"]["rating"] for m in members]
+    assert ratings == sorted(ratings)  # weakest first
+    figures = manifest["provenance"]["figures"]
+    assert figures["spread"] == pytest.approx(ratings[-1] - ratings[0], abs=0.2)
+    assert figures["best_vs_worst_matches"] == 20 and 0 <= figures["best_vs_worst_win_rate"] <= 1
+    assert 1 <= figures["random_rank"] <= 9 and sum(figures["schemes"].values()) == 8
+    assert set(manifest["provenance"]["criteria"]) == set(build_module.CRITERIA)
+    assert "Bradley-Terry spread" in (out / "README.md").read_text()
+
+    # the stacked bundle holds every member's weights as [P, ...] tensors, equal to its own folder
+    (bundle,) = manifest["bundles"]
+    tensors = load_file(str(out / bundle["file"]))
+    assert all(t.shape[0] == 8 for t in tensors.values())
+    (stacked,) = load_bundles(out)
+    assert list(stacked.member_names) == bundle["members"] == [m["name"] for m in members]
+    for m in members:
+        own = load_file(str(out / m["artifact"] / "weights.safetensors"))
+        for name, tensor in own.items():
+            assert torch.equal(tensors[name][m["bundle_index"]], tensor)
+
+    # registered frozen, with the members' ratings the league ranks entrants against
+    with league.reading() as session:
+        population = get_population(session, "base-t")
+        assert population.frozen and len(population.members) == 8
+    label, names, base_ratings = base_population(league, GAME, "someone", "base-t")
+    assert label == "base-t:1" and sorted(names) == sorted(m["name"] for m in members)
+    assert sorted(base_ratings.tolist()) == ratings
+
+    # a finished build asked again reuses everything and registers nothing twice
+    again = build(work, out, league=league)
+    assert again.matches_played == 0 and again.population == "base-t:1"
+    assert again.members == report.members
+
+
+def test_out_dir_of_another_build_is_not_overwritten(trained, tmp_path):
+    work, _ = trained
+    out = tmp_path / "base"
+    out.mkdir()
+    (out / "population.json").write_text(json.dumps({"provenance": {"build": {"build_id": "other"}}}))
+    with pytest.raises(ValueError, match="overwrite=True"):
+        build(work, out)
+
+
+def test_selection_spans_the_range_above_the_floor():
+    rng = np.random.default_rng(0)
+    ratings = np.concatenate([rng.uniform(0, 100, 50), rng.uniform(100, 1000, 30)])
+    behaviour = rng.normal(size=(80, 5))
+    chosen = select_spanning(ratings, behaviour, 10, floor=100.0)
+    assert len(set(chosen.tolist())) == 10 and (ratings[chosen] > 100).all()
+    picked = np.sort(ratings[chosen])
+    eligible = ratings[ratings > 100]
+    assert picked[0] == eligible.min() and picked[-1] == eligible.max()
+    # evenly spread: no gap much wider than the candidates' own gaps force
+    assert np.diff(picked).max() < 3 * (eligible.max() - eligible.min()) / 9
+
+
+def test_selection_prefers_different_behaviour_among_equals():
+    # candidates 1 and 2 are rated alike; 2 behaves like the already chosen 0, 1 does not
+    ratings = np.array([0.0, 500.0, 500.0, 1000.0])
+    behaviour = np.array([[0.0, 0.0], [5.0, 5.0], [0.1, 0.0], [5.0, -5.0]])
+    assert select_spanning(ratings, behaviour, 3, pool=2).tolist() == [0, 1, 3]
+
+
+def test_selection_fills_below_the_floor_when_short_and_orders_targets():
+    ratings = np.array([10.0, 20.0, 30.0, 300.0])
+    assert select_spanning(ratings, np.zeros((4, 1)), 3, floor=100.0).tolist() == [1, 2, 3]
+    assert target_order(5).tolist() == [0, 4, 2, 1, 3]
+    d = behaviour_distances(np.array([[0.0, np.nan], [3.0, 4.0]]))
+    assert d[0, 1] == pytest.approx(3.0) and d[1, 1] == 0.0
