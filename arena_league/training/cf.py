@@ -258,7 +258,7 @@ class CF:
         self.architecture = architecture or game_architecture(self.config, probe)
         # the actor: a core learner without a value critic; the collector records env.state() for it
         learner = Learner(self.architecture, self.config, seed, critic_dim=0, name="cf")
-        learner.needs_state = True  # type: ignore[attr-defined]
+        learner.needs_state = True
         self.learners = [learner]
         # the Q critic and its target network
         generator = torch.Generator().manual_seed(int(seed) + 2)
