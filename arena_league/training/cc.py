@@ -30,6 +30,13 @@ other teams are played by
 * ``"none"``: the learner plays every seat (for cooperative social trees, e.g. Crossroads'
   ``all_CL``).
 
+Measured (seed 0, one run each, the shared 2-core machine): on Crossroads-2T2P-v1 (``max_cycles=100``,
+default tree) against ``scripted:heuristic`` with :class:`CCConfig`'s defaults, the learner's mean
+return went from -100.2 (first 10 iterations of 8 x 128 steps) to -40.9 (last 10 of 150), winning
+24% of the last 10 iterations' episodes, in 64 s. (With ``update_epochs=5`` it had barely moved
+after 60 iterations: the loss of the race, -100 when the other team arrives, swamps the progress
+signal in ``V``-based advantages, and MAPPO's 15 epochs per rollout matter here.)
+
 Not in this learner (MAPPO options the core does not offer): the Huber value loss (the core's
 value loss is squared error, clipped) and recurrent data chunks (a GRU actor trains on the
 recurrent states recorded at collection, as the core does).

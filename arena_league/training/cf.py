@@ -36,6 +36,13 @@ Opponents are seated as in the centralised-critic learner (:class:`~arena_league
 by default the learner plays a different team each episode against snapshots of itself. The
 opponents' actions enter the critic like the teammates' (they are part of ``u^-a``).
 
+Measured (seed 0, one run each, the shared 2-core machine), :class:`CFConfig`'s defaults, iterations
+of 8 x 128 steps on Crossroads-2T2P-v1 (``max_cycles=100``): against ``scripted:heuristic`` on the
+default tree, the mean return went from -100.1 (first 10 iterations) to -86.9 (last 10 of 150; the
+best 10-iteration window -57.0: it learns to win sooner than the centralised critic, then
+oscillates), 53 s; on the fully cooperative ``all_CL`` tree with the learner in every seat, from
+1.4 to 12.6 in 100 iterations.
+
 Continuous actions are refused: the critic's output and the baseline's sum run over a finite set
 of actions (COMA is defined for discrete actions); use the ``"cc"`` scheme for continuous control.
 """
