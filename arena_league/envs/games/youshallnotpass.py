@@ -1,0 +1,184 @@
+"""YouShallNotPass: a runner ant must cross the field; a blocker ant must stop it (MuJoCo physics).
+
+Bansal et al., "Emergent Complexity via Multi-Agent Competition" (ICLR 2018), You Shall Not Pass;
+one of the robot games of the Arena platform (Song et al., AAAI 2020). Id:
+``YouShallNotPass-2T1P-v1``. Team 0 (``player_0``) is the runner, team 1 (``player_1``) the
+blocker.
+
+Field
+    A flat floor with the runner's start line at ``x = -field_length / 2`` and its goal line at
+    ``x = +field_length / 2`` (default 5 m apart).
+
+Start
+    The runner stands on its start line facing ``+x``; the blocker stands ``blocker_distance``
+    (default 2 m) in front of the goal line, facing the runner. Positions and headings are jittered
+    by up to ``start_jitter`` (m and rad), joint angles by up to 0.05 rad; all from the match seed.
+
+Actions
+    Continuous only: eight joint torques in [-1, 1] (see ``envs.robots.ant``);
+    ``mj_step(nstep=frame_skip)`` per step (0.05 s).
+
+Observation (``float32``, seat frame: the blocker sees the world turned by 180 degrees)
+    ====== =====================================================================
+    cell   meaning
+    ====== =====================================================================
+    0-41   the robot block (``envs.robots.observation``); the target (cells 40-41) is, for the
+           runner, the nearest point of its goal line, for the blocker, the runner's torso
+    42     role: +1 runner, -1 blocker
+    43     the goal line's ``x`` relative to the seat (seat frame) / 4
+    44-45  opponent position relative to the seat / 4
+    46-47  opponent velocity / 3
+    48-49  opponent forward axis (horizontal part)
+    50     vertical part of the opponent's up axis (negative once it fell)
+    ====== =====================================================================
+
+    ``obs_dim = 51``.
+
+Global state (``float32``, world frame)
+    per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``: ``state_dim = 16``.
+
+Measures
+    ``active`` (false once the runner arrived), ``arrived`` (the runner's torso crossed the goal
+    line), ``target_distance``, ``velocity_to_target`` and ``facing_target`` toward each seat's
+    target (see above), ``energy``, ``force``, ``speed``, ``fallen`` and ``outcome``.
+
+Episode end
+    The runner wins as soon as its torso crosses the goal line; the blocker wins as soon as the
+    runner falls, and when the match is cut at ``max_cycles`` (default 400 steps, 20 s). A fallen
+    blocker plays on (it may get up). ``team_result``: 1 win, 0 loss (no draws). Events:
+    ``{"kind": "arrive"|"fall", "seat": 0}``.
+
+Default social tree
+    Root CP ``win_loss`` (scale 100) over the two agent leaves, each IS ``robot_motion`` (scale 1:
+    speed toward the seat's target minus falling, control and contact costs; annealed by
+    ``set_anneal(alpha)``, see ``envs.robots.rewards``).
+
+Heuristic
+    The runner trots toward the goal line, stepping sideways round the blocker when it is just
+    ahead; the blocker trots to a spot just in front of the runner, on the runner's way to the line.
+
+Game kwargs
+    ``field_length`` (float in [3, 10], default 5.0), ``blocker_distance`` (float in [0.5, 4],
+    default 2.0; at most the field length), ``start_jitter`` (float in [0, 0.5], default 0.2),
+    ``frame_skip`` (int in [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from arena_league.envs.games.runtogoal import avoid
+from arena_league.envs.robots import observation as cells
+from arena_league.envs.robots.gait import trot
+from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose, duel_tree
+from arena_league.envs.robots.scene import Affine, Readout, SceneLayout
+
+RUNNER, BLOCKER = 0, 1
+ROLE = cells.ROBOT_CELLS
+GOAL_LINE = cells.ROBOT_CELLS + 1
+OPPONENT = slice(cells.ROBOT_CELLS + 2, cells.ROBOT_CELLS + 9)
+#: The blocker aims this far in front of the runner, on its way to the goal line.
+INTERCEPT_LEAD = 0.7
+
+
+class YouShallNotPassRules(RobotGameRules):
+    """YouShallNotPass on a MuJoCo floor; see the module docstring for the manual."""
+
+    name: ClassVar[str] = "YouShallNotPass"
+    version: ClassVar[int] = 1
+    layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1),)
+    measures_provided: ClassVar[frozenset[str]] = BASE_MEASURES | {"arrived"}
+    default_max_cycles: ClassVar[int] = 400
+    summary: ClassVar[str] = "A runner ant must cross the field, a blocker ant must stop it (MuJoCo)"
+    game_kwargs: ClassVar[dict] = {"field_length": (float, 3.0, 10.0, 5.0), "blocker_distance": (float, 0.5, 4.0, 2.0),
+                                   "start_jitter": (float, 0.0, 0.5, 0.2)}
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "continuous", **kwargs) -> None:
+        super().__init__(n_teams, players_per_team, action_type, **kwargs)
+        if self.settings["blocker_distance"] > self.settings["field_length"]:
+            raise ValueError(f"YouShallNotPass blocker_distance ({self.settings['blocker_distance']}) must not "
+                             f"exceed field_length ({self.settings['field_length']}): the blocker starts on the field")
+
+    @property
+    def half_length(self) -> float:
+        return self.settings["field_length"] / 2
+
+    def scene_layout(self) -> SceneLayout:
+        h = self.half_length
+        return SceneLayout(robots=("ant", "ant"), teams=(0, 1),
+                           markings=(("line", (-h, -3.0, -h, 3.0)), ("line", (h, -3.0, h, 3.0))))
+
+    def start_pose(self, rng: np.random.Generator) -> StartPose:
+        j = self.settings["start_jitter"]
+        h = self.half_length
+        xy = np.array([[-h, 0.0], [h - self.settings["blocker_distance"], 0.0]]) + rng.uniform(-j, j, (2, 2))
+        yaw = np.array([0.0, np.pi]) + rng.uniform(-j, j, 2)
+        return StartPose(xy, yaw, np.zeros((0, 2)), np.zeros(0))
+
+    def target_term(self, seat: int) -> Affine:
+        t = self.terms
+        if seat == RUNNER:
+            return Affine.stack([t.const([self.half_length]), t.robot(RUNNER, "pos")[1]])
+        return t.robot(RUNNER, "pos")[0:2]
+
+    def game_cells(self, seat: int) -> Affine:
+        t = self.terms
+        to_line = Affine.stack([t.const([self.half_length]) - t.robot(seat, "pos")[0], t.zeros(1)])
+        return Affine.stack([t.const([1.0 if seat == RUNNER else -1.0]),
+                             self._seat_vector(seat, to_line)[0] * (1.0 / cells.POSITION_UNIT),
+                             self.other_robot_cells(seat, 1 - seat)])
+
+    def game_readout(self, readout: Readout) -> None:
+        t = self.terms
+        readout.add("remaining", t.const([self.half_length]) - t.robot(RUNNER, "pos")[0])
+
+    def judge(self, st: MatchState, live: np.ndarray | None) -> None:
+        crossed = st.lin[:, self._slices["remaining"]][:, 0] <= 0.0
+        fell = st.fallen[:, RUNNER] & ~crossed
+        ended = crossed | fell
+        if live is not None:
+            ended &= live
+        if not ended.any():
+            return
+        crossed &= ended
+        st.arrived[:, RUNNER] |= crossed
+        st.active[:, RUNNER] &= ~crossed
+        st.any_inactive = True
+        for b in np.flatnonzero(ended):
+            st.events[b].append({"kind": "arrive" if crossed[b] else "fall", "seat": RUNNER})
+        self.end_matches(st, ended, np.where(crossed, RUNNER, BLOCKER))
+
+    def cut(self, st: MatchState, slot: int) -> None:
+        # the runner did not get through in time: the blocker wins
+        self.end_matches(st, np.arange(st.n_slots) == slot, np.full(st.n_slots, BLOCKER))
+
+    def view_extent(self) -> tuple[float, float, float, float]:
+        h = self.half_length + 1.0
+        return (-h, h, -h, h)
+
+    @classmethod
+    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
+        return duel_tree()
+
+    @staticmethod
+    def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
+        obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
+        runner = obs[:, ROLE] > 0
+        opponent = obs[:, OPPONENT]
+        # the runner runs toward +x in its frame, round the blocker
+        forward = np.zeros((len(obs), 2))
+        forward[:, 0] = 1.0
+        run = forward + avoid(opponent, forward, strength=1.5)
+        # the blocker heads for a spot just in front of the runner, toward the runner's goal line
+        runner_at = opponent[:, 0:2] * cells.POSITION_UNIT
+        line_x = obs[:, GOAL_LINE] * cells.POSITION_UNIT
+        toward_line = np.stack([line_x - runner_at[:, 0], np.zeros(len(obs))], axis=1)
+        toward_line /= np.maximum(np.linalg.norm(toward_line, axis=1, keepdims=True), 1e-9)
+        spot = runner_at + INTERCEPT_LEAD * toward_line
+        block = spot / np.maximum(np.linalg.norm(spot, axis=1, keepdims=True), 0.3)
+        return trot(obs, np.where(runner[:, None], run, block))
+
+
+RULES = YouShallNotPassRules

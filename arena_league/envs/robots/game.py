@@ -1,0 +1,627 @@
+"""What every robot game shares: MuJoCo stepping, observations, measures, and many matches at once.
+
+The robot games (Sumo, RunToGoal, YouShallNotPass, PushBox) follow Bansal et al., "Emergent
+Complexity via Multi-Agent Competition" (ICLR 2018) and Arena's robot-ant games (Song et al.,
+"Arena", AAAI 2020). A game subclasses :class:`RobotGameRules` and supplies its scene, its start
+positions, each seat's target, its own observation cells and its judgement (who won, who arrived);
+this module does the rest:
+
+* **Actions** are joint torques in [-1, 1], one per actuator (``act_dim = 8`` for the ant), the
+  only action type (``"continuous"``). Inactive seats' actions are replaced by zero torque.
+* **Stepping**: ``mujoco.mj_step(model, data, nstep=frame_skip)`` per match step (``frame_skip``
+  5 by default: 0.05 s).
+* **Observation**: the robot block of ``envs.robots.observation`` (42 cells) then the game's cells;
+  the whole observation is one affine map of MuJoCo's sensor vector (one matrix product per step),
+  contact cells clipped.
+* **Measures** (each game's manual names the seat's target): ``target_distance`` (m, horizontal),
+  ``velocity_to_target`` (m/s), ``facing_target`` (cosine between the torso's forward axis and the
+  way to the target), ``energy`` (mean squared action), ``force`` (contact force other robots and
+  props exert on the seat, in units of its weight), ``speed`` (horizontal, m/s), ``fallen`` (the
+  torso's up axis points below the horizon: ``FALLEN_UP_Z``) and ``outcome``; games add more.
+* **Annealing** of the dense motor reward: ``set_anneal(alpha)``, see ``envs.robots.rewards``.
+
+Many matches: the game logic is written over arrays of ``B`` matches (:class:`MatchState`); the
+rules play one (``B = 1``), and :class:`RobotMatches` (the match engine's batched path) plays many,
+one ``MjData`` each, stepping them on a pool of threads: ``mj_step`` releases Python's GIL, so
+threads step matches in parallel. Every match is stepped exactly as the rules step it, so results
+are bit-identical to the env path whatever the batch or the thread count.
+"""
+
+from __future__ import annotations
+
+import os
+from abc import abstractmethod
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+import scipy.sparse
+
+from arena_league.envs.core import GameRules
+from arena_league.envs.robots import observation as cells
+from arena_league.envs.robots.ant import ROBOTS
+from arena_league.envs.robots.rewards import RobotMeasures, check_anneal
+from arena_league.envs.robots.scene import Affine, Readout, Scene, SceneLayout, compile_scene
+
+#: A torso whose up axis has a vertical component below this has fallen (tilted past 90 degrees).
+FALLEN_UP_Z = 0.0
+#: Random spread of the start pose: joint angles (rad) around the standing pose.
+JOINT_JITTER = 0.05
+#: Torso height above the standing height at the start (the ant drops onto its feet).
+DROP = 0.02
+
+#: Measures every robot game emits.
+BASE_MEASURES = frozenset({"active", "target_distance", "velocity_to_target", "facing_target", "energy", "force",
+                           "speed", "fallen", "outcome"})
+#: Game kwargs every robot game takes: name -> (kind, low, high, default).
+COMMON_KWARGS: dict[str, tuple[type, float, float, float]] = {
+    "frame_skip": (int, 1, 20, 5),
+    "anneal": (float, 0.0, 1.0, 1.0),
+}
+
+
+def duel_tree(dense: str = "robot_motion") -> dict:
+    """The default tree of the two-ant duels: CP ``win_loss`` (scale 100) over the two agent leaves,
+    each with the IS motor reward (scale 1), as Bansal et al. blend dense and sparse rewards."""
+    return {"scheme": "CP", "reward": "win_loss", "scale": 100, "children": [
+        {"agent": f"player_{seat}", "scheme": "IS", "reward": dense, "scale": 1} for seat in range(2)]}
+
+
+@dataclass
+class StartPose:
+    """Where a match starts (world frame): each robot's torso ``xy`` and heading (and, for
+    scripted scenarios, a roll about its forward axis: ``pi`` lays it on its back), each box's."""
+
+    robot_xy: np.ndarray  # [n_robots, 2]
+    robot_yaw: np.ndarray  # [n_robots]
+    box_xy: np.ndarray  # [n_boxes, 2]
+    box_yaw: np.ndarray  # [n_boxes]
+    robot_roll: np.ndarray | None = None  # [n_robots]
+
+
+class MatchState:
+    """The per-match arrays of ``B`` matches of one game (row ``b`` is match ``b``), with views
+    into the readout (``lin``) that the step fills in place."""
+
+    def __init__(self, n_slots: int, n_agents: int, n_teams: int, act_dim: int, rows: int) -> None:
+        B, n = n_slots, n_agents
+        self.n_slots = B
+        self.steps = np.zeros(B, dtype=np.int64)
+        self.done = np.zeros(B, dtype=bool)
+        self.active = np.ones((B, n), dtype=bool)
+        self.alive = np.ones((B, n), dtype=bool)
+        self.arrived = np.zeros((B, n), dtype=bool)
+        self.fallen = np.zeros((B, n), dtype=bool)
+        self.outcome = np.zeros((B, n))
+        self.result = np.full((B, n_teams), 0.5)
+        self.object_progress = np.zeros((B, n))
+        self.ctrl = np.zeros((B, n, act_dim))
+        self.lin = np.zeros((B, rows))
+        #: set once a seat of some match left play (arrived or taken out): observations then
+        #: copy the active flags instead of the constant 1
+        self.any_inactive = False
+        self.memory: dict[str, np.ndarray] = {}
+        self.events: list[list[dict]] = [[] for _ in range(B)]
+
+    def bind(self, obs_rows: int, obs_dim: int, contact: slice, complex_rows: slice, groups: int,
+             up_z: slice) -> None:
+        """Make the views of ``lin`` and the storage the step writes (called once)."""
+        B, n = self.active.shape
+        lin = self.lin
+        self.obs = lin[:, :obs_rows].reshape(B, n, obs_dim)
+        self.obs_contact = self.obs[:, :, contact]
+        self.obs_active = self.obs[:, :, cells.ACTIVE]
+        #: complex numbers x + iy of world-frame vectors, [B, group, seat]: 0 the way to the
+        #: target, 1 the velocity, 2 the forward axis, 3 the horizontal push force / weight, then
+        #: the game's own groups
+        self.complex = lin[:, complex_rows].view(np.complex128).reshape(B, groups, n)
+        self.complex_target = self.complex[:, 0:1]
+        self.complex_moving = self.complex[:, 1:3]
+        self.absolute = np.zeros((B, groups, n))  # |complex|
+        self.target_distance = self.absolute[:, 0]
+        self.speed = self.absolute[:, 1]
+        self.force = self.absolute[:, 3]
+        self.safe_distance = np.ones((B, 1, n))
+        self.product = np.zeros((B, 2, n), dtype=np.complex128)
+        self.product_real = self.product.real
+        self.projection = np.zeros((B, 2, n))  # velocity and forward axis along the way to the target
+        self.velocity_to_target = self.projection[:, 0]
+        self.facing_target = self.projection[:, 1]
+        self.up_z = lin[:, up_z]
+        self.ctrl_squared = np.zeros_like(self.ctrl)
+        self.energy = np.zeros((B, n))
+        self.flags = np.zeros((B, n), dtype=bool)  # scratch for the games' judgement
+
+    def restart(self, slot: int) -> None:
+        """Fresh per-match values for a new match in ``slot`` (the game resets its memory)."""
+        self.steps[slot] = 0
+        self.done[slot] = False
+        self.active[slot] = True
+        self.alive[slot] = True
+        self.arrived[slot] = False
+        self.outcome[slot] = 0.0
+        self.result[slot] = 0.5
+        self.ctrl[slot] = 0.0
+        self.object_progress[slot] = 0.0
+        self.events[slot] = []
+
+
+class RobotGameRules(GameRules):
+    """The shared rules of a robot game (see the module docstring); games implement the hooks."""
+
+    action_types: ClassVar[tuple[str, ...]] = ("continuous",)
+    #: Robot of every seat (a key of ``envs.robots.ant.ROBOTS``).
+    robot: ClassVar[str] = "ant"
+    #: The game's own kwargs: name -> (kind, low, high, default); ``COMMON_KWARGS`` are added.
+    game_kwargs: ClassVar[dict[str, tuple[type, float, float, float]]] = {}
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "continuous", **kwargs: Any) -> None:
+        if (n_teams, players_per_team) not in self.layouts:
+            valid = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
+            raise ValueError(f"{self.name} has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
+        if action_type not in self.action_types:
+            raise ValueError(f"{self.name} action_type {action_type!r} is not offered; robot games take joint "
+                             f"torques: valid: {', '.join(map(repr, self.action_types))}")
+        self.settings = self._check_kwargs(kwargs)
+        super().__init__(n_teams, players_per_team, action_type)
+        self.measures = RobotMeasures.allocate(self.n_agents, self.measures_provided)
+        self.measures.anneal = self.settings["anneal"]
+        self.frame_skip = int(self.settings["frame_skip"])
+        self.scene: Scene = compile_scene(self.scene_layout())
+        self.model = self.scene.model
+        self.shape = ROBOTS[self.robot][1]
+        self.standing_pose = ROBOTS[self.robot][2]
+        self.act_dim = int(self.model.nu) // self.n_agents
+        self.n_actions = 0
+        self.terms = self.scene.terms()
+        #: Seat frame of each seat: the world turned by this angle about the vertical axis.
+        self.seat_angle = np.pi * self.team_of.astype(np.float64) if n_teams == 2 else \
+            2 * np.pi * self.team_of.astype(np.float64) / n_teams
+        self._build_readouts()
+        self.data = mujoco.MjData(self.model)
+        self.match = self.new_match_state(1)
+        # the match's torques are MuJoCo's own control buffer: one multiply writes them
+        self.match.ctrl = self.data.ctrl.reshape(1, self.n_agents, self.act_dim)
+        self.match.ctrl_squared = np.zeros_like(self.match.ctrl)
+        self._seat_ctrl = self.match.ctrl[0]
+        self._active_column = self.match.active[0][:, None]
+        self._sensordata = self.data.sensordata.reshape(1, -1)
+        self._publish_measures()
+        self.game_over = False
+
+    # --- game hooks ----------------------------------------------------------------------------
+    @abstractmethod
+    def scene_layout(self) -> SceneLayout:
+        """The scene of this layout (robots in seat order, boxes, floor markings)."""
+
+    @abstractmethod
+    def start_pose(self, rng: np.random.Generator) -> StartPose:
+        """Start positions of a match, drawn from ``rng`` only."""
+
+    @abstractmethod
+    def target_term(self, seat: int) -> Affine:
+        """The seat's target point ``x, y`` (world frame) as an affine map of the sensors."""
+
+    @abstractmethod
+    def game_cells(self, seat: int) -> Affine:
+        """The game's own observation cells of ``seat`` (after the robot block), seat frame."""
+
+    def game_readout(self, readout: Readout) -> None:
+        """Add the rows the game's judgement reads (world frame) to ``readout``."""
+
+    def allocate_memory(self, n_slots: int) -> dict[str, np.ndarray]:
+        """Per-match arrays the game keeps between steps."""
+        return {}
+
+    def on_start(self, st: MatchState, slot: int) -> None:
+        """A new match starts in ``slot`` (its readout is fresh): set the game's memory."""
+
+    @abstractmethod
+    def judge(self, st: MatchState, live: np.ndarray | None) -> None:
+        """After a step of the ``live`` matches (bool[B]; None: all of them): set ``active``,
+        ``arrived``, ``alive``, ``object_progress`` and, for matches that end, ``done``,
+        ``outcome`` and ``result`` (see :meth:`end_matches`). A game that takes a seat out of play
+        mid-match sets ``st.any_inactive``."""
+
+    @abstractmethod
+    def cut(self, st: MatchState, slot: int) -> None:
+        """The match in ``slot`` is cut at ``max_cycles``: set its ``outcome`` and ``result``."""
+
+    # --- construction --------------------------------------------------------------------------
+    def _check_kwargs(self, kwargs: dict[str, Any]) -> dict[str, float]:
+        table = {**COMMON_KWARGS, **self.game_kwargs}
+        unknown = sorted(set(kwargs) - set(table))
+        if unknown:
+            raise ValueError(f"{self.name} got unknown game kwargs {unknown}; valid: "
+                             + ", ".join(f"{k} ({kind.__name__} in [{lo}, {hi}], default {d})"
+                                         for k, (kind, lo, hi, d) in table.items()))
+        settings: dict[str, float] = {}
+        for key, (kind, lo, hi, default) in table.items():
+            value = kwargs.get(key, default)
+            numeric = (isinstance(value, (int, np.integer)) if kind is int
+                       else isinstance(value, (int, float, np.integer, np.floating)))
+            if isinstance(value, bool) or not numeric or not lo <= value <= hi:
+                raise ValueError(f"{self.name} {key} must be {'an integer' if kind is int else 'a number'} in "
+                                 f"[{lo}, {hi}] (default {default}), not {value!r}")
+            settings[key] = kind(value)
+        return settings
+
+    def _seat_vector(self, seat: int, term: Affine) -> Affine:
+        """A world-frame vector (``x, y`` first) in the seat's frame."""
+        return term.rotated(-float(self.seat_angle[seat]))
+
+    def robot_block(self, seat: int) -> Affine:
+        """The 42 robot cells of ``seat`` (``envs.robots.observation``); cells 0-2 (active flag
+        and clock) are written after the product."""
+        t = self.terms
+        weight_units = 1.0 / (cells.FORCE_UNIT * self.scene.weight[seat])
+        pos = t.robot(seat, "pos")
+        to_target = self.target_term(seat) - pos[0:2]
+        parts = [
+            t.zeros(3),
+            pos[2],
+            self._seat_vector(seat, t.robot(seat, "xaxis")),
+            self._seat_vector(seat, t.robot(seat, "zaxis")),
+            self._seat_vector(seat, t.robot(seat, "linvel")) * (1.0 / cells.VELOCITY_UNIT),
+            t.robot(seat, "angvel") * (1.0 / cells.ANGULAR_UNIT),
+            t.joints(seat, "qpos"),
+            t.joints(seat, "qvel") * (1.0 / cells.ANGULAR_UNIT),
+            self._seat_vector(seat, t.push_force(seat)) * weight_units,
+            self._seat_vector(seat, t.floor_force(seat)) * weight_units,
+            self._seat_vector(seat, pos[0:2]) * (1.0 / cells.POSITION_UNIT),
+            self._seat_vector(seat, to_target) * (1.0 / cells.POSITION_UNIT),
+        ]
+        block = Affine.stack(parts)
+        assert len(block) == cells.ROBOT_CELLS
+        return block
+
+    def other_robot_cells(self, seat: int, other: int) -> Affine:
+        """Seven cells describing robot ``other`` from ``seat``: its position relative to the seat
+        (2, / ``POSITION_UNIT``), its velocity (2, / ``VELOCITY_UNIT``), its forward axis (2), all
+        in the seat frame, and the vertical part of its up axis (1; negative once it fell)."""
+        t = self.terms
+        rel = t.robot(other, "pos")[0:2] - t.robot(seat, "pos")[0:2]
+        return Affine.stack([
+            self._seat_vector(seat, rel) * (1.0 / cells.POSITION_UNIT),
+            self._seat_vector(seat, t.robot(other, "linvel")[0:2]) * (1.0 / cells.VELOCITY_UNIT),
+            self._seat_vector(seat, t.robot(other, "xaxis")[0:2]),
+            t.robot(other, "zaxis")[2],
+        ])
+
+    def _build_readouts(self) -> None:
+        n = self.n_agents
+        t = self.terms
+        blocks = [Affine.stack([self.robot_block(i), self.game_cells(i)]) for i in range(n)]
+        self.obs_dim = len(blocks[0])
+        if any(len(b) != self.obs_dim for b in blocks):
+            raise RuntimeError(f"{self.name}: every seat's observation must have the same size")
+        readout = Readout(t.size)
+        readout.add("obs", Affine.stack(blocks))
+
+        def per_seat(fn) -> Affine:
+            return Affine.stack([fn(i) for i in range(n)])
+
+        # world-frame x, y pairs, read as complex numbers (MatchState.complex)
+        groups = [("to_target", lambda i: self.target_term(i) - t.robot(i, "pos")[0:2]),
+                  ("velocity", lambda i: t.robot(i, "linvel")[0:2]),
+                  ("heading", lambda i: t.robot(i, "xaxis")[0:2]),
+                  ("push", lambda i: t.push_force(i)[0:2] * (1.0 / self.scene.weight[i])),
+                  *self.game_complex()]
+        for name, fn in groups:
+            readout.add(name, per_seat(fn))
+        #: index of each complex group in MatchState.complex / .absolute
+        self.complex_group = {name: k for k, (name, _) in enumerate(groups)}
+        complex_rows = slice(readout.slices[groups[0][0]].start, readout.slices[groups[-1][0]].stop)
+        readout.add("up_z", per_seat(lambda i: t.robot(i, "zaxis")[2]))
+        self.game_readout(readout)
+        self.readout = readout
+        readout_T, self._readout_c = readout.build()
+        # at most two sensors feed each row: a sparse product, which never calls the BLAS (whose
+        # threads stall when the process is pinned to fewer CPUs than they expect)
+        self._readout = scipy.sparse.csr_array(readout_T.T)
+        s = readout.slices
+        self._obs_rows = s["obs"].stop
+        self._slices = s
+        self._bind = (self._obs_rows, self.obs_dim, cells.CONTACT, complex_rows, len(groups), s["up_z"])
+        # the constant part of the readout at each step of the gait clock, active flags set to 1
+        table = np.tile(self._readout_c, (cells.CLOCK_PERIOD, 1))
+        obs_part = table[:, : self._obs_rows].reshape(cells.CLOCK_PERIOD, n, self.obs_dim)
+        obs_part[:, :, cells.ACTIVE] = 1.0
+        obs_part[:, :, cells.CLOCK] = cells.CLOCK_TABLE[:, None, :]
+        self._readout_by_clock = table
+        self.state_dim = 8 * n + 4 * len(self.scene.layout.box_teams)
+        self._state_T, self._state_c = self._state_readout().build()
+
+    def game_complex(self) -> list[tuple[str, Any]]:
+        """Extra world-frame ``x, y`` vectors of each seat whose length the judgement needs:
+        ``(name, seat -> Affine of 2 rows)``; their lengths land in ``MatchState.absolute``."""
+        return []
+
+    def new_match_state(self, n_slots: int) -> MatchState:
+        """A bound :class:`MatchState` of ``n_slots`` matches of this game."""
+        st = MatchState(n_slots, self.n_agents, self.n_teams, self.act_dim, self.readout.rows)
+        st.memory = self.allocate_memory(n_slots)
+        st.bind(*self._bind)
+        return st
+
+    def _state_readout(self) -> Readout:
+        t = self.terms
+        readout = Readout(t.size)
+        parts = []
+        for i in range(self.n_agents):
+            pos = t.robot(i, "pos")
+            parts += [pos[0:2] * (1.0 / cells.POSITION_UNIT), pos[2], t.robot(i, "xaxis")[0:2],
+                      t.robot(i, "zaxis")[2], t.robot(i, "linvel")[0:2] * (1.0 / cells.VELOCITY_UNIT)]
+        for b in range(len(self.scene.layout.box_teams)):
+            parts += [t.box(b, "pos")[0:2] * (1.0 / cells.POSITION_UNIT),
+                      t.box(b, "linvel")[0:2] * (1.0 / cells.VELOCITY_UNIT)]
+        readout.add("state", Affine.stack(parts))
+        return readout
+
+    def _publish_measures(self) -> None:
+        """Point the measures at row 0 of the match state (updated in place every step)."""
+        st, m = self.match, self.measures
+        m.active = st.active[0]
+        m.outcome = st.outcome[0]
+        m.fallen = st.fallen[0]
+        for name in ("target_distance", "velocity_to_target", "facing_target", "energy", "force", "speed"):
+            setattr(m, name, getattr(st, name)[0])
+        if "arrived" in self.measures_provided:
+            m.arrived = st.arrived[0]
+        if "alive" in self.measures_provided:
+            m.alive = st.alive[0]
+        if "object_progress" in self.measures_provided:
+            m.object_progress = st.object_progress[0]
+
+    # --- the shared step -----------------------------------------------------------------------
+    def place(self, data: mujoco.MjData, pose: StartPose, rng: np.random.Generator | None) -> None:
+        """Reset ``data`` to ``pose`` (joint angles jittered from ``rng``, if given), at rest."""
+        model, scene = self.model, self.scene
+        mujoco.mj_resetData(model, data)
+        qpos = data.qpos
+        height = self.shape.standing_height() + DROP
+        for i in range(self.n_agents):
+            a = scene.root_qpos[i]
+            yaw = float(pose.robot_yaw[i])
+            roll = 0.0 if pose.robot_roll is None else float(pose.robot_roll[i])
+            qpos[a: a + 3] = (pose.robot_xy[i, 0], pose.robot_xy[i, 1], height)
+            # the heading turn about z, then the roll about the torso's own x axis
+            cy, sy, cr, sr = np.cos(yaw / 2), np.sin(yaw / 2), np.cos(roll / 2), np.sin(roll / 2)
+            qpos[a + 3: a + 7] = (cy * cr, cy * sr, sy * sr, sy * cr)
+            jitter = rng.uniform(-JOINT_JITTER, JOINT_JITTER, self.act_dim) if rng is not None else 0.0
+            qpos[scene.joint_qpos[i]] = self.standing_pose + jitter
+        half = scene.layout.box_half
+        for b in range(len(scene.layout.box_teams)):
+            a = scene.box_qpos[b]
+            yaw = float(pose.box_yaw[b])
+            qpos[a: a + 3] = (pose.box_xy[b, 0], pose.box_xy[b, 1], half)
+            qpos[a + 3: a + 7] = (np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2))
+        mujoco.mj_forward(model, data)
+
+    def update(self, st: MatchState, sensordata: np.ndarray, rows: slice | None = None) -> None:
+        """Observations and measures from the sensor vectors (``[B, n_sensordata]``), in place.
+
+        ``rows`` (a slice) limits the readout to those matches (a match just started); the
+        measures are recomputed for all, as they are pure functions of the readout and torques.
+        Few numpy calls on purpose: with two ants this runs beside 78 us of physics per step.
+        """
+        lin = st.lin if rows is None else st.lin[rows]
+        steps = st.steps if rows is None else st.steps[rows]
+        np.add((self._readout @ sensordata.T).T, self._readout_by_clock[steps % cells.CLOCK_PERIOD], out=lin)
+        contact = st.obs_contact
+        np.minimum(contact, 1.0, out=contact)
+        np.maximum(contact, -1.0, out=contact)
+        if st.any_inactive:
+            st.obs_active[...] = st.active
+        np.abs(st.complex, out=st.absolute)
+        # velocity and forward axis times conj(way to the target): real parts are dot products
+        np.multiply(st.complex_moving, st.complex_target.conj(), out=st.product)
+        np.maximum(st.absolute[:, 0:1], 1e-9, out=st.safe_distance)
+        np.divide(st.product_real, st.safe_distance, out=st.projection)
+        np.less(st.up_z, FALLEN_UP_Z, out=st.fallen)
+        np.multiply(st.ctrl, st.ctrl, out=st.ctrl_squared)
+        np.add.reduce(st.ctrl_squared, axis=2, out=st.energy)
+        st.energy *= 1.0 / self.act_dim
+
+    def observations(self, st: MatchState) -> np.ndarray:
+        """``float32[B, n_agents, obs_dim]`` of every match in ``st``."""
+        return st.obs.astype(np.float32)
+
+    # --- GameRules -------------------------------------------------------------------------------
+    def reset(self, seed: int) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.place(self.data, self.start_pose(self.rng), self.rng)
+        st = self.match
+        st.restart(0)
+        self.update(st, self._sensordata)
+        self.on_start(st, 0)
+        self.game_over = False
+
+    def arrange(self, pose: StartPose) -> None:
+        """Put the robots (in their standing pose) and boxes where ``pose`` says, at rest, and go
+        on with the match from there (for tests and scripted scenarios); the step count stays."""
+        self.place(self.data, pose, None)
+        self.update(self.match, self._sensordata)
+        self.on_start(self.match, 0)
+
+    def step(self, actions: np.ndarray) -> None:
+        st = self.match
+        np.multiply(actions, self._active_column, out=self._seat_ctrl)
+        mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
+        st.steps += 1
+        if st.events[0]:
+            st.events[0] = []
+        self.update(st, self._sensordata)
+        self.judge(st, None)
+        if st.any_inactive:  # seats the judgement just took out of play say so at once
+            st.obs_active[...] = st.active
+        self.game_over = bool(st.done[0])
+
+    def observe(self) -> np.ndarray:
+        return self.match.obs[0].astype(np.float32)
+
+    def state(self) -> np.ndarray:
+        return (self._sensordata[0] @ self._state_T + self._state_c).astype(np.float32)
+
+    def finish(self) -> None:
+        if not self.match.done[0]:
+            self.cut(self.match, 0)
+            self.match.done[0] = True
+
+    def team_result(self) -> np.ndarray:
+        return self.match.result[0].copy()
+
+    def events(self) -> list[dict]:
+        return list(self.match.events[0])
+
+    def set_anneal(self, alpha: float) -> None:
+        """Weight of the dense motor reward ``robot_motion`` from now on (1 early in training, 0
+        late): see ``envs.robots.rewards``. Kept across resets."""
+        self.measures.anneal = check_anneal(alpha)
+
+    @property
+    def anneal(self) -> float:
+        return float(self.measures.anneal)
+
+    def render_topdown(self) -> np.ndarray:
+        from arena_league.envs.robots.render import topdown_picture
+
+        return topdown_picture(self.scene, self.data, self.view_extent(), self.topdown_extras())
+
+    def view_extent(self) -> tuple[float, float, float, float]:
+        """The world box ``x0, x1, y0, y1`` the top-down picture shows."""
+        return (-4.0, 4.0, -4.0, 4.0)
+
+    def topdown_extras(self) -> list[tuple[str, tuple[float, ...], tuple[int, int, int]]]:
+        """Game-specific drawings for the top-down picture (kind, numbers, colour)."""
+        return []
+
+    def render_camera(self, width: int = 480, height: int = 360) -> np.ndarray:
+        """A perspective picture from MuJoCo's own renderer (needs OpenGL, e.g. ``MUJOCO_GL=egl``);
+        raises ``RuntimeError`` where no GL context can be made."""
+        from arena_league.envs.robots.render import camera_picture
+
+        return camera_picture(self.model, self.data, width, height)
+
+    # --- the outcome helpers shared by the two-team games --------------------------------------
+    def end_matches(self, st: MatchState, ended: np.ndarray, winner_team: np.ndarray) -> None:
+        """End the matches where ``ended`` (bool[B]); ``winner_team`` (int[B]) is the winning team
+        of each, or -1 for a draw. Sets ``done``, ``outcome`` (+1 / -1 / 0) and ``result``."""
+        if not ended.any():
+            return
+        st.done |= ended
+        rows = np.flatnonzero(ended)
+        winner = winner_team[rows]
+        seat_team = self.team_of[None, :]
+        outcome = np.where(winner[:, None] < 0, 0.0, np.where(seat_team == winner[:, None], 1.0, -1.0))
+        st.outcome[rows] = outcome
+        teams = np.arange(self.n_teams)[None, :]
+        st.result[rows] = np.where(winner[:, None] < 0, 0.5, (teams == winner[:, None]).astype(np.float64))
+
+
+class RobotMatches:
+    """Many matches of one robot game stepped together: the match engine's batched path.
+
+    The engine-adapter interface of ``arena_league.matchmaking.batched``: ``start(slot, seed)``,
+    ``observe()`` -> ``float32[n_slots, n_agents, obs_dim]``, ``action_mask()`` (None),
+    ``acting()``, ``step(actions: float32[n_slots, n_agents, act_dim]) -> bool[n_slots]`` (the
+    matches that ended, by the rules or at ``max_cycles``), ``steps(slot)``, ``team_result(slot)``.
+
+    Each slot has its own ``MjData``; a step writes every live match's torques, then ``threads``
+    workers (default: the CPUs this process may use, at most 8) each step a contiguous share of the
+    live matches with ``mj_step`` (which releases the GIL) and copy out their sensors; observations,
+    measures and judgement then run once over all matches as numpy arrays.
+    """
+
+    def __init__(self, rules: RobotGameRules, n_slots: int, max_cycles: int, threads: int | None = None) -> None:
+        if n_slots < 1:
+            raise ValueError(f"n_slots must be at least 1, not {n_slots}")
+        if threads is None:
+            threads = min(8, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+        if threads < 1:
+            raise ValueError(f"threads must be at least 1, not {threads}")
+        self.rules = rules
+        self.n_slots = n_slots
+        self.n_agents = rules.n_agents
+        self.max_cycles = max_cycles
+        self.threads = min(threads, n_slots)
+        model = rules.model
+        self.datas = [mujoco.MjData(model) for _ in range(n_slots)]
+        self.match = rules.new_match_state(n_slots)
+        self.match.done[:] = True  # idle until started
+        self.sensordata = np.zeros((n_slots, model.nsensordata))
+        self._ctrl_views = [d.ctrl.reshape(rules.n_agents, rules.act_dim) for d in self.datas]
+        self._sensor_views = [d.sensordata for d in self.datas]
+        self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="robot-matches") if self.threads > 1 else None
+
+    def close(self) -> None:
+        """Stop the worker threads."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def __del__(self) -> None:
+        pool = getattr(self, "_pool", None)
+        if pool is not None:
+            pool.shutdown(wait=False)
+
+    def start(self, slot: int, seed: int) -> None:
+        rules, st = self.rules, self.match
+        rng = np.random.default_rng(seed)
+        rules.place(self.datas[slot], rules.start_pose(rng), rng)
+        np.copyto(self.sensordata[slot], self._sensor_views[slot])
+        st.restart(slot)
+        rows = slice(slot, slot + 1)
+        rules.update(st, self.sensordata[rows], rows)
+        rules.on_start(st, slot)
+
+    def observe(self) -> np.ndarray:
+        return self.rules.observations(self.match)
+
+    def action_mask(self) -> None:
+        return None
+
+    def acting(self) -> np.ndarray:
+        return self.match.active & ~self.match.done[:, None]
+
+    def _advance(self, slots: list[int]) -> None:
+        model, skip = self.rules.model, self.rules.frame_skip
+        ctrl = self.match.ctrl
+        for s in slots:
+            np.copyto(self._ctrl_views[s], ctrl[s])
+            mujoco.mj_step(model, self.datas[s], nstep=skip)
+            np.copyto(self.sensordata[s], self._sensor_views[s])
+
+    def step(self, actions: np.ndarray) -> np.ndarray:
+        rules, st = self.rules, self.match
+        live = ~st.done
+        np.multiply(actions, (st.active & live[:, None])[:, :, None], out=st.ctrl)
+        slots = np.flatnonzero(live).tolist()
+        if self._pool is None or len(slots) < 2:
+            self._advance(slots)
+        else:
+            k = self.threads
+            shares = [slots[j * len(slots) // k: (j + 1) * len(slots) // k] for j in range(k)]
+            for future in [self._pool.submit(self._advance, share) for share in shares if share]:
+                future.result()
+        st.steps += live
+        for s in slots:
+            st.events[s] = []
+        rules.update(st, self.sensordata)
+        rules.judge(st, live)
+        if st.any_inactive:
+            st.obs_active[...] = st.active
+        # the env cuts a match at max_cycles: the rules give its result
+        cut = live & ~st.done & (st.steps >= self.max_cycles)
+        for s in np.flatnonzero(cut):
+            rules.cut(st, int(s))
+        st.done |= cut
+        return live & st.done
+
+    def steps(self, slot: int) -> int:
+        return int(self.match.steps[slot])
+
+    def team_result(self, slot: int) -> np.ndarray:
+        return self.match.result[slot].copy()
