@@ -285,10 +285,11 @@ def test_robot_block_cell_by_cell_and_the_turned_seat_frame():
         np.testing.assert_allclose(o[cells.POSITION], turn * data.xpos[torso][:2] / cells.POSITION_UNIT, atol=1e-6)
         other = data.xpos[scene.torso_body[1 - seat]][:2] - data.xpos[torso][:2]
         np.testing.assert_allclose(o[cells.TARGET], turn * other / cells.POSITION_UNIT, atol=1e-6)
-        np.testing.assert_allclose(o[cells.CLOCK], [1.0, 0.0])
+        assert o[cells.TIME] == 0.0
     assert rules.measures.target_distance == pytest.approx([np.hypot(1.9, 0.7)] * 2, abs=1e-6)
     rules.step(np.zeros((2, 8), np.float32))
-    np.testing.assert_allclose(rules.observe()[:, cells.CLOCK], np.tile(cells.CLOCK_TABLE[1], (2, 1)), atol=1e-7)
+    # the sensors' instant: the start of the step's last physics sub-step (4 of 5 sub-steps in)
+    np.testing.assert_allclose(rules.observe()[:, cells.TIME], 0.04 / cells.TIME_UNIT, rtol=1e-6)
 
 
 def test_mirrored_match_gives_each_seat_the_same_observation():

@@ -52,8 +52,9 @@ Default social tree
     ``set_anneal(alpha)``, see ``envs.robots.rewards``).
 
 Heuristic
-    Trots (``envs.robots.gait``) straight at the opponent, turning back toward the centre as it
-    nears the edge of the ring.
+    Trots (``envs.robots.gait``) at a point just beyond the opponent, radially outward (so it
+    pushes the opponent toward the nearest edge), turning back toward the centre as it nears the
+    edge of the ring itself.
 
 Game kwargs
     ``ring_radius`` (float in [1.5, 4.0], default 2.0), ``start_jitter`` (float in [0, 0.5], default
@@ -75,6 +76,8 @@ from arena_league.envs.robots.scene import Affine, SceneLayout
 START_X = -1.0
 #: Distance from the edge at which the heuristic starts turning back toward the centre.
 EDGE_MARGIN = 0.8
+#: The heuristic aims this far beyond the opponent, radially outward.
+PUSH_THROUGH = 0.25
 OPPONENT = slice(cells.ROBOT_CELLS + 1, cells.ROBOT_CELLS + 8)
 
 
@@ -146,7 +149,11 @@ class SumoRules(RobotGameRules):
         me = obs[:, cells.POSITION] * cells.POSITION_UNIT
         ring = obs[:, cells.ROBOT_CELLS] * cells.POSITION_UNIT
         to_opponent = obs[:, OPPONENT][:, 0:2] * cells.POSITION_UNIT
-        charge = to_opponent / np.maximum(np.linalg.norm(to_opponent, axis=1, keepdims=True), 1e-9)
+        # drive through the opponent radially outward: aim just beyond it, away from the centre
+        opponent = me + to_opponent
+        outward = opponent / np.maximum(np.linalg.norm(opponent, axis=1, keepdims=True), 1e-9)
+        aim = to_opponent + PUSH_THROUGH * outward
+        charge = aim / np.maximum(np.linalg.norm(aim, axis=1, keepdims=True), 1e-9)
         radius = np.linalg.norm(me, axis=1, keepdims=True)
         inward = -me / np.maximum(radius, 1e-9)
         edge = np.clip((radius - (ring[:, None] - EDGE_MARGIN)) / (0.5 * EDGE_MARGIN), 0.0, 1.0)

@@ -5,7 +5,8 @@ agent) choose a walking direction in the seat frame; :func:`trot` turns it into 
 
 The trot is an open-loop oscillator with feedback steering, read off the observation's robot block
 (``envs.robots.observation``): the diagonal leg pairs (front-left with back-right, back-left with
-front-right) alternate, half a gait-clock cycle apart. In the stance half of its cycle a leg's hip
+front-right) alternate, half a cycle apart, the cycle's phase read off the match time in the
+observation (``GAIT_PERIOD`` 0.5 s). In the stance half of its cycle a leg's hip
 sweeps its foot backward along the wanted direction, ``hip = H * (t_k . d) * cos(psi)`` with
 ``t_k`` the direction the foot moves for a positive hip angle and ``d`` the wanted direction in the
 torso frame (recomputed every step from the torso's forward axis, so the ant walks toward a target
@@ -20,7 +21,11 @@ import numpy as np
 
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.ant import ANT, LEG_AXES
+from arena_league.envs.robots.scene import TIMESTEP
 
+#: Seconds per gait cycle; the sensors' instant is one physics sub-step before the step ends.
+GAIT_PERIOD = 0.5
+SENSOR_LAG = TIMESTEP
 #: Hip sweep and ankle lift amplitudes (rad), the ankle's mid angle, and the PD gains.
 HIP_SWEEP = 0.5
 ANKLE_LIFT = 0.2
@@ -29,7 +34,7 @@ KP = 2.5
 KD = 0.2
 #: For a positive hip angle each foot moves along ``LEG_TANGENTS[k]`` (torso frame).
 LEG_TANGENTS = np.stack([-LEG_AXES[:, 1], LEG_AXES[:, 0]], axis=1)
-#: Gait-clock phase offset of each leg: the two diagonal pairs half a cycle apart.
+#: Phase offset of each leg: the two diagonal pairs half a cycle apart.
 LEG_PHASE = np.array([0.0, np.pi, 0.0, np.pi])
 STANDING = np.tile([0.0, ANKLE_MID], 4)
 
@@ -50,7 +55,7 @@ def trot(obs: np.ndarray, direction: np.ndarray) -> np.ndarray:
     """Torques that trot toward ``direction`` (``[N, 2]``, seat frame), ``float32[N, 8]``.
 
     A direction of length 1 or more takes full strides; a shorter one proportionally shorter
-    strides (zero: the ant marks time on the spot).
+    strides (zero: the ant stands).
     """
     obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
     direction = np.asarray(direction, dtype=np.float64).reshape(-1, 2)
@@ -61,8 +66,8 @@ def trot(obs: np.ndarray, direction: np.ndarray) -> np.ndarray:
                      heading[:, 0] * direction[:, 1] - heading[:, 1] * direction[:, 0]], axis=1)
     length = np.linalg.norm(body, axis=1, keepdims=True)
     body = body / np.maximum(length, 1.0)  # longer than 1: full strides
-    clock = obs[:, cells.CLOCK]
-    psi = np.arctan2(clock[:, 1], clock[:, 0])[:, None] + LEG_PHASE[None, :]
+    time = obs[:, cells.TIME] * cells.TIME_UNIT + SENSOR_LAG
+    psi = (2.0 * np.pi / GAIT_PERIOD) * time[:, None] + LEG_PHASE[None, :]
     sweep = body @ LEG_TANGENTS.T  # [N, 4]
     stride = np.minimum(length, 1.0)
     hip = HIP_SWEEP * sweep * np.cos(psi)

@@ -10,14 +10,17 @@ this module does the rest:
   only action type (``"continuous"``). Inactive seats' actions are replaced by zero torque.
 * **Stepping**: ``mujoco.mj_step(model, data, nstep=frame_skip)`` per match step (``frame_skip``
   5 by default: 0.05 s).
-* **Observation**: the robot block of ``envs.robots.observation`` (42 cells) then the game's cells;
-  the whole observation is one affine map of MuJoCo's sensor vector (one matrix product per step),
-  contact cells clipped.
+* **Observation**: the robot block of ``envs.robots.observation`` (41 cells) then the game's cells;
+  observations and the linear parts of the measures are one matrix product of MuJoCo's sensor
+  vector per step (its ``clock`` and constant ``unit`` sensors carry time and constants), contact
+  cells clipped.
 * **Measures** (each game's manual names the seat's target): ``target_distance`` (m, horizontal),
-  ``velocity_to_target`` (m/s), ``facing_target`` (cosine between the torso's forward axis and the
-  way to the target), ``energy`` (mean squared action), ``force`` (contact force other robots and
-  props exert on the seat, in units of its weight), ``speed`` (horizontal, m/s), ``fallen`` (the
-  torso's up axis points below the horizon: ``FALLEN_UP_Z``) and ``outcome``; games add more.
+  ``velocity_to_target`` (m/s along the horizontal way to the target), ``facing_target`` (the
+  torso's forward axis along that way: the cosine of the angle between them while the torso is
+  level), ``energy`` (mean squared action), ``force`` (the horizontal contact force other robots
+  and props exert on the seat, in units of its weight), ``speed`` (horizontal, m/s), ``fallen``
+  (the torso's up axis points below the horizon: ``FALLEN_UP_Z``) and ``outcome``; games add
+  more. ``measures.block`` holds the float ones as rows of one array (``envs.robots.rewards``).
 * **Annealing** of the dense motor reward: ``set_anneal(alpha)``, see ``envs.robots.rewards``.
 
 Many matches: the game logic is written over arrays of ``B`` matches (:class:`MatchState`); the
@@ -37,7 +40,6 @@ from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
-import scipy.sparse
 
 from arena_league.envs.core import GameRules
 from arena_league.envs.robots import observation as cells
@@ -81,6 +83,11 @@ class StartPose:
     robot_roll: np.ndarray | None = None  # [n_robots]
 
 
+def _apply(matrix: np.ndarray, term: Affine) -> Affine:
+    """``matrix @ term`` (a fixed linear map of a small affine vector)."""
+    return Affine(matrix @ term.M, matrix @ term.c)
+
+
 class MatchState:
     """The per-match arrays of ``B`` matches of one game (row ``b`` is match ``b``), with views
     into the readout (``lin``) that the step fills in place."""
@@ -88,6 +95,7 @@ class MatchState:
     def __init__(self, n_slots: int, n_agents: int, n_teams: int, act_dim: int, rows: int) -> None:
         B, n = n_slots, n_agents
         self.n_slots = B
+        #: steps played by each match (kept by RobotMatches; the env counts the rules' own)
         self.steps = np.zeros(B, dtype=np.int64)
         self.done = np.zeros(B, dtype=bool)
         self.active = np.ones((B, n), dtype=bool)
@@ -114,24 +122,31 @@ class MatchState:
         self.obs_contact = self.obs[:, :, contact]
         self.obs_active = self.obs[:, :, cells.ACTIVE]
         #: complex numbers x + iy of world-frame vectors, [B, group, seat]: 0 the way to the
-        #: target, 1 the velocity, 2 the forward axis, 3 the horizontal push force / weight, then
-        #: the game's own groups
+        #: target (conjugated: x - iy), 1 the velocity, 2 the forward axis, 3 the horizontal push
+        #: force / weight, then the game's own groups
         self.complex = lin[:, complex_rows].view(np.complex128).reshape(B, groups, n)
         self.complex_target = self.complex[:, 0:1]
         self.complex_moving = self.complex[:, 1:3]
-        self.absolute = np.zeros((B, groups, n))  # |complex|
+        #: the float measures of each match as rows of one block [B, row, seat] (see MOTION_ROWS):
+        #: the lengths of the complex groups, then velocity_to_target, facing_target, energy and
+        #: fallen as 0/1, so that a weighted sum of measures is one dot product
+        self.block = np.zeros((B, groups + 4, n))
+        self.absolute = self.block[:, :groups]  # |complex|
         self.target_distance = self.absolute[:, 0]
         self.speed = self.absolute[:, 1]
         self.force = self.absolute[:, 3]
         self.safe_distance = np.ones((B, 1, n))
         self.product = np.zeros((B, 2, n), dtype=np.complex128)
         self.product_real = self.product.real
-        self.projection = np.zeros((B, 2, n))  # velocity and forward axis along the way to the target
+        self.projection = self.block[:, groups: groups + 2]  # velocity and forward axis along the way
         self.velocity_to_target = self.projection[:, 0]
         self.facing_target = self.projection[:, 1]
+        self.energy = self.block[:, groups + 2]
+        self.fallen_float = self.block[:, groups + 3]
+        self.block_rows = {"target_distance": 0, "speed": 1, "force": 3, "velocity_to_target": groups,
+                           "facing_target": groups + 1, "energy": groups + 2, "fallen": groups + 3}
         self.up_z = lin[:, up_z]
         self.ctrl_squared = np.zeros_like(self.ctrl)
-        self.energy = np.zeros((B, n))
         self.flags = np.zeros((B, n), dtype=bool)  # scratch for the games' judgement
 
     def restart(self, slot: int) -> None:
@@ -187,7 +202,8 @@ class RobotGameRules(GameRules):
         self.match.ctrl_squared = np.zeros_like(self.match.ctrl)
         self._seat_ctrl = self.match.ctrl[0]
         self._active_column = self.match.active[0][:, None]
-        self._sensordata = self.data.sensordata.reshape(1, -1)
+        self._sensor_vector = self.data.sensordata
+        self._lin = self.match.lin[0]
         self._publish_measures()
         self.game_over = False
 
@@ -253,14 +269,14 @@ class RobotGameRules(GameRules):
         return term.rotated(-float(self.seat_angle[seat]))
 
     def robot_block(self, seat: int) -> Affine:
-        """The 42 robot cells of ``seat`` (``envs.robots.observation``); cells 0-2 (active flag
-        and clock) are written after the product."""
+        """The 41 robot cells of ``seat`` (``envs.robots.observation``)."""
         t = self.terms
         weight_units = 1.0 / (cells.FORCE_UNIT * self.scene.weight[seat])
         pos = t.robot(seat, "pos")
         to_target = self.target_term(seat) - pos[0:2]
         parts = [
-            t.zeros(3),
+            t.const([1.0]),  # active: seats taken out of play are patched after the product
+            t.time() * (1.0 / cells.TIME_UNIT),
             pos[2],
             self._seat_vector(seat, t.robot(seat, "xaxis")),
             self._seat_vector(seat, t.robot(seat, "zaxis")),
@@ -297,14 +313,16 @@ class RobotGameRules(GameRules):
         self.obs_dim = len(blocks[0])
         if any(len(b) != self.obs_dim for b in blocks):
             raise RuntimeError(f"{self.name}: every seat's observation must have the same size")
-        readout = Readout(t.size)
+        readout = t.readout()
         readout.add("obs", Affine.stack(blocks))
 
         def per_seat(fn) -> Affine:
             return Affine.stack([fn(i) for i in range(n)])
 
-        # world-frame x, y pairs, read as complex numbers (MatchState.complex)
-        groups = [("to_target", lambda i: self.target_term(i) - t.robot(i, "pos")[0:2]),
+        # world-frame x, y pairs, read as complex numbers (MatchState.complex); the way to the
+        # target is stored conjugated, (x, -y), so that products with it are dot products at once
+        conjugate = np.diag([1.0, -1.0])
+        groups = [("to_target", lambda i: _apply(conjugate, self.target_term(i) - t.robot(i, "pos")[0:2])),
                   ("velocity", lambda i: t.robot(i, "linvel")[0:2]),
                   ("heading", lambda i: t.robot(i, "xaxis")[0:2]),
                   ("push", lambda i: t.push_force(i)[0:2] * (1.0 / self.scene.weight[i])),
@@ -317,22 +335,16 @@ class RobotGameRules(GameRules):
         readout.add("up_z", per_seat(lambda i: t.robot(i, "zaxis")[2]))
         self.game_readout(readout)
         self.readout = readout
-        readout_T, self._readout_c = readout.build()
-        # at most two sensors feed each row: a sparse product, which never calls the BLAS (whose
-        # threads stall when the process is pinned to fewer CPUs than they expect)
-        self._readout = scipy.sparse.csr_array(readout_T.T)
+        # one matrix-vector product per match (never a matrix-matrix product over many matches:
+        # BLAS threads those, and its threads stall when the process is pinned to fewer CPUs)
+        self._readout = readout.build()
         s = readout.slices
         self._obs_rows = s["obs"].stop
         self._slices = s
         self._bind = (self._obs_rows, self.obs_dim, cells.CONTACT, complex_rows, len(groups), s["up_z"])
-        # the constant part of the readout at each step of the gait clock, active flags set to 1
-        table = np.tile(self._readout_c, (cells.CLOCK_PERIOD, 1))
-        obs_part = table[:, : self._obs_rows].reshape(cells.CLOCK_PERIOD, n, self.obs_dim)
-        obs_part[:, :, cells.ACTIVE] = 1.0
-        obs_part[:, :, cells.CLOCK] = cells.CLOCK_TABLE[:, None, :]
-        self._readout_by_clock = table
+        self._energy_weights = np.full(self.act_dim, 1.0 / self.act_dim)
         self.state_dim = 8 * n + 4 * len(self.scene.layout.box_teams)
-        self._state_T, self._state_c = self._state_readout().build()
+        self._state_matrix = self._state_readout().build()
 
     def game_complex(self) -> list[tuple[str, Any]]:
         """Extra world-frame ``x, y`` vectors of each seat whose length the judgement needs:
@@ -348,7 +360,7 @@ class RobotGameRules(GameRules):
 
     def _state_readout(self) -> Readout:
         t = self.terms
-        readout = Readout(t.size)
+        readout = t.readout()
         parts = []
         for i in range(self.n_agents):
             pos = t.robot(i, "pos")
@@ -363,6 +375,8 @@ class RobotGameRules(GameRules):
     def _publish_measures(self) -> None:
         """Point the measures at row 0 of the match state (updated in place every step)."""
         st, m = self.match, self.measures
+        m.block = st.block[0]
+        m.block_rows = st.block_rows
         m.active = st.active[0]
         m.outcome = st.outcome[0]
         m.fallen = st.fallen[0]
@@ -400,30 +414,30 @@ class RobotGameRules(GameRules):
             qpos[a + 3: a + 7] = (np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2))
         mujoco.mj_forward(model, data)
 
-    def update(self, st: MatchState, sensordata: np.ndarray, rows: slice | None = None) -> None:
-        """Observations and measures from the sensor vectors (``[B, n_sensordata]``), in place.
+    def read(self, st: MatchState, slot: int, sensordata: np.ndarray) -> None:
+        """The readout (observations and the linear parts of the measures) of the match in
+        ``slot`` from its sensor vector: one matrix-vector product (BLAS gemv: single-threaded at
+        these sizes, and the same arithmetic on every path, so paths agree to the bit)."""
+        np.dot(self._readout, sensordata, out=st.lin[slot])
 
-        ``rows`` (a slice) limits the readout to those matches (a match just started); the
-        measures are recomputed for all, as they are pure functions of the readout and torques.
-        Few numpy calls on purpose: with two ants this runs beside 78 us of physics per step.
-        """
-        lin = st.lin if rows is None else st.lin[rows]
-        steps = st.steps if rows is None else st.steps[rows]
-        np.add((self._readout @ sensordata.T).T, self._readout_by_clock[steps % cells.CLOCK_PERIOD], out=lin)
+    def update(self, st: MatchState) -> None:
+        """The measures of every match from its readout and torques, in place (pure: no game
+        memory changes). Few numpy calls on purpose: with two ants this runs beside about 80 us
+        of physics per step."""
         contact = st.obs_contact
         np.minimum(contact, 1.0, out=contact)
         np.maximum(contact, -1.0, out=contact)
         if st.any_inactive:
             st.obs_active[...] = st.active
         np.abs(st.complex, out=st.absolute)
-        # velocity and forward axis times conj(way to the target): real parts are dot products
-        np.multiply(st.complex_moving, st.complex_target.conj(), out=st.product)
+        # velocity and forward axis times the conjugated way to the target: real parts are dot products
+        np.multiply(st.complex_moving, st.complex_target, out=st.product)
         np.maximum(st.absolute[:, 0:1], 1e-9, out=st.safe_distance)
         np.divide(st.product_real, st.safe_distance, out=st.projection)
         np.less(st.up_z, FALLEN_UP_Z, out=st.fallen)
+        np.less(st.up_z, FALLEN_UP_Z, out=st.fallen_float)
         np.multiply(st.ctrl, st.ctrl, out=st.ctrl_squared)
-        np.add.reduce(st.ctrl_squared, axis=2, out=st.energy)
-        st.energy *= 1.0 / self.act_dim
+        np.matmul(st.ctrl_squared, self._energy_weights, out=st.energy)
 
     def observations(self, st: MatchState) -> np.ndarray:
         """``float32[B, n_agents, obs_dim]`` of every match in ``st``."""
@@ -435,7 +449,8 @@ class RobotGameRules(GameRules):
         self.place(self.data, self.start_pose(self.rng), self.rng)
         st = self.match
         st.restart(0)
-        self.update(st, self._sensordata)
+        self.read(st, 0, self._sensor_vector)
+        self.update(st)
         self.on_start(st, 0)
         self.game_over = False
 
@@ -443,17 +458,18 @@ class RobotGameRules(GameRules):
         """Put the robots (in their standing pose) and boxes where ``pose`` says, at rest, and go
         on with the match from there (for tests and scripted scenarios); the step count stays."""
         self.place(self.data, pose, None)
-        self.update(self.match, self._sensordata)
+        self.read(self.match, 0, self._sensor_vector)
+        self.update(self.match)
         self.on_start(self.match, 0)
 
     def step(self, actions: np.ndarray) -> None:
         st = self.match
         np.multiply(actions, self._active_column, out=self._seat_ctrl)
         mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
-        st.steps += 1
         if st.events[0]:
             st.events[0] = []
-        self.update(st, self._sensordata)
+        np.dot(self._readout, self._sensor_vector, out=self._lin)
+        self.update(st)
         self.judge(st, None)
         if st.any_inactive:  # seats the judgement just took out of play say so at once
             st.obs_active[...] = st.active
@@ -463,7 +479,7 @@ class RobotGameRules(GameRules):
         return self.match.obs[0].astype(np.float32)
 
     def state(self) -> np.ndarray:
-        return (self._sensordata[0] @ self._state_T + self._state_c).astype(np.float32)
+        return (self._state_matrix @ self._sensor_vector).astype(np.float32)
 
     def finish(self) -> None:
         if not self.match.done[0]:
@@ -531,8 +547,8 @@ class RobotMatches:
 
     Each slot has its own ``MjData``; a step writes every live match's torques, then ``threads``
     workers (default: the CPUs this process may use, at most 8) each step a contiguous share of the
-    live matches with ``mj_step`` (which releases the GIL) and copy out their sensors; observations,
-    measures and judgement then run once over all matches as numpy arrays.
+    live matches with ``mj_step`` and take its readout product (both release the GIL); measures
+    and judgement then run once over all matches as numpy arrays.
     """
 
     def __init__(self, rules: RobotGameRules, n_slots: int, max_cycles: int, threads: int | None = None) -> None:
@@ -551,7 +567,6 @@ class RobotMatches:
         self.datas = [mujoco.MjData(model) for _ in range(n_slots)]
         self.match = rules.new_match_state(n_slots)
         self.match.done[:] = True  # idle until started
-        self.sensordata = np.zeros((n_slots, model.nsensordata))
         self._ctrl_views = [d.ctrl.reshape(rules.n_agents, rules.act_dim) for d in self.datas]
         self._sensor_views = [d.sensordata for d in self.datas]
         self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="robot-matches") if self.threads > 1 else None
@@ -571,10 +586,9 @@ class RobotMatches:
         rules, st = self.rules, self.match
         rng = np.random.default_rng(seed)
         rules.place(self.datas[slot], rules.start_pose(rng), rng)
-        np.copyto(self.sensordata[slot], self._sensor_views[slot])
         st.restart(slot)
-        rows = slice(slot, slot + 1)
-        rules.update(st, self.sensordata[rows], rows)
+        rules.read(st, slot, self._sensor_views[slot])
+        rules.update(st)
         rules.on_start(st, slot)
 
     def observe(self) -> np.ndarray:
@@ -587,12 +601,12 @@ class RobotMatches:
         return self.match.active & ~self.match.done[:, None]
 
     def _advance(self, slots: list[int]) -> None:
-        model, skip = self.rules.model, self.rules.frame_skip
-        ctrl = self.match.ctrl
+        rules, st = self.rules, self.match
+        model, skip = rules.model, rules.frame_skip
         for s in slots:
-            np.copyto(self._ctrl_views[s], ctrl[s])
+            np.copyto(self._ctrl_views[s], st.ctrl[s])
             mujoco.mj_step(model, self.datas[s], nstep=skip)
-            np.copyto(self.sensordata[s], self._sensor_views[s])
+            rules.read(st, s, self._sensor_views[s])
 
     def step(self, actions: np.ndarray) -> np.ndarray:
         rules, st = self.rules, self.match
@@ -609,7 +623,7 @@ class RobotMatches:
         st.steps += live
         for s in slots:
             st.events[s] = []
-        rules.update(st, self.sensordata)
+        rules.update(st)
         rules.judge(st, live)
         if st.any_inactive:
             st.obs_active[...] = st.active

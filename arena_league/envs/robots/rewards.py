@@ -42,9 +42,13 @@ __all__ = ["RobotMeasures", "check_anneal", "robot_motion"]
 @dataclass
 class RobotMeasures(Measures):
     """Measures of a robot game plus ``anneal``, the weight (1 to 0 over training) of the dense
-    IS motor reward ``robot_motion`` this episode."""
+    IS motor reward ``robot_motion`` this episode, and ``block``: the float measures as rows of
+    one ``[rows, n_agents]`` array (``block_rows`` names the row of each; ``fallen`` as 0/1) that
+    the rules keep current, so that ``robot_motion`` is one dot product."""
 
     anneal: float = 1.0
+    block: np.ndarray | None = None
+    block_rows: dict[str, int] | None = None
 
 
 def check_anneal(alpha: Any) -> float:
@@ -55,6 +59,10 @@ def check_anneal(alpha: Any) -> float:
     return float(alpha)
 
 
+_TERMS = (("velocity", "velocity_to_target", 1.0), ("fall", "fallen", -1.0), ("control", "energy", -1.0),
+          ("contact", "force", -1.0))
+
+
 def robot_motion(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """Dense robot motor reward: speed toward the target, minus falling, control and contact costs (annealed)."""
     m = ctx.measures
@@ -62,6 +70,20 @@ def robot_motion(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray
     if alpha == 0.0:
         return np.zeros(len(node.agents))
     a = node.agents
+    block = getattr(m, "block", None)
+    if block is not None:
+        # one dot product of the weights (alpha folded in) with the rules' block of measures
+        memory = node.memory
+        if memory.get("alpha") != alpha:
+            weights = np.zeros(len(block))
+            for param, measure, sign in _TERMS:
+                weights[m.block_rows[measure]] += sign * float(params[param])
+            memory["weights"] = alpha * weights
+            memory["alpha"] = alpha
+            memory["all_seats"] = np.array_equal(a, np.arange(block.shape[1]))
+        if memory["all_seats"]:
+            return np.dot(memory["weights"], block)
+        return np.dot(memory["weights"], block[:, a])
     dense = (float(params["velocity"]) * m.velocity_to_target[a]
              - float(params["fall"]) * m.fallen[a]
              - float(params["control"]) * m.energy[a]

@@ -13,7 +13,8 @@ friction cones; the implicit joint damping of Euler (``eulerdamp``) is switched 
 joints' armature keeps explicit damping stable and it costs 5 % of a step.
 
 Everything a game reads comes from MuJoCo sensors (see ``envs.robots.ant`` for a robot's; the
-scene adds ``r<i>/floor_contact`` per robot and ``box<b>/pos``, ``/linvel``, ``/xaxis`` per box),
+scene adds ``r<i>/floor_contact`` per robot, ``box<b>/pos``, ``/linvel``, ``/xaxis`` per box, the
+match time ``clock`` and ``unit``, a constant 1),
 evaluated by MuJoCo at the start of the last physics sub-step of each ``mj_step(nstep=...)`` call:
 one consistent snapshot, 10 ms before the step ends. :class:`Terms` exposes them as affine maps
 of the sensor vector, which the games combine into observation and measure matrices.
@@ -181,6 +182,11 @@ def _add_markings(spec: mujoco.MjSpec, markings: tuple[Marking, ...]) -> None:
 
 def _add_scene_sensors(spec: mujoco.MjSpec, layout: SceneLayout) -> None:
     kinds, obj = mujoco.mjtSensor, mujoco.mjtObj
+    # the match time, and a constant 1 (the x of a site fixed at (1, 0, 0)): with them every
+    # readout, constants and clock included, is one linear map of the sensor vector
+    spec.add_sensor(name="clock", type=kinds.mjSENS_CLOCK)
+    spec.worldbody.add_site(name="unit", pos=[1.0, 0.0, 0.0])
+    spec.add_sensor(name="unit", type=kinds.mjSENS_FRAMEPOS, objtype=obj.mjOBJ_SITE, objname="unit")
     for i in range(len(layout.robots)):
         p = robot_prefix(i)
         contact = spec.add_sensor(name=f"{p}floor_contact", type=kinds.mjSENS_CONTACT, objtype=obj.mjOBJ_XBODY,
@@ -333,6 +339,18 @@ class Terms:
     def box(self, b: int, name: str) -> Affine:
         return self.sensor(f"{box_prefix(b)}{name}")
 
+    @property
+    def unit_index(self) -> int:
+        """Where the constant 1 sits in the sensor vector."""
+        return int(self.scene.sensor_index["unit"][0])
+
+    def readout(self) -> Readout:
+        return Readout(self.size, self.unit_index)
+
+    def time(self) -> Affine:
+        """The match time (s) at the sensors' instant."""
+        return self.sensor("clock")
+
     def const(self, values) -> Affine:
         values = np.asarray(values, dtype=np.float64).reshape(-1)
         return Affine(np.zeros((len(values), self.size)), values.copy())
@@ -342,11 +360,13 @@ class Terms:
 
 
 class Readout:
-    """Named row blocks of one affine map, evaluated for many matches at once as
-    ``sensordata @ M.T + c``."""
+    """Named row blocks of one affine map of the sensor vector. :meth:`build` folds the constant
+    part into the column of the scene's ``unit`` sensor (a constant 1), so the readout is one
+    matrix product ``M @ sensordata``."""
 
-    def __init__(self, size: int) -> None:
+    def __init__(self, size: int, unit_index: int) -> None:
         self.size = size
+        self.unit_index = unit_index
         self._parts: list[Affine] = []
         self.slices: dict[str, slice] = {}
         self.rows = 0
@@ -360,9 +380,11 @@ class Readout:
         self.rows += len(term)
         return sl
 
-    def build(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(M.T as a C-contiguous [n_sensordata, rows] array, c)``."""
+    def build(self) -> np.ndarray:
+        """``M``, a C-contiguous ``[rows, n_sensordata]`` array with the constants folded in."""
         if not self._parts:
-            return np.zeros((self.size, 0)), np.zeros(0)
+            return np.zeros((0, self.size))
         whole = Affine.stack(self._parts)
-        return np.ascontiguousarray(whole.M.T), whole.c.copy()
+        matrix = np.ascontiguousarray(whole.M)
+        matrix[:, self.unit_index] += whole.c
+        return matrix
