@@ -49,10 +49,15 @@ def no_boxes() -> tuple[np.ndarray, np.ndarray]:
 
 
 # --- the shared env contract ------------------------------------------------------------------------
+#: observation sizes as the games' manuals give them
+OBS_DIM = {"Sumo-2T1P-v1": 49, "RunToGoal-2T1P-v1": 49, "YouShallNotPass-2T1P-v1": 50, "PushBox-2T2P-v1": 71}
+
+
 @pytest.mark.parametrize("game_id", ROBOT_IDS)
 def test_parallel_api(game_id):
     env = make(game_id)
     assert env.rules.action_type == "continuous" and env.rules.act_dim == 8
+    assert env.rules.obs_dim == OBS_DIM[game_id]
     parallel_api_test(env, num_cycles=200)
 
 

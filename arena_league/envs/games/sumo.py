@@ -21,15 +21,15 @@ starts at ``-x`` facing ``+x``)
     ====== =====================================================================
     cell   meaning
     ====== =====================================================================
-    0-41   the robot block (``envs.robots.observation``); the target (cells 40-41) is the opponent
-    42     ring radius / 4
-    43-44  opponent position relative to the seat / 4
-    45-46  opponent velocity / 3
-    47-48  opponent forward axis (horizontal part)
-    49     vertical part of the opponent's up axis (negative once it fell)
+    0-40   the robot block (``envs.robots.observation``); the target (cells 39-40) is the opponent
+    41     ring radius / 4
+    42-43  opponent position relative to the seat / 4
+    44-45  opponent velocity / 3
+    46-47  opponent forward axis (horizontal part)
+    48     vertical part of the opponent's up axis (negative once it fell)
     ====== =====================================================================
 
-    ``obs_dim = 50``.
+    ``obs_dim = 49``.
 
 Global state (``float32``, world frame)
     per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``: ``state_dim = 16``.
@@ -37,8 +37,8 @@ Global state (``float32``, world frame)
 Measures
     ``active`` (always true), ``alive`` (false once the seat lost), ``target_distance``,
     ``velocity_to_target`` and ``facing_target`` toward the opponent's torso, ``energy`` (mean
-    squared torque), ``force`` (contact force of the opponent, in body weights), ``speed``,
-    ``fallen`` and ``outcome``.
+    squared torque), ``force`` (the horizontal contact force of the opponent, in body weights),
+    ``speed``, ``fallen`` and ``outcome``.
 
 Episode end
     An ant loses as soon as its torso leaves the ring (horizontal distance from the centre above

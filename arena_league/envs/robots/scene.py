@@ -9,8 +9,9 @@ boxes; robot ``i`` owns bit ``i + 1`` and collides with bit 0 and every other ro
 its own, so an ant's legs never collide with each other (Gym's ant has no self-collision either),
 while ants push each other and the boxes. Floor markings (ring, lines, target discs) are visual
 only. Physics: ``timestep`` 0.01 s, Euler integration, MuJoCo's Newton solver with pyramidal
-friction cones; the implicit joint damping of Euler (``eulerdamp``) is switched off because the
-joints' armature keeps explicit damping stable and it costs 5 % of a step.
+friction cones; the implicit joint damping of Euler (``eulerdamp``) and the BVH mid-phase of
+collision detection are switched off: the joints' armature keeps explicit damping stable, bodies
+hold at most five primitive geoms, and together they cost about 10 % of a step.
 
 Everything a game reads comes from MuJoCo sensors (see ``envs.robots.ant`` for a robot's; the
 scene adds ``r<i>/floor_contact`` per robot, ``box<b>/pos``, ``/linvel``, ``/xaxis`` per box, the
@@ -22,13 +23,14 @@ of the sensor vector, which the games combine into observation and measure matri
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cache
 
 import mujoco
 import numpy as np
 
-from arena_league.envs.robots.ant import CONTACT_FORCE_NET, JOINTS, ROBOTS
+from arena_league.envs.rendering import TEAM_COLOURS
+from arena_league.envs.robots.ant import CONTACT_FORCE_NET, JOINTS, LEGS, ROBOTS
 
 #: Collision bit of the floor and the boxes; robot ``i`` owns bit ``i + 1``.
 WORLD_BIT = 1
@@ -51,8 +53,6 @@ def box_prefix(index: int) -> str:
 
 def team_rgba(team: int) -> tuple[float, float, float, float]:
     """The RGBA colour of a team (``envs.rendering.TEAM_COLOURS``)."""
-    from arena_league.envs.rendering import TEAM_COLOURS
-
     r, g, b = TEAM_COLOURS[team % len(TEAM_COLOURS)]
     return (r / 255.0, g / 255.0, b / 255.0, 1.0)
 
@@ -104,7 +104,8 @@ class Scene:
     hip_body: np.ndarray  # [n_robots, 4]
     shin_body: np.ndarray  # [n_robots, 4]
     box_body: np.ndarray
-    foot_vector: np.ndarray = field(default_factory=lambda: np.zeros((4, 3)))  # shin frame, to the foot tip
+    #: from each leg's shin body to its foot tip, in the shin's frame [4, 3]
+    foot_vector: np.ndarray
 
     @property
     def n_robots(self) -> int:
@@ -127,7 +128,9 @@ def build_scene_spec(layout: SceneLayout) -> mujoco.MjSpec:
     opt.timestep = TIMESTEP
     opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     opt.cone = mujoco.mjtCone.mjCONE_PYRAMIDAL
-    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP
+    # no implicit joint damping (the joints' armature keeps explicit damping stable) and no BVH
+    # mid-phase (each body has at most five primitive geoms): together about 10 % of a step
+    opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_EULERDAMP | mujoco.mjtDisableBit.mjDSBL_MIDPHASE
     geom = mujoco.mjtGeom
     half = layout.floor_half
     spec.worldbody.add_geom(name="floor", type=geom.mjGEOM_PLANE, size=[half, half, 0.1],
@@ -217,8 +220,6 @@ def compile_scene(layout: SceneLayout) -> Scene:
     hinges = [[joint_adr(f"{robot_prefix(i)}{j}") for j in JOINTS] for i in range(n)]
     boxes = [joint_adr(f"{box_prefix(b)}root") for b in range(len(layout.box_teams))]
     torso = np.array([model.body(f"{robot_prefix(i)}torso").id for i in range(n)], dtype=np.int64)
-    from arena_league.envs.robots.ant import LEGS
-
     hip = np.array([[model.body(f"{robot_prefix(i)}{leg}_hip").id for leg in LEGS] for i in range(n)], dtype=np.int64)
     shin = np.array([[model.body(f"{robot_prefix(i)}{leg}_shin").id for leg in LEGS] for i in range(n)], dtype=np.int64)
     feet = []
