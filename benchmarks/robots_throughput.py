@@ -3,7 +3,8 @@
 Prints one JSON document. For each robot game id, on one pinned core with random torques drawn
 beforehand from a seeded generator (resets counted in):
 
-* ``physics``: ``mj_step(model, data, nstep=frame_skip)`` alone, the floor of any step;
+* ``physics``: the rules' physics alone (``frame_skip`` MuJoCo sub-steps: ``rules.simulate``), the
+  floor of any step;
 * ``rules``: ``rules.step`` + ``rules.observe`` (what the match engine's rules path pays);
 * ``env``: the PettingZoo ``ParallelEnv.step`` with its dicts, action checks and social-tree rewards;
 
@@ -83,8 +84,6 @@ def _actions(n_agents: int, act_dim: int, count: int = 512) -> np.ndarray:
 
 def single_core(rules_cls, seconds: float, repeats: int) -> dict:
     """Physics, rules and env steps/s of one game on the current (pinned) core."""
-    import mujoco
-
     env = _make_env(rules_cls)
     rules = env.rules
     pool = _actions(rules.n_agents, rules.act_dim)
@@ -92,12 +91,12 @@ def single_core(rules_cls, seconds: float, repeats: int) -> dict:
 
     def physics(deadline: float) -> int:
         rules.reset(0)
-        model, data, skip = rules.model, rules.data, rules.frame_skip
+        data, simulate = rules.data, rules.simulate
         steps = 0
         while time.perf_counter() < deadline:
             for k in range(256):
                 data.ctrl[:] = pool[k].reshape(-1)
-                mujoco.mj_step(model, data, nstep=skip)
+                simulate(data)
             steps += 256
         return steps
 

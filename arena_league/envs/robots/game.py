@@ -8,8 +8,9 @@ this module does the rest:
 
 * **Actions** are joint torques in [-1, 1], one per actuator (``act_dim = 8`` for the ant), the
   only action type (``"continuous"``). Inactive seats' actions are replaced by zero torque.
-* **Stepping**: ``mujoco.mj_step(model, data, nstep=frame_skip)`` per match step (``frame_skip``
-  5 by default: 0.05 s).
+* **Stepping**: ``frame_skip`` MuJoCo sub-steps of 0.01 s per match step (5 by default: 0.05 s),
+  ``mj_step(quiet_model, data, nstep=frame_skip - 1)`` then ``mj_step(model, data)``: the
+  sub-steps whose sensors nobody reads run on a copy of the model with sensors switched off.
 * **Observation**: the robot block of ``envs.robots.observation`` (41 cells) then the game's cells;
   observations and the linear parts of the measures are one matrix product of MuJoCo's sensor
   vector per step (its ``clock`` and constant ``unit`` sensors carry time and constants), contact
@@ -186,6 +187,8 @@ class RobotGameRules(GameRules):
         self.frame_skip = int(self.settings["frame_skip"])
         self.scene: Scene = compile_scene(self.scene_layout())
         self.model = self.scene.model
+        self._quiet_model = self.scene.quiet_model
+        self._quiet_substeps = self.frame_skip - 1
         self.shape = ROBOTS[self.robot][1]
         self.standing_pose = ROBOTS[self.robot][2]
         self.act_dim = int(self.model.nu) // self.n_agents
@@ -414,6 +417,12 @@ class RobotGameRules(GameRules):
             qpos[a + 3: a + 7] = (np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2))
         mujoco.mj_forward(model, data)
 
+    def simulate(self, data: mujoco.MjData) -> None:
+        """One match step of physics on ``data``: ``frame_skip`` sub-steps, sensors on the last."""
+        if self._quiet_substeps:
+            mujoco.mj_step(self._quiet_model, data, nstep=self._quiet_substeps)
+        mujoco.mj_step(self.model, data)
+
     def read(self, st: MatchState, slot: int, sensordata: np.ndarray) -> None:
         """The readout (observations and the linear parts of the measures) of the match in
         ``slot`` from its sensor vector: one matrix-vector product (BLAS gemv: single-threaded at
@@ -465,7 +474,10 @@ class RobotGameRules(GameRules):
     def step(self, actions: np.ndarray) -> None:
         st = self.match
         np.multiply(actions, self._active_column, out=self._seat_ctrl)
-        mujoco.mj_step(self.model, self.data, nstep=self.frame_skip)
+        data = self.data
+        if self._quiet_substeps:
+            mujoco.mj_step(self._quiet_model, data, nstep=self._quiet_substeps)
+        mujoco.mj_step(self.model, data)
         if st.events[0]:
             st.events[0] = []
         np.dot(self._readout, self._sensor_vector, out=self._lin)
@@ -602,10 +614,9 @@ class RobotMatches:
 
     def _advance(self, slots: list[int]) -> None:
         rules, st = self.rules, self.match
-        model, skip = rules.model, rules.frame_skip
         for s in slots:
             np.copyto(self._ctrl_views[s], st.ctrl[s])
-            mujoco.mj_step(model, self.datas[s], nstep=skip)
+            rules.simulate(self.datas[s])
             rules.read(st, s, self._sensor_views[s])
 
     def step(self, actions: np.ndarray) -> np.ndarray:

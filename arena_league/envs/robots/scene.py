@@ -16,13 +16,16 @@ hold at most five primitive geoms, and together they cost about 10 % of a step.
 Everything a game reads comes from MuJoCo sensors (see ``envs.robots.ant`` for a robot's; the
 scene adds ``r<i>/floor_contact`` per robot, ``box<b>/pos``, ``/linvel``, ``/xaxis`` per box, the
 match time ``clock`` and ``unit``, a constant 1),
-evaluated by MuJoCo at the start of the last physics sub-step of each ``mj_step(nstep=...)`` call:
-one consistent snapshot, 10 ms before the step ends. :class:`Terms` exposes them as affine maps
+evaluated by MuJoCo at the start of the last physics sub-step of a step: one consistent snapshot,
+10 ms before the step ends. (MuJoCo evaluates sensors at every sub-step; the sub-steps before the
+last run on ``Scene.quiet_model``, a copy of the model with sensors switched off: same physics,
+5 % less work per step.) :class:`Terms` exposes them as affine maps
 of the sensor vector, which the games combine into observation and measure matrices.
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from functools import cache
 
@@ -88,6 +91,8 @@ class Scene:
 
     layout: SceneLayout
     model: mujoco.MjModel
+    #: the same model with sensors switched off, for the sub-steps whose sensors nobody reads
+    quiet_model: mujoco.MjModel
     #: sensor name -> indices into ``MjData.sensordata``
     sensor_index: dict[str, np.ndarray]
     #: qpos / qvel address of each robot's free joint and of its hinge joints (action order)
@@ -206,6 +211,8 @@ def _add_scene_sensors(spec: mujoco.MjSpec, layout: SceneLayout) -> None:
 def compile_scene(layout: SceneLayout) -> Scene:
     """The compiled scene of ``layout`` (built once per layout and process)."""
     model = build_scene_spec(layout).compile()
+    quiet_model = copy.copy(model)  # a deep copy (mj_copyModel): same sizes, same physics
+    quiet_model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_SENSOR
     sensor_index = {}
     for k in range(model.nsensor):
         adr, dim = int(model.sensor_adr[k]), int(model.sensor_dim[k])
@@ -234,6 +241,7 @@ def compile_scene(layout: SceneLayout) -> Scene:
     return Scene(
         layout=layout,
         model=model,
+        quiet_model=quiet_model,
         sensor_index=sensor_index,
         root_qpos=np.array([r[0] for r in roots], dtype=np.int64),
         root_qvel=np.array([r[1] for r in roots], dtype=np.int64),
