@@ -360,15 +360,18 @@ def cmd_population(args: argparse.Namespace) -> int:
     from arena_league.registry import list_populations
 
     with _league(args) as league:
+        if args.action == "build":
+            return _build_population(args, league)
         if args.action == "import":
-            label = import_population(league, args.folder, name=args.name)
+            label = import_population(league, _required(args.target, "the population folder"), name=args.name)
             if args.json:
                 emit_json({"imported": label})
             else:
                 stdout.print(f"imported population {label}")
             return 0
         if args.action == "export":
-            path = export_population(league, args.population, args.destination)
+            path = export_population(league, _required(args.population, "--population NAME[:VERSION]"),
+                                     _required(args.destination, "--destination FOLDER"))
             if args.json:
                 emit_json({"exported": args.population, "path": str(path)})
             else:
@@ -386,6 +389,43 @@ def cmd_population(args: argparse.Namespace) -> int:
         for r in rows:
             table.add_row(f"{r['name']}:{r['version']}", r["game_id"], str(r["members"]), str(r["frozen"]))
         stdout.print(table)
+    return 0
+
+
+def _required(value: Any, what: str) -> Any:
+    if value is None:
+        raise CommandError(f"this command needs {what}")
+    return value
+
+
+def _build_population(args: argparse.Namespace, league) -> int:
+    from arena_league.population.build import build_population
+
+    game = _required(args.target, "a game id, e.g. `arena-league population build Soccer-2T2P-v1`")
+
+    def log(line: str) -> None:
+        stderr.print(line, highlight=False)
+
+    report = build_population(game, size=args.size, name=args.name or "base-v1", schemes=args.schemes,
+                              steps_per_scheme=args.steps, seed=args.seed, work_dir=args.work_dir,
+                              out_dir=args.out_dir, league=league, log=log)
+    document = report.to_dict()
+    if args.json:
+        emit_json(document)
+    else:
+        _print_record(f"population {document.get('name', args.name)} of {game}",
+                      {k: v for k, v in document.items() if not isinstance(v, (dict, list))})
+    return 0
+
+
+def cmd_play(args: argparse.Namespace) -> int:
+    from arena_league.league.human import play_human
+
+    with _league(args) as league:
+        session = play_human(args.game, args.against, league, player=args.player, seed=args.seed,
+                             matches=args.matches, picture_dir=args.pictures)
+    if args.json:
+        emit_json(session.to_dict() if hasattr(session, "to_dict") else {"player": args.player})
     return 0
 
 
@@ -559,15 +599,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_replay)
 
-    p = sub.add_parser("population", help="populations: list, import FOLDER, export NAME[:V] DEST")
-    p.add_argument("action", choices=("list", "import", "export"))
-    p.add_argument("folder", nargs="?", default=None, help="import: the population folder")
-    p.add_argument("--game", default=None)
-    p.add_argument("--name", default=None, help="import: register under this name")
+    p = sub.add_parser("population", help="populations: list, build GAME, import FOLDER, export")
+    p.add_argument("action", choices=("list", "build", "import", "export"))
+    p.add_argument("target", nargs="?", default=None, help="build: the game id; import: the population folder")
+    p.add_argument("--game", default=None, help="list: only this game's populations")
+    p.add_argument("--name", default=None, help="build / import: the population's name (default base-v1)")
+    p.add_argument("--size", type=_positive_int, default=100, help="build: members (default 100)")
+    p.add_argument("--schemes", nargs="+", default=None, help="build: training schemes (default per game)")
+    p.add_argument("--steps", type=_positive_int, default=None, help="build: env steps per scheme run")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--work-dir", default=None, help="build: runs and matches (a rerun resumes from here)")
+    p.add_argument("--out-dir", default=None, help="build: the frozen population (default checkpoints/GAME/NAME)")
     p.add_argument("--population", default=None, help="export: NAME[:VERSION]")
     p.add_argument("--destination", default=None, help="export: a new folder")
     _league_options(p)
     p.set_defaults(func=cmd_population)
+
+    p = sub.add_parser("play", help="play against a base population in the terminal (human ranking)")
+    p.add_argument("game")
+    p.add_argument("--against", default="base-v1", help="the base population NAME[:VERSION]")
+    p.add_argument("--player", default="human", help="your name; your results are kept as <name>@GAME")
+    p.add_argument("--matches", type=_positive_int, default=None, help="stop after this many matches")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--pictures", default=None, help="physics games: save the top-down picture of each step here")
+    _league_options(p)
+    p.set_defaults(func=cmd_play)
 
     p = sub.add_parser("train", help="train agents with a scheme (ppo, dppo, sp, pbt, cc, cf); plot the curves")
     p.add_argument("game")
