@@ -222,7 +222,7 @@ class PushBoxRules(RobotGameRules):
         box_to_target = obs[:, BOX_TO_TARGET] * unit
         push = box_to_target / np.maximum(np.linalg.norm(box_to_target, axis=1, keepdims=True), 1e-9)
         side_axis = np.stack([-push[:, 1], push[:, 0]], axis=1)
-        # the ant takes the side of the push line away from its teammate
+        # each ant pushes a little to its own side of the push line, the side away from its teammate
         mate = obs[:, TEAMMATE][:, 0:2] * unit
         my_side = np.where(np.einsum("ij,ij->i", -mate, side_axis) >= 0.0, 1.0, -1.0)
         me_from_box = -box
@@ -232,12 +232,12 @@ class PushBoxRules(RobotGameRules):
         # pushing: behind the box and near the push line; steer back onto the line
         pushing = (along < -BOX_HALF) & (np.abs(lateral) < PUSH_LANE)
         drive = push - (1.5 * lateral)[:, None] * side_axis
-        # otherwise go to the spot, round the box when the box stands between
-        to_spot = spot
+        # otherwise go to the spot; from beside or in front of the box, first round it on the
+        # side the ant is on
         around = box + side_axis * (np.where(lateral + my_side * PUSH_SIDE >= 0.0, 1.0, -1.0)
                                     * (BOX_HALF + 0.55))[:, None] - push * (BOX_HALF + 0.2)
         in_way = along > -BOX_HALF - 0.1
-        walk = np.where(in_way[:, None], around, to_spot)
+        walk = np.where(in_way[:, None], around, spot)
         walk = walk / np.maximum(np.linalg.norm(walk, axis=1, keepdims=True), 0.25)
         return trot(obs, np.where(pushing[:, None], drive, walk))
 

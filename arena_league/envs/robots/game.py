@@ -516,15 +516,11 @@ class RobotGameRules(GameRules):
     def render_topdown(self) -> np.ndarray:
         from arena_league.envs.robots.render import topdown_picture
 
-        return topdown_picture(self.scene, self.data, self.view_extent(), self.topdown_extras())
+        return topdown_picture(self.scene, self.data, self.view_extent())
 
     def view_extent(self) -> tuple[float, float, float, float]:
         """The world box ``x0, x1, y0, y1`` the top-down picture shows."""
         return (-4.0, 4.0, -4.0, 4.0)
-
-    def topdown_extras(self) -> list[tuple[str, tuple[float, ...], tuple[int, int, int]]]:
-        """Game-specific drawings for the top-down picture (kind, numbers, colour)."""
-        return []
 
     def render_camera(self, width: int = 480, height: int = 360) -> np.ndarray:
         """A perspective picture from MuJoCo's own renderer (needs OpenGL, e.g. ``MUJOCO_GL=egl``);

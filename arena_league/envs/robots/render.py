@@ -16,13 +16,12 @@ import mujoco
 import numpy as np
 
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
+from arena_league.envs.robots.ant import ROBOTS
 from arena_league.envs.robots.scene import Scene
 
 FLOOR_COLOUR = (90, 115, 90)
 MARKING_COLOUR = (240, 240, 240)
 TARGET_COLOUR = (240, 215, 80)
-#: A (kind, numbers, colour) drawing: "line" (x0, y0, x1, y1) or "disc" (x, y, radius).
-Extra = tuple[str, tuple[float, ...], tuple[int, int, int]]
 
 
 def _shade(colour: tuple[int, int, int], amount: float) -> tuple[int, int, int]:
@@ -30,7 +29,7 @@ def _shade(colour: tuple[int, int, int], amount: float) -> tuple[int, int, int]:
 
 
 def topdown_picture(scene: Scene, data: mujoco.MjData, extent: tuple[float, float, float, float],
-                    extras: list[Extra] | None = None, size: int = 400) -> np.ndarray:
+                    size: int = 400) -> np.ndarray:
     """A ``uint8[H, W, 3]`` picture of the scene from above, of the world box ``extent``."""
     x0, x1, y0, y1 = extent
     canvas = Canvas(x0, x1, y0, y1, size=size, background=FLOOR_COLOUR)
@@ -43,11 +42,6 @@ def topdown_picture(scene: Scene, data: mujoco.MjData, extent: tuple[float, floa
             canvas.line(*numbers, fill=MARKING_COLOUR, width_px=width)
         elif kind == "disc":
             canvas.circle(*numbers, fill=TARGET_COLOUR, outline=MARKING_COLOUR)
-    for kind, numbers, colour in extras or []:
-        if kind == "line":
-            canvas.line(*numbers, fill=colour, width_px=width)
-        else:
-            canvas.circle(*numbers, fill=colour)
     xpos = data.xpos
     xmat = data.xmat.reshape(-1, 3, 3)
     half = scene.layout.box_half
@@ -57,8 +51,8 @@ def topdown_picture(scene: Scene, data: mujoco.MjData, extent: tuple[float, floa
         canvas.draw.polygon([canvas.px(x, y) for x, y, _ in square], fill=_shade(TEAM_COLOURS[team], 0.45),
                             outline=(40, 40, 40))
     leg_px = max(2, round(0.1 * canvas.scale))
-    shape_radius = 0.25
-    for i, team in enumerate(scene.layout.teams):
+    for i, (kind, team) in enumerate(zip(scene.layout.robots, scene.layout.teams)):
+        torso_radius = ROBOTS[kind][1].torso_radius
         colour = TEAM_COLOURS[team % len(TEAM_COLOURS)]
         torso = xpos[scene.torso_body[i]]
         leg_colour = tuple(int(c * 0.7) for c in colour)
@@ -69,7 +63,7 @@ def topdown_picture(scene: Scene, data: mujoco.MjData, extent: tuple[float, floa
             points = [canvas.px(p[0], p[1]) for p in (torso, hip, shin, foot)]
             canvas.draw.line(points, fill=leg_colour, width=leg_px)
         up_z = xmat[scene.torso_body[i]][2, 2]
-        canvas.circle(torso[0], torso[1], shape_radius, fill=colour if up_z >= 0 else leg_colour,
+        canvas.circle(torso[0], torso[1], torso_radius, fill=colour if up_z >= 0 else leg_colour,
                       outline=(20, 20, 20))
         forward = xmat[scene.torso_body[i]][:, 0]
         canvas.line(torso[0], torso[1], torso[0] + 0.3 * forward[0], torso[1] + 0.3 * forward[1],
