@@ -745,6 +745,12 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     scheme_rows = "\n".join(f"| {s} | {len(r)} | {min(r):.0f} | {np.median(r):.0f} | {max(r):.0f} |"
                             for s, r in sorted(by_scheme.items()))
     options = json.dumps(build["scheme_options"]) if build["scheme_options"] else "none"
+    reproduce = (f"build_population({game!r}, size={len(manifest['members'])}, name={name!r}, "
+                 f"schemes={build['schemes']!r}, steps_per_scheme={build['steps_per_scheme']!r}, "
+                 f"snapshots={build['snapshots_per_run']}, seed={build['seed']}, "
+                 f"matches_per_pair={build['matches_per_pair']}, max_candidates={build['max_candidates']}"
+                 + (f", scheme_options={build['scheme_options']!r}" if build["scheme_options"] else "") + ")")
+    reproduce = "from arena_league.population.build import build_population\n    " + reproduce
     return f"""# {name}: the base population of {game}
 
 {len(manifest['members'])} agents that {len(figures.get('schemes', {}))} training schemes produced, frozen as
@@ -785,6 +791,12 @@ Built by `arena_league.population.build.build_population` (code {build['code']})
 | criterion | rule | value | met |
 |---|---|---|---|
 {criteria_rows}
+
+## Rebuild
+
+    {reproduce}
+
+(resumable: interrupted, it picks up from its work_dir; the same call reads back what was saved)
 
 ## Use
 
