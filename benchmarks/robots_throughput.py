@@ -9,7 +9,11 @@ beforehand from a seeded generator (resets counted in):
 * ``env``: the PettingZoo ``ParallelEnv.step`` with its dicts, action checks and social-tree rewards;
 
 then the batched path (:class:`arena_league.envs.robots.RobotMatches`, the match engine's engine
-for many matches) with 1 and with 2 worker threads, the process allowed on CPUs 0 and 1.
+for many matches) with 1 and with 2 worker threads, the process allowed on CPUs 0 and 1, beside
+its peer, MuJoCo's thread-pooled ``mujoco.rollout`` stepping the same matches' physics alone.
+
+Mind the machine: with Linux's autogroup scheduling, a busy job of another session takes one of
+two cores whatever this process asks, and two threads then cannot beat one (see ``load_average``).
 
 Every figure is the best of ``--repeats`` runs of ``--seconds`` each (the machine may be shared),
 with both rates: per wall-clock second and per CPU second of this process (``time.process_time``,
@@ -163,6 +167,43 @@ def batched(rules_cls, seconds: float, repeats: int, slots: int, threads: int) -
     return {"game_id": _game_id(rules_cls), "slots": slots, "threads": threads, **result}
 
 
+def rollout_peer(rules_cls, seconds: float, repeats: int, slots: int, threads: int) -> dict:
+    """The peer: ``slots`` matches' physics alone stepped by MuJoCo's own thread-pooled
+    ``mujoco.rollout`` (full physics state in and out per match step, random torques held for the
+    step). Physics only: no observations, no measures, no judgement."""
+    import mujoco
+    from mujoco import rollout
+
+    n_teams, players = rules_cls.layouts[0]
+    rules = rules_cls(n_teams, players)
+    model, skip = rules.model, rules.frame_skip
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    size = mujoco.mj_stateSize(model, spec)
+    initial = np.zeros((slots, size))
+    scratch = [mujoco.MjData(model) for _ in range(max(threads, 1))]
+    for slot in range(slots):
+        rng = np.random.default_rng(slot)
+        rules.place(scratch[0], rules.start_pose(rng), rng)
+        mujoco.mj_getState(model, scratch[0], initial[slot], spec)
+    torques = np.random.default_rng(0).uniform(-1.0, 1.0, (slots, 1, model.nu))
+    control = np.repeat(torques, skip, axis=1)  # one step's torques held over its sub-steps
+    out = np.zeros((slots, skip, size))
+
+    with rollout.Rollout(nthread=threads if threads > 1 else 0) as pool:
+        def run(deadline: float) -> int:
+            state = initial.copy()
+            steps = 0
+            while time.perf_counter() < deadline:
+                for _ in range(8):
+                    pool.rollout(model, scratch, state, control, state=out, nstep=skip)
+                    state[:] = out[:, -1]
+                    steps += slots
+            return steps
+
+        result = _rate(run, seconds, repeats)
+    return {"game_id": _game_id(rules_cls), "slots": slots, "threads": threads, "physics_only": True, **result}
+
+
 def measure(seconds: float = 2.0, repeats: int = 3, slots: int = 64, modules: tuple[str, ...] = GAME_MODULES) -> dict:
     """The whole document (see the module docstring); restores the process's CPU affinity."""
     original = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
@@ -181,8 +222,12 @@ def measure(seconds: float = 2.0, repeats: int = 3, slots: int = 64, modules: tu
             one = batched(rules_cls, seconds, repeats, slots, threads=1)
             two_cpus = _pin({0, 1})
             two = batched(rules_cls, seconds, repeats, slots, threads=2)
+            peer_one = rollout_peer(rules_cls, seconds, repeats, slots, threads=1)
+            peer_two = rollout_peer(rules_cls, seconds, repeats, slots, threads=2)
+            _pin({0})
             single = next(r for r in rows if r["game_id"] == one["game_id"])
             batch_rows.append({"game_id": one["game_id"], "slots": slots, "threads_1": one, "threads_2": two,
+                               "peer_mujoco_rollout_physics_only": {"threads_1": peer_one, "threads_2": peer_two},
                                "affinity_2_threads": two_cpus,
                                "speedup_2_threads_vs_rules_one_core": round(two["steps_per_s"] / single["rules"]["steps_per_s"], 2),
                                "speedup_2_threads_vs_1_thread": round(two["steps_per_s"] / one["steps_per_s"], 2)})
