@@ -384,6 +384,25 @@ def _dense_part(full: list[np.ndarray]) -> np.ndarray:
     return np.array(list(rewards.values()))
 
 
+def test_robot_motion_pays_speed_to_target_minus_fall_control_and_contact_costs():
+    tree = {"scheme": "NL", "children": [
+        {"agent": "player_0", "scheme": "IS", "reward": "robot_motion"},
+        {"agent": "player_1", "scheme": "IS", "reward": "robot_motion",
+         "params": {"velocity": 2.0, "fall": 3.0, "control": 0.25, "contact": 0.5}}]}
+    env = make("Sumo-2T1P-v1", tree=tree, anneal=0.5)
+    env.reset(seed=2)
+    rng = np.random.default_rng(2)
+    weights = np.array([[1.0, 1.0, 0.5, 0.01], [2.0, 3.0, 0.25, 0.5]])
+    for _ in range(30):
+        _, rewards, *_ = env.step({a: env.rules.random_action(i, rng) for i, a in enumerate(env.agents)})
+        m = env.rules.measures
+        terms = np.stack([m.velocity_to_target, -m.fallen.astype(float), -m.energy, -m.force], axis=1)
+        np.testing.assert_allclose([rewards["player_0"], rewards["player_1"]],
+                                   0.5 * (weights * terms).sum(axis=1), rtol=1e-12, atol=1e-12)
+        if not env.agents:
+            break
+
+
 def test_set_anneal_is_checked_and_kept_across_resets():
     env = make("PushBox-2T2P-v1", anneal=0.25)
     assert env.rules.anneal == 0.25
