@@ -7,6 +7,7 @@ on stderr). Tables and progress bars are drawn with rich when stderr/stdout is a
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from collections.abc import Callable, Iterator
@@ -430,15 +431,35 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 
 def cmd_quickstart(args: argparse.Namespace) -> int:
-    """A whole league on the embedded default: home, agents, round robin, ranking, leaderboard."""
-    from arena_league.league import ensure_scripted_agents, evaluate, leaderboard, rank, submit
-    from arena_league.league.leaderboards import render_terminal
+    """A whole league on the embedded default: home, agents, round robin, ranking, leaderboard.
 
-    example = Path(__file__).resolve().parent.parent / "submissions" / "crossroads-2t2p-mlp.onnx"
+    Where the game ships a base population (``checkpoints/<game>/base-v1``), it is imported and the
+    example submission is ranked against it; otherwise against the game's scripted agents."""
+    from arena_league.league import (
+        ensure_scripted_agents,
+        evaluate,
+        import_population,
+        leaderboard,
+        rank,
+        submit,
+    )
+    from arena_league.league.leaderboards import render_terminal
+    from arena_league.registry import get_population
+
+    root = Path(__file__).resolve().parent.parent
+    example = root / "submissions" / "crossroads-2t2p-mlp.onnx"
+    shipped = root / "checkpoints" / args.game / "base-v1"
     game = args.game
+    population = None
     with _league(args) as league:
         stderr.print(f"league home: {league.home}")
         names = ensure_scripted_agents(league, game)
+        if (shipped / "population.json").exists():
+            with league.reading() as session:
+                known = get_population(session, "base-v1")
+            population = (f"base-v1:{known.version}" if known is not None and known.game_id == game
+                          else import_population(league, shipped))
+            stderr.print(f"base population {population} from {shipped}")
         entrant = None
         if game == "Crossroads-2T2P-v1" and example.exists():
             result = submit(league, example, game, "example-mlp", owner="arena-league")
@@ -447,21 +468,28 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
         with progress_bar(f"round robin on {game}", 1) as update:
             report = evaluate(league, game, names, matches_per_pair=args.matches_per_pair, seed=args.seed,
                               progress=update)
-        stderr.print(f"base round robin: {report.played} matches in {report.seconds:.1f} s")
+        stderr.print(f"scripted round robin: {report.played} matches in {report.seconds:.1f} s")
         ranked = None
         if entrant:
             with progress_bar(f"ranking {entrant}", args.budget) as update:
-                ranked = rank(league, entrant, budget=args.budget, seed=args.seed, progress=update)
+                ranked = rank(league, entrant, budget=args.budget, population=population, seed=args.seed,
+                              progress=update)
         board = leaderboard(league, game, "bt", seed=args.seed)
     if args.json:
-        emit_json({"home": str(league.home), "evaluation": report.to_dict(),
+        emit_json({"home": str(league.home), "population": population, "evaluation": report.to_dict(),
                    "rank": ranked.to_dict() if ranked else None, "leaderboard": board.to_dict()})
         return 0
     if ranked:
-        stdout.print(f"[bold]{ranked.agent}[/]: rating {ranked.rating:.0f} ({ranked.lower:.0f} .. {ranked.upper:.0f}), "
+        stdout.print(f"[bold]{ranked.agent}[/] against {ranked.base} ({ranked.base_size} agents, {ranked.matches} "
+                     f"matches): rating {ranked.rating:.0f} ({ranked.lower:.0f} .. {ranked.upper:.0f}), "
                      f"rank {ranked.rank} ({ranked.rank_best}..{ranked.rank_worst}) of {ranked.base_size + 1}, "
-                     f"percentile {ranked.percentile:.0f}, Nash score {ranked.nash_score:+.2f}")
-    stdout.print(render_terminal(board))
+                     f"percentile {ranked.percentile:.0f} ({ranked.percentile_lower:.0f} .. "
+                     f"{ranked.percentile_upper:.0f}), Nash score {ranked.nash_score:+.2f}")
+    unrated = len(board.rows) - len(board.rated_rows)
+    stdout.print(render_terminal(dataclasses.replace(board, rows=board.rated_rows)))
+    if unrated:
+        stdout.print(f"({unrated} agents without matches in this league are not shown: base members keep the "
+                     "ratings of their build in the population manifest; `arena-league leaderboard` lists all)")
     return 0
 
 
