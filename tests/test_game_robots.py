@@ -206,6 +206,25 @@ def test_random_torques_topple_an_ant_in_most_episodes_while_standing_stays_up()
     assert toppled >= 8 and stood == 10
 
 
+def test_stepping_is_mj_step_with_frame_skip_sub_steps_to_the_bit():
+    # the sub-steps before the last run on a sensor-free copy of the model: same physics
+    import mujoco
+
+    rules = make("PushBox-2T2P-v1").rules
+    rules.reset(0)
+    plain = mujoco.MjData(rules.model)
+    rules.place(plain, rules.start_pose(np.random.default_rng(0)), np.random.default_rng(0))
+    mine = mujoco.MjData(rules.model)
+    rules.place(mine, rules.start_pose(np.random.default_rng(0)), np.random.default_rng(0))
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        plain.ctrl[:] = mine.ctrl[:] = rng.uniform(-1, 1, rules.model.nu)
+        mujoco.mj_step(rules.model, plain, nstep=rules.frame_skip)
+        rules.simulate(mine)
+    assert np.array_equal(plain.qpos, mine.qpos) and np.array_equal(plain.qvel, mine.qvel)
+    assert np.array_equal(plain.sensordata, mine.sensordata) and plain.time == mine.time
+
+
 def test_ants_push_each_other_and_feel_it_but_not_their_own_legs():
     env = make("Sumo-2T1P-v1")
     rules = env.rules
