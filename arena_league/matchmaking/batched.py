@@ -20,6 +20,7 @@ An engine adapter offers, for ``n_slots`` matches:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -139,7 +140,18 @@ class SnakeMatches:
 
 
 #: Batched engines by game name (``GameRules.name``).
-BATCHED_GAMES: dict[str, type] = {"GoBang": GoBangMatches, "Snake": SnakeMatches}
+def _robot_matches(rules: Any, n_slots: int, max_cycles: int) -> Any:
+    """Robot matches on a thread pool of MuJoCo datas (``envs.robots.game.RobotMatches``)."""
+    from arena_league.envs.robots.game import RobotMatches
+
+    return RobotMatches(rules, n_slots, max_cycles)
+
+
+BATCHED_GAMES: dict[str, Callable[[Any, int, int], Any]] = {
+    "GoBang": GoBangMatches,
+    "Snake": SnakeMatches,
+    **dict.fromkeys(("Sumo", "RunToGoal", "YouShallNotPass", "PushBox"), _robot_matches),
+}
 
 
 def batched_engine(probe_env: Any, n_slots: int) -> Any | None:

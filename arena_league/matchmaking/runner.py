@@ -207,7 +207,8 @@ class _EngineMatches:
 
     def step(self, live: list[int], actions: np.ndarray, acting: np.ndarray) -> list[int]:
         n = self.runner.n_agents
-        return np.flatnonzero(self.engine.step(actions.reshape(-1, n))).tolist()
+        # discrete actions are one integer per seat; continuous ones keep their action dimension
+        return np.flatnonzero(self.engine.step(actions.reshape(-1, n, *actions.shape[1:]))).tolist()
 
     def result(self, position: int, spec: MatchSpec) -> MatchResult:
         return MatchResult.from_team_result(spec, self.runner.team_of, self.engine.team_result(position),
