@@ -93,6 +93,14 @@ def batched_grid(seconds: float) -> list[dict]:
     return results
 
 
+def robots(seconds: float) -> dict:
+    """The MuJoCo games: physics, rules and env steps/s on one core, and the threaded batch on two
+    (``benchmarks/robots_throughput.py``, which also runs on its own)."""
+    import robots_throughput
+
+    return robots_throughput.measure(seconds, repeats=1)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=2.0, help="time per env (default 2)")
@@ -107,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{game_id} {action_type}: {rows[-1]['steps_per_s']} steps/s", file=sys.stderr)
     peers = [pettingzoo_peer(name, args.seconds) for name in ("knights_archers_zombies_v11", "pistonball_v6")]
     fastest_peer = max(p["steps_per_s"] for p in peers)
-    physics = [r for r in rows if r["game_id"].split("-")[0] in ("Crossroads", "Soccer")]
+    physics = [r for r in rows if r["game_id"].split("-")[0] in ("Crossroads", "Soccer")]  # the 2D ones
     document = {
         "benchmark": "env_throughput",
         "machine": {"python": platform.python_version(), "cpu": platform.processor() or platform.machine(),
@@ -115,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
         "arena_league": rows,
         "pettingzoo": peers,
         "grid_batched": batched_grid(args.seconds),
+        "robots": robots(args.seconds),
         "summary": {
             "slowest_2d_physics_steps_per_s": min((r["steps_per_s"] for r in physics), default=None),
             "fastest_pettingzoo_steps_per_s": fastest_peer,
