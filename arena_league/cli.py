@@ -454,7 +454,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     with _league(args) as league:
         stderr.print(f"league home: {league.home}")
         names = ensure_scripted_agents(league, game)
-        if (shipped / "population.json").exists():
+        if args.base and (shipped / "population.json").exists():
             with league.reading() as session:
                 known = get_population(session, "base-v1")
             population = (f"base-v1:{known.version}" if known is not None and known.game_id == game
@@ -674,6 +674,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--matches-per-pair", type=_positive_int, default=10)
     p.add_argument("--budget", type=_positive_int, default=40)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--no-base", dest="base", action="store_false",
+                   help="leave the game's shipped base population out (scripted agents only)")
     _league_options(p)
     p.set_defaults(func=cmd_quickstart)
     return parser

@@ -35,7 +35,8 @@ def test_games_lists_every_id_with_its_tree(capsys):
 
 def seed_league(capsys, league_args):
     """Scripted agents of GoBang, through a quickstart on that game."""
-    code, doc = run(capsys, "quickstart", "--game", GAME, "--matches-per-pair", "4", *league_args, "--json")
+    code, doc = run(capsys, "quickstart", "--game", GAME, "--matches-per-pair", "4", "--no-base", *league_args,
+                    "--json")
     assert code == 0 and doc["evaluation"]["played"] == 4
     return doc
 
@@ -112,6 +113,13 @@ def test_leaderboard_html_and_methods(capsys, league_args, tmp_path):
     for method in ("elo", "openskill", "nash", "alpharank"):
         code, doc = run(capsys, "leaderboard", GAME, "--method", method, *league_args, "--json")
         assert code == 0 and doc["method"] == method and len(doc["rows"]) == 2
+
+
+def test_quickstart_ranks_against_the_shipped_base_population(capsys, league_args):
+    code, doc = run(capsys, "quickstart", "--game", GAME, "--matches-per-pair", "2", *league_args, "--json")
+    assert code == 0 and doc["population"] == "base-v1:1"
+    code, listing = run(capsys, "population", "list", *league_args, "--json")
+    assert listing["populations"][0]["members"] == 100 and listing["populations"][0]["frozen"]
 
 
 def test_leaderboard_of_an_empty_league_says_what_to_do(capsys, league_args):
