@@ -1,5 +1,5 @@
-"""Robot games on MuJoCo, what they share: PettingZoo's API, 200-step determinism, the batched path
-equal to the env path, fall detection and physics, the ant and its scenes, the observation's robot
+"""Robot games on MuJoCo, what they share (PettingZoo's API and 200-step determinism are in the
+shared tests/test_envs_api.py): the batched path equal to the env path, fall detection and physics, the ant and its scenes, the observation's robot
 block and seat frame, measures, annealing of the dense reward, and headless pictures."""
 
 from __future__ import annotations
@@ -7,7 +7,6 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from pettingzoo.test import parallel_api_test
 
 from arena_league.envs import make
 from arena_league.envs.robots import (
@@ -25,23 +24,7 @@ from arena_league.envs.robots import (
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.social.rewards import lookup_reward
 
-ROBOT_MODULES = ("sumo", "runtogoal", "youshallnotpass", "pushbox")
 ROBOT_IDS = ["Sumo-2T1P-v1", "RunToGoal-2T1P-v1", "YouShallNotPass-2T1P-v1", "PushBox-2T2P-v1"]
-
-
-@pytest.fixture(scope="module", autouse=True)
-def robot_catalog():
-    """The robot games in the catalog, whether or not ``GAME_MODULES`` lists them yet."""
-    from arena_league.envs import catalog
-
-    saved = catalog.GAME_MODULES
-    catalog.GAME_MODULES = saved + tuple(m for m in ROBOT_MODULES if m not in saved)
-    catalog.game_rules_classes.cache_clear()
-    catalog._catalog.cache_clear()
-    yield
-    catalog.GAME_MODULES = saved
-    catalog.game_rules_classes.cache_clear()
-    catalog._catalog.cache_clear()
 
 
 def no_boxes() -> tuple[np.ndarray, np.ndarray]:
@@ -54,43 +37,11 @@ OBS_DIM = {"Sumo-2T1P-v1": 49, "RunToGoal-2T1P-v1": 49, "YouShallNotPass-2T1P-v1
 
 
 @pytest.mark.parametrize("game_id", ROBOT_IDS)
-def test_parallel_api(game_id):
+def test_spaces_are_those_of_the_manual(game_id):
+    # PettingZoo's API test and the 200-step determinism test run for these ids in tests/test_envs_api.py
     env = make(game_id)
     assert env.rules.action_type == "continuous" and env.rules.act_dim == 8
     assert env.rules.obs_dim == OBS_DIM[game_id]
-    parallel_api_test(env, num_cycles=200)
-
-
-def _random_rollout(game_id: str, seed: int, steps: int = 200, **kwargs) -> list[np.ndarray]:
-    env = make(game_id, **kwargs)
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
-    trace = [np.stack([obs[a] for a in env.possible_agents])]
-    episode = 0
-    for _ in range(steps):
-        if not env.agents:
-            episode += 1
-            obs, _ = env.reset(seed=seed + episode)
-            trace.append(np.stack([obs[a] for a in env.possible_agents]))
-        actions = {a: env.rules.random_action(i, rng) for i, a in enumerate(env.possible_agents)}
-        obs, rewards, term, trunc, _ = env.step(actions)
-        trace.append(np.stack([obs[a] for a in env.possible_agents]))
-        trace.append(np.array([rewards[a] for a in env.possible_agents]))
-        trace.append(np.array([[term[a], trunc[a]] for a in env.possible_agents]))
-    trace.append(env.state())
-    return trace
-
-
-@pytest.mark.parametrize("game_id", ROBOT_IDS)
-def test_same_seed_same_trajectory_over_200_steps(game_id):
-    first = _random_rollout(game_id, seed=7, max_cycles=80)  # short episodes: resets are replayed too
-    second = _random_rollout(game_id, seed=7, max_cycles=80)
-    assert len(first) == len(second)
-    for a, b in zip(first, second):
-        assert a.dtype == b.dtype and a.shape == b.shape
-        assert np.array_equal(a, b), "same seed and actions must give bit-identical trajectories"
-    other = _random_rollout(game_id, seed=8, max_cycles=80)
-    assert any(not np.array_equal(a, b) for a, b in zip(first, other) if a.shape == b.shape)
 
 
 def test_a_seed_gives_the_same_match_whatever_the_instance_played_before():

@@ -15,23 +15,7 @@ from arena_league.envs.games.youshallnotpass import GOAL_LINE, ROLE, YouShallNot
 from arena_league.envs.robots import StartPose, stand
 from arena_league.envs.robots import observation as cells
 
-ROBOT_MODULES = ("sumo", "runtogoal", "youshallnotpass", "pushbox")
 STILL = np.zeros((2, 8), np.float32)
-
-
-@pytest.fixture(scope="module", autouse=True)
-def robot_catalog():
-    """The robot games in the catalog, whether or not ``GAME_MODULES`` lists them yet."""
-    from arena_league.envs import catalog
-
-    saved = catalog.GAME_MODULES
-    catalog.GAME_MODULES = saved + tuple(m for m in ROBOT_MODULES if m not in saved)
-    catalog.game_rules_classes.cache_clear()
-    catalog._catalog.cache_clear()
-    yield
-    catalog.GAME_MODULES = saved
-    catalog.game_rules_classes.cache_clear()
-    catalog._catalog.cache_clear()
 
 
 def pose(xy, yaw, roll=None, box_xy=None, box_yaw=None) -> StartPose:
