@@ -147,3 +147,13 @@ def test_selection_fills_below_the_floor_when_short_and_orders_targets():
     assert target_order(5).tolist() == [0, 4, 2, 1, 3]
     d = behaviour_distances(np.array([[0.0, np.nan], [3.0, 4.0]]))
     assert d[0, 1] == pytest.approx(3.0) and d[1, 1] == 0.0
+
+
+def test_bad_budgets_are_refused_before_training(tmp_path):
+    with pytest.raises(ValueError, match="runs_per_scheme names cf"):
+        build(tmp_path / "w", tmp_path / "o", runs_per_scheme={"cf": 2})
+    with pytest.raises(ValueError, match="no budget for pbt"):
+        build_population(GAME, schemes=SCHEMES, steps_per_scheme={"sp": 10, "dppo": 10}, work_dir=tmp_path / "w")
+    with pytest.raises(ValueError, match="base populations are rated by two-team matches"):
+        build_population("Snake-4T1P-v1", work_dir=tmp_path / "w")
+    assert not (tmp_path / "w" / "runs").exists()

@@ -258,7 +258,8 @@ class _StopBuild(Exception):
 # --- the build -------------------------------------------------------------------------------------
 
 def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", schemes: Sequence[str] | None = None,
-                     steps_per_scheme: int | Mapping[str, int] | None = None, seed: int = 0,
+                     steps_per_scheme: int | Mapping[str, int] | None = None, runs_per_scheme: int | Mapping[str, int] = 1,
+                     seed: int = 0,
                      work_dir: str | Path | None = None, out_dir: str | Path | None = None, league: Any = None,
                      matches_per_pair: int = 2, verify_matches: int = 200, snapshots: int | None = None,
                      scheme_options: Mapping[str, Mapping[str, Any]] | None = None, max_candidates: int = 240,
@@ -274,7 +275,9 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         schemes: training schemes (default :func:`default_schemes`).
         steps_per_scheme: env steps of each run, one number or one per scheme (default: the game's
             :class:`Recipe`).
-        seed: seeds every run and the match schedule.
+        runs_per_scheme: runs of each scheme (seeds ``seed``, ``seed + 1``, ...), one number or one
+            per scheme (default 1): more snapshots of a scheme, and of other seeds.
+        seed: seeds the first run of every scheme and the match schedule.
         work_dir: where runs and matches are kept (default ``runs/population/<game>/<name>``); a
             build started again with the same arguments resumes from it.
         out_dir: the frozen population (default ``checkpoints/<game>/<name>``).
@@ -313,6 +316,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     if not schemes or len(set(schemes)) != len(schemes):
         raise ValueError(f"schemes must be distinct scheme names, got {schemes!r}")
     steps = _steps_per_scheme(schemes, steps_per_scheme, recipe)
+    n_runs = _runs_per_scheme(schemes, runs_per_scheme)
     n_snapshots = int(snapshots or recipe.snapshots)
     if n_snapshots < 1:
         raise ValueError(f"snapshots must be at least 1, not {snapshots}")
@@ -327,18 +331,21 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     # 1. train every scheme (a finished run is read back)
     clock = time.perf_counter()
     snapshots_by_scheme = {}
-    for k, scheme in enumerate(schemes):
+    runs = [(scheme, seed + r) for scheme in schemes for r in range(n_runs[scheme])]
+    for k, (scheme, run_seed) in enumerate(runs):
         overrides = {**recipe.overrides(scheme), **dict((scheme_options or {}).get(scheme, {}))}
         every = max(1, steps[scheme] // n_snapshots)
-        finished = (work / "runs" / f"{scheme}-seed{seed}" / "run.json").exists()
-        say(f"train {scheme}: {steps[scheme]} env steps, a snapshot every {every}"
+        finished = (work / "runs" / f"{scheme}-seed{run_seed}" / "run.json").exists()
+        say(f"train {scheme} (seed {run_seed}): {steps[scheme]} env steps, a snapshot every {every}"
             + (" (finished run: reading it back)" if finished else ""))
         if progress:
-            progress("train", k, len(schemes))
-        snapshots_by_scheme[scheme] = _run_scheme(scheme, game_id, steps[scheme], seed, every, work, overrides)
-        (report.reused_runs if finished else report.trained).append(scheme)
+            progress("train", k, len(runs))
+        snapshots_by_scheme.setdefault(scheme, []).extend(
+            _run_scheme(scheme, game_id, steps[scheme], run_seed, every, work, overrides))
+        label = scheme if run_seed == seed else f"{scheme}-seed{run_seed}"
+        (report.reused_runs if finished else report.trained).append(label)
     if progress:
-        progress("train", len(schemes), len(schemes))
+        progress("train", len(runs), len(runs))
     report.seconds["train"] = round(time.perf_counter() - clock, 1)
     report.stage = "train"
     if stop_after == "train":
@@ -396,9 +403,10 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
 
     # 7. freeze
     clock = time.perf_counter()
-    build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest)
+    build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest,
+                         n_runs)
     _freeze(out, report, members, build_id, overwrite, recipe, matches_per_pair, verify_matches, n_snapshots,
-            max_candidates, scheme_options)
+            max_candidates, scheme_options, n_runs)
     report.out_dir = str(out)
     report.seconds["freeze"] = round(time.perf_counter() - clock, 1)
     report.stage = "freeze"
@@ -438,6 +446,17 @@ def _steps_per_scheme(schemes: list[str], steps: int | Mapping[str, int] | None,
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise ValueError(f"steps_per_scheme must be a positive number of env steps, not {steps!r}")
     return {s: int(steps) for s in schemes}
+
+
+def _runs_per_scheme(schemes: list[str], runs: int | Mapping[str, int]) -> dict[str, int]:
+    counts = {s: int(runs.get(s, 1)) for s in schemes} if isinstance(runs, Mapping) else {s: runs for s in schemes}
+    bad = {s: n for s, n in counts.items() if isinstance(n, bool) or not isinstance(n, int) or n < 1}
+    if bad:
+        raise ValueError(f"runs_per_scheme must be a positive number of runs (per scheme), not {bad}")
+    unknown = sorted(set(runs) - set(schemes)) if isinstance(runs, Mapping) else []
+    if unknown:
+        raise ValueError(f"runs_per_scheme names {', '.join(unknown)}, which are not among the schemes {schemes}")
+    return counts
 
 
 def _run_scheme(scheme: str, game_id: str, steps: int, seed: int, every: int, work: Path,
@@ -612,8 +631,11 @@ def member_name(population: str, key: str, game_id: str) -> str:
 
 
 def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, int], seed: int, snapshots: int,
-              size: int, matches_per_pair: int, digest: str) -> str:
-    identity = json.dumps([game_id, name, schemes, dict(steps), seed, snapshots, size, matches_per_pair, digest])
+              size: int, matches_per_pair: int, digest: str, runs: Mapping[str, int]) -> str:
+    parts: list[Any] = [game_id, name, schemes, dict(steps), seed, snapshots, size, matches_per_pair, digest]
+    if any(n != 1 for n in runs.values()):
+        parts.append(dict(runs))
+    identity = json.dumps(parts)
     return hashlib.sha256(identity.encode()).hexdigest()[:16]
 
 
@@ -621,7 +643,7 @@ def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, i
 
 def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: str, overwrite: bool,
             recipe: Recipe, matches_per_pair: int, verify_matches: int, snapshots: int, max_candidates: int,
-            scheme_options: Mapping[str, Mapping[str, Any]] | None) -> None:
+            scheme_options: Mapping[str, Mapping[str, Any]] | None, runs: Mapping[str, int]) -> None:
     manifest_path = out / "population.json"
     if manifest_path.exists() and not overwrite:
         existing = json.loads(manifest_path.read_text()).get("provenance", {}).get("build", {}).get("build_id")
@@ -675,7 +697,7 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
         "game_id": report.game_id, "frozen": True,
         "provenance": {
             "build": {"build_id": build_id, "schemes": report.schemes, "steps_per_scheme": report.steps_per_scheme,
-                      "seed": report.seed, "snapshots_per_run": snapshots, "candidates": report.candidates,
+                      "runs_per_scheme": dict(runs), "seed": report.seed, "snapshots_per_run": snapshots, "candidates": report.candidates,
                       "max_candidates": max_candidates, "matches_per_pair": matches_per_pair,
                       "verify_matches": verify_matches,
                       "recipe": {"hidden": list(recipe.hidden), "common": _jsonable(recipe.common),
@@ -733,7 +755,9 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     prov = manifest["provenance"]
     build, figures = prov["build"], prov["figures"]
     game, name = manifest["game_id"], manifest["name"]
-    steps = ", ".join(f"{s} {n:,}" for s, n in build["steps_per_scheme"].items())
+    runs = build.get("runs_per_scheme", {})
+    steps = ", ".join(f"{s} {n:,}" + (f" (x{runs[s]} seeds)" if runs.get(s, 1) > 1 else "")
+                      for s, n in build["steps_per_scheme"].items())
     criteria_rows = "\n".join(
         f"| {criterion.replace('_', ' ')} | {figure} {comparison} {threshold:g} | {figures.get(figure)} | "
         f"{'yes' if prov['criteria'].get(criterion) else 'NO'} |"
@@ -747,7 +771,9 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     options = json.dumps(build["scheme_options"]) if build["scheme_options"] else "none"
     reproduce = (f"build_population({game!r}, size={len(manifest['members'])}, name={name!r}, "
                  f"schemes={build['schemes']!r}, steps_per_scheme={build['steps_per_scheme']!r}, "
-                 f"snapshots={build['snapshots_per_run']}, seed={build['seed']}, "
+                 + (f"runs_per_scheme={build['runs_per_scheme']!r}, "
+                    if any(n != 1 for n in build.get("runs_per_scheme", {}).values()) else "")
+                 + f"snapshots={build['snapshots_per_run']}, seed={build['seed']}, "
                  f"matches_per_pair={build['matches_per_pair']}, max_candidates={build['max_candidates']}"
                  + (f", scheme_options={build['scheme_options']!r}" if build["scheme_options"] else "") + ")")
     reproduce = "from arena_league.population.build import build_population\n    " + reproduce
