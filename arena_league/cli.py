@@ -408,7 +408,8 @@ def _build_population(args: argparse.Namespace, league) -> int:
         stderr.print(line, highlight=False)
 
     report = build_population(game, size=args.size, name=args.name or "base-v1", schemes=args.schemes,
-                              steps_per_scheme=args.steps, seed=args.seed, work_dir=args.work_dir,
+                              steps_per_scheme=args.steps, runs_per_scheme=args.runs,
+                              warm_runs_per_scheme=args.warm_runs, seed=args.seed, work_dir=args.work_dir,
                               out_dir=args.out_dir, league=league, log=log)
     document = report.to_dict()
     if args.json:
@@ -503,7 +504,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     report = train(args.game, args.scheme, steps=args.steps, seed=args.seed, report_dir=args.report,
                    eval_every=args.eval_every, eval_matches=args.eval_matches,
                    reference=args.reference or ("scripted:random", "scripted:heuristic"),
-                   snapshot_every=args.snapshot_every, out_dir=args.out, log=log)
+                   snapshot_every=args.snapshot_every, out_dir=args.out, log=log,
+                   **({"warm_start": {"steps": args.warm_start}} if args.warm_start else {}),
+                   **({"hidden": tuple(args.hidden)} if args.hidden else {}))
     document = report.as_dict()
     if args.json:
         emit_json(document)
@@ -635,6 +638,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=_positive_int, default=100, help="build: members (default 100)")
     p.add_argument("--schemes", nargs="+", default=None, help="build: training schemes (default per game)")
     p.add_argument("--steps", type=_positive_int, default=None, help="build: env steps per scheme run")
+    p.add_argument("--runs", type=_positive_int, default=1, help="build: runs (seeds) of each scheme from scratch")
+    p.add_argument("--warm-runs", type=_non_negative_int, default=None,
+                   help="build: more runs of each scheme that first imitate the game's heuristic (default per game)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--work-dir", default=None, help="build: runs and matches (a rerun resumes from here)")
     p.add_argument("--out-dir", default=None, help="build: the frozen population (default checkpoints/GAME/NAME)")
@@ -666,6 +672,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the fixed reference population (default scripted:random scripted:heuristic)")
     p.add_argument("--snapshot-every", type=_positive_int, default=None, help="env steps between snapshots")
     p.add_argument("--out", default=None, help="where snapshots (arena-policy folders) go")
+    p.add_argument("--warm-start", type=_positive_int, default=None, metavar="STEPS",
+                   help="first imitate the game's heuristic (DAgger) for this many env steps")
+    p.add_argument("--hidden", type=_positive_int, nargs="+", default=None, help="actor hidden widths (default 64 64)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_train)
 
@@ -693,6 +702,16 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     except ImportError:
         pass
     return tuple(errors)
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more, not {value}")
+    return value
 
 
 def _positive_int(text: str) -> int:

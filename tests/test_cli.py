@@ -130,3 +130,12 @@ def test_leaderboard_of_an_empty_league_says_what_to_do(capsys, league_args):
 def test_rank_of_an_unknown_agent(capsys, league_args):
     code, doc = run(capsys, "rank", "nobody", *league_args, "--json")
     assert code == 2 and "nobody" in doc["error"]
+
+
+def test_train_with_a_warm_start_records_it(capsys, tmp_path):
+    code, doc = run(capsys, "train", "Crossroads-2T1P-v1", "--scheme", "ppo", "--steps", "64", "--warm-start", "300",
+                    "--hidden", "8", "--eval-matches", "2", "--out", tmp_path / "snaps", "--json")
+    assert code == 0 and doc["snapshots"]
+    manifest = json.loads((Path(doc["snapshots"][-1]["path"]) / "manifest.json").read_text())
+    assert manifest["provenance"]["metrics"]["warm_start"]["options"]["steps"] == 300
+    assert manifest["sizes"]["hidden"] == [8]

@@ -157,3 +157,37 @@ def test_bad_budgets_are_refused_before_training(tmp_path):
     with pytest.raises(ValueError, match="base populations are rated by two-team matches"):
         build_population("Snake-4T1P-v1", work_dir=tmp_path / "w")
     assert not (tmp_path / "w" / "runs").exists()
+
+
+def test_warm_started_runs_join_the_build_with_their_provenance(tmp_path):
+    """A warm-started run (DAgger on the heuristic, then RL) follows the runs from scratch: its seed
+    comes after theirs, its members' keys read ``<scheme>-ws-...`` and population.json, the
+    members' manifests and the README say what they imitated."""
+    imitation = {"steps": 400, "rounds": 2, "epochs": 1, "num_envs": 4}
+    report = build_population(GAME, size=6, name="base-w", schemes=["sp"], steps_per_scheme=256, snapshots=2,
+                              seed=0, work_dir=tmp_path / "w", out_dir=tmp_path / "o", scheme_options={"sp": TINY},
+                              warm_runs_per_scheme=1, warm_start=imitation, verify_matches=10,
+                              bootstrap_rounds=10)
+    assert report.trained == ["sp", "sp-seed1"]
+    run = json.loads((tmp_path / "w" / "runs" / "sp-seed1" / "run.json").read_text())
+    assert run["request"]["warm_start"]["steps"] == 400
+    assert "warm_start" not in json.loads((tmp_path / "w" / "runs" / "sp-seed0" / "run.json").read_text())["request"]
+    manifest = json.loads((tmp_path / "o" / "population.json").read_text())
+    assert manifest["provenance"]["build"]["warm_runs"]["warm_start"] == imitation
+    warm = [m for m in manifest["members"] if m["metadata"]["warm_start"]]
+    cold = [m for m in manifest["members"] if not m["metadata"]["warm_start"]]
+    assert all(".sp-ws-s1-" in m["name"] and m["metadata"]["seed"] == 1 for m in warm)
+    assert all(".sp-s0-" in m["name"] for m in cold)
+    assert warm and cold
+    member = json.loads((tmp_path / "o" / warm[0]["artifact"] / "manifest.json").read_text())
+    assert member["provenance"]["warm_start"] == "scripted:heuristic"
+    readme = (tmp_path / "o" / "README.md").read_text()
+    assert "warm-started runs" in readme and "DAgger" in readme and "warm_runs_per_scheme={'sp': 1}" in readme
+
+
+def test_bad_warm_start_is_refused_before_training(tmp_path):
+    with pytest.raises(TypeError, match="unknown warm_start field.*rouns"):
+        build(tmp_path / "w", tmp_path / "o", warm_runs_per_scheme=1, warm_start={"rouns": 2})
+    with pytest.raises(ValueError, match="warm_runs_per_scheme must be a number of runs >= 0"):
+        build(tmp_path / "w", tmp_path / "o", warm_runs_per_scheme=-1)
+    assert not (tmp_path / "w" / "runs").exists()

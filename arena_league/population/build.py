@@ -117,6 +117,14 @@ class Recipe:
     """Overrides of :func:`arena_league.training.run_scheme` for every scheme."""
     per_scheme: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     """Overrides for one scheme (``{"pbt": {"population_size": 4}}``)."""
+    warm_runs: int = 0
+    """Runs of each scheme, beyond the ``runs_per_scheme`` from scratch, whose learners first
+    imitate the game's heuristic (:mod:`arena_league.training.imitation`): they give the strong
+    end of the population, the runs from scratch the weak end and the middle."""
+    warm_start: Mapping[str, Any] = field(default_factory=dict)
+    """:class:`~arena_league.training.imitation.WarmStart` fields of those runs."""
+    warm_steps: int | None = None
+    """RL env steps of a warm-started run (default ``steps``)."""
 
     def overrides(self, scheme: str) -> dict[str, Any]:
         return {"hidden": tuple(self.hidden), **dict(self.common), **dict(self.per_scheme.get(scheme, {}))}
@@ -125,14 +133,20 @@ class Recipe:
 #: Per game (the name before the layout): budgets sized for a 2-core machine, many snapshots per
 #: run (early ones are weak, late ones strong), and small actors.
 RECIPES: dict[str, Recipe] = {
-    "Crossroads": Recipe(steps=300_000, snapshots=16, hidden=(32, 32),
-                         per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}}),
-    "Soccer": Recipe(steps=400_000, snapshots=16, hidden=(32, 32),
-                     per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}}),
+    "Crossroads": Recipe(steps=120_000, snapshots=12, hidden=(64, 64),
+                         per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}},
+                         warm_runs=1, warm_start={"steps": 30_000}, warm_steps=60_000),
+    "Soccer": Recipe(steps=120_000, snapshots=12, hidden=(64, 64),
+                     per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}},
+                     warm_runs=1, warm_start={"steps": 30_000}, warm_steps=60_000),
     "GoBang": Recipe(steps=600_000, snapshots=16, hidden=(8,), common={"learning_rate": 1e-3},
                      per_scheme={"pbt": {"population_size": 4}}),
-    "Snake": Recipe(steps=400_000, snapshots=16, hidden=(16, 16),
-                    per_scheme={"pbt": {"population_size": 4}}),
+    "Sumo": Recipe(steps=120_000, snapshots=12, hidden=(64, 64),
+                   per_scheme={"pbt": {"population_size": 4}},
+                   warm_runs=1, warm_start={"steps": 30_000}, warm_steps=60_000),
+    "Snake": Recipe(steps=120_000, snapshots=12, hidden=(64, 64),
+                    per_scheme={"pbt": {"population_size": 4}},
+                    warm_runs=1, warm_start={"steps": 30_000}, warm_steps=60_000),
 }
 _FALLBACK_RECIPE = Recipe(steps=200_000, snapshots=12, hidden=(32, 32), per_scheme={"pbt": {"population_size": 4}})
 
@@ -163,6 +177,8 @@ class Candidate:
     learner: str
     architecture: Architecture
     params: dict[str, torch.Tensor]
+    warm_start: str | None = None
+    """The agent its run imitated before RL (``scripted:heuristic``), or None (from scratch)."""
 
 
 @dataclass
@@ -185,6 +201,8 @@ class MemberRecord:
     """Its arena-policy folder, relative to the population folder."""
     bundle: str
     bundle_index: int
+    warm_start: str | None = None
+    """The agent its run imitated before RL, or None (trained from scratch)."""
 
 
 @dataclass
@@ -259,7 +277,8 @@ class _StopBuild(Exception):
 
 def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", schemes: Sequence[str] | None = None,
                      steps_per_scheme: int | Mapping[str, int] | None = None, runs_per_scheme: int | Mapping[str, int] = 1,
-                     seed: int = 0,
+                     warm_runs_per_scheme: int | Mapping[str, int] | None = None,
+                     warm_start: Mapping[str, Any] | None = None, seed: int = 0,
                      work_dir: str | Path | None = None, out_dir: str | Path | None = None, league: Any = None,
                      matches_per_pair: int = 2, verify_matches: int = 200, snapshots: int | None = None,
                      scheme_options: Mapping[str, Mapping[str, Any]] | None = None, max_candidates: int = 240,
@@ -277,6 +296,11 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
             :class:`Recipe`).
         runs_per_scheme: runs of each scheme (seeds ``seed``, ``seed + 1``, ...), one number or one
             per scheme (default 1): more snapshots of a scheme, and of other seeds.
+        warm_runs_per_scheme: runs of each scheme, after those from scratch (seeds following
+            theirs), whose learners first imitate the heuristic, one number or one per scheme
+            (default: the recipe's ``warm_runs``); 0 trains every run from scratch.
+        warm_start: the warm start's :class:`~arena_league.training.imitation.WarmStart` fields
+            (default: the recipe's).
         seed: seeds the first run of every scheme and the match schedule.
         work_dir: where runs and matches are kept (default ``runs/population/<game>/<name>``); a
             build started again with the same arguments resumes from it.
@@ -317,6 +341,14 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         raise ValueError(f"schemes must be distinct scheme names, got {schemes!r}")
     steps = _steps_per_scheme(schemes, steps_per_scheme, recipe)
     n_runs = _runs_per_scheme(schemes, runs_per_scheme)
+    n_warm = _runs_per_scheme(schemes, recipe.warm_runs if warm_runs_per_scheme is None else warm_runs_per_scheme,
+                              minimum=0, what="warm_runs_per_scheme")
+    imitation = dict(recipe.warm_start if warm_start is None else warm_start)
+    if any(n_warm.values()):
+        from arena_league.training.imitation import WarmStart
+
+        WarmStart.parse(imitation)  # bad fields fail before any training
+    warm_steps = {s: int(recipe.warm_steps or steps[s]) if steps_per_scheme is None else steps[s] for s in schemes}
     n_snapshots = int(snapshots or recipe.snapshots)
     if n_snapshots < 1:
         raise ValueError(f"snapshots must be at least 1, not {snapshots}")
@@ -331,17 +363,21 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     # 1. train every scheme (a finished run is read back)
     clock = time.perf_counter()
     snapshots_by_scheme = {}
-    runs = [(scheme, seed + r) for scheme in schemes for r in range(n_runs[scheme])]
-    for k, (scheme, run_seed) in enumerate(runs):
+    runs = [(scheme, seed + r, False) for scheme in schemes for r in range(n_runs[scheme])]
+    runs += [(scheme, seed + n_runs[scheme] + r, True) for scheme in schemes for r in range(n_warm[scheme])]
+    for k, (scheme, run_seed, warm) in enumerate(runs):
         overrides = {**recipe.overrides(scheme), **dict((scheme_options or {}).get(scheme, {}))}
-        every = max(1, steps[scheme] // n_snapshots)
+        run_steps = warm_steps[scheme] if warm else steps[scheme]
+        if warm:
+            overrides["warm_start"] = imitation
+        every = max(1, run_steps // n_snapshots)
         finished = (work / "runs" / f"{scheme}-seed{run_seed}" / "run.json").exists()
-        say(f"train {scheme} (seed {run_seed}): {steps[scheme]} env steps, a snapshot every {every}"
-            + (" (finished run: reading it back)" if finished else ""))
+        say(f"train {scheme} (seed {run_seed}{', warm start' if warm else ''}): {run_steps} env steps, a snapshot "
+            f"every {every}" + (" (finished run: reading it back)" if finished else ""))
         if progress:
             progress("train", k, len(runs))
         snapshots_by_scheme.setdefault(scheme, []).extend(
-            _run_scheme(scheme, game_id, steps[scheme], run_seed, every, work, overrides))
+            _run_scheme(scheme, game_id, run_steps, run_seed, every, work, overrides))
         label = scheme if run_seed == seed else f"{scheme}-seed{run_seed}"
         (report.reused_runs if finished else report.trained).append(label)
     if progress:
@@ -403,10 +439,12 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
 
     # 7. freeze
     clock = time.perf_counter()
+    warm_build = {"runs_per_scheme": n_warm, "steps_per_scheme": warm_steps, "warm_start": imitation} \
+        if any(n_warm.values()) else None
     build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest,
-                         n_runs)
+                         n_runs, warm_build)
     _freeze(out, report, members, build_id, overwrite, recipe, matches_per_pair, verify_matches, n_snapshots,
-            max_candidates, scheme_options, n_runs)
+            max_candidates, scheme_options, n_runs, warm_build)
     report.out_dir = str(out)
     report.seconds["freeze"] = round(time.perf_counter() - clock, 1)
     report.stage = "freeze"
@@ -448,14 +486,16 @@ def _steps_per_scheme(schemes: list[str], steps: int | Mapping[str, int] | None,
     return {s: int(steps) for s in schemes}
 
 
-def _runs_per_scheme(schemes: list[str], runs: int | Mapping[str, int]) -> dict[str, int]:
-    counts = {s: int(runs.get(s, 1)) for s in schemes} if isinstance(runs, Mapping) else {s: runs for s in schemes}
-    bad = {s: n for s, n in counts.items() if isinstance(n, bool) or not isinstance(n, int) or n < 1}
+def _runs_per_scheme(schemes: list[str], runs: int | Mapping[str, int], minimum: int = 1,
+                     what: str = "runs_per_scheme") -> dict[str, int]:
+    counts = ({s: runs.get(s, minimum) for s in schemes} if isinstance(runs, Mapping)
+              else {s: runs for s in schemes})
+    bad = {s: n for s, n in counts.items() if isinstance(n, bool) or not isinstance(n, int) or n < minimum}
     if bad:
-        raise ValueError(f"runs_per_scheme must be a positive number of runs (per scheme), not {bad}")
+        raise ValueError(f"{what} must be a number of runs >= {minimum} (per scheme), not {bad}")
     unknown = sorted(set(runs) - set(schemes)) if isinstance(runs, Mapping) else []
     if unknown:
-        raise ValueError(f"runs_per_scheme names {', '.join(unknown)}, which are not among the schemes {schemes}")
+        raise ValueError(f"{what} names {', '.join(unknown)}, which are not among the schemes {schemes}")
     return counts
 
 
@@ -471,8 +511,11 @@ def _run_scheme(scheme: str, game_id: str, steps: int, seed: int, every: int, wo
 
         snapshots = run_scheme(scheme, game_id, steps=steps, seed=seed, snapshot_every=every,
                                out_dir=work / "runs", log=log_line, **overrides)
-    return [Candidate(s.name, s.scheme, int(s.steps), int(s.seed), s.learner, s.architecture,
-                      {k: v.detach().to(torch.float32).contiguous() for k, v in s.params.items()})
+    expert = overrides.get("warm_start")
+    expert = None if not expert else dict(expert).get("expert", "scripted:heuristic")
+    return [Candidate(s.name.replace(f"{s.scheme}-", f"{s.scheme}-ws-", 1) if expert else s.name, s.scheme,
+                      int(s.steps), int(s.seed), s.learner, s.architecture,
+                      {k: v.detach().to(torch.float32).contiguous() for k, v in s.params.items()}, expert)
             for s in snapshots]
 
 
@@ -621,7 +664,7 @@ def _member_records(name: str, game_id: str, members: list[Candidate], fit: Any)
             name=member_name(name, m.key, game_id), key=m.key, scheme=m.scheme, steps=m.steps, seed=m.seed,
             learner=m.learner, rating=round(float(rating[i]), 1), rating_lower=round(float(fit.lower[i]), 1),
             rating_upper=round(float(fit.upper[i]), 1), rank=int(rank[i]), artifact=f"agents/{m.key}",
-            bundle="", bundle_index=-1))
+            bundle="", bundle_index=-1, warm_start=m.warm_start))
     return records
 
 
@@ -631,10 +674,13 @@ def member_name(population: str, key: str, game_id: str) -> str:
 
 
 def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, int], seed: int, snapshots: int,
-              size: int, matches_per_pair: int, digest: str, runs: Mapping[str, int]) -> str:
+              size: int, matches_per_pair: int, digest: str, runs: Mapping[str, int],
+              warm: Mapping[str, Any] | None = None) -> str:
     parts: list[Any] = [game_id, name, schemes, dict(steps), seed, snapshots, size, matches_per_pair, digest]
     if any(n != 1 for n in runs.values()):
         parts.append(dict(runs))
+    if warm:
+        parts.append(_jsonable(warm))
     identity = json.dumps(parts)
     return hashlib.sha256(identity.encode()).hexdigest()[:16]
 
@@ -643,7 +689,8 @@ def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, i
 
 def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: str, overwrite: bool,
             recipe: Recipe, matches_per_pair: int, verify_matches: int, snapshots: int, max_candidates: int,
-            scheme_options: Mapping[str, Mapping[str, Any]] | None, runs: Mapping[str, int]) -> None:
+            scheme_options: Mapping[str, Mapping[str, Any]] | None, runs: Mapping[str, int],
+            warm: Mapping[str, Any] | None = None) -> None:
     manifest_path = out / "population.json"
     if manifest_path.exists() and not overwrite:
         existing = json.loads(manifest_path.read_text()).get("provenance", {}).get("build", {}).get("build_id")
@@ -677,7 +724,8 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
         member = by_key[record.key]
         provenance = {"scheme": record.scheme, "game": report.game_id, "steps": record.steps, "seed": record.seed,
                       "learner": record.learner, "population": report.name, "rating": record.rating,
-                      "rating_interval": [record.rating_lower, record.rating_upper]}
+                      "rating_interval": [record.rating_lower, record.rating_upper],
+                      "warm_start": record.warm_start}
         save_arena_policy(staging / record.artifact, member.architecture, member.params, report.game_id,
                           name=record.name, provenance=provenance,
                           description=f"{record.scheme} snapshot after {record.steps} env steps (seed {record.seed}), "
@@ -687,9 +735,11 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
             "bundle": record.bundle, "bundle_index": record.bundle_index,
             "metadata": {"rating": record.rating, "rating_lower": record.rating_lower,
                          "rating_upper": record.rating_upper, "rank": record.rank, "scheme": record.scheme,
-                         "steps": record.steps, "seed": record.seed, "learner": record.learner},
+                         "steps": record.steps, "seed": record.seed, "learner": record.learner,
+                         "warm_start": record.warm_start},
             "agent_metadata": {"scheme": record.scheme, "steps": record.steps, "seed": record.seed,
                                "learner": record.learner, "population": report.name,
+                               "warm_start": record.warm_start,
                                "family": member.architecture.family}})
     figures = asdict(report.figures) if report.figures else {}
     manifest = {
@@ -702,7 +752,8 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
                       "verify_matches": verify_matches,
                       "recipe": {"hidden": list(recipe.hidden), "common": _jsonable(recipe.common),
                                  "per_scheme": _jsonable(recipe.per_scheme)},
-                      "scheme_options": _jsonable(scheme_options or {}), "code": _code_version()},
+                      "scheme_options": _jsonable(scheme_options or {}), "warm_runs": _jsonable(warm),
+                      "code": _code_version()},
             "figures": figures, "criteria": report.criteria, "passed": report.passed,
             "rating": "Bradley-Terry (Elo scale, members' mean 1000) over the round robin among members and the "
                       "scripted random and heuristic agents; 95% bootstrap intervals",
@@ -769,10 +820,22 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     scheme_rows = "\n".join(f"| {s} | {len(r)} | {min(r):.0f} | {np.median(r):.0f} | {max(r):.0f} |"
                             for s, r in sorted(by_scheme.items()))
     options = json.dumps(build["scheme_options"]) if build["scheme_options"] else "none"
+    warm = build.get("warm_runs")
+    warm_line = ""
+    if warm:
+        imitation = {"expert": "scripted:heuristic", **warm["warm_start"]}
+        warm_line = (f"* warm-started runs: {json.dumps(warm['runs_per_scheme'])} per scheme (seeds after those from "
+                     f"scratch), RL env steps {json.dumps(warm['steps_per_scheme'])}; before RL each learner imitates "
+                     f"`{imitation['expert']}` by DAgger (`arena_league.training.imitation`, options "
+                     f"{json.dumps(warm['warm_start'])}), as AlphaStar's league starts from imitation. Their members' "
+                     f"keys read `<scheme>-ws-...`; members without `ws` were trained from scratch.\n")
+    n_warm = sum(1 for m in manifest["members"] if m["metadata"].get("warm_start"))
     reproduce = (f"build_population({game!r}, size={len(manifest['members'])}, name={name!r}, "
                  f"schemes={build['schemes']!r}, steps_per_scheme={build['steps_per_scheme']!r}, "
                  + (f"runs_per_scheme={build['runs_per_scheme']!r}, "
                     if any(n != 1 for n in build.get("runs_per_scheme", {}).values()) else "")
+                 + (f"warm_runs_per_scheme={warm['runs_per_scheme']!r}, warm_start={warm['warm_start']!r}, "
+                    if warm else "")
                  + f"snapshots={build['snapshots_per_run']}, seed={build['seed']}, "
                  f"matches_per_pair={build['matches_per_pair']}, max_candidates={build['max_candidates']}"
                  + (f", scheme_options={build['scheme_options']!r}" if build["scheme_options"] else "") + ")")
@@ -788,7 +851,7 @@ Built by `arena_league.population.build.build_population` (code {build['code']})
 * schemes and env steps per run: {steps}; seed {build['seed']}; {build['snapshots_per_run']} snapshots per run
   (early snapshots are weak, late ones strong); actors: MLP, hidden {build['recipe']['hidden']};
   recipe overrides {json.dumps(build['recipe']['per_scheme'])}; build options {options}.
-* candidates: {build['candidates']} snapshots plus the scripted `random` and `heuristic` agents, in a round
+{warm_line}* candidates: {build['candidates']} snapshots plus the scripted `random` and `heuristic` agents, in a round
   robin of {build['matches_per_pair']} matches per pair (seats balanced).
 * selection: {len(manifest['members'])} candidates spanning the rating range above the random agent,
   preferring, among candidates of similar rating, those whose results against the others differ most.
@@ -799,7 +862,7 @@ Built by `arena_league.population.build.build_population` (code {build['code']})
 
 | figure | value |
 |---|---|
-| members | {figures.get('size')} |
+| members | {figures.get('size')} ({n_warm} from warm-started runs) |
 | Bradley-Terry spread (best - worst) | {figures.get('spread')} Elo |
 | best member vs worst ({figures.get('best_vs_worst_matches')} matches) | wins {figures.get('best_vs_worst_win_rate')}, score {figures.get('best_vs_worst_score')} |
 | random agent | rating {figures.get('random_rating')}, rank {figures.get('random_rank')} of {figures.get('size', 0) + 1} |

@@ -21,7 +21,8 @@ training schemes produce. This module is the one door the population build goes 
   :func:`scheme_runner` turns a trainer class into a runner; :func:`run_trainer` drives one.
 
 Overrides: names of :class:`~arena_league.training.ppo.PPOConfig` fields set the
-hyper-parameters; ``max_cycles``, ``tree``, ``action_type`` and ``env_kwargs`` (a dict of game
+hyper-parameters; ``warm_start`` (a dict of :class:`~arena_league.training.imitation.WarmStart`
+fields, or True) makes every learner imitate an expert, the game's heuristic by default, before RL; ``max_cycles``, ``tree``, ``action_type`` and ``env_kwargs`` (a dict of game
 options) shape the env; ``architecture`` gives the actor's family and sizes; anything else goes to
 the trainer as a scheme option (``opponent_sampling="pfsp_var"``, ``population_size=8``, ...).
 
@@ -56,6 +57,7 @@ from arena_league.population.artifacts import (
 )
 from arena_league.population.families import Architecture
 from arena_league.training.dppo import DPPO
+from arena_league.training.imitation import WarmStart, warm_start
 from arena_league.training.pbt import PBT
 from arena_league.training.ppo import PPO, PPOConfig
 from arena_league.training.selfplay import SelfPlay
@@ -153,16 +155,24 @@ def scheme_runner(trainer_cls: type) -> Runner:
     def runner(game_id: str, *, steps: int, seed: int, snapshot_every: int | None, out_dir: str | Path,
                callback: Callable[[Any, dict[str, Any]], None] | None = None,
                log: Callable[[str], None] | None = None, **overrides: Any) -> list[Snapshot]:
+        imitation = WarmStart.parse(overrides.pop("warm_start", None))
         config, env_options, scheme_options = split_overrides(overrides, trainer_cls)
+        if imitation is not None and config.family != "mlp":
+            raise ValueError(f"warm_start fits feed-forward actors; a {config.family!r} actor would be fitted "
+                             "without its recurrent state. Drop warm_start or use family='mlp'")
         request = {"scheme": trainer_cls.scheme, "game_id": game_id, "steps": int(steps), "seed": int(seed),
                    "snapshot_every": int(snapshot_every or 0), "config": json_safe(config.__dict__),
                    "env": json_safe(env_options), "options": json_safe(scheme_options)}
+        if imitation is not None:
+            request["warm_start"] = imitation.as_dict()
         run_dir = Path(out_dir) / f"{trainer_cls.scheme}-seed{seed}"
         finished = load_run(run_dir, request)
         if finished is not None:
             return finished
         env_fn = make_env_fn(game_id, **env_options)
         trainer = trainer_cls(env_fn, config, seed, total_steps=int(steps), log=log, **scheme_options)
+        if imitation is not None:
+            trainer.warm_start_record = warm_start(trainer.learners, env_fn, game_id, imitation, seed, log=log)
         return run_trainer(trainer, game_id=game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
                            run_dir=run_dir, callback=callback, request=request)
 
@@ -251,6 +261,10 @@ def save_snapshots(trainer: Any, game_id: str, seed: int, run_dir: Path, record:
         if hasattr(trainer, "snapshot_metrics"):
             metrics.update(trainer.snapshot_metrics(index))
         metrics["config"] = dict(learner.config.__dict__)
+        record_of_warm_start = getattr(trainer, "warm_start_record", None)
+        if record_of_warm_start is not None:
+            metrics["warm_start"] = {k: v for k, v in record_of_warm_start.items() if k != "fit"} | {
+                "fit": record_of_warm_start["fit"][index]}
         snapshot = Snapshot(trainer.scheme, game_id, int(trainer.env_steps), int(seed), learner.architecture,
                             learner.actor_parameters(), run_dir / f"{learner.name}-step{trainer.env_steps:09d}",
                             learner.name, json_safe(metrics))
