@@ -122,6 +122,16 @@ def test_quickstart_ranks_against_the_shipped_base_population(capsys, league_arg
     assert listing["populations"][0]["members"] == 100 and listing["populations"][0]["frozen"]
 
 
+def test_default_quickstart_ranks_the_example_against_crossroads_base_population(capsys, league_args):
+    """The README's first command: the example submission placed among the shipped 100 agents."""
+    code, doc = run(capsys, "quickstart", "--budget", "24", *league_args, "--json")
+    assert code == 0 and doc["population"] == "base-v1:1"
+    ranked = doc["rank"]
+    assert ranked["agent"] == "example-mlp" and ranked["base_size"] == 100 and ranked["matches"] >= 20
+    assert 1 <= ranked["rank_best"] <= ranked["rank"] <= ranked["rank_worst"] <= 101
+    assert ranked["percentile_lower"] <= ranked["percentile"] <= ranked["percentile_upper"]
+
+
 def test_leaderboard_of_an_empty_league_says_what_to_do(capsys, league_args):
     code, doc = run(capsys, "leaderboard", GAME, *league_args, "--json")
     assert code == 2 and "arena-league evaluate" in doc["error"]

@@ -278,6 +278,7 @@ class _StopBuild(Exception):
 def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", schemes: Sequence[str] | None = None,
                      steps_per_scheme: int | Mapping[str, int] | None = None, runs_per_scheme: int | Mapping[str, int] = 1,
                      warm_runs_per_scheme: int | Mapping[str, int] | None = None,
+                     warm_steps_per_scheme: int | Mapping[str, int] | None = None,
                      warm_start: Mapping[str, Any] | None = None, seed: int = 0,
                      work_dir: str | Path | None = None, out_dir: str | Path | None = None, league: Any = None,
                      matches_per_pair: int = 2, verify_matches: int = 200, snapshots: int | None = None,
@@ -299,6 +300,9 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         warm_runs_per_scheme: runs of each scheme, after those from scratch (seeds following
             theirs), whose learners first imitate the heuristic, one number or one per scheme
             (default: the recipe's ``warm_runs``); 0 trains every run from scratch.
+        warm_steps_per_scheme: RL env steps of each warm-started run, one number or one per scheme
+            (default: the recipe's ``warm_steps`` when ``steps_per_scheme`` is not given, else
+            ``steps_per_scheme``).
         warm_start: the warm start's :class:`~arena_league.training.imitation.WarmStart` fields
             (default: the recipe's).
         seed: seeds the first run of every scheme and the match schedule.
@@ -348,7 +352,10 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         from arena_league.training.imitation import WarmStart
 
         WarmStart.parse(imitation)  # bad fields fail before any training
-    warm_steps = {s: int(recipe.warm_steps or steps[s]) if steps_per_scheme is None else steps[s] for s in schemes}
+    if warm_steps_per_scheme is not None:
+        warm_steps = _steps_per_scheme(schemes, warm_steps_per_scheme, recipe)
+    else:
+        warm_steps = {s: int(recipe.warm_steps or steps[s]) if steps_per_scheme is None else steps[s] for s in schemes}
     n_snapshots = int(snapshots or recipe.snapshots)
     if n_snapshots < 1:
         raise ValueError(f"snapshots must be at least 1, not {snapshots}")
@@ -834,7 +841,8 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
                  f"schemes={build['schemes']!r}, steps_per_scheme={build['steps_per_scheme']!r}, "
                  + (f"runs_per_scheme={build['runs_per_scheme']!r}, "
                     if any(n != 1 for n in build.get("runs_per_scheme", {}).values()) else "")
-                 + (f"warm_runs_per_scheme={warm['runs_per_scheme']!r}, warm_start={warm['warm_start']!r}, "
+                 + (f"warm_runs_per_scheme={warm['runs_per_scheme']!r}, "
+                    f"warm_steps_per_scheme={warm['steps_per_scheme']!r}, warm_start={warm['warm_start']!r}, "
                     if warm else "")
                  + f"snapshots={build['snapshots_per_run']}, seed={build['seed']}, "
                  f"matches_per_pair={build['matches_per_pair']}, max_candidates={build['max_candidates']}"
