@@ -70,10 +70,12 @@ def test_warm_start_is_a_function_of_its_seed():
 def test_continuous_actions_are_fitted_by_their_mean():
     env_fn = make_env_fn(GAME, max_cycles=120, action_type="continuous")
     ppo = PPO(env_fn, PPOConfig(num_envs=4, num_steps=32, hidden=(32, 32)), seed=0)
-    log_std = ppo.learners[0].log_std.detach().clone()
     record = warm_start(ppo.learners, env_fn, GAME, WarmStart(steps=3_000, rounds=2, epochs=4, num_envs=8), seed=0)
     assert record["fit"][0]["mse"] < 0.2
-    assert torch.equal(ppo.learners[0].log_std.detach(), log_std)  # exploration is the RL's business
+    # the noise is brought down to the residual error, not below the floor (RL still explores)
+    log_std = ppo.learners[0].log_std.detach()
+    assert torch.all(log_std >= -1.6 - 1e-6) and torch.all(log_std < 0.0)
+    assert record["fit"][0]["log_std"] == pytest.approx(float(log_std.mean()))
 
 
 def test_run_scheme_keeps_the_warm_start_in_the_provenance(tmp_path):

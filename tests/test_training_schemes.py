@@ -66,6 +66,20 @@ def test_ppo_run_snapshots_and_resume(tmp_path):
         run_scheme("ppo", GAME, steps=192, seed=7, snapshot_every=64, out_dir=tmp_path, **TINY)
 
 
+def test_snapshot_at_adds_early_snapshots(tmp_path):
+    """``snapshot_at`` marks: 0 saves the initial actors, a mark saves at the first iteration boundary
+    past it, with the regular ``snapshot_every`` ones and the end."""
+    snapshots = run_scheme("ppo", GAME, steps=320, seed=2, snapshot_every=256, out_dir=tmp_path,
+                           snapshot_at=[0, 70, 100], **TINY)
+    assert [s.steps for s in snapshots] == [0, 128, 256, 320]
+    assert json.loads((tmp_path / "ppo-seed2" / RUN_RECORD).read_text())["request"]["snapshot_at"] == [0, 70, 100]
+    load_agent(snapshots[0].path, GAME)
+    with pytest.raises(ValueError, match="snapshot_at must hold env-step counts >= 0"):
+        run_scheme("ppo", GAME, steps=64, seed=3, snapshot_every=None, out_dir=tmp_path, snapshot_at=[-5], **TINY)
+    with pytest.raises(TypeError, match="snapshot_at must be a list of env-step counts"):
+        run_scheme("ppo", GAME, steps=64, seed=3, snapshot_every=None, out_dir=tmp_path, snapshot_at=["soon"], **TINY)
+
+
 def test_dppo_run_saves_one_agent_per_seat(tmp_path):
     snapshots = run_scheme("dppo", GAME, steps=64, seed=1, snapshot_every=0, out_dir=tmp_path, **TINY)
     assert [s.learner for s in snapshots] == ["seat0", "seat1"]

@@ -125,6 +125,13 @@ class Recipe:
     """:class:`~arena_league.training.imitation.WarmStart` fields of those runs."""
     warm_steps: int | None = None
     """RL env steps of a warm-started run (default ``steps``)."""
+    warm_overrides: Mapping[str, Any] = field(default_factory=dict)
+    """Overrides of the warm-started runs only (``{"hidden": (128, 128)}``: a wider actor copies
+    the heuristic more closely)."""
+    early_snapshots: int = 0
+    """Extra snapshots of every run before its first regular one, log-spaced: before training (the
+    initial or warm-started actors), then at 1/2, 1/4, ... of the interval, for games whose
+    learners change fastest in their first iterations (a falling ant learns to stand at once)."""
 
     def overrides(self, scheme: str) -> dict[str, Any]:
         return {"hidden": tuple(self.hidden), **dict(self.common), **dict(self.per_scheme.get(scheme, {}))}
@@ -138,15 +145,16 @@ RECIPES: dict[str, Recipe] = {
                          warm_runs=1, warm_start={"steps": 30_000}, warm_steps=60_000),
     "Soccer": Recipe(steps=120_000, snapshots=12, hidden=(64, 64),
                      per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}},
-                     warm_runs=1, warm_start={"steps": 30_000}, warm_steps=60_000),
+                     warm_runs=1, warm_start={"steps": 30_000}, warm_steps=200_000),
     "GoBang": Recipe(steps=600_000, snapshots=16, hidden=(8,), common={"learning_rate": 1e-3},
                      per_scheme={"pbt": {"population_size": 4}}),
-    "Sumo": Recipe(steps=120_000, snapshots=12, hidden=(64, 64),
-                   per_scheme={"pbt": {"population_size": 4}},
-                   warm_runs=1, warm_start={"steps": 30_000}, warm_steps=60_000),
-    "Snake": Recipe(steps=120_000, snapshots=12, hidden=(64, 64),
-                    per_scheme={"pbt": {"population_size": 4}},
-                    warm_runs=1, warm_start={"steps": 30_000}, warm_steps=60_000),
+    "Sumo": Recipe(steps=60_000, snapshots=8, hidden=(64, 64),
+                   per_scheme={"pbt": {"population_size": 4}}, early_snapshots=6,
+                   warm_runs=1, warm_start={"steps": 60_000}, warm_steps=30_000),
+    "Snake": Recipe(steps=80_000, snapshots=10, hidden=(64, 64),
+                    per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}},
+                    warm_runs=1, warm_start={"steps": 100_000, "rounds": 5, "epochs": 6}, warm_steps=40_000,
+                    warm_overrides={"hidden": (128, 128)}),
 }
 _FALLBACK_RECIPE = Recipe(steps=200_000, snapshots=12, hidden=(32, 32), per_scheme={"pbt": {"population_size": 4}})
 
@@ -376,8 +384,10 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         overrides = {**recipe.overrides(scheme), **dict((scheme_options or {}).get(scheme, {}))}
         run_steps = warm_steps[scheme] if warm else steps[scheme]
         if warm:
-            overrides["warm_start"] = imitation
+            overrides.update(dict(recipe.warm_overrides), warm_start=imitation)
         every = max(1, run_steps // n_snapshots)
+        if recipe.early_snapshots:
+            overrides["snapshot_at"] = sorted({0} | {every >> k for k in range(1, recipe.early_snapshots)} - {every})
         finished = (work / "runs" / f"{scheme}-seed{run_seed}" / "run.json").exists()
         say(f"train {scheme} (seed {run_seed}{', warm start' if warm else ''}): {run_steps} env steps, a snapshot "
             f"every {every}" + (" (finished run: reading it back)" if finished else ""))
@@ -757,7 +767,9 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
                       "runs_per_scheme": dict(runs), "seed": report.seed, "snapshots_per_run": snapshots, "candidates": report.candidates,
                       "max_candidates": max_candidates, "matches_per_pair": matches_per_pair,
                       "verify_matches": verify_matches,
-                      "recipe": {"hidden": list(recipe.hidden), "common": _jsonable(recipe.common),
+                      "recipe": {"hidden": list(recipe.hidden), "early_snapshots": recipe.early_snapshots,
+                                 "warm_overrides": _jsonable(recipe.warm_overrides),
+                                 "common": _jsonable(recipe.common),
                                  "per_scheme": _jsonable(recipe.per_scheme)},
                       "scheme_options": _jsonable(scheme_options or {}), "warm_runs": _jsonable(warm),
                       "code": _code_version()},
@@ -837,6 +849,11 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
                      f"{json.dumps(warm['warm_start'])}), as AlphaStar's league starts from imitation. Their members' "
                      f"keys read `<scheme>-ws-...`; members without `ws` were trained from scratch.\n")
     n_warm = sum(1 for m in manifest["members"] if m["metadata"].get("warm_start"))
+    n_early = build["recipe"].get("early_snapshots", 0)
+    wide = (f" (warm-started runs: {json.dumps(build['recipe']['warm_overrides'])})"
+            if warm and build["recipe"].get("warm_overrides") else "")
+    early = (f", plus {n_early} log-spaced ones before the first (at step 0, then 1/2, 1/4, ... of the interval)"
+             if n_early else "")
     reproduce = (f"build_population({game!r}, size={len(manifest['members'])}, name={name!r}, "
                  f"schemes={build['schemes']!r}, steps_per_scheme={build['steps_per_scheme']!r}, "
                  + (f"runs_per_scheme={build['runs_per_scheme']!r}, "
@@ -857,7 +874,7 @@ Built by `arena_league.population.build.build_population` (code {build['code']})
 ## Provenance
 
 * schemes and env steps per run: {steps}; seed {build['seed']}; {build['snapshots_per_run']} snapshots per run
-  (early snapshots are weak, late ones strong); actors: MLP, hidden {build['recipe']['hidden']};
+  (early snapshots are weak, late ones strong){early}; actors: MLP, hidden {build['recipe']['hidden']}{wide};
   recipe overrides {json.dumps(build['recipe']['per_scheme'])}; build options {options}.
 {warm_line}* candidates: {build['candidates']} snapshots plus the scripted `random` and `heuristic` agents, in a round
   robin of {build['matches_per_pair']} matches per pair (seats balanced).

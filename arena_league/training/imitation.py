@@ -15,7 +15,9 @@ warm start is a few DAgger rounds:
 * after each round every learner's actor is fitted to the whole data set by maximum likelihood:
   cross-entropy over legal actions for discrete games, the Gaussian log-likelihood of the expert's
   action at the learner's fixed standard deviation (a squared error on the mean) for continuous
-  ones. The critic, the log standard deviation and the learner's PPO optimiser are left alone.
+  ones. The critic and the learner's PPO optimiser are left alone; a continuous learner's log
+  standard deviation is then set to the log of its residual error (floored at ``min_log_std``):
+  left at its initial 1.0, the noise alone would make the copy play far below its expert.
 
 The data come from learner 0's rollouts; every learner is fitted to them with its own shuffling,
 so the learners of a population stay distinct. What the warm start did (its accuracy or error on
@@ -59,6 +61,10 @@ class WarmStart:
     minibatch: int = 512
     learning_rate: float = 1e-3
     num_envs: int = 16
+    min_log_std: float = -1.6
+    """Continuous actions: after the fit, each learner's log standard deviation is lowered to the log
+    of its residual error per action component, but not below this (std 0.2 by default), so that
+    the warm-started policy plays close to the expert and RL still explores."""
 
     def __post_init__(self) -> None:
         for name in ("steps", "rounds", "epochs", "minibatch", "num_envs"):
@@ -142,6 +148,9 @@ def warm_start(learners: Sequence[Learner], env_fn: Callable[[], Any], game_id: 
         all_act = torch.from_numpy(np.concatenate(data_act))
         all_mask = torch.from_numpy(np.concatenate(data_mask)) if data_mask else None
         fits = [_fit(lr, opt, all_obs, all_act, all_mask, options, rng, discrete) for lr, opt in zip(learners, optimisers)]
+        if not discrete:
+            for learner, fit in zip(learners, fits):
+                fit["log_std"] = _settle_log_std(learner, all_obs, all_act, options.min_log_std)
         if log is not None:
             log(f"warm start round {r + 1}/{options.rounds}: {len(all_obs)} rows, learner share {share['learner']:.2f}, "
                 + ", ".join(f"{k} {v:.3f}" for k, v in fits[0].items()))
@@ -173,6 +182,20 @@ def _fit(learner: Learner, optimiser: torch.optim.Optimizer, obs: torch.Tensor, 
             return {"accuracy": float((logits.argmax(1) == actions).float().mean())}
         mean, _ = learner._gaussian(out)
         return {"mse": float((mean - actions).pow(2).mean())}
+
+
+def _settle_log_std(learner: Learner, obs: torch.Tensor, actions: torch.Tensor, floor: float) -> float:
+    """Lower the learner's log std to its residual per component (never raise it, never below ``floor``)."""
+    actions = actions.float().clamp(-1.0 + _ACTION_MARGIN, 1.0 - _ACTION_MARGIN)
+    if learner.config.continuous_head == "tanh":
+        actions = torch.atanh(actions)
+    with torch.no_grad():
+        out, _ = learner.actor(obs, None)
+        mean, _ = learner._gaussian(out)
+        residual = (mean - actions).pow(2).mean(0).sqrt().clamp_min(1e-6).log()
+        target = torch.minimum(learner.log_std, residual.clamp_min(floor))
+        learner.log_std.copy_(target)
+    return float(learner.log_std.detach().mean())
 
 
 def _loss(learner: Learner, obs: torch.Tensor, actions: torch.Tensor, mask: torch.Tensor | None,

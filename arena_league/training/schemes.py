@@ -23,7 +23,8 @@ training schemes produce. This module is the one door the population build goes 
 Overrides: names of :class:`~arena_league.training.ppo.PPOConfig` fields set the
 hyper-parameters; ``warm_start`` (a dict of :class:`~arena_league.training.imitation.WarmStart`
 fields, or True) makes every learner imitate an expert, the game's heuristic by default, before RL; ``max_cycles``, ``tree``, ``action_type`` and ``env_kwargs`` (a dict of game
-options) shape the env; ``architecture`` gives the actor's family and sizes; anything else goes to
+options) shape the env; ``snapshot_at`` (env-step counts, 0 for before training) adds snapshots to
+the ``snapshot_every`` ones; ``architecture`` gives the actor's family and sizes; anything else goes to
 the trainer as a scheme option (``opponent_sampling="pfsp_var"``, ``population_size=8``, ...).
 
 Output: each run writes into ``out_dir/<scheme>-seed<seed>/`` one arena-policy folder per learner
@@ -156,6 +157,7 @@ def scheme_runner(trainer_cls: type) -> Runner:
                callback: Callable[[Any, dict[str, Any]], None] | None = None,
                log: Callable[[str], None] | None = None, **overrides: Any) -> list[Snapshot]:
         imitation = WarmStart.parse(overrides.pop("warm_start", None))
+        snapshot_at = _snapshot_marks(overrides.pop("snapshot_at", ()))
         config, env_options, scheme_options = split_overrides(overrides, trainer_cls)
         if imitation is not None and config.family != "mlp":
             raise ValueError(f"warm_start fits feed-forward actors; a {config.family!r} actor would be fitted "
@@ -165,6 +167,8 @@ def scheme_runner(trainer_cls: type) -> Runner:
                    "env": json_safe(env_options), "options": json_safe(scheme_options)}
         if imitation is not None:
             request["warm_start"] = imitation.as_dict()
+        if snapshot_at:
+            request["snapshot_at"] = list(snapshot_at)
         run_dir = Path(out_dir) / f"{trainer_cls.scheme}-seed{seed}"
         finished = load_run(run_dir, request)
         if finished is not None:
@@ -174,7 +178,7 @@ def scheme_runner(trainer_cls: type) -> Runner:
         if imitation is not None:
             trainer.warm_start_record = warm_start(trainer.learners, env_fn, game_id, imitation, seed, log=log)
         return run_trainer(trainer, game_id=game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
-                           run_dir=run_dir, callback=callback, request=request)
+                           run_dir=run_dir, callback=callback, request=request, snapshot_at=snapshot_at)
 
     runner.__name__ = f"run_{trainer_cls.scheme}"
     runner.__doc__ = f"Run :class:`{trainer_cls.__module__}.{trainer_cls.__name__}` (see run_scheme)."
@@ -218,11 +222,22 @@ def make_env_fn(game_id: str, *, max_cycles: int | None = None, tree: Any = None
     return env_fn
 
 
+def _snapshot_marks(marks: Any) -> tuple[int, ...]:
+    try:
+        values = sorted({int(m) for m in marks})
+    except (TypeError, ValueError):
+        raise TypeError(f"snapshot_at must be a list of env-step counts, not {marks!r}") from None
+    if values and values[0] < 0:
+        raise ValueError(f"snapshot_at must hold env-step counts >= 0, not {values[0]}")
+    return tuple(values)
+
+
 def run_trainer(trainer: Any, *, game_id: str, steps: int, seed: int, snapshot_every: int | None,
                 run_dir: str | Path, callback: Callable[[Any, dict[str, Any]], None] | None = None,
-                request: Mapping[str, Any] | None = None) -> list[Snapshot]:
+                request: Mapping[str, Any] | None = None, snapshot_at: tuple[int, ...] = ()) -> list[Snapshot]:
     """Iterate ``trainer`` until ``steps`` env steps, saving every learner every ``snapshot_every``
-    env steps and at the end into ``run_dir``; writes ``run.json`` when done."""
+    env steps, at the first iteration boundary past each of ``snapshot_at`` (0: before training,
+    e.g. the warm-started actors) and at the end into ``run_dir``; writes ``run.json`` when done."""
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise ValueError(f"steps must be a positive number of env steps, not {steps!r}")
     run_dir = Path(run_dir)
@@ -232,6 +247,10 @@ def run_trainer(trainer: Any, *, game_id: str, steps: int, seed: int, snapshot_e
     next_snapshot = every if every > 0 else None
     snapshots: list[Snapshot] = []
     history: list[dict[str, Any]] = []
+    marks = [m for m in snapshot_at if m < steps]
+    if marks and marks[0] == 0:
+        snapshots += save_snapshots(trainer, game_id, seed, run_dir, {})
+        marks.pop(0)
     while trainer.env_steps < steps:
         record = trainer.iterate()
         history.append(json_safe({k: v for k, v in record.items() if k != "losses"} | {
@@ -239,7 +258,10 @@ def run_trainer(trainer: Any, *, game_id: str, steps: int, seed: int, snapshot_e
         if callback is not None:
             callback(trainer, record)
         at_end = trainer.env_steps >= steps
-        if at_end or (next_snapshot is not None and trainer.env_steps >= next_snapshot):
+        marked = bool(marks) and trainer.env_steps >= marks[0]
+        while marks and marks[0] <= trainer.env_steps:
+            marks.pop(0)
+        if at_end or marked or (next_snapshot is not None and trainer.env_steps >= next_snapshot):
             snapshots += save_snapshots(trainer, game_id, seed, run_dir, record)
             while next_snapshot is not None and next_snapshot <= trainer.env_steps:
                 next_snapshot += every
