@@ -439,28 +439,23 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     from arena_league.league import (
         ensure_scripted_agents,
         evaluate,
-        import_population,
         leaderboard,
         rank,
         submit,
     )
     from arena_league.league.leaderboards import render_terminal
-    from arena_league.registry import get_population
+    from arena_league.league.service import ensure_population, shipped_population
 
     root = Path(__file__).resolve().parent.parent
     example = root / "submissions" / "crossroads-2t2p-mlp.onnx"
-    shipped = root / "checkpoints" / args.game / "base-v1"
     game = args.game
     population = None
     with _league(args) as league:
         stderr.print(f"league home: {league.home}")
         names = ensure_scripted_agents(league, game)
-        if args.base and (shipped / "population.json").exists():
-            with league.reading() as session:
-                known = get_population(session, "base-v1")
-            population = (f"base-v1:{known.version}" if known is not None and known.game_id == game
-                          else import_population(league, shipped))
-            stderr.print(f"base population {population} from {shipped}")
+        if args.base and shipped_population(game) is not None:
+            population, _ = ensure_population(league, game, "base-v1")
+            stderr.print(f"base population {population} from {shipped_population(game)}")
         entrant = None
         if game == "Crossroads-2T2P-v1" and example.exists():
             result = submit(league, example, game, "example-mlp", owner="arena-league")

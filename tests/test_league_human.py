@@ -126,3 +126,21 @@ def test_unknown_population_is_refused_with_the_known_ones(tmp_path):
     frozen_population(league, tmp_path, "GoBang-2T1P-v1", [1000.0, 1100.0])
     with pytest.raises(ValueError, match="known: base-t:1"):
         play_human("GoBang-2T1P-v1", "base-v9", league, input_fn=lambda p: "q", output=io.StringIO())
+    with pytest.raises(ValueError, match="population import FOLDER.*population build GoBang-2T1P-v1"):
+        play_human("GoBang-2T1P-v1", "base-v9", league, input_fn=lambda p: "q", output=io.StringIO())
+
+
+def test_the_shipped_base_population_is_imported_when_the_league_lacks_it(tmp_path):
+    """`arena-league play GAME` on a fresh home: the population shipped under checkpoints/ comes in,
+    under its own version even when another game's base-v1 holds the name already."""
+    league = open_home(tmp_path / "league")
+    frozen_population(league, tmp_path, "GoBang-2T1P-v1", [1000.0, 1100.0])  # named base-t
+    out = io.StringIO()
+    moves = iter(["q"])
+    session = play_human("Snake-2T2P-v1", "base-v1", league, player="cy", input_fn=lambda p: next(moves, "q"),
+                         output=out)
+    assert "imported the shipped base population base-v1:1 of Snake-2T2P-v1" in out.getvalue()
+    assert session is not None
+    again = io.StringIO()
+    play_human("Snake-2T2P-v1", "base-v1", league, player="cy", input_fn=lambda p: "q", output=again)
+    assert "imported" not in again.getvalue()  # registered now: not imported twice

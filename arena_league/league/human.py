@@ -117,7 +117,13 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
         climb: places to climb after a win (default a tenth of the base, at least 1).
         picture_dir: save the top-down picture of every step there as PNG (physics games).
     """
-    from arena_league.league.service import agent_ref, base_population, open_home, register_game
+    from arena_league.league.service import (
+        agent_ref,
+        base_population,
+        ensure_population,
+        open_home,
+        register_game,
+    )
 
     out = output if output is not None else sys.stdout
     spec = game_spec(game_id)
@@ -130,6 +136,9 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
     if not AGENT_NAME_PATTERN.match(agent_name):
         raise ValueError(f"player name {player!r} is not allowed: use letters, digits and . _ - (it becomes the "
                          f"agent name {agent_name!r})")
+    against, imported = ensure_population(league, game_id, against)
+    if imported:
+        out.write(f"imported the shipped base population {against} of {game_id}\n")
     label, names, ratings = base_population(league, game_id, agent_name, against)
     if not names:
         raise ValueError(f"population {against} of {game_id} has no members to play")

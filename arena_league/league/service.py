@@ -348,10 +348,16 @@ def base_population(league: League, game_id: str, entrant: str, population: str 
     with league.reading() as session:
         if population is not None:
             name, _, version = population.partition(":")
-            found = reg.get_population(session, name, int(version) if version else None)
+            found = reg.get_population(session, name, int(version) if version.isdigit() else None)
+            if found is not None and found.game_id != game_id and not version:
+                # a name several games use (each game's base-v1): this game's latest version
+                found = next((p for p in reversed(reg.list_populations(session, game_id=game_id)) if p.name == name),
+                             found)
             if found is None:
                 known = ", ".join(f"{p.name}:{p.version}" for p in reg.list_populations(session, game_id=game_id))
-                raise ValueError(f"no population {population!r} for {game_id}; known: {known or 'none'}")
+                raise ValueError(f"no population {population!r} for {game_id}; known: {known or 'none'}. Import "
+                                 f"one with `arena-league population import FOLDER` (shipped ones lie under "
+                                 f"checkpoints/{game_id}/)")
             if found.game_id != game_id:
                 raise ValueError(f"population {population} is of {found.game_id}, not {game_id}")
             members = [(m.agent.name, (m.meta or {}).get("rating")) for m in found.members]
@@ -541,6 +547,37 @@ def export_population(league: League, population: str, destination: str | Path) 
                     "provenance": found.provenance or {}, "members": members}
     (dest / POPULATION_MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
     return dest
+
+
+#: Where the base populations shipped with the package lie: ``checkpoints/<game>/<name>/``.
+SHIPPED_POPULATIONS = Path(__file__).resolve().parents[2] / "checkpoints"
+
+
+def shipped_population(game_id: str, name: str = "base-v1") -> Path | None:
+    """The folder of the population ``name`` shipped for ``game_id``, or None."""
+    folder = SHIPPED_POPULATIONS / game_id / name
+    return folder if (folder / POPULATION_MANIFEST).is_file() else None
+
+
+def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
+    """``population`` (``name`` or ``name:version``) of ``game_id`` in ``league``; a shipped one
+    (:func:`shipped_population`) is imported when the league lacks it. Returns (``name:version``,
+    whether it was imported now); a population neither registered nor shipped raises, naming the fix."""
+    name, _, version = population.partition(":")
+    if version and not version.isdigit():
+        raise ValueError(f"population {population!r}: the version after ':' must be a number, e.g. {name}:1")
+    with league.reading() as session:
+        of_game = reg.list_populations(session, game_id=game_id)
+    known = ", ".join(f"{p.name}:{p.version}" for p in of_game)
+    matching = [p for p in of_game if p.name == name and (not version or p.version == int(version))]
+    if matching:
+        return f"{matching[-1].name}:{matching[-1].version}", False
+    folder = shipped_population(game_id, name) if not version else None
+    if folder is None:
+        raise ValueError(f"no population {population!r} for {game_id}; known: {known or 'none'}. Import one with "
+                         f"`arena-league population import FOLDER` or build it with `arena-league population build "
+                         f"{game_id}`")
+    return import_population(league, folder), True
 
 
 def import_population(league: League, source: str | Path, *, name: str | None = None) -> str:
