@@ -49,7 +49,7 @@ CONTACT_FORCE_NET = (2, 3, 1)
 @dataclass(frozen=True)
 class AntShape:
     """Proportions and actuation of the ant (Gym ``Ant`` defaults; lengths in metres, angles in
-    radians). ``upper`` is the length, along each diagonal axis, of the torso's fixed leg stub and
+    radians). ``upper`` is the length, along each diagonal axis, of the fixed leg segment on the torso and
     of the thigh; ``foot`` that of the lower leg."""
 
     torso_radius: float = 0.25
