@@ -347,12 +347,7 @@ def base_population(league: League, game_id: str, entrant: str, population: str 
     game. Returns (label, names, ratings or None)."""
     with league.reading() as session:
         if population is not None:
-            name, _, version = population.partition(":")
-            found = reg.get_population(session, name, int(version) if version.isdigit() else None)
-            if found is not None and found.game_id != game_id and not version:
-                # a name several games use (each game's base-v1): this game's latest version
-                found = next((p for p in reversed(reg.list_populations(session, game_id=game_id)) if p.name == name),
-                             found)
+            found = _population_of(session, game_id, population)
             if found is None:
                 known = ", ".join(f"{p.name}:{p.version}" for p in reg.list_populations(session, game_id=game_id))
                 raise ValueError(f"no population {population!r} for {game_id}; known: {known or 'none'}. Import "
@@ -559,19 +554,29 @@ def shipped_population(game_id: str, name: str = "base-v1") -> Path | None:
     return folder if (folder / POPULATION_MANIFEST).is_file() else None
 
 
+def _population_of(session: Any, game_id: str, population: str) -> reg.Population | None:
+    """``name:version`` (whatever its game), or, for a bare ``name``, this game's latest version of it:
+    every game's import of ``base-v1`` takes the same name with a new version."""
+    name, _, version = population.partition(":")
+    if version:
+        if not version.isdigit():
+            raise ValueError(f"population {population!r}: the version after ':' must be a number, e.g. {name}:1")
+        return reg.get_population(session, name, int(version))
+    return next((p for p in reversed(reg.list_populations(session, game_id=game_id)) if p.name == name), None)
+
+
 def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
     """``population`` (``name`` or ``name:version``) of ``game_id`` in ``league``; a shipped one
     (:func:`shipped_population`) is imported when the league lacks it. Returns (``name:version``,
     whether it was imported now); a population neither registered nor shipped raises, naming the fix."""
     name, _, version = population.partition(":")
-    if version and not version.isdigit():
-        raise ValueError(f"population {population!r}: the version after ':' must be a number, e.g. {name}:1")
     with league.reading() as session:
-        of_game = reg.list_populations(session, game_id=game_id)
-    known = ", ".join(f"{p.name}:{p.version}" for p in of_game)
-    matching = [p for p in of_game if p.name == name and (not version or p.version == int(version))]
-    if matching:
-        return f"{matching[-1].name}:{matching[-1].version}", False
+        found = _population_of(session, game_id, population)
+        known = ", ".join(f"{p.name}:{p.version}" for p in reg.list_populations(session, game_id=game_id))
+    if found is not None:
+        if found.game_id != game_id:
+            raise ValueError(f"population {population} is of {found.game_id}, not {game_id}")
+        return f"{found.name}:{found.version}", False
     folder = shipped_population(game_id, name) if not version else None
     if folder is None:
         raise ValueError(f"no population {population!r} for {game_id}; known: {known or 'none'}. Import one with "

@@ -45,7 +45,6 @@ recurrent states recorded at collection, as the core does).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from typing import Any
@@ -55,15 +54,8 @@ import torch
 
 from arena_league.population.families import Architecture, StackedPolicy
 from arena_league.population.policy import Policy
-from arena_league.training.ppo import (
-    Learner,
-    PPOConfig,
-    annealed_lr,
-    format_record,
-    game_architecture,
-    iteration_record,
-)
-from arena_league.training.rollout import Episode, Opponent, RolloutCollector, check_trainable, learner_batch
+from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
+from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 from arena_league.training.schemes import register_scheme, scheme_runner
 from arena_league.training.selfplay import OPPONENT_SAMPLING, OpponentPool
 
@@ -263,7 +255,7 @@ class TeamSeats:
 
 # --- the scheme ------------------------------------------------------------------------------------
 
-class CC:
+class CC(TrainerBase):
     """MAPPO: one team's shared actor trained with a centralised critic ``V(s, i)`` (see the module).
 
     Args:
@@ -284,16 +276,8 @@ class CC:
                  pool_every: int = 5, pool_size: int = 64, team: int | None = None,
                  architecture: Architecture | None = None, total_steps: int | None = None,
                  log: Callable[[str], None] | None = None) -> None:
-        # seeding first: every draw of the run comes from these
-        torch.set_num_threads(1)
-        torch.manual_seed(seed)
-        self.config = paper_config(CCConfig, config)
-        self.seed = seed
-        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
-        probe = env_fn()
-        check_trainable(probe)
+        probe = self._begin(env_fn, paper_config(CCConfig, config), seed, architecture, total_steps, log)
         rules = probe.rules
-        self.architecture = architecture or game_architecture(self.config, probe)
         learner = CentralCriticLearner(self.architecture, self.config, seed, state_dim=int(rules.state_dim),
                                        n_agents=int(rules.n_agents), name="cc")
         self.learners = [learner]
@@ -302,22 +286,14 @@ class CC:
                                pool_size=pool_size, team=team)
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self.seats.seating,
                                           opponents=self.seats.opponents(), on_episode=self.seats.record)
-        self.total_steps = total_steps
-        self.log = log
-        self.env_steps = 0
-        self.iteration = 0
 
     def iterate(self) -> dict[str, Any]:
         """One iteration: rollout (states recorded), GAE on the centralised values, PPO update."""
-        start = time.perf_counter()
         # rollout: the learner's seats in one actor and one critic forward per step
-        rollout = self.collector.collect(self.learners, self.config.num_steps)
-        self.env_steps += rollout.env_steps
-        collect_time = time.perf_counter() - start
+        rollout, start, collect_time = self._collect()
         # GAE over V(s, i), then the core's clipped update of actor and centralised critic
         learner = self.learners[0]
-        batch = learner_batch(rollout, 0, learner)
-        stats = learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps, self.total_steps))
+        stats = self._update(rollout, 0, learner)
         self.iteration += 1
         self.seats.after_update(learner, self.collector)
         # log

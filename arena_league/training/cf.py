@@ -51,7 +51,6 @@ from __future__ import annotations
 
 import copy
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import pairwise
@@ -67,12 +66,12 @@ from arena_league.training.cc import TeamSeats, paper_config, paper_runner
 from arena_league.training.ppo import (
     Learner,
     PPOConfig,
+    TrainerBase,
     annealed_lr,
     format_record,
-    game_architecture,
     iteration_record,
 )
-from arena_league.training.rollout import RolloutCollector, check_trainable, learner_batch
+from arena_league.training.rollout import RolloutCollector, learner_batch
 from arena_league.training.schemes import register_scheme
 
 __all__ = ["CF", "CFConfig", "COMACritic", "counterfactual_advantage", "counterfactual_critic_inputs",
@@ -215,7 +214,7 @@ class COMACritic(nn.Module):
 
 # --- the scheme ------------------------------------------------------------------------------------
 
-class CF:
+class CF(TrainerBase):
     """COMA: one team's shared actor trained with the counterfactual advantage of a Q critic.
 
     Args:
@@ -242,19 +241,12 @@ class CF:
                  opponent_sampling: str = "pfsp_hard", pfsp_p: float = 2.0, pool_every: int = 5,
                  pool_size: int = 64, team: int | None = None, architecture: Architecture | None = None,
                  total_steps: int | None = None, log: Callable[[str], None] | None = None) -> None:
-        # seeding first: every draw of the run comes from these
-        torch.set_num_threads(1)
-        torch.manual_seed(seed)
         critic_options = {"critic_lr": critic_lr, "td_lambda": td_lambda, "target_update_interval":
                           target_update_interval, "critic_epochs": critic_epochs,
                           "critic_minibatches": critic_minibatches}
         config = paper_config(CFConfig, config)
-        self.config: CFConfig = CFConfig(**{**config.__dict__, **{k: v for k, v in critic_options.items()
-                                                                  if v is not None}})
-        self.seed = seed
-        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
-        probe = env_fn()
-        check_trainable(probe)
+        config = CFConfig(**{**config.__dict__, **{k: v for k, v in critic_options.items() if v is not None}})
+        probe = self._begin(env_fn, config, seed, architecture, total_steps, log)
         rules = probe.rules
         if rules.action_type != "discrete":
             raise ValueError(f"CF (COMA's counterfactual baseline) needs discrete actions: its critic outputs Q for "
@@ -262,7 +254,6 @@ class CF:
                              f"env has {rules.action_type} actions. Make it with action_type='discrete' "
                              f"(run_scheme(..., action_type='discrete')), or train continuous control with 'cc'")
         self.n_agents, self.n_actions = int(rules.n_agents), int(rules.n_actions)
-        self.architecture = architecture or game_architecture(self.config, probe)
         # the actor: a core learner without a value critic; the collector records env.state() for it
         learner = Learner(self.architecture, self.config, seed, critic_dim=0, name="cf")
         learner.needs_state = True
@@ -281,21 +272,14 @@ class CF:
                                pool_size=pool_size, team=team)
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self.seats.seating,
                                           opponents=self.seats.opponents(), on_episode=self.seats.record)
-        self.total_steps = total_steps
-        self.log = log
-        self.env_steps = 0
-        self.iteration = 0
 
     def iterate(self) -> dict[str, Any]:
         """One iteration: rollout, critic update on TD(lambda) targets, counterfactual advantages,
         the actor's clipped update. The record's losses report the Q critic's loss as
         ``value_loss`` and its explained variance of the targets as ``explained_variance``."""
-        start = time.perf_counter()
         config = self.config
         # rollout: the learner's seats in one actor forward per step; states and every seat's action recorded
-        rollout = self.collector.collect(self.learners, config.num_steps)
-        self.env_steps += rollout.env_steps
-        collect_time = time.perf_counter() - start
+        rollout, start, collect_time = self._collect()
         learner = self.learners[0]
         lr = annealed_lr(config, self.env_steps, self.total_steps)
         # the critic's inputs of the learner's rows: state, seat id, the others' actions

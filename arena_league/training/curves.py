@@ -176,15 +176,8 @@ def plot_curves(report: TrainingReport, report_dir: str | Path) -> dict[str, Pat
     ax.plot(steps, returns, color="tab:blue", alpha=0.35, linewidth=1, label="per iteration")
     smooth = _moving_mean(returns, max(1, len(returns) // 20))
     ax.plot(steps, smooth, color="tab:blue", linewidth=2, label="moving mean")
-    ax.set_xlabel("env steps")
-    ax.set_ylabel("mean episode return of the learners' seats")
-    ax.set_title(f"Episode reward: {title}")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best")
-    fig.tight_layout()
-    plots["episode_reward"] = report_dir / REWARD_PLOT
-    fig.savefig(plots["episode_reward"], dpi=110)
-    plt.close(fig)
+    plots["episode_reward"] = _save(fig, ax, "mean episode return of the learners' seats",
+                                    f"Episode reward: {title}", report_dir / REWARD_PLOT)
 
     fig, ax = plt.subplots(figsize=(7, 4))
     eval_steps = np.array([e["env_steps"] for e in report.evaluations], dtype=float)
@@ -194,20 +187,28 @@ def plot_curves(report: TrainingReport, report_dir: str | Path) -> dict[str, Pat
     ax.plot(eval_steps, [e["population_performance"] for e in report.evaluations], color="black", linewidth=2,
             marker="o", label="population performance")
     ax.set_ylim(-0.02, 1.02)
-    ax.set_xlabel("env steps")
-    ax.set_ylabel("win rate (draws count half)")
-    ax.set_title(f"Population performance: {title}")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best")
-    fig.tight_layout()
-    plots["population_performance"] = report_dir / PERFORMANCE_PLOT
-    fig.savefig(plots["population_performance"], dpi=110)
-    plt.close(fig)
+    plots["population_performance"] = _save(fig, ax, "win rate (draws count half)",
+                                            f"Population performance: {title}", report_dir / PERFORMANCE_PLOT)
 
     plots["curves"] = report_dir / CURVES_FILE
     report.plots = plots
     plots["curves"].write_text(json.dumps(report.as_dict(), indent=1, allow_nan=False) + "\n")
     return plots
+
+
+def _save(fig: Any, ax: Any, ylabel: str, title: str, path: Path) -> Path:
+    """Label a curve plot over env steps, write it to ``path`` as PNG and close it."""
+    import matplotlib.pyplot as plt
+
+    ax.set_xlabel("env steps")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def _moving_mean(values: np.ndarray, window: int) -> np.ndarray:

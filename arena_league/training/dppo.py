@@ -12,23 +12,14 @@ still a complete agent of the game (observations are seat-relative) and is snaps
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-import torch
 
 from arena_league.population.families import Architecture
-from arena_league.training.ppo import (
-    Learner,
-    PPOConfig,
-    annealed_lr,
-    format_record,
-    game_architecture,
-    iteration_record,
-)
-from arena_league.training.rollout import RolloutCollector, check_trainable, learner_batch
+from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
+from arena_league.training.rollout import RolloutCollector
 
 __all__ = ["DPPO", "learner_seed"]
 
@@ -40,7 +31,7 @@ def learner_seed(seed: int, index: int) -> int:
     return int(np.random.SeedSequence([seed, 2, index]).generate_state(1, np.uint64)[0] >> np.uint64(2))
 
 
-class DPPO:
+class DPPO(TrainerBase):
     """Independent PPO learners in one set of lockstep envs.
 
     Args:
@@ -60,16 +51,7 @@ class DPPO:
                  log: Callable[[str], None] | None = None) -> None:
         if per not in PER:
             raise ValueError(f"per must be 'agent' (one learner per seat) or 'team' (one per team), not {per!r}")
-        # seeding first
-        torch.set_num_threads(1)
-        torch.manual_seed(seed)
-        self.config = config or PPOConfig()
-        self.seed = seed
-        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
-        probe = env_fn()
-        check_trainable(probe)
-        rules = probe.rules
-        self.architecture = architecture or game_architecture(self.config, probe)
+        rules = self._begin(env_fn, config or PPOConfig(), seed, architecture, total_steps, log).rules
         # seat -> learner: the seat itself, or its team
         self.learner_of_seat = (np.arange(rules.n_agents) if per == "agent"
                                 else np.asarray(rules.team_of, dtype=np.int64))
@@ -80,24 +62,13 @@ class DPPO:
         self.per = per
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed,
                                           seating=lambda env_index, episode: self.learner_of_seat)
-        self.total_steps = total_steps
-        self.log = log
-        self.env_steps = 0
-        self.iteration = 0
 
     def iterate(self) -> dict[str, Any]:
         """One iteration: a shared rollout, then each learner's GAE and update on its own seats."""
-        start = time.perf_counter()
         # rollout: every learner acts for its seats of every env, one forward each per step
-        rollout = self.collector.collect(self.learners, self.config.num_steps)
-        self.env_steps += rollout.env_steps
-        collect_time = time.perf_counter() - start
+        rollout, start, collect_time = self._collect()
         # GAE and an independent update per learner
-        stats = []
-        for code, learner in enumerate(self.learners):
-            batch = learner_batch(rollout, code, learner)
-            stats.append(learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps,
-                                                                     self.total_steps)))
+        stats = [self._update(rollout, code, learner) for code, learner in enumerate(self.learners)]
         self.iteration += 1
         record = iteration_record(self, rollout, stats, start, collect_time)
         record["learner_returns"] = _returns_by_learner(rollout, len(self.learners))

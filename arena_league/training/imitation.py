@@ -148,9 +148,6 @@ def warm_start(learners: Sequence[Learner], env_fn: Callable[[], Any], game_id: 
         all_act = torch.from_numpy(np.concatenate(data_act))
         all_mask = torch.from_numpy(np.concatenate(data_mask)) if data_mask else None
         fits = [_fit(lr, opt, all_obs, all_act, all_mask, options, rng, discrete) for lr, opt in zip(learners, optimisers)]
-        if not discrete:
-            for learner, fit in zip(learners, fits):
-                fit["log_std"] = _settle_log_std(learner, all_obs, all_act, options.min_log_std)
         if log is not None:
             log(f"warm start round {r + 1}/{options.rounds}: {len(all_obs)} rows, learner share {share['learner']:.2f}, "
                 + ", ".join(f"{k} {v:.3f}" for k, v in fits[0].items()))
@@ -160,7 +157,9 @@ def warm_start(learners: Sequence[Learner], env_fn: Callable[[], Any], game_id: 
 
 def _fit(learner: Learner, optimiser: torch.optim.Optimizer, obs: torch.Tensor, actions: torch.Tensor,
          mask: torch.Tensor | None, options: WarmStart, rng: np.random.Generator, discrete: bool) -> dict[str, float]:
-    """``options.epochs`` passes of maximum likelihood of ``actions``; the fit on the whole data after."""
+    """``options.epochs`` passes of maximum likelihood of ``actions``, then the fit on the whole data;
+    a continuous learner's log std is lowered to its residual per component there (never raised,
+    never below ``options.min_log_std``)."""
     n = len(obs)
     if not discrete:
         actions = actions.float().clamp(-1.0 + _ACTION_MARGIN, 1.0 - _ACTION_MARGIN)
@@ -170,39 +169,27 @@ def _fit(learner: Learner, optimiser: torch.optim.Optimizer, obs: torch.Tensor, 
         order = torch.from_numpy(rng.permutation(n))
         for start in range(0, n, options.minibatch):
             index = order[start:start + options.minibatch]
-            loss = _loss(learner, obs[index], actions[index], None if mask is None else mask[index], discrete)
+            out = _predict(learner, obs[index], None if mask is None else mask[index], discrete)
+            loss = (torch.nn.functional.cross_entropy(out, actions[index].long()) if discrete
+                    else (out - actions[index]).pow(2).sum(-1).mean())
             optimiser.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(list(learner.actor.parameters()), learner.config.max_grad_norm)
             optimiser.step()
     with torch.no_grad():
-        out, _ = learner.actor(obs, None)
+        out = _predict(learner, obs, mask, discrete)
         if discrete:
-            logits = out.masked_fill(~mask, -1e9) if mask is not None else out
-            return {"accuracy": float((logits.argmax(1) == actions).float().mean())}
-        mean, _ = learner._gaussian(out)
-        return {"mse": float((mean - actions).pow(2).mean())}
+            return {"accuracy": float((out.argmax(1) == actions).float().mean())}
+        squared = (out - actions).pow(2)
+        residual = squared.mean(0).sqrt().clamp_min(1e-6).log()
+        learner.log_std.copy_(torch.minimum(learner.log_std, residual.clamp_min(options.min_log_std)))
+        return {"mse": float(squared.mean()), "log_std": float(learner.log_std.detach().mean())}
 
 
-def _settle_log_std(learner: Learner, obs: torch.Tensor, actions: torch.Tensor, floor: float) -> float:
-    """Lower the learner's log std to its residual per component (never raise it, never below ``floor``)."""
-    actions = actions.float().clamp(-1.0 + _ACTION_MARGIN, 1.0 - _ACTION_MARGIN)
-    if learner.config.continuous_head == "tanh":
-        actions = torch.atanh(actions)
-    with torch.no_grad():
-        out, _ = learner.actor(obs, None)
-        mean, _ = learner._gaussian(out)
-        residual = (mean - actions).pow(2).mean(0).sqrt().clamp_min(1e-6).log()
-        target = torch.minimum(learner.log_std, residual.clamp_min(floor))
-        learner.log_std.copy_(target)
-    return float(learner.log_std.detach().mean())
-
-
-def _loss(learner: Learner, obs: torch.Tensor, actions: torch.Tensor, mask: torch.Tensor | None,
-          discrete: bool) -> torch.Tensor:
+def _predict(learner: Learner, obs: torch.Tensor, mask: torch.Tensor | None, discrete: bool) -> torch.Tensor:
+    """The actor's logits over legal actions (discrete) or its Gaussian mean (continuous)."""
     out, _ = learner.actor(obs, None)
     if discrete:
-        logits = out.masked_fill(~mask, -1e9) if mask is not None else out
-        return torch.nn.functional.cross_entropy(logits, actions.long())
+        return out.masked_fill(~mask, -1e9) if mask is not None else out
     mean, _ = learner._gaussian(out)
-    return (mean - actions).pow(2).sum(-1).mean()
+    return mean

@@ -24,26 +24,17 @@ rule below).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
-import torch
 
 from arena_league.population.families import Architecture
 from arena_league.rating import elo_expected_score
 from arena_league.training.dppo import learner_seed
-from arena_league.training.ppo import (
-    Learner,
-    PPOConfig,
-    annealed_lr,
-    format_record,
-    game_architecture,
-    iteration_record,
-)
-from arena_league.training.rollout import Episode, RolloutCollector, check_trainable, learner_batch
+from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
+from arena_league.training.rollout import Episode, RolloutCollector
 
 __all__ = ["PBT", "PERTURB_FACTORS"]
 
@@ -53,7 +44,7 @@ PERTURB_FACTORS = (0.8, 1.2)
 PERTURBABLE = ("learning_rate", "ent_coef", "clip_coef", "vf_coef", "max_grad_norm")
 
 
-class PBT:
+class PBT(TrainerBase):
     """A population of PPO learners trained against each other (see the module docstring).
 
     Args:
@@ -87,19 +78,11 @@ class PBT:
             raise ValueError(f"cannot perturb {', '.join(unknown)} by x0.8 / x1.2; perturbable: {', '.join(PERTURBABLE)}")
         if not 0 < threshold < 1:
             raise ValueError(f"threshold is a probability in (0, 1), not {threshold}")
-        # seeding first
-        torch.set_num_threads(1)
-        torch.manual_seed(seed)
-        self.config = config or PPOConfig()
-        self.seed = seed
-        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
+        probe = self._begin(env_fn, config or PPOConfig(), seed, architecture, total_steps, log)
         self.match_rng = np.random.default_rng(np.random.SeedSequence([seed, 4]))
         self.pbt_rng = np.random.default_rng(np.random.SeedSequence([seed, 5]))
-        probe = env_fn()
-        check_trainable(probe)
         self.team_of = np.asarray(probe.rules.team_of, dtype=np.int64)
         self.n_teams = int(probe.rules.n_teams)
-        self.architecture = architecture or game_architecture(self.config, probe)
         self.hyperparameters = tuple(hyperparameters)
         self.learners = []
         for i in range(population_size):
@@ -117,10 +100,6 @@ class PBT:
         self.elo_k = elo_k
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating,
                                           on_episode=self._record)
-        self.total_steps = total_steps
-        self.log = log
-        self.env_steps = 0
-        self.iteration = 0
 
     # --- matchmaking and ratings ------------------------------------------------------------------
     def _seating(self, env_index: int, episode: int) -> np.ndarray:
@@ -176,19 +155,11 @@ class PBT:
     def iterate(self) -> dict[str, Any]:
         """One iteration: a rollout of matches among the population, every learner's update, and
         every ``interval`` updates the exploit/explore step."""
-        start = time.perf_counter()
         # rollout: each seated learner acts for its seats in one forward per step
-        rollout = self.collector.collect(self.learners, self.config.num_steps)
-        self.env_steps += rollout.env_steps
-        collect_time = time.perf_counter() - start
+        rollout, start, collect_time = self._collect()
         # GAE and an update per learner that played
-        stats = []
         played = set(np.unique(rollout.controllers).tolist())
-        for code, learner in enumerate(self.learners):
-            if code in played:
-                batch = learner_batch(rollout, code, learner)
-                stats.append(learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps,
-                                                                         self.total_steps)))
+        stats = [self._update(rollout, code, learner) for code, learner in enumerate(self.learners) if code in played]
         self.iteration += 1
         events = self.exploit_and_explore() if self.iteration % self.interval == 0 else []
         record = iteration_record(self, rollout, stats, start, collect_time)

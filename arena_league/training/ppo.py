@@ -590,9 +590,52 @@ def _masked_mean(x: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
     return (x * mask).sum() / count.clamp(min=1)
 
 
+# --- what every trainer shares ---------------------------------------------------------------------
+
+class TrainerBase:
+    """The parts every scheme's trainer shares: seeding first (:meth:`_begin`), then per iteration a
+    rollout (:meth:`_collect`) and each learner's GAE and clipped update (:meth:`_update`)."""
+
+    scheme = "base"
+
+    def _begin(self, env_fn: Callable[[], Any], config: PPOConfig, seed: int, architecture: Architecture | None,
+               total_steps: int | None, log: Callable[[str], None] | None) -> Any:
+        """Seed torch, keep the run's settings, check the game and choose the actor; returns a probe env."""
+        from arena_league.training.rollout import check_trainable
+
+        # seeding first: every draw of the run comes from these
+        torch.set_num_threads(1)
+        torch.manual_seed(seed)
+        self.config = config
+        self.seed = seed
+        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
+        self.total_steps = total_steps
+        self.log = log
+        self.env_steps = 0
+        self.iteration = 0
+        probe = env_fn()
+        check_trainable(probe)
+        self.architecture = architecture or game_architecture(self.config, probe)
+        return probe
+
+    def _collect(self) -> tuple[Any, float, float]:
+        """``config.num_steps`` lockstep steps of every env: (the rollout, its start time, seconds)."""
+        start = time.perf_counter()
+        rollout = self.collector.collect(self.learners, self.config.num_steps)
+        self.env_steps += rollout.env_steps
+        return rollout, start, time.perf_counter() - start
+
+    def _update(self, rollout: Any, code: int, learner: Learner) -> UpdateStats:
+        """GAE over the slots learner ``code`` held, then its clipped update at the annealed step size."""
+        from arena_league.training.rollout import learner_batch
+
+        batch = learner_batch(rollout, code, learner)
+        return learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps, self.total_steps))
+
+
 # --- the plain scheme: one learner for every seat ---------------------------------------------------
 
-class PPO:
+class PPO(TrainerBase):
     """PPO with one learner sharing its parameters over every seat of every team (each team plays
     the current policy: naive self-play through parameter sharing). The model the other schemes
     follow: seeding first, then per iteration a rollout, GAE, the update, and a log line with the
@@ -613,38 +656,19 @@ class PPO:
     def __init__(self, env_fn: Callable[[], Any], config: PPOConfig | None = None, seed: int = 0, *,
                  architecture: Architecture | None = None, total_steps: int | None = None,
                  log: Callable[[str], None] | None = None) -> None:
-        from arena_league.training.rollout import RolloutCollector, check_trainable
+        from arena_league.training.rollout import RolloutCollector
 
-        # seeding first: every draw of the run comes from these
-        torch.set_num_threads(1)
-        torch.manual_seed(seed)
-        self.config = config or PPOConfig()
-        self.seed = seed
-        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
-        probe = env_fn()
-        check_trainable(probe)
-        self.architecture = architecture or game_architecture(self.config, probe)
+        probe = self._begin(env_fn, config or PPOConfig(), seed, architecture, total_steps, log)
         self.learners = [Learner(self.architecture, self.config, seed, name="ppo")]
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed,
                                           seating=lambda env_index, episode: np.zeros(probe.rules.n_agents, int))
-        self.total_steps = total_steps
-        self.log = log
-        self.env_steps = 0
-        self.iteration = 0
 
     def iterate(self) -> dict[str, Any]:
         """One iteration: rollout, GAE, update; returns its log record."""
-        from arena_league.training.rollout import learner_batch
-
-        start = time.perf_counter()
         # rollout: num_steps lockstep steps of num_envs games, one forward per step for all seats
-        rollout = self.collector.collect(self.learners, self.config.num_steps)
-        self.env_steps += rollout.env_steps
-        collect_time = time.perf_counter() - start
+        rollout, start, collect_time = self._collect()
         # GAE and the update
-        learner = self.learners[0]
-        batch = learner_batch(rollout, 0, learner)
-        stats = learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps, self.total_steps))
+        stats = self._update(rollout, 0, self.learners[0])
         self.iteration += 1
         record = iteration_record(self, rollout, [stats], start, collect_time)
         if self.log:

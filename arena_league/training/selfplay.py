@@ -33,7 +33,6 @@ of every env, with owner indices; :class:`~arena_league.population.families.Stac
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -41,15 +40,8 @@ import numpy as np
 import torch
 
 from arena_league.population.families import Architecture, StackedPolicy
-from arena_league.training.ppo import (
-    Learner,
-    PPOConfig,
-    annealed_lr,
-    format_record,
-    game_architecture,
-    iteration_record,
-)
-from arena_league.training.rollout import Episode, Opponent, RolloutCollector, check_trainable, learner_batch
+from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
+from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 
 __all__ = ["OPPONENT_SAMPLING", "OpponentPool", "SelfPlay", "pfsp_weights"]
 
@@ -125,7 +117,7 @@ class OpponentPool:
         return int(rng.choice(n, p=weights))
 
 
-class SelfPlay:
+class SelfPlay(TrainerBase):
     """Self-play of one PPO learner against its own snapshots (see the module docstring).
 
     Args:
@@ -152,18 +144,10 @@ class SelfPlay:
             raise ValueError(f"unknown opponent_sampling {opponent_sampling!r}; valid: {', '.join(OPPONENT_SAMPLING)}")
         if pool_every < 1:
             raise ValueError(f"pool_every must be at least 1 update, not {pool_every}")
-        # seeding first
-        torch.set_num_threads(1)
-        torch.manual_seed(seed)
-        self.config = config or PPOConfig()
-        self.seed = seed
-        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
+        probe = self._begin(env_fn, config or PPOConfig(), seed, architecture, total_steps, log)
         self.opponent_rng = np.random.default_rng(np.random.SeedSequence([seed, 3]))
-        probe = env_fn()
-        check_trainable(probe)
         self.team_of = np.asarray(probe.rules.team_of, dtype=np.int64)
         self.n_teams = int(probe.rules.n_teams)
-        self.architecture = architecture or game_architecture(self.config, probe)
         self.learners = [Learner(self.architecture, self.config, seed, name="sp")]
         self.opponent_sampling = opponent_sampling
         self.pfsp_p = pfsp_p
@@ -172,10 +156,6 @@ class SelfPlay:
         self.pool.add(self.learners[0].actor_parameters(), 0)
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating,
                                           opponents=self._pool_opponents(), on_episode=self._record)
-        self.total_steps = total_steps
-        self.log = log
-        self.env_steps = 0
-        self.iteration = 0
 
     # --- opponents --------------------------------------------------------------------------------
     def _pool_opponents(self) -> list[Opponent]:
@@ -199,15 +179,11 @@ class SelfPlay:
     # --- training ---------------------------------------------------------------------------------
     def iterate(self) -> dict[str, Any]:
         """One iteration: rollout against pool snapshots, GAE, update, and maybe a new snapshot."""
-        start = time.perf_counter()
         # rollout: the learner's seats in one forward, the snapshots' seats in one stacked forward
-        rollout = self.collector.collect(self.learners, self.config.num_steps)
-        self.env_steps += rollout.env_steps
-        collect_time = time.perf_counter() - start
+        rollout, start, collect_time = self._collect()
         # GAE and the update
         learner = self.learners[0]
-        batch = learner_batch(rollout, 0, learner)
-        stats = learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps, self.total_steps))
+        stats = self._update(rollout, 0, learner)
         self.iteration += 1
         # the pool: add the learner as it is now
         if learner.updates % self.pool_every == 0:

@@ -199,7 +199,7 @@ class PushBoxRules(RobotGameRules):
         # at the time limit the box nearer the target wins (within 1 cm: a draw)
         left = st.absolute[slot, self.complex_group["box_to_target"], :: self.players_per_team]
         winner = -1 if abs(left[0] - left[1]) < 0.01 else int(np.argmin(left))
-        self.end_matches(st, np.arange(st.n_slots) == slot, np.full(st.n_slots, winner))
+        self.end_match(st, slot, winner)
 
     def view_extent(self) -> tuple[float, float, float, float]:
         h = self.settings["box_distance"] + ANT_BEHIND + 1.2

@@ -68,7 +68,7 @@ import numpy as np
 
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.gait import trot
-from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose, duel_tree
+from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose
 from arena_league.envs.robots.scene import Affine, Readout, SceneLayout
 
 OPPONENT = slice(cells.ROBOT_CELLS + 1, cells.ROBOT_CELLS + 8)
@@ -152,16 +152,9 @@ class RunToGoalRules(RobotGameRules):
             st.events[b] += [{"kind": "arrive", "seat": int(i)} for i in np.flatnonzero(crossed[b])]
         self.end_matches(st, ended, winner)
 
-    def cut(self, st: MatchState, slot: int) -> None:
-        self.end_matches(st, np.arange(st.n_slots) == slot, np.full(st.n_slots, -1))
-
     def view_extent(self) -> tuple[float, float, float, float]:
         h = self.half_length + 1.0
         return (-h, h, -h, h)
-
-    @classmethod
-    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        return duel_tree()
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:

@@ -69,7 +69,7 @@ import numpy as np
 
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.gait import trot
-from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose, duel_tree
+from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose
 from arena_league.envs.robots.scene import Affine, SceneLayout
 
 #: Start position of team 0's ant on the x axis (team 1's is mirrored).
@@ -132,16 +132,9 @@ class SumoRules(RobotGameRules):
             st.events[b] += [{"kind": "out" if out[b, i] else "fall", "seat": int(i)} for i in np.flatnonzero(lost[b])]
         self.end_matches(st, ended, winner)
 
-    def cut(self, st: MatchState, slot: int) -> None:
-        self.end_matches(st, np.arange(st.n_slots) == slot, np.full(st.n_slots, -1))
-
     def view_extent(self) -> tuple[float, float, float, float]:
         r = self.ring_radius + 1.0
         return (-r, r, -r, r)
-
-    @classmethod
-    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        return duel_tree()
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:

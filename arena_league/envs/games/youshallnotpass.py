@@ -72,7 +72,7 @@ import numpy as np
 from arena_league.envs.games.runtogoal import avoid
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.gait import trot
-from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose, duel_tree
+from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose
 from arena_league.envs.robots.scene import Affine, Readout, SceneLayout
 
 RUNNER, BLOCKER = 0, 1
@@ -152,15 +152,11 @@ class YouShallNotPassRules(RobotGameRules):
 
     def cut(self, st: MatchState, slot: int) -> None:
         # the runner did not get through in time: the blocker wins
-        self.end_matches(st, np.arange(st.n_slots) == slot, np.full(st.n_slots, BLOCKER))
+        self.end_match(st, slot, BLOCKER)
 
     def view_extent(self) -> tuple[float, float, float, float]:
         h = self.half_length + 1.0
         return (-h, h, -h, h)
-
-    @classmethod
-    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        return duel_tree()
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:

@@ -244,9 +244,15 @@ class RobotGameRules(GameRules):
         ``outcome`` and ``result`` (see :meth:`end_matches`). A game that takes a seat out of play
         mid-match sets ``st.any_inactive``."""
 
-    @abstractmethod
     def cut(self, st: MatchState, slot: int) -> None:
-        """The match in ``slot`` is cut at ``max_cycles``: set its ``outcome`` and ``result``."""
+        """The match in ``slot`` is cut at ``max_cycles``: set its ``outcome`` and ``result``
+        (default: a draw; a game that judges the time limit otherwise overrides this)."""
+        self.end_match(st, slot, -1)
+
+    @classmethod
+    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
+        """Default: :func:`duel_tree`, one agent per team (team games override this)."""
+        return duel_tree()
 
     # --- construction --------------------------------------------------------------------------
     def _check_kwargs(self, kwargs: dict[str, Any]) -> dict[str, float]:
@@ -530,6 +536,10 @@ class RobotGameRules(GameRules):
         return camera_picture(self.model, self.data, width, height)
 
     # --- the outcome helpers shared by the two-team games --------------------------------------
+    def end_match(self, st: MatchState, slot: int, winner_team: int) -> None:
+        """End the one match in ``slot``, won by ``winner_team`` (-1: a draw); see :meth:`end_matches`."""
+        self.end_matches(st, np.arange(st.n_slots) == slot, np.full(st.n_slots, winner_team))
+
     def end_matches(self, st: MatchState, ended: np.ndarray, winner_team: np.ndarray) -> None:
         """End the matches where ``ended`` (bool[B]); ``winner_team`` (int[B]) is the winning team
         of each, or -1 for a draw. Sets ``done``, ``outcome`` (+1 / -1 / 0) and ``result``."""
