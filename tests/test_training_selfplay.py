@@ -97,3 +97,38 @@ def test_run_scheme_snapshots_load_and_play(tmp_path):
     results = play_matches(specs, {"first": load_agent(snapshots[0].path, game).policy, "last": loaded.policy},
                            env_kwargs={"max_cycles": 30})
     assert len(results) == 2
+
+
+def test_fixed_opponents_take_their_share_and_are_recorded(tmp_path):
+    game = "Crossroads-2T1P-v1"
+    options = dict(steps=1024, seed=3, snapshot_every=None, max_cycles=30, num_envs=4, num_steps=64, hidden=(16,),
+                   fixed_opponents=("scripted:random", "scripted:heuristic"), fixed_share=0.5)
+    first = run_scheme("sp", game, out_dir=tmp_path / "a", **options)
+    again = run_scheme("sp", game, out_dir=tmp_path / "b", **options)
+    for name, tensor in first[-1].params.items():  # same seed, same opponents drawn, same weights
+        assert torch.equal(tensor, again[-1].params[name])
+    metrics = load_agent(first[-1].path, game).artifact.manifest()["provenance"]["metrics"]
+    assert metrics["fixed_share"] == 0.5
+    assert set(metrics["fixed_win_rates"]) == {"scripted:random", "scripted:heuristic"}
+
+    from arena_league.training.schemes import make_env_fn
+
+    sp = SelfPlay(make_env_fn(game, max_cycles=30), PPOConfig(num_envs=4, num_steps=64, hidden=(16,)), seed=0,
+                  fixed_opponents=("scripted:random",), fixed_share=0.5)
+    episodes = sp.collector.collect(sp.learners, 256).episodes
+    against_fixed = [e for e in episodes if (e.controllers == -1).any()]
+    assert 0 < len(against_fixed) < len(episodes)  # both fixed and pool opponents were seated
+    assert sp.fixed_rates.games[0] == len(against_fixed)
+    assert sum(sp.pool.games) == len(episodes) - len(against_fixed)
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"fixed_share": 1.5, "fixed_opponents": ("scripted:random",)}, "fixed_share must lie in"),
+    ({"fixed_share": 0.3}, "needs fixed_opponents"),
+    ({"fixed_share": 0.3, "fixed_opponents": ("scripted:nobody",)}, "scripted"),
+])
+def test_fixed_opponents_refuse_bad_options(options, message):
+    from arena_league.training.schemes import make_env_fn
+
+    with pytest.raises(ValueError, match=message):
+        SelfPlay(make_env_fn("Crossroads-2T1P-v1", max_cycles=30), SMALL, seed=0, **options)

@@ -26,6 +26,13 @@ prior worth one match) and then follows a running mean whose step never falls be
 opponent snapshot plays all other teams of an episode, and the learner's score is its team's
 ``team_result()`` scaled to [0, 1].
 
+Fixed opponents (``fixed_opponents``, ``fixed_share``): agents that are not snapshots of the learner,
+such as ``scripted:random`` and ``scripted:heuristic`` or a frozen member of another run, take a
+share ``fixed_share`` of the episodes (one of them, uniformly), the rest going to the pool as above.
+A learner that only meets itself can learn to defend rather than to finish (Soccer), and fixed
+anchors keep it scoring against weak teams, as the main agents of AlphaStar's league keep playing
+past players and exploiters. The learner's running score against each is logged.
+
 The pool holds at most ``pool_size`` snapshots; once full, a new snapshot replaces the oldest in
 place. All pool members play as one stacked policy (one batched forward for every opponent seat
 of every env, with owner indices; :class:`~arena_league.population.families.StackedPolicy`).
@@ -33,7 +40,7 @@ of every env, with owner indices; :class:`~arena_league.population.families.Stac
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -129,6 +136,9 @@ class SelfPlay(TrainerBase):
         pool_every: learner updates between two snapshots added to the pool.
         pool_size: the most snapshots the pool keeps.
         win_rate_step: the smallest step of the running win rates.
+        fixed_opponents: agent references (``scripted:random``, ``arena-policy:folder``,
+            ``onnx:file.onnx``) that play a share ``fixed_share`` of the episodes.
+        fixed_share: the share of episodes against a fixed opponent, in [0, 1].
         architecture: the actor's family and sizes (default from ``config``).
         total_steps: env steps of the run, for learning-rate annealing.
         log: called with a line per iteration.
@@ -138,8 +148,16 @@ class SelfPlay(TrainerBase):
 
     def __init__(self, env_fn: Callable[[], Any], config: PPOConfig | None = None, seed: int = 0, *,
                  opponent_sampling: str = "pfsp_hard", pfsp_p: float = 2.0, pool_every: int = 5,
-                 pool_size: int = 64, win_rate_step: float = 0.05, architecture: Architecture | None = None,
+                 pool_size: int = 64, win_rate_step: float = 0.05, fixed_opponents: Sequence[str] = (),
+                 fixed_share: float = 0.0, architecture: Architecture | None = None,
                  total_steps: int | None = None, log: Callable[[str], None] | None = None) -> None:
+        if isinstance(fixed_opponents, str):
+            fixed_opponents = (fixed_opponents,)
+        if not 0.0 <= float(fixed_share) <= 1.0:
+            raise ValueError(f"fixed_share must lie in [0, 1], not {fixed_share}")
+        if fixed_share > 0 and not fixed_opponents:
+            raise ValueError(f"fixed_share {fixed_share} needs fixed_opponents, e.g. "
+                             "fixed_opponents=('scripted:random', 'scripted:heuristic')")
         if opponent_sampling not in OPPONENT_SAMPLING:
             raise ValueError(f"unknown opponent_sampling {opponent_sampling!r}; valid: {', '.join(OPPONENT_SAMPLING)}")
         if pool_every < 1:
@@ -154,27 +172,59 @@ class SelfPlay(TrainerBase):
         self.pool_every = pool_every
         self.pool = OpponentPool(pool_size, win_rate_step)
         self.pool.add(self.learners[0].actor_parameters(), 0)
+        self.fixed_share = float(fixed_share)
+        self.fixed = self._fixed_opponents(probe, tuple(fixed_opponents))
+        self.fixed_rates = OpponentPool(max(len(self.fixed), 1), win_rate_step)
+        for _ in self.fixed:
+            self.fixed_rates.add({}, 0)
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating,
                                           opponents=self._pool_opponents(), on_episode=self._record)
 
     # --- opponents --------------------------------------------------------------------------------
+    @staticmethod
+    def _fixed_opponents(probe: Any, references: tuple[str, ...]) -> list[Opponent]:
+        """The fixed opponents, loaded for the probe env's game and action type."""
+        from arena_league.matchmaking import AgentRef
+
+        fixed = []
+        for text in references:
+            policy = AgentRef.parse(text, probe.game_id, probe.rules.action_type).load()
+            if policy.spec.action_type != probe.rules.action_type:
+                raise ValueError(f"fixed opponent {text!r} plays {policy.spec.action_type} actions, but this "
+                                 f"{probe.game_id} run trains {probe.rules.action_type} ones; name an agent of "
+                                 "the same action type")
+            fixed.append(Opponent(policy, name=text))
+        return fixed
+
     def _pool_opponents(self) -> list[Opponent]:
-        """Every pool member as an opponent of one stacked policy (one forward for all their seats)."""
+        """The fixed opponents first (their codes never move), then every pool member as an opponent
+        of one stacked policy (one forward for all their seats)."""
         stacked = StackedPolicy(self.architecture, self.pool.params, compute_dtype=torch.float32)
-        return [Opponent(stacked, owner=i, name=f"sp@{self.pool.added_at[i]}") for i in range(len(self.pool))]
+        return self.fixed + [Opponent(stacked, owner=i, name=f"sp@{self.pool.added_at[i]}")
+                             for i in range(len(self.pool))]
 
     def _seating(self, env_index: int, episode: int) -> tuple[np.ndarray, np.ndarray]:
-        """The learner's team swaps every episode; one sampled snapshot plays the other teams."""
+        """The learner's team swaps every episode; a fixed opponent (a share ``fixed_share`` of the
+        episodes) or one sampled snapshot plays the other teams."""
         learner_team = (env_index + episode) % self.n_teams
-        member = self.pool.sample(self.opponent_sampling, self.opponent_rng, self.pfsp_p)
-        codes = np.where(self.team_of == learner_team, 0, -1 - member)
-        return codes, np.full(len(codes), member)
+        if self.fixed and self.opponent_rng.random() < self.fixed_share:
+            index = int(self.opponent_rng.integers(len(self.fixed)))
+            owner = -1
+        else:
+            owner = self.pool.sample(self.opponent_sampling, self.opponent_rng, self.pfsp_p)
+            index = len(self.fixed) + owner
+        codes = np.where(self.team_of == learner_team, 0, -1 - index)
+        return codes, np.full(len(codes), owner)
 
     def _record(self, episode: Episode) -> None:
         opponent_seats = np.flatnonzero(episode.controllers < 0)
         score = episode.score_of_controller(0)
         if opponent_seats.size and score is not None:
-            self.pool.record(-1 - int(episode.controllers[opponent_seats[0]]), score)
+            index = -1 - int(episode.controllers[opponent_seats[0]])
+            if index < len(self.fixed):
+                self.fixed_rates.record(index, score)
+            else:
+                self.pool.record(index - len(self.fixed), score)
 
     # --- training ---------------------------------------------------------------------------------
     def iterate(self) -> dict[str, Any]:
@@ -193,11 +243,19 @@ class SelfPlay(TrainerBase):
         scores = [s for s in (e.score_of_controller(0) for e in rollout.episodes) if s is not None]
         record["win_rate"] = float(np.mean(scores)) if scores else float("nan")
         record["pool_size"] = len(self.pool)
+        fixed = ""
+        if self.fixed:
+            record["fixed_win_rates"] = {o.name: self.fixed_rates.win_rate[j] for j, o in enumerate(self.fixed)}
+            fixed = " " + " ".join(f"vs {k} {v:.2f}" for k, v in record["fixed_win_rates"].items())
         if self.log:
-            self.log(format_record(record) + f" win_rate {record['win_rate']:.2f} pool {len(self.pool)}")
+            self.log(format_record(record) + f" win_rate {record['win_rate']:.2f} pool {len(self.pool)}{fixed}")
         return record
 
     def snapshot_metrics(self, index: int) -> dict[str, Any]:
         """What a snapshot records besides its weights: the sampling rule and pool win rates."""
-        return {"opponent_sampling": self.opponent_sampling, "pool_size": len(self.pool),
-                "mean_pool_win_rate": float(np.mean(self.pool.win_rate))}
+        metrics = {"opponent_sampling": self.opponent_sampling, "pool_size": len(self.pool),
+                   "mean_pool_win_rate": float(np.mean(self.pool.win_rate))}
+        if self.fixed:
+            metrics["fixed_share"] = self.fixed_share
+            metrics["fixed_win_rates"] = {o.name: self.fixed_rates.win_rate[j] for j, o in enumerate(self.fixed)}
+        return metrics
