@@ -12,6 +12,7 @@ from line_race import make_line_race
 from arena_league.matchmaking import play_matches, specs_for_seatings
 from arena_league.population import TorchPolicy, load_agent
 from arena_league.training import PPOConfig, SelfPlay, pfsp_weights, run_scheme
+from arena_league.training.schemes import make_env_fn
 from arena_league.training.selfplay import OpponentPool
 
 HURRY = {"scheme": "CP", "reward": "ranking", "scale": 1, "children": [
@@ -111,8 +112,6 @@ def test_fixed_opponents_take_their_share_and_are_recorded(tmp_path):
     assert metrics["fixed_share"] == 0.5
     assert set(metrics["fixed_win_rates"]) == {"scripted:random", "scripted:heuristic"}
 
-    from arena_league.training.schemes import make_env_fn
-
     sp = SelfPlay(make_env_fn(game, max_cycles=30), PPOConfig(num_envs=4, num_steps=64, hidden=(16,)), seed=0,
                   fixed_opponents=("scripted:random",), fixed_share=0.5)
     episodes = sp.collector.collect(sp.learners, 256).episodes
@@ -128,7 +127,5 @@ def test_fixed_opponents_take_their_share_and_are_recorded(tmp_path):
     ({"fixed_share": 0.3, "fixed_opponents": ("scripted:nobody",)}, "scripted"),
 ])
 def test_fixed_opponents_refuse_bad_options(options, message):
-    from arena_league.training.schemes import make_env_fn
-
     with pytest.raises(ValueError, match=message):
         SelfPlay(make_env_fn("Crossroads-2T1P-v1", max_cycles=30), SMALL, seed=0, **options)

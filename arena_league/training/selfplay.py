@@ -50,7 +50,7 @@ from arena_league.population.families import Architecture, StackedPolicy
 from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 
-__all__ = ["OPPONENT_SAMPLING", "OpponentPool", "SelfPlay", "pfsp_weights"]
+__all__ = ["OPPONENT_SAMPLING", "OpponentPool", "RunningScores", "SelfPlay", "pfsp_weights"]
 
 OPPONENT_SAMPLING = ("latest", "uniform", "80/20", "pfsp_hard", "pfsp_var")
 
@@ -69,19 +69,42 @@ def pfsp_weights(win_rates: np.ndarray, weighting: str, p: float = 2.0) -> np.nd
     return np.full(x.size, 1.0 / x.size) if total <= 0 else weights / total
 
 
-class OpponentPool:
+class RunningScores:
+    """The learner's running score (1 win, 0.5 draw, 0 loss) against each of a list of opponents:
+    0.5 at first, a prior worth one match, then a running mean whose step never falls below
+    ``win_rate_step``."""
+
+    def __init__(self, win_rate_step: float = 0.05) -> None:
+        self.win_rate_step = win_rate_step
+        self.win_rate: list[float] = []
+        self.games: list[int] = []
+
+    def track(self, index: int | None = None) -> None:
+        """Start a score at the prior: a new opponent (``index`` None) or one replaced in place."""
+        if index is None:
+            self.win_rate.append(0.5)
+            self.games.append(0)
+        else:
+            self.win_rate[index], self.games[index] = 0.5, 0
+
+    def record(self, index: int, score: float) -> None:
+        """The learner scored ``score`` against opponent ``index``."""
+        self.games[index] += 1
+        step = max(1.0 / (self.games[index] + 1), self.win_rate_step)  # the 0.5 prior counts as one match
+        self.win_rate[index] += step * (score - self.win_rate[index])
+
+
+class OpponentPool(RunningScores):
     """Snapshots of the learner, their ages and the learner's running win rate against each."""
 
     def __init__(self, capacity: int, win_rate_step: float = 0.05) -> None:
         if capacity < 1:
             raise ValueError(f"pool_size must be at least 1, not {capacity}")
+        super().__init__(win_rate_step)
         self.capacity = capacity
-        self.win_rate_step = win_rate_step
         self.params: list[dict[str, torch.Tensor]] = []
         self.added_at: list[int] = []
         """The learner update count at which each member was added."""
-        self.win_rate: list[float] = []
-        self.games: list[int] = []
         self.latest = -1
 
     def __len__(self) -> int:
@@ -92,21 +115,14 @@ class OpponentPool:
         if len(self.params) < self.capacity:
             self.params.append(params)
             self.added_at.append(update)
-            self.win_rate.append(0.5)
-            self.games.append(0)
+            self.track()
             index = len(self.params) - 1
         else:
             index = int(np.argmin(self.added_at))
             self.params[index], self.added_at[index] = params, update
-            self.win_rate[index], self.games[index] = 0.5, 0
+            self.track(index)
         self.latest = index
         return index
-
-    def record(self, index: int, score: float) -> None:
-        """The learner scored ``score`` (1 win, 0.5 draw, 0 loss) against member ``index``."""
-        self.games[index] += 1
-        step = max(1.0 / (self.games[index] + 1), self.win_rate_step)  # the 0.5 prior counts as one match
-        self.win_rate[index] += step * (score - self.win_rate[index])
 
     def sample(self, rule: str, rng: np.random.Generator, pfsp_p: float) -> int:
         """One member index under the sampling rule."""
@@ -174,9 +190,9 @@ class SelfPlay(TrainerBase):
         self.pool.add(self.learners[0].actor_parameters(), 0)
         self.fixed_share = float(fixed_share)
         self.fixed = self._fixed_opponents(probe, tuple(fixed_opponents))
-        self.fixed_rates = OpponentPool(max(len(self.fixed), 1), win_rate_step)
+        self.fixed_rates = RunningScores(win_rate_step)
         for _ in self.fixed:
-            self.fixed_rates.add({}, 0)
+            self.fixed_rates.track()
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating,
                                           opponents=self._pool_opponents(), on_episode=self._record)
 
@@ -186,15 +202,13 @@ class SelfPlay(TrainerBase):
         """The fixed opponents, loaded for the probe env's game and action type."""
         from arena_league.matchmaking import AgentRef
 
-        fixed = []
-        for text in references:
-            policy = AgentRef.parse(text, probe.game_id, probe.rules.action_type).load()
-            if policy.spec.action_type != probe.rules.action_type:
-                raise ValueError(f"fixed opponent {text!r} plays {policy.spec.action_type} actions, but this "
-                                 f"{probe.game_id} run trains {probe.rules.action_type} ones; name an agent of "
-                                 "the same action type")
-            fixed.append(Opponent(policy, name=text))
-        return fixed
+        # loading for the game's action type checks the agent's spaces, naming the mismatch
+        return [Opponent(AgentRef.parse(text, probe.game_id, probe.rules.action_type).load(), name=text)
+                for text in references]
+
+    def _fixed_scores(self) -> dict[str, float]:
+        """The learner's running score against each fixed opponent."""
+        return {o.name: self.fixed_rates.win_rate[j] for j, o in enumerate(self.fixed)}
 
     def _pool_opponents(self) -> list[Opponent]:
         """The fixed opponents first (their codes never move), then every pool member as an opponent
@@ -245,7 +259,7 @@ class SelfPlay(TrainerBase):
         record["pool_size"] = len(self.pool)
         fixed = ""
         if self.fixed:
-            record["fixed_win_rates"] = {o.name: self.fixed_rates.win_rate[j] for j, o in enumerate(self.fixed)}
+            record["fixed_win_rates"] = self._fixed_scores()
             fixed = " " + " ".join(f"vs {k} {v:.2f}" for k, v in record["fixed_win_rates"].items())
         if self.log:
             self.log(format_record(record) + f" win_rate {record['win_rate']:.2f} pool {len(self.pool)}{fixed}")
@@ -257,5 +271,5 @@ class SelfPlay(TrainerBase):
                    "mean_pool_win_rate": float(np.mean(self.pool.win_rate))}
         if self.fixed:
             metrics["fixed_share"] = self.fixed_share
-            metrics["fixed_win_rates"] = {o.name: self.fixed_rates.win_rate[j] for j, o in enumerate(self.fixed)}
+            metrics["fixed_win_rates"] = self._fixed_scores()
         return metrics
