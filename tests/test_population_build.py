@@ -159,6 +159,22 @@ def test_bad_budgets_are_refused_before_training(tmp_path):
     assert not (tmp_path / "w" / "runs").exists()
 
 
+def test_recipe_gives_one_scheme_its_own_budget(tmp_path, monkeypatch):
+    """A recipe's ``scheme_steps`` trains that scheme's runs from scratch for longer (Soccer's
+    self-play against random needs a million steps); the others keep ``steps``."""
+    import dataclasses
+
+    recipe = dataclasses.replace(build_module.RECIPES["GoBang"], steps=256, snapshots=2,
+                                 scheme_steps={"sp": 512})
+    monkeypatch.setitem(build_module.RECIPES, "GoBang", recipe)
+    report = build_population(GAME, size=8, name="base-t", schemes=SCHEMES, seed=0, work_dir=tmp_path / "w",
+                              out_dir=tmp_path / "o", scheme_options=OPTIONS, stop_after="train")
+    assert report.steps_per_scheme == {"sp": 512, "pbt": 256, "dppo": 256}
+    run = json.loads((tmp_path / "w" / "runs" / "sp-seed0" / "run.json").read_text())
+    assert run["request"]["steps"] == 512
+    assert json.loads((tmp_path / "w" / "runs" / "dppo-seed0" / "run.json").read_text())["request"]["steps"] == 256
+
+
 def test_warm_started_runs_join_the_build_with_their_provenance(tmp_path):
     """A warm-started run (DAgger on the heuristic, then RL) follows the runs from scratch: its seed
     comes after theirs, its members' keys read ``<scheme>-ws-...`` and population.json, the
