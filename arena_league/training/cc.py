@@ -57,7 +57,7 @@ from arena_league.population.policy import Policy
 from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 from arena_league.training.schemes import register_scheme, scheme_runner
-from arena_league.training.selfplay import OPPONENT_SAMPLING, OpponentPool
+from arena_league.training.selfplay import OPPONENT_SAMPLING, OpponentPool, load_fixed_opponent
 
 __all__ = ["CC", "CCConfig", "CentralCriticLearner", "TeamSeats", "central_critic_features", "paper_config",
            "paper_runner"]
@@ -195,10 +195,7 @@ class TeamSeats:
         elif opponent == "none":
             self.opponent = "none"
         elif isinstance(opponent, str):
-            from arena_league.population import load_policy
-
-            # scripted agents and artifacts alike (load_policy explains a bad name or path)
-            self.fixed = load_policy(opponent, env.game_id, action_type=rules.action_type)
+            self.fixed = load_fixed_opponent(opponent, env.game_id, rules.action_type)
             self.opponent = opponent
         else:
             raise TypeError(f"opponent must be 'self', 'none', 'scripted:heuristic', 'scripted:random', an agent "

@@ -47,10 +47,11 @@ import numpy as np
 import torch
 
 from arena_league.population.families import Architecture, StackedPolicy
+from arena_league.population.policy import Policy
 from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 
-__all__ = ["OPPONENT_SAMPLING", "OpponentPool", "RunningScores", "SelfPlay", "pfsp_weights"]
+__all__ = ["OPPONENT_SAMPLING", "OpponentPool", "RunningScores", "SelfPlay", "load_fixed_opponent", "pfsp_weights"]
 
 OPPONENT_SAMPLING = ("latest", "uniform", "80/20", "pfsp_hard", "pfsp_var")
 
@@ -67,6 +68,17 @@ def pfsp_weights(win_rates: np.ndarray, weighting: str, p: float = 2.0) -> np.nd
         raise ValueError(f"PFSP weighting must be 'hard' or 'variance', not {weighting!r}")
     total = weights.sum()
     return np.full(x.size, 1.0 / x.size) if total <= 0 else weights / total
+
+
+def load_fixed_opponent(reference: str, game_id: str, action_type: str) -> Policy:
+    """A fixed opponent of a trainer (SP's ``fixed_opponents``, CC's ``opponent``): an agent reference
+    (``scripted:random``, ``onnx:agent.onnx``, ``arena-policy:folder``) or an artifact path. Loading
+    it for the game's action type checks its spaces; a bad name or path is explained by the loader."""
+    from arena_league.population import load_policy
+
+    kind, sep, rest = reference.partition(":")
+    path = rest if sep and kind in ("onnx", "arena-policy") else reference
+    return load_policy(path, game_id, action_type=action_type)
 
 
 class RunningScores:
@@ -200,10 +212,7 @@ class SelfPlay(TrainerBase):
     @staticmethod
     def _fixed_opponents(probe: Any, references: tuple[str, ...]) -> list[Opponent]:
         """The fixed opponents, loaded for the probe env's game and action type."""
-        from arena_league.matchmaking import AgentRef
-
-        # loading for the game's action type checks the agent's spaces, naming the mismatch
-        return [Opponent(AgentRef.parse(text, probe.game_id, probe.rules.action_type).load(), name=text)
+        return [Opponent(load_fixed_opponent(text, probe.game_id, probe.rules.action_type), name=text)
                 for text in references]
 
     def _fixed_scores(self) -> dict[str, float]:
