@@ -33,7 +33,7 @@ def no_boxes() -> tuple[np.ndarray, np.ndarray]:
 
 # --- the shared env contract ------------------------------------------------------------------------
 #: observation sizes as the games' manuals give them
-OBS_DIM = {"Sumo-2T1P-v1": 49, "RunToGoal-2T1P-v1": 49, "YouShallNotPass-2T1P-v1": 50, "PushBox-2T2P-v1": 71}
+OBS_DIM = {"Sumo-2T1P-v1": 51, "RunToGoal-2T1P-v1": 51, "YouShallNotPass-2T1P-v1": 52, "PushBox-2T2P-v1": 73}
 
 
 @pytest.mark.parametrize("game_id", ROBOT_IDS)
@@ -261,10 +261,14 @@ def test_robot_block_cell_by_cell_and_the_turned_seat_frame():
         other = data.xpos[scene.torso_body[1 - seat]][:2] - data.xpos[torso][:2]
         np.testing.assert_allclose(o[cells.TARGET], turn * other / cells.POSITION_UNIT, atol=1e-6)
         assert o[cells.TIME] == 0.0
+        assert o[cells.CLOCK].tolist() == [1.0, 0.0]  # the gait clock starts at phase 0
     assert rules.measures.target_distance == pytest.approx([np.hypot(1.9, 0.7)] * 2, abs=1e-6)
     rules.step(np.zeros((2, 8), np.float32))
     # the sensors' instant: the start of the step's last physics sub-step (4 of 5 sub-steps in)
     np.testing.assert_allclose(rules.observe()[:, cells.TIME], 0.04 / cells.TIME_UNIT, rtol=1e-6)
+    # the gait clock turns once per CLOCK_PERIOD (0.5 s): at 0.04 s it reads the phase 0.16 pi
+    phase = 2 * np.pi * 0.04 / cells.CLOCK_PERIOD
+    np.testing.assert_allclose(rules.observe()[:, cells.CLOCK], [[np.cos(phase), np.sin(phase)]] * 2, atol=1e-6)
 
 
 def test_mirrored_match_gives_each_seat_the_same_observation():

@@ -27,19 +27,19 @@ starts on the ``-x`` side facing the target)
     ====== =====================================================================
     cell   meaning
     ====== =====================================================================
-    0-40   the robot block (``envs.robots.observation``); the target (cells 39-40) is the team's
+    0-42   the robot block (``envs.robots.observation``); the target (cells 39-40) is the team's
            own box: its centre relative to the seat
-    41     target radius / 4
-    42-43  the target's centre relative to the seat / 4
-    44-45  own box velocity / 3
-    46-47  own box to the target: target centre minus box centre / 4
-    48-49  the other team's box relative to the seat / 4
-    50-56  the teammate: position relative to the seat / 4 (2), velocity / 3 (2), forward axis
+    43     target radius / 4
+    44-45  the target's centre relative to the seat / 4
+    46-47  own box velocity / 3
+    48-49  own box to the target: target centre minus box centre / 4
+    50-51  the other team's box relative to the seat / 4
+    52-58  the teammate: position relative to the seat / 4 (2), velocity / 3 (2), forward axis
            (2), vertical part of its up axis (1)
-    57-70  the two opponents, in seat order, the same seven cells each
+    59-72  the two opponents, in seat order, the same seven cells each
     ====== =====================================================================
 
-    ``obs_dim = 71``.
+    ``obs_dim = 73``.
 
 Global state (``float32``, world frame)
     per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``, then per box ``x/4, y/4,

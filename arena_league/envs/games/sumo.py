@@ -21,15 +21,15 @@ starts at ``-x`` facing ``+x``)
     ====== =====================================================================
     cell   meaning
     ====== =====================================================================
-    0-40   the robot block (``envs.robots.observation``); the target (cells 39-40) is the opponent
-    41     ring radius / 4
-    42-43  opponent position relative to the seat / 4
-    44-45  opponent velocity / 3
-    46-47  opponent forward axis (horizontal part)
-    48     vertical part of the opponent's up axis (negative once it fell)
+    0-42   the robot block (``envs.robots.observation``); the target (cells 39-40) is the opponent
+    43     ring radius / 4
+    44-45  opponent position relative to the seat / 4
+    46-47  opponent velocity / 3
+    48-49  opponent forward axis (horizontal part)
+    50     vertical part of the opponent's up axis (negative once it fell)
     ====== =====================================================================
 
-    ``obs_dim = 49``.
+    ``obs_dim = 51``.
 
 Global state (``float32``, world frame)
     per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``: ``state_dim = 16``.

@@ -22,17 +22,17 @@ Observation (``float32``, seat frame: the blocker sees the world turned by 180 d
     ====== =====================================================================
     cell   meaning
     ====== =====================================================================
-    0-40   the robot block (``envs.robots.observation``); the target (cells 39-40) is, for the
+    0-42   the robot block (``envs.robots.observation``); the target (cells 39-40) is, for the
            runner, the nearest point of its goal line, for the blocker, the runner's torso
-    41     role: +1 runner, -1 blocker
-    42     the goal line's ``x`` relative to the seat (seat frame) / 4
-    43-44  opponent position relative to the seat / 4
-    45-46  opponent velocity / 3
-    47-48  opponent forward axis (horizontal part)
-    49     vertical part of the opponent's up axis (negative once it fell)
+    43     role: +1 runner, -1 blocker
+    44     the goal line's ``x`` relative to the seat (seat frame) / 4
+    45-46  opponent position relative to the seat / 4
+    47-48  opponent velocity / 3
+    49-50  opponent forward axis (horizontal part)
+    51     vertical part of the opponent's up axis (negative once it fell)
     ====== =====================================================================
 
-    ``obs_dim = 50``.
+    ``obs_dim = 52``.
 
 Global state (``float32``, world frame)
     per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``: ``state_dim = 16``.

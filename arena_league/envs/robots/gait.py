@@ -24,7 +24,7 @@ from arena_league.envs.robots.ant import ANT, LEG_AXES
 from arena_league.envs.robots.scene import TIMESTEP
 
 #: Seconds per gait cycle; the sensors' instant is one physics sub-step before the step ends.
-GAIT_PERIOD = 0.5
+GAIT_PERIOD = cells.CLOCK_PERIOD
 SENSOR_LAG = TIMESTEP
 #: Hip sweep and ankle lift amplitudes (rad), the ankle's mid angle, and the PD gains.
 HIP_SWEEP = 0.5

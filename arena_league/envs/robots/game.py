@@ -11,7 +11,7 @@ this module does the rest:
 * **Stepping**: ``frame_skip`` MuJoCo sub-steps of 0.01 s per match step (5 by default: 0.05 s),
   ``mj_step(quiet_model, data, nstep=frame_skip - 1)`` then ``mj_step(model, data)``: the
   sub-steps whose sensors nobody reads run on a copy of the model with sensors switched off.
-* **Observation**: the robot block of ``envs.robots.observation`` (41 cells) then the game's cells;
+* **Observation**: the robot block of ``envs.robots.observation`` (43 cells) then the game's cells;
   observations and the linear parts of the measures are one matrix product of MuJoCo's sensor
   vector per step (its ``clock`` and constant ``unit`` sensors carry time and constants), contact
   cells clipped.
@@ -50,6 +50,8 @@ from arena_league.envs.robots.scene import Affine, Readout, Scene, SceneLayout, 
 
 #: A torso whose up axis has a vertical component below this has fallen (tilted past 90 degrees).
 FALLEN_UP_Z = 0.0
+#: Radians of the gait clock per unit of the observation's time cell.
+_CLOCK_RATE = 2.0 * np.pi * cells.TIME_UNIT / cells.CLOCK_PERIOD
 #: Random spread of the start pose: joint angles (rad) around the standing pose.
 JOINT_JITTER = 0.05
 #: Torso height above the standing height at the start (the ant drops onto its feet).
@@ -122,6 +124,9 @@ class MatchState:
         self.obs = lin[:, :obs_rows].reshape(B, n, obs_dim)
         self.obs_contact = self.obs[:, :, contact]
         self.obs_active = self.obs[:, :, cells.ACTIVE]
+        self.obs_time = self.obs[:, :, cells.TIME]
+        self.obs_clock = self.obs[:, :, cells.CLOCK]
+        self.phase = np.zeros((B, n))
         #: complex numbers x + iy of world-frame vectors, [B, group, seat]: 0 the way to the
         #: target (conjugated: x - iy), 1 the velocity, 2 the forward axis, 3 the horizontal push
         #: force / weight, then the game's own groups
@@ -278,7 +283,7 @@ class RobotGameRules(GameRules):
         return term.rotated(-float(self.seat_angle[seat]))
 
     def robot_block(self, seat: int) -> Affine:
-        """The 41 robot cells of ``seat`` (``envs.robots.observation``)."""
+        """The 43 robot cells of ``seat`` (``envs.robots.observation``)."""
         t = self.terms
         weight_units = 1.0 / (cells.FORCE_UNIT * self.scene.weight[seat])
         pos = t.robot(seat, "pos")
@@ -297,6 +302,7 @@ class RobotGameRules(GameRules):
             self._seat_vector(seat, t.floor_force(seat)) * weight_units,
             self._seat_vector(seat, pos[0:2]) * (1.0 / cells.POSITION_UNIT),
             self._seat_vector(seat, to_target) * (1.0 / cells.POSITION_UNIT),
+            t.const([0.0, 0.0]),  # the gait clock: a function of the time cell, set after the product
         ]
         block = Affine.stack(parts)
         assert len(block) == cells.ROBOT_CELLS
@@ -441,6 +447,9 @@ class RobotGameRules(GameRules):
         of physics per step."""
         contact = st.obs_contact
         np.minimum(contact, 1.0, out=contact)
+        np.multiply(st.obs_time, _CLOCK_RATE, out=st.phase)
+        np.cos(st.phase, out=st.obs_clock[:, :, 0])
+        np.sin(st.phase, out=st.obs_clock[:, :, 1])
         np.maximum(contact, -1.0, out=contact)
         if st.any_inactive:
             st.obs_active[...] = st.active

@@ -23,6 +23,9 @@ cell   meaning
 37-38  own position (seat frame) / ``POSITION_UNIT`` (4 m)
 39-40  the seat's target (each game's manual says what it is) relative to the seat, seat frame,
        / ``POSITION_UNIT``
+41-42  gait clock: cosine and sine of ``2 pi t / CLOCK_PERIOD`` (0.5 s) for the match time ``t``
+       of cell 1, the phase of a trot at two strides a second (a policy reads a rhythm off
+       these directly; off the bare time it would need a very steep function)
 ====== ==========================================================================================
 
 Sensors are read at the start of the last physics sub-step of a step (see ``envs.robots.scene``).
@@ -45,10 +48,13 @@ FLOOR_FORCE = slice(34, 37)
 CONTACT = slice(31, 37)
 POSITION = slice(37, 39)
 TARGET = slice(39, 41)
+CLOCK = slice(41, 43)
 #: Size of the robot block; a game's own cells follow.
-ROBOT_CELLS = 41
+ROBOT_CELLS = 43
 
 TIME_UNIT = 20.0
+#: Seconds per turn of the gait clock (cells 41-42): the scripted trot's cycle (``envs.robots.gait``).
+CLOCK_PERIOD = 0.5
 POSITION_UNIT = 4.0
 VELOCITY_UNIT = 3.0
 ANGULAR_UNIT = 10.0
