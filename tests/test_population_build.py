@@ -201,9 +201,27 @@ def test_warm_started_runs_join_the_build_with_their_provenance(tmp_path):
     assert "warm-started runs" in readme and "DAgger" in readme and "warm_runs_per_scheme={'sp': 1}" in readme
 
 
+def test_a_ladder_of_warm_starts_gives_each_warm_run_its_own(tmp_path):
+    """``warm_start`` as a list: the r-th warm-started run of a scheme imitates with entry r (a
+    ladder from clumsy to faithful copies), cycling when there are more runs than entries."""
+    ladder = [{"steps": 400, "rounds": 2, "epochs": 1, "num_envs": 4}, {"steps": 64, "rounds": 1, "epochs": 1,
+                                                                         "num_envs": 4}]
+    report = build_population(GAME, size=6, name="base-w", schemes=["sp"], steps_per_scheme=128, snapshots=1,
+                              seed=0, work_dir=tmp_path / "w", out_dir=tmp_path / "o", scheme_options={"sp": TINY},
+                              warm_runs_per_scheme=3, warm_start=ladder, stop_after="train")
+    assert report.trained == ["sp", "sp-seed1", "sp-seed2", "sp-seed3"]
+    taken = [json.loads((tmp_path / "w" / "runs" / f"sp-seed{k}" / "run.json").read_text())["request"]["warm_start"]
+             for k in (1, 2, 3)]
+    assert [(w["steps"], w["rounds"]) for w in taken] == [(400, 2), (64, 1), (400, 2)]
+
+
 def test_bad_warm_start_is_refused_before_training(tmp_path):
     with pytest.raises(TypeError, match="unknown warm_start field.*rouns"):
         build(tmp_path / "w", tmp_path / "o", warm_runs_per_scheme=1, warm_start={"rouns": 2})
+    with pytest.raises(TypeError, match="unknown warm_start field.*rouns"):
+        build(tmp_path / "w", tmp_path / "o", warm_runs_per_scheme=2, warm_start=[{"steps": 64}, {"rouns": 2}])
+    with pytest.raises(TypeError, match="a non-empty list of them"):
+        build(tmp_path / "w", tmp_path / "o", warm_runs_per_scheme=1, warm_start=[])
     with pytest.raises(ValueError, match="warm_runs_per_scheme must be a number of runs >= 0"):
         build(tmp_path / "w", tmp_path / "o", warm_runs_per_scheme=-1)
     assert not (tmp_path / "w" / "runs").exists()

@@ -121,8 +121,10 @@ class Recipe:
     """Runs of each scheme, beyond the ``runs_per_scheme`` from scratch, whose learners first
     imitate the game's heuristic (:mod:`arena_league.training.imitation`): they give the strong
     end of the population, the runs from scratch the weak end and the middle."""
-    warm_start: Mapping[str, Any] = field(default_factory=dict)
-    """:class:`~arena_league.training.imitation.WarmStart` fields of those runs."""
+    warm_start: Mapping[str, Any] | Sequence[Mapping[str, Any]] = field(default_factory=dict)
+    """:class:`~arena_league.training.imitation.WarmStart` fields of those runs; a list gives the
+    ``r``-th warm-started run of each scheme entry ``r`` (cycling): a ladder of imitation budgets,
+    from clumsy copies of the heuristic to faithful ones."""
     warm_steps: int | None = None
     """RL env steps of a warm-started run (default ``steps``)."""
     warm_overrides: Mapping[str, Any] = field(default_factory=dict)
@@ -300,7 +302,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
                      steps_per_scheme: int | Mapping[str, int] | None = None, runs_per_scheme: int | Mapping[str, int] = 1,
                      warm_runs_per_scheme: int | Mapping[str, int] | None = None,
                      warm_steps_per_scheme: int | Mapping[str, int] | None = None,
-                     warm_start: Mapping[str, Any] | None = None, seed: int = 0,
+                     warm_start: Mapping[str, Any] | Sequence[Mapping[str, Any]] | None = None, seed: int = 0,
                      work_dir: str | Path | None = None, out_dir: str | Path | None = None, league: Any = None,
                      matches_per_pair: int = 2, verify_matches: int = 200, snapshots: int | None = None,
                      scheme_options: Mapping[str, Mapping[str, Any]] | None = None, max_candidates: int = 240,
@@ -324,7 +326,8 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         warm_steps_per_scheme: RL env steps of each warm-started run, one number or one per scheme
             (default: the recipe's ``warm_steps`` when ``steps_per_scheme`` is not given, else
             ``steps_per_scheme``).
-        warm_start: the warm start's :class:`~arena_league.training.imitation.WarmStart` fields
+        warm_start: the warm start's :class:`~arena_league.training.imitation.WarmStart` fields, or a
+            list of them: the ``r``-th warm-started run of each scheme takes entry ``r`` (cycling)
             (default: the recipe's).
         seed: seeds the first run of every scheme and the match schedule.
         work_dir: where runs and matches are kept (default ``runs/population/<game>/<name>``); a
@@ -368,11 +371,12 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     n_runs = _runs_per_scheme(schemes, runs_per_scheme)
     n_warm = _runs_per_scheme(schemes, recipe.warm_runs if warm_runs_per_scheme is None else warm_runs_per_scheme,
                               minimum=0, what="warm_runs_per_scheme")
-    imitation = dict(recipe.warm_start if warm_start is None else warm_start)
+    imitation = _imitation_ladder(recipe.warm_start if warm_start is None else warm_start)
     if any(n_warm.values()):
         from arena_league.training.imitation import WarmStart
 
-        WarmStart.parse(imitation)  # bad fields fail before any training
+        for rung in imitation:
+            WarmStart.parse(rung)  # bad fields fail before any training
     if warm_steps_per_scheme is not None:
         warm_steps = _steps_per_scheme(schemes, warm_steps_per_scheme, recipe)
     else:
@@ -397,7 +401,8 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         overrides = {**recipe.overrides(scheme), **dict((scheme_options or {}).get(scheme, {}))}
         run_steps = warm_steps[scheme] if warm else steps[scheme]
         if warm:
-            overrides.update(dict(recipe.warm_overrides), warm_start=imitation)
+            rung = imitation[(run_seed - seed - n_runs[scheme]) % len(imitation)]
+            overrides.update(dict(recipe.warm_overrides), warm_start=rung)
         every = max(1, run_steps // n_snapshots)
         if recipe.early_snapshots:
             overrides["snapshot_at"] = sorted({0} | {every >> k for k in range(1, recipe.early_snapshots)} - {every})
@@ -469,7 +474,8 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
 
     # 7. freeze
     clock = time.perf_counter()
-    warm_build = {"runs_per_scheme": n_warm, "steps_per_scheme": warm_steps, "warm_start": imitation} \
+    warm_build = {"runs_per_scheme": n_warm, "steps_per_scheme": warm_steps,
+                  "warm_start": imitation[0] if len(imitation) == 1 else imitation} \
         if any(n_warm.values()) else None
     build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest,
                          n_runs, warm_build)
@@ -698,6 +704,17 @@ def _member_records(name: str, game_id: str, members: list[Candidate], fit: Any)
     return records
 
 
+def _imitation_ladder(value: Mapping[str, Any] | Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """The warm start of every warm-started run, in run order (one dict: all alike)."""
+    if isinstance(value, Mapping):
+        return [dict(value)]
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence) or not value \
+            or not all(isinstance(rung, Mapping) for rung in value):
+        raise TypeError(f"warm_start must be a dict of WarmStart fields or a non-empty list of them (one per "
+                        f"warm-started run), not {value!r}")
+    return [dict(rung) for rung in value]
+
+
 def member_name(population: str, key: str, game_id: str) -> str:
     """A member's agent name in a league: ``<population>.<key>@<game_id>``."""
     return f"{population}.{key}@{game_id}"
@@ -855,7 +872,8 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     warm = build.get("warm_runs")
     warm_line = ""
     if warm:
-        imitation = {"expert": "scripted:heuristic", **warm["warm_start"]}
+        rungs = _imitation_ladder(warm["warm_start"])
+        imitation = {"expert": "scripted:heuristic", **rungs[0]}
         warm_line = (f"* warm-started runs: {json.dumps(warm['runs_per_scheme'])} per scheme (seeds after those from "
                      f"scratch), RL env steps {json.dumps(warm['steps_per_scheme'])}; before RL each learner imitates "
                      f"`{imitation['expert']}` by DAgger (`arena_league.training.imitation`, options "
