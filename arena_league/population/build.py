@@ -401,13 +401,15 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     # 1. train every scheme (a finished run is read back)
     clock = time.perf_counter()
     snapshots_by_scheme = {}
-    runs = [(scheme, seed + r, False) for scheme in schemes for r in range(n_runs[scheme])]
-    runs += [(scheme, seed + n_runs[scheme] + r, True) for scheme in schemes for r in range(n_warm[scheme])]
-    for k, (scheme, run_seed, warm) in enumerate(runs):
+    # (scheme, seed, warm start or None): warm-started run r takes rung r of the ladder, cycling
+    runs = [(scheme, seed + r, None) for scheme in schemes for r in range(n_runs[scheme])]
+    runs += [(scheme, seed + n_runs[scheme] + r, imitation[r % len(imitation)])
+             for scheme in schemes for r in range(n_warm[scheme])]
+    for k, (scheme, run_seed, rung) in enumerate(runs):
+        warm = rung is not None
         overrides = {**recipe.overrides(scheme), **dict((scheme_options or {}).get(scheme, {}))}
         run_steps = warm_steps[scheme] if warm else steps[scheme]
         if warm:
-            rung = imitation[(run_seed - seed - n_runs[scheme]) % len(imitation)]
             overrides.update(dict(recipe.warm_overrides), warm_start=rung)
         every = max(1, run_steps // n_snapshots)
         if recipe.early_snapshots:

@@ -86,10 +86,10 @@ class RunningScores:
     0.5 at first, a prior worth one match, then a running mean whose step never falls below
     ``win_rate_step``."""
 
-    def __init__(self, win_rate_step: float = 0.05) -> None:
+    def __init__(self, win_rate_step: float = 0.05, opponents: int = 0) -> None:
         self.win_rate_step = win_rate_step
-        self.win_rate: list[float] = []
-        self.games: list[int] = []
+        self.win_rate: list[float] = [0.5] * opponents
+        self.games: list[int] = [0] * opponents
 
     def track(self, index: int | None = None) -> None:
         """Start a score at the prior: a new opponent (``index`` None) or one replaced in place."""
@@ -202,9 +202,7 @@ class SelfPlay(TrainerBase):
         self.pool.add(self.learners[0].actor_parameters(), 0)
         self.fixed_share = float(fixed_share)
         self.fixed = self._fixed_opponents(probe, tuple(fixed_opponents))
-        self.fixed_rates = RunningScores(win_rate_step)
-        for _ in self.fixed:
-            self.fixed_rates.track()
+        self.fixed_rates = RunningScores(win_rate_step, len(self.fixed))
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating,
                                           opponents=self._pool_opponents(), on_episode=self._record)
 
