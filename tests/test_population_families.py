@@ -35,6 +35,8 @@ ARCHITECTURES = {
                                            grid=GridLayout(2, 3, 4, 7), kernel_size=3),
     "gru-discrete": Architecture("gru", 25, "discrete", n_actions=5, hidden=(16,), gru_size=8),
     "gru-continuous": Architecture("gru", 19, "continuous", act_dim=2, hidden=(), gru_size=6),
+    "mlp-gaussian": Architecture("mlp", 19, "continuous", act_dim=3, hidden=(16,), noise="gaussian"),
+    "gru-squashed": Architecture("gru", 19, "continuous", act_dim=2, hidden=(8,), gru_size=6, noise="squashed"),
 }
 
 
@@ -50,6 +52,8 @@ def _sharpened(arch: Architecture, seed: int) -> dict[str, torch.Tensor]:
     """Parameters whose outputs are far from zero (a fresh head is scaled by 0.01)."""
     params = init_parameters(arch, seed)
     params["head.weight"] = params["head.weight"] * 100
+    if "log_std" in params:
+        params["log_std"] = torch.linspace(-2.0, -0.5, arch.act_dim) + 0.1 * seed
     return params
 
 
@@ -104,7 +108,11 @@ def test_onnx_export_equals_the_torch_forward(name):
             expected, expected_state = build_module(arch, params)(
                 torch.from_numpy(obs), torch.from_numpy(state) if state is not None else None)
         output = "logits" if arch.action_type == "discrete" else "action"
-        assert set(results) == ({output, "state_out"} if arch.recurrent else {output})
+        noisy = {"log_std"} if arch.noise != "none" else set()
+        assert set(results) == ({output, "state_out"} if arch.recurrent else {output}) | noisy
+        if noisy:
+            np.testing.assert_array_equal(results["log_std"],
+                                          np.broadcast_to(params["log_std"].numpy(), (batch, arch.act_dim)))
         np.testing.assert_allclose(results[output], expected.numpy(), rtol=1e-5, atol=1e-5)
         if arch.recurrent:
             np.testing.assert_allclose(results["state_out"], expected_state.numpy(), rtol=1e-5, atol=1e-5)
@@ -205,3 +213,79 @@ def test_row_groups_round_trip_and_keep_padding_bounded():
         assert padded.shape[0] * padded.shape[1] <= 4 * len(owners) + n_members
         layouts.add(groups.identity)
     assert layouts == {True, False}
+
+
+@pytest.mark.parametrize("name", ["mlp-gaussian", "gru-squashed"])
+def test_noisy_continuous_agents_sample_around_their_mean_the_same_way_everywhere(name):
+    """A continuous agent with noise plays mean + exp(log_std) z (clipped, or squashed by tanh),
+    z from the engine's uniforms: stacked, alone and exported to ONNX it draws the same actions,
+    greedy it plays the mean, and its draws have the learned spread."""
+    arch = ARCHITECTURES[name]
+    members = [_sharpened(arch, seed) for seed in range(3)]
+    members[1]["head.weight"] = members[1]["head.weight"] * 0  # mean 0, spread small: far from the bounds
+    members[1]["log_std"] = torch.linspace(-2.5, -1.5, arch.act_dim)
+    alone = [TorchPolicy(arch, m) for m in members]
+    stacked = StackedPolicy.from_policies(alone)
+    rng = np.random.default_rng(3)
+    obs = rng.standard_normal((30, arch.obs_dim)).astype(np.float32)
+    uniforms = rng.random((30, arch.act_dim))
+    owners = np.arange(30) % 3
+    state = stacked.initial_state(30)
+    actions, _ = stacked.act(obs, uniforms, state=state, owners=owners)
+    assert actions.dtype == np.float32 and np.abs(actions).max() <= 1.0
+    for i in range(30):
+        single, _ = alone[owners[i]].act(obs[i: i + 1], uniforms[i: i + 1], state=state[i: i + 1] if state is not None
+                                         else None)
+        np.testing.assert_allclose(actions[i: i + 1], single, rtol=1e-6, atol=1e-6)
+    mean, _ = alone[0].forward(obs, state)
+    greedy, _ = TorchPolicy(arch, members[0], greedy=True).act(obs, uniforms, state=state)
+    np.testing.assert_allclose(greedy, mean, rtol=1e-6, atol=1e-6)
+    assert not np.allclose(alone[0].act(obs, uniforms, state=state)[0], mean, atol=1e-3)
+    onnx_agent = load_policy_from_onnx(alone[2].export_onnx(), arch)
+    np.testing.assert_allclose(onnx_agent.act(obs, uniforms, state=state)[0], alone[2].act(obs, uniforms, state=state)[0],
+                               rtol=1e-5, atol=1e-5)
+    # Many draws for the zero-mean member: the spread of each component is its exp(log_std).
+    many = rng.standard_normal((20_000, arch.obs_dim)).astype(np.float32)
+    draws, _ = alone[1].act(many, rng.random((20_000, arch.act_dim)), state=alone[1].initial_state(20_000))
+    std = np.exp(members[1]["log_std"].numpy())
+    raw = draws if arch.noise == "gaussian" else np.arctanh(draws)
+    np.testing.assert_allclose(raw.std(axis=0), std, rtol=0.05)
+    np.testing.assert_allclose(raw.mean(axis=0), 0.0, atol=0.02)
+
+
+def load_policy_from_onnx(data: bytes, arch: Architecture):
+    from arena_league.population.onnx_policy import OnnxPolicy
+
+    return OnnxPolicy(data, arch.spec, "Crossroads-2T2P-v1")
+
+
+def test_noise_is_named_in_the_manifest_and_bad_noise_is_refused():
+    arch = ARCHITECTURES["mlp-gaussian"]
+    manifest = manifest_for(arch, "Crossroads-2T2P-v1")
+    assert manifest["sizes"]["noise"] == "gaussian" and manifest_architecture(manifest) == arch
+    assert "noise" not in manifest_for(ARCHITECTURES["mlp-continuous-relu"], "Crossroads-2T2P-v1")["sizes"]
+    assert arch.parameter_shapes()["log_std"] == (3,)
+    manifest["sizes"]["noise"] = "uniform"
+    with pytest.raises(ManifestError, match=r"unknown noise 'uniform'; valid: none, gaussian, squashed"):
+        manifest_architecture(manifest)
+    with pytest.raises(ManifestError, match="noise 'gaussian' belongs to continuous agents"):
+        Architecture("mlp", 25, "discrete", n_actions=5, noise="gaussian")
+    params = init_parameters(arch, 0)
+    del params["log_std"]
+    with pytest.raises(ManifestError, match=r"missing log_std"):
+        TorchPolicy(arch, params)
+
+
+def test_an_onnx_agent_with_a_malformed_log_std_or_noise_is_refused_with_the_fix():
+    from arena_league.population import SpaceMismatchError
+
+    arch = ARCHITECTURES["mlp-gaussian"]
+    model = onnx.load_model_from_string(TorchPolicy(arch, _sharpened(arch, 0)).export_onnx())
+    wide = onnx.ModelProto()
+    wide.CopyFrom(model)
+    wide.graph.output[-1].type.tensor_type.shape.dim[1].dim_value = 5
+    with pytest.raises(SpaceMismatchError, match=r"log_std is float32\[N, 5\]; .* log_std is float32\[N, 3\]"):
+        load_policy_from_onnx(wide.SerializeToString(), arch)
+    onnx.helper.set_model_props(model, {"arena_league.noise": "laplace"})
+    with pytest.raises(SpaceMismatchError, match=r"arena_league.noise is 'laplace'; valid: gaussian, squashed"):
+        load_policy_from_onnx(model.SerializeToString(), arch)

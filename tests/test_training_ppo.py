@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 import torch
 from line_race import make_line_race
+from scipy.special import ndtri
 
-from arena_league.population import Architecture
+from arena_league.population import Architecture, TorchPolicy
 from arena_league.training import PPO, Batch, Learner, PPOConfig, RunningMeanStd, gae, make_env_fn, ppo_update
 from arena_league.training.rollout import RolloutCollector, learner_batch
 
@@ -80,6 +81,14 @@ def test_continuous_heads_improve_on_crossroads(head):
     assert np.mean(returns[-2:]) > np.mean(returns[:2]) + 2.5
     rollout = ppo.collector.collect(ppo.learners, 4)
     assert np.abs(rollout.env_actions).max() <= 1.0
+    # A snapshot carries the learned log_std and samples as the learner does from the same draws.
+    learner = ppo.learners[0]
+    snapshot = TorchPolicy(learner.snapshot_architecture, learner.snapshot_parameters())
+    assert snapshot.architecture.noise == {"clip": "gaussian", "tanh": "squashed"}[head]
+    obs = rollout.obs.reshape(-1, rollout.obs.shape[-1])[:64]
+    uniforms = np.random.default_rng(1).random((64, learner.architecture.act_dim))
+    sampled = learner.act(obs, ndtri(uniforms)).env_actions
+    np.testing.assert_allclose(snapshot.act(obs, uniforms)[0], sampled, atol=1e-5)
 
 
 def test_same_seed_same_parameters_after_two_updates():

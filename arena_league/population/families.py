@@ -61,6 +61,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from scipy.special import ndtri
 from torch import nn
 from torch.nn import functional as F
 
@@ -70,6 +71,12 @@ from arena_league.population.policy import ActionSpec, Policy, legal_mask, sampl
 FAMILIES: tuple[str, ...] = ("mlp", "cnn", "gru")
 ACTIVATIONS: tuple[str, ...] = ("tanh", "relu")
 ACTION_TYPES: tuple[str, ...] = ("discrete", "continuous")
+#: How a continuous agent turns its ``tanh`` output ``mean`` into an action: ``"none"`` plays the
+#: mean; ``"gaussian"`` plays ``clip(mean + exp(log_std) z, -1, 1)`` and ``"squashed"``
+#: ``tanh(atanh(mean) + exp(log_std) z)``, z standard normal from the engine's uniforms: PPO's
+#: two continuous heads (``PPOConfig.continuous_head`` "clip" and "tanh"), so a snapshot plays the
+#: policy its learner trained. The noisy kinds carry a ``log_std`` parameter ``[act_dim]``.
+NOISES: tuple[str, ...] = ("none", "gaussian", "squashed")
 
 _ACTIVATION_FN = {"tanh": torch.tanh, "relu": torch.relu}
 
@@ -86,6 +93,8 @@ _STACKED_ACTIVATION = {"tanh": _tanh_in_place, "relu": torch.relu_}
 #: Orthogonal-init gains (the PPO implementation details of Huang et al., ICLR blog track 2022).
 _HIDDEN_GAIN = math.sqrt(2.0)
 _HEAD_GAIN = 0.01
+#: Uniforms are kept this far inside (0, 1) before the inverse normal CDF (a draw of exactly 0).
+_U_EPS = 1e-12
 
 
 @dataclass(frozen=True)
@@ -124,6 +133,8 @@ class Architecture:
     kernel_size: int = 3
     #: ``gru`` only: size of the recurrent state.
     gru_size: int = 0
+    #: continuous only: one of :data:`NOISES` (a learned ``log_std`` unless ``"none"``).
+    noise: str = "none"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "hidden", tuple(int(h) for h in self.hidden))
@@ -159,6 +170,8 @@ class Architecture:
                          conv_channels=list(self.conv_channels), kernel_size=self.kernel_size)
         if self.family == "gru":
             sizes["gru_size"] = self.gru_size
+        if self.noise != "none":
+            sizes["noise"] = self.noise
         return sizes
 
     def spaces(self) -> dict[str, Any]:
@@ -199,6 +212,8 @@ class Architecture:
             width = g
         shapes["head.weight"] = (self.out_dim, width)
         shapes["head.bias"] = (self.out_dim,)
+        if self.noise != "none":
+            shapes["log_std"] = (self.act_dim,)
         return shapes
 
     def n_parameters(self) -> int:
@@ -242,6 +257,11 @@ def check_architecture(arch: Architecture) -> None:
         positive("gru_size", arch.gru_size)
     elif arch.gru_size:
         raise ManifestError(f"{arch.family} policy: 'gru_size' belongs to the gru family only")
+    if arch.noise not in NOISES:
+        raise ManifestError(f"unknown noise {arch.noise!r}; valid: {', '.join(NOISES)}")
+    if arch.noise != "none" and arch.action_type != "continuous":
+        raise ManifestError(f"noise {arch.noise!r} belongs to continuous agents; a discrete agent samples its "
+                            "logits (leave 'noise' out)")
 
 
 def architecture_from_manifest(family: Any, sizes: Any, spaces: Mapping[str, Any]) -> Architecture:
@@ -251,7 +271,7 @@ def architecture_from_manifest(family: Any, sizes: Any, spaces: Mapping[str, Any
                             f"{', '.join(FAMILIES)} (save your policy as one of them, or export it to ONNX)")
     if not isinstance(sizes, Mapping):
         raise ManifestError(f"manifest 'sizes' must be an object such as {{\"hidden\": [64, 64]}}, not {sizes!r}")
-    allowed = {"hidden", "activation"} | {"cnn": {"grid", "conv_channels", "kernel_size"},
+    allowed = {"hidden", "activation", "noise"} | {"cnn": {"grid", "conv_channels", "kernel_size"},
                                           "gru": {"gru_size"}}.get(family, set())
     unknown = sorted(set(sizes) - allowed)
     if unknown:
@@ -263,6 +283,8 @@ def architecture_from_manifest(family: Any, sizes: Any, spaces: Mapping[str, Any
             kwargs["hidden"] = tuple(_as_int(h, "hidden") for h in _as_list(sizes["hidden"], "hidden"))
         if "activation" in sizes:
             kwargs["activation"] = sizes["activation"]
+        if "noise" in sizes:
+            kwargs["noise"] = sizes["noise"]
         if family == "cnn":
             grid = sizes.get("grid")
             if not isinstance(grid, Mapping) or set(grid) - {"channels", "height", "width", "offset"} or \
@@ -306,7 +328,7 @@ def init_parameters(arch: Architecture, seed: int) -> dict[str, torch.Tensor]:
     """Fresh float32 parameters of one agent, a pure function of ``(arch, seed)``.
 
     Orthogonal weights (gain sqrt 2 in the body, 0.01 in the head, so a new agent starts near
-    uniform play) and zero biases; the GRU takes torch's default uniform(+-1/sqrt(gru_size)).
+    uniform play), zero biases and ``log_std``; the GRU takes torch's default uniform(+-1/sqrt(gru_size)).
     """
     generator = torch.Generator().manual_seed(int(seed))
     params: dict[str, torch.Tensor] = {}
@@ -315,7 +337,7 @@ def init_parameters(arch: Architecture, seed: int) -> dict[str, torch.Tensor]:
         if name.startswith("gru."):
             bound = 1.0 / math.sqrt(arch.gru_size)
             nn.init.uniform_(tensor, -bound, bound, generator=generator)
-        elif name.endswith(".bias"):
+        elif name.endswith(".bias") or name == "log_std":
             tensor.zero_()
         else:
             gain = _HEAD_GAIN if name.startswith("head.") else _HIDDEN_GAIN
@@ -374,6 +396,8 @@ class FamilyNet(nn.Module):
         if arch.family == "gru":
             self.gru = nn.GRUCell(widths[-1], arch.gru_size)
         self.head = nn.Linear(arch.gru_size if arch.family == "gru" else widths[-1], arch.out_dim)
+        if arch.noise != "none":
+            self.log_std = nn.Parameter(torch.zeros(arch.act_dim))
 
     def forward(self, obs: torch.Tensor, state: torch.Tensor | None = None
                 ) -> tuple[torch.Tensor, torch.Tensor | None]:
@@ -512,6 +536,10 @@ class StackedFamily(nn.Module):
     def _param(self, name: str) -> torch.Tensor:
         return getattr(self, _buffer_name(name))
 
+    def log_std_of(self, owners: np.ndarray) -> np.ndarray:
+        """``[N, act_dim]``: the ``log_std`` of each row's owner (noisy continuous families)."""
+        return self._param("log_std").numpy()[owners]
+
     @torch.inference_mode()
     def forward(self, obs: torch.Tensor, owners: torch.Tensor, state: torch.Tensor | None = None
                 ) -> tuple[torch.Tensor, torch.Tensor | None]:
@@ -588,14 +616,29 @@ def _buffer_name(name: str) -> str:
 # --- policies -------------------------------------------------------------------------------------
 
 def _actions(values: np.ndarray, arch: Architecture, uniforms: np.ndarray, mask: np.ndarray | None,
-             greedy: bool) -> np.ndarray:
+             greedy: bool, log_std: np.ndarray | None = None) -> np.ndarray:
     if arch.action_type == "continuous":
-        return values.astype(np.float32)
+        if greedy or log_std is None or arch.noise == "none":
+            return values.astype(np.float32)
+        return noisy_actions(values, log_std, uniforms, arch.noise)
     mask = legal_mask(mask, values.shape)
     if greedy:
         masked = np.where(mask, values, -np.inf) if mask is not None else values
         return masked.argmax(axis=1).astype(np.int64)
     return sample_from_logits(values, uniforms, mask)
+
+
+def noisy_actions(mean: np.ndarray, log_std: np.ndarray, uniforms: np.ndarray, noise: str = "gaussian"
+                  ) -> np.ndarray:
+    """Continuous actions drawn around ``mean`` (``[N, act_dim]`` in [-1, 1]) with standard
+    deviations ``exp(log_std)`` (``[N, act_dim]`` or ``[act_dim]``), one uniform per component
+    turned into a standard normal by its inverse CDF (see :data:`NOISES`). ``float32[N, act_dim]``."""
+    mean = np.asarray(mean, dtype=np.float64)
+    u = np.clip(np.asarray(uniforms, dtype=np.float64)[:, : mean.shape[1]], _U_EPS, 1.0 - _U_EPS)
+    step = np.exp(np.asarray(log_std, dtype=np.float64)) * ndtri(u)
+    if noise == "squashed":
+        return np.tanh(np.arctanh(np.clip(mean, -1.0 + _U_EPS, 1.0 - _U_EPS)) + step).astype(np.float32)
+    return np.clip(mean + step, -1.0, 1.0).astype(np.float32)
 
 
 def _check_obs(obs: np.ndarray, spec: ActionSpec, name: str) -> np.ndarray:
@@ -610,7 +653,8 @@ class TorchPolicy(Policy):
     """One agent of a torch family as a :class:`Policy`.
 
     Discrete: samples ``softmax(logits)`` restricted to legal actions with the engine's
-    uniforms (``greedy=True``: the most likely legal action). Continuous: the ``tanh`` action.
+    uniforms (``greedy=True``: the most likely legal action). Continuous: the ``tanh`` action, with
+    the architecture's noise around it (:data:`NOISES`; ``greedy=True``: the mean).
     """
 
     def __init__(self, arch: Architecture, params: Mapping[str, Any] | None = None, *, seed: int = 0,
@@ -653,7 +697,8 @@ class TorchPolicy(Policy):
     def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
             state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
         out, next_state = self.forward(obs, state)
-        return _actions(out, self.architecture, uniforms, mask, self.greedy), next_state
+        log_std = self.module.log_std.detach().numpy() if self.architecture.noise != "none" else None
+        return _actions(out, self.architecture, uniforms, mask, self.greedy, log_std), next_state
 
 
 class StackedPolicy(Policy):
@@ -723,7 +768,8 @@ class StackedPolicy(Policy):
             h = torch.from_numpy(np.asarray(state, dtype=np.float32)) if self.recurrent and state is not None else None
             out, h_out = self.bundle(torch.from_numpy(obs), torch.from_numpy(owners), h)
         next_state = h_out.numpy().astype(np.float32) if h_out is not None else None
-        return _actions(out.numpy(), self.architecture, uniforms, mask, self.greedy), next_state
+        log_std = self.bundle.log_std_of(owners) if self.architecture.noise != "none" else None
+        return _actions(out.numpy(), self.architecture, uniforms, mask, self.greedy, log_std), next_state
 
 
 def _stack_key(policy: TorchPolicy) -> tuple:

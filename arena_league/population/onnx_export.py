@@ -4,7 +4,9 @@ Arena (Song et al., AAAI 2020) ranks agents submitted as trained weights; the le
 code-free form of an agent is an ONNX graph with one input ``obs`` ``float32[N, obs_dim]`` and one
 output, ``logits`` ``float32[N, n_actions]`` (discrete) or ``action`` ``float32[N, act_dim]`` in
 [-1, 1] (continuous); recurrent agents add ``state_in`` / ``state_out`` ``float32[N, gru_size]``.
-``N`` is a dynamic batch dimension.
+``N`` is a dynamic batch dimension. A continuous agent with noise (``Architecture.noise``) adds the
+output ``log_std`` ``float32[N, act_dim]`` (its learned constant, repeated per row) and, when the
+noise is ``"squashed"``, says so in the metadata (``arena_league.noise``).
 
 The graph is written node by node with the ``onnx`` helper API from the family's parameters
 (the same structure as :class:`arena_league.population.families.FamilyNet`), not traced, so the
@@ -29,6 +31,7 @@ IR_VERSION = 8
 #: Metadata keys written into exported models (and checked on load when present).
 META_GAME = "arena_league.game"
 META_FAMILY = "arena_league.family"
+META_NOISE = "arena_league.noise"
 
 
 class _Graph:
@@ -97,10 +100,15 @@ def build_onnx_model(arch: Architecture, params: Mapping[str, Any], game_id: str
     if arch.action_type == "continuous":
         g.op("Tanh", [head], out_name)
     outputs.insert(0, helper.make_tensor_value_info(out_name, TensorProto.FLOAT, ["N", arch.out_dim]))
+    if arch.noise != "none":
+        g.op("Expand", [g.const("log_std.value", weights["log_std"][None]), g.op("Shape", [out_name])], "log_std")
+        outputs.append(helper.make_tensor_value_info("log_std", TensorProto.FLOAT, ["N", arch.act_dim]))
     graph = helper.make_graph(g.nodes, f"arena_league_{arch.family}", inputs, outputs, g.initializers)
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)],
                               producer_name="arena-league", ir_version=IR_VERSION)
     metadata = {META_FAMILY: arch.family}
+    if arch.noise == "squashed":
+        metadata[META_NOISE] = arch.noise
     if game_id is not None:
         metadata[META_GAME] = game_id
     helper.set_model_props(model, metadata)

@@ -4,6 +4,9 @@ Arena (Song et al., AAAI 2020) evaluates agents that people train anywhere; the 
 as ONNX graphs (DESIGN.md, "ONNX agents"): input ``obs`` ``float32[N, obs_dim]``; output
 ``logits`` ``float32[N, n_actions]`` (discrete) or ``action`` ``float32[N, act_dim]`` in [-1, 1]
 (continuous); recurrent agents add ``state_in`` / ``state_out`` ``float32[N, ...]`` of one shape.
+A continuous agent that samples adds the output ``log_std`` ``float32[N, act_dim]``: it then plays
+``clip(action + exp(log_std) z, -1, 1)``, or ``tanh(atanh(action) + exp(log_std) z)`` when its
+metadata says ``arena_league.noise: squashed``, with z standard normal from the match's own draws.
 Other outputs (a value head, say) are allowed and not computed.
 
 :class:`OnnxPolicy` runs the graph with onnxruntime on the CPU, one intra-op thread by default
@@ -23,7 +26,8 @@ from google.protobuf.message import DecodeError
 from onnxruntime.capi import onnxruntime_pybind11_state as _ort_state
 
 from arena_league.population.errors import CorruptArtifactError, SpaceMismatchError
-from arena_league.population.onnx_export import META_GAME
+from arena_league.population.families import NOISES, noisy_actions
+from arena_league.population.onnx_export import META_GAME, META_NOISE
 from arena_league.population.policy import ActionSpec, Policy, legal_mask, sample_from_logits
 
 _FLOAT = onnx.TensorProto.FLOAT
@@ -49,6 +53,8 @@ class OnnxSignature:
     #: ``None`` for a dynamic batch dimension, else the fixed batch size.
     batch: int | None
     state_shape: tuple[int, ...] = ()
+    #: One of ``families.NOISES``: ``"none"`` unless a continuous model outputs ``log_std``.
+    noise: str = "none"
 
     @property
     def recurrent(self) -> bool:
@@ -178,7 +184,25 @@ def onnx_signature(model: onnx.ModelProto, spec: ActionSpec, game_id: str, sourc
                                      f"{_shape_text(inputs['state_in'])}; they must have the same shape")
     batch = batch_dim if isinstance(batch_dim, int) and batch_dim > 0 else None
     return OnnxSignature(obs_dim if isinstance(obs_dim, int) else None, out_name,
-                         got_out if isinstance(got_out, int) else None, batch, state_shape)
+                         got_out if isinstance(got_out, int) else None, batch, state_shape,
+                         _noise(model, outputs, spec, source))
+
+
+def _noise(model: onnx.ModelProto, outputs: dict, spec: ActionSpec, source: str) -> str:
+    """How a continuous model samples: ``"none"`` without a ``log_std`` output, else its metadata's
+    ``arena_league.noise`` (``"gaussian"`` when absent)."""
+    if spec.action_type != "continuous" or "log_std" not in outputs:
+        return "none"
+    dims = _dims(outputs["log_std"])
+    if dims is None or dims[0] != _FLOAT or len(dims[1]) != 2 or dims[1][1] not in (spec.act_dim, None) \
+            and not isinstance(dims[1][1], str):
+        raise SpaceMismatchError(f"{source}: output log_std is {_shape_text(outputs['log_std'])}; a sampling agent's "
+                                 f"log_std is float32[N, {spec.act_dim}] (one per action component)")
+    noise = {prop.key: prop.value for prop in model.metadata_props}.get(META_NOISE, "gaussian")
+    if noise not in NOISES[1:]:
+        raise SpaceMismatchError(f"{source}: metadata {META_NOISE} is {noise!r}; valid: {', '.join(NOISES[1:])} "
+                                 "(or leave it out for gaussian)")
+    return noise
 
 
 def session_options(intra_op_threads: int = 1) -> ort.SessionOptions:
@@ -211,7 +235,8 @@ class OnnxPolicy(Policy):
             first = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
             raise CorruptArtifactError(f"onnxruntime cannot run {source} ({first}); export with standard ONNX "
                                        "operators (opset 13 to 21) and check it with onnx.checker") from None
-        self._outputs = [self.signature.output] + (["state_out"] if self.recurrent else [])
+        self._outputs = [self.signature.output] + (["state_out"] if self.recurrent else []) + (
+            ["log_std"] if self.signature.noise != "none" else [])
         batch = self.signature.batch
         prefix = "onnx" if batch is None else f"onnx-batch{batch}"
         self.name = f"{prefix}:{digest[:12]}" if digest else prefix
@@ -221,6 +246,12 @@ class OnnxPolicy(Policy):
 
     def forward(self, obs: np.ndarray, state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
         """Raw outputs (``logits`` or ``action``, and ``state_out``) for ``float32[N, obs_dim]``."""
+        out, next_state, _ = self._forward(obs, state)
+        return out, next_state
+
+    def _forward(self, obs: np.ndarray, state: np.ndarray | None
+                 ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The outputs, the next state and (sampling agents) ``log_std``."""
         obs = np.ascontiguousarray(obs, dtype=np.float32)
         if obs.ndim != 2 or obs.shape[1] != self.spec.obs_dim:
             raise ValueError(f"{self.name} reads observations float32[N, {self.spec.obs_dim}], got shape {obs.shape}")
@@ -229,12 +260,13 @@ class OnnxPolicy(Policy):
             state = self.initial_state(n)
         if n == 0:
             out_dim = self.spec.n_actions if self.spec.action_type == "discrete" else self.spec.act_dim
-            return np.zeros((0, out_dim), np.float32), state
+            empty = np.zeros((0, out_dim), np.float32)
+            return empty, state, (empty if self.signature.noise != "none" else None)
         batch = self.signature.batch
         if batch is None:
             return self._run(obs, state)
         # A model exported with a fixed batch size: run chunks of exactly that many rows.
-        outs, states = [], []
+        outs, states, log_stds = [], [], []
         for start in range(0, n, batch):
             rows = obs[start: start + batch]
             chunk_state = state[start: start + batch] if state is not None else None
@@ -244,13 +276,17 @@ class OnnxPolicy(Policy):
                 if chunk_state is not None:
                     chunk_state = np.concatenate([chunk_state, np.zeros((missing, *chunk_state.shape[1:]),
                                                                         np.float32)])
-            out, next_state = self._run(rows, chunk_state)
+            out, next_state, log_std = self._run(rows, chunk_state)
             outs.append(out[: batch - missing])
             if next_state is not None:
                 states.append(next_state[: batch - missing])
-        return np.concatenate(outs), np.concatenate(states) if self.recurrent else None
+            if log_std is not None:
+                log_stds.append(log_std[: batch - missing])
+        return (np.concatenate(outs), np.concatenate(states) if self.recurrent else None,
+                np.concatenate(log_stds) if log_stds else None)
 
-    def _run(self, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    def _run(self, obs: np.ndarray, state: np.ndarray | None
+             ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
         feeds = {"obs": obs}
         if self.recurrent:
             feeds["state_in"] = np.ascontiguousarray(state, dtype=np.float32)
@@ -266,18 +302,28 @@ class OnnxPolicy(Policy):
             if next_state.shape != (obs.shape[0], *self.signature.state_shape):
                 raise SpaceMismatchError(f"{self.name}: state_out has shape {next_state.shape}; expected "
                                          f"{(obs.shape[0], *self.signature.state_shape)}")
-        return out, next_state
+        log_std = None
+        if self.signature.noise != "none":
+            log_std = np.asarray(results[-1], dtype=np.float32)
+            if log_std.shape != expected:
+                raise SpaceMismatchError(f"{self.name}: output log_std has shape {log_std.shape} for "
+                                         f"{obs.shape[0]} observations; expected {expected}")
+        return out, next_state, log_std
 
     def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
             state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-        out, next_state = self.forward(obs, state)
-        bad = ~np.isfinite(out).all(axis=1)
-        if bad.any():
-            raise PolicyOutputError(f"{self.name} output NaN or infinite {self.signature.output} for "
-                                    f"{int(bad.sum())} of {len(out)} observations (first: row {int(np.argmax(bad))})")
+        out, next_state, log_std = self._forward(obs, state)
+        for name, values in ((self.signature.output, out), ("log_std", log_std)):
+            bad = ~np.isfinite(values).all(axis=1) if values is not None else np.zeros(0, bool)
+            if bad.any():
+                raise PolicyOutputError(f"{self.name} output NaN or infinite {name} for {int(bad.sum())} of "
+                                        f"{len(values)} observations (first: row {int(np.argmax(bad))})")
         if self.spec.action_type == "continuous":
             # The convention is tanh-bounded; clip float round-off just past +-1.
-            return np.clip(out, -1.0, 1.0), next_state
+            out = np.clip(out, -1.0, 1.0)
+            if log_std is None or self.greedy:
+                return out, next_state
+            return noisy_actions(out, log_std, uniforms, self.signature.noise), next_state
         mask = legal_mask(mask, out.shape)
         if self.greedy:
             return np.where(mask, out, -np.inf).argmax(axis=1) if mask is not None else out.argmax(axis=1), next_state

@@ -68,6 +68,8 @@ __all__ = [
 _ILLEGAL_LOGIT = -1e8
 #: Keeps ``log(1 - tanh(u)^2)`` finite for the squashed Gaussian.
 _SQUASH_EPS = 1e-6
+#: The noise (``families.NOISES``) a snapshot of each continuous head samples with.
+_SNAPSHOT_NOISE = {"clip": "gaussian", "tanh": "squashed"}
 
 
 @dataclass(frozen=True)
@@ -290,6 +292,22 @@ class Learner:
     def actor_parameters(self) -> dict[str, torch.Tensor]:
         """The actor's float32 parameters in the arena-policy (safetensors) layout."""
         return {k: v.detach().clone() for k, v in self.actor.state_dict().items()}
+
+    @property
+    def snapshot_architecture(self) -> Architecture:
+        """The architecture a snapshot is saved with: a continuous actor's carries its noise (PPO's
+        "clip" head samples ``"gaussian"``, the "tanh" head ``"squashed"``), so the saved agent
+        samples as the learner does."""
+        if self.log_std is None:
+            return self.architecture
+        return replace(self.architecture, noise=_SNAPSHOT_NOISE[self.config.continuous_head])
+
+    def snapshot_parameters(self) -> dict[str, torch.Tensor]:
+        """:meth:`actor_parameters` plus, for a continuous actor, its ``log_std``."""
+        params = self.actor_parameters()
+        if self.log_std is not None:
+            params["log_std"] = self.log_std.detach().clone()
+        return params
 
     def policy(self, greedy: bool = False, name: str | None = None) -> TorchPolicy:
         """The actor as a league :class:`~arena_league.population.policy.Policy` (a frozen copy)."""

@@ -87,7 +87,8 @@ class Snapshot:
     seed: int
     architecture: Architecture
     params: dict[str, torch.Tensor]
-    """The actor's float32 parameters (the arena-policy safetensors layout)."""
+    """The actor's float32 parameters (the arena-policy safetensors layout; a continuous actor's
+    include its ``log_std``, and its architecture its noise, so the snapshot samples as it learned)."""
     path: Path
     """Its arena-policy folder (load with ``arena_league.population.load_policy(path, game_id)``)."""
     learner: str = "learner"
@@ -287,8 +288,8 @@ def save_snapshots(trainer: Any, game_id: str, seed: int, run_dir: Path, record:
         if record_of_warm_start is not None:
             metrics["warm_start"] = {k: v for k, v in record_of_warm_start.items() if k != "fit"} | {
                 "fit": record_of_warm_start["fit"][index]}
-        snapshot = Snapshot(trainer.scheme, game_id, int(trainer.env_steps), int(seed), learner.architecture,
-                            learner.actor_parameters(), run_dir / f"{learner.name}-step{trainer.env_steps:09d}",
+        snapshot = Snapshot(trainer.scheme, game_id, int(trainer.env_steps), int(seed), learner.snapshot_architecture,
+                            learner.snapshot_parameters(), run_dir / f"{learner.name}-step{trainer.env_steps:09d}",
                             learner.name, json_safe(metrics))
         save_arena_policy(snapshot.path, snapshot.architecture, snapshot.params, game_id, name=snapshot.name,
                           description=f"{trainer.scheme} snapshot of {learner.name} after {trainer.env_steps} env "
