@@ -13,7 +13,7 @@ import pytest
 from arena_league.league.human import ascii_topdown, play_human
 from arena_league.league.service import import_population, open_home
 from arena_league.population import init_parameters, save_arena_policy
-from arena_league.population.families import Architecture
+from arena_league.population.families import Architecture, with_spaces
 from arena_league.population.spaces import game_action_spec
 from arena_league.registry import get_agent, match_seat_rows
 
@@ -21,8 +21,7 @@ from arena_league.registry import get_agent, match_seat_rows
 def frozen_population(league, tmp_path: Path, game_id: str, ratings: list[float]) -> str:
     """A base population of small MLPs with fresh weights (near-uniform play), rated as given,
     written as a population folder and imported like a shipped one."""
-    spec = game_action_spec(game_id)
-    arch = Architecture("mlp", spec.obs_dim, "discrete", n_actions=spec.n_actions, hidden=(8,))
+    arch = with_spaces(Architecture("mlp", 1, "discrete", n_actions=1, hidden=(8,)), game_action_spec(game_id))
     folder = tmp_path / "population"
     members = []
     for i, rating in enumerate(ratings):
@@ -109,6 +108,27 @@ def test_snake_human_moves_on_the_board_as_drawn(tmp_path):
     assert "'x' is not a move" in text
     assert "@" in text and "#" * 22 in text  # the head and the walls of a 20 x 20 board
     assert len(session.matches) == 1 and session.matches[0].steps > 3
+
+
+def test_sumo_human_steers_an_ant_that_trots_as_told(tmp_path):
+    """A robot game: the person names a direction on the arena as drawn (and how long to hold it);
+    the scripted trot walks there. Team 0 starts left of the centre, so 'd' walks toward it."""
+    game = "Sumo-2T1P-v1"
+    league = open_home(tmp_path / "league")
+    label = frozen_population(league, tmp_path, game, [900.0, 1100.0])
+    answers = iter(["fly", "d 0", "ad", "d 20", "", "x 400"])
+    out = io.StringIO()
+
+    def answer(prompt: str) -> str:
+        return "q" if prompt.startswith("Next match") else next(answers)
+
+    session = play_human(game, label, league, player="cy", input_fn=answer, output=out)
+    text = out.getvalue()
+    assert "'fly' is not a direction" in text and "'d 0' is not a command" in text and "'ad' cancels out" in text
+    distances = [float(line.split("you ")[1].split(" m")[0]) for line in text.splitlines()
+                 if line.startswith("Ring radius 2.0 m")]
+    assert distances[0] == pytest.approx(1.0, abs=0.05) and distances[2] < distances[0] - 0.3  # walked inward
+    assert len(session.matches) == 1 and session.matches[0].steps > 40
 
 
 def test_ascii_topdown_of_a_physics_game_shows_both_teams():

@@ -54,6 +54,9 @@ InputFn = Callable[[str], str]
 
 _QUIT = {"q", "quit", "resign", "exit"}
 _SNAKE_KEYS = {"w": 0, "up": 0, "u": 0, "d": 1, "right": 1, "r": 1, "s": 2, "down": 2, "a": 3, "left": 3, "l": 3}
+#: Robot games: walking directions on the arena as drawn (x right, y up).
+_ROBOT_KEYS = {"w": np.array([0.0, 1.0]), "s": np.array([0.0, -1.0]), "a": np.array([-1.0, 0.0]),
+               "d": np.array([1.0, 0.0])}
 _SOCCER_MIRROR = np.array([0, 5, 4, 3, 2, 1, 8, 7, 6])  # E <-> W for the team seeing the field mirrored
 
 
@@ -312,8 +315,10 @@ class _HumanSeat:
 
     @staticmethod
     def for_game(rules: Any, seat: int) -> _HumanSeat:
+        if hasattr(rules, "seat_angle"):  # the MuJoCo robot games
+            return _RobotSeat(rules, seat)
         if rules.action_type != "discrete":
-            raise ValueError(f"{rules.name} is played here with discrete actions only; make the game with "
+            raise ValueError(f"{rules.name} has no human controls for continuous actions; make the game with "
                              "action_type='discrete'")
         kind = {"GoBang": _GoBangSeat, "Snake": _SnakeSeat, "Soccer": _SoccerSeat}.get(rules.name, _HumanSeat)
         return kind(rules, seat)
@@ -454,6 +459,82 @@ class _SoccerSeat(_HumanSeat):
     def prompt(self, step: int) -> str:
         names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
         return f"step {step}: move on the field as drawn ({names}; Enter repeats) > "
+
+
+class _RobotSeat(_HumanSeat):
+    """An ant steered on the arena as drawn: the person picks a direction (w up, a left, s down,
+    d right, two letters for a diagonal such as ``wd``, ``x`` to stand) and, optionally, how many
+    steps to hold it (``d 10``); the scripted trot (:mod:`arena_league.envs.robots.gait`) walks
+    that way, as the game's heuristic does toward its own choice."""
+
+    HOLD = 5  # steps a command lasts unless told (0.25 s of play)
+
+    def __init__(self, rules: Any, seat: int) -> None:
+        super().__init__(rules, seat)
+        self.direction = np.zeros(2)
+        self.text = "x"
+        self.held = 0
+
+    def ask(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> np.ndarray:  # type: ignore[override]
+        if self.held <= 0:
+            print(self.draw(rules), file=out)
+            while True:
+                try:
+                    text = input_fn(self.prompt(step)).strip().lower()
+                except EOFError:
+                    raise _Resign from None
+                if text in _QUIT:
+                    raise _Resign
+                problem = self.command(text)
+                if problem is None:
+                    break
+                print(f"  {problem}", file=out)
+        self.held -= 1
+        from arena_league.envs.robots.gait import stand, trot
+
+        obs = rules.observe()[self.seat: self.seat + 1]
+        if not self.direction.any():
+            return stand(obs)[0]
+        angle = -float(rules.seat_angle[self.seat])  # world frame (as drawn) -> the seat's frame
+        turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        return trot(obs, (turn @ self.direction)[None])[0]
+
+    def command(self, text: str) -> str | None:
+        """Take ``text`` (``<direction> [steps]``, Enter repeats the last); a problem, or None."""
+        words = text.split() or [self.text]
+        keys, steps = words[0], self.HOLD
+        if len(words) > 2 or (len(words) == 2 and not (words[1].isdigit() and int(words[1]) > 0)):
+            return (f"{text!r} is not a command: type a direction (w, a, s, d, two of them such as wd, or x to "
+                    "stand) and optionally a number of steps, such as 'd 10'")
+        if len(words) == 2:
+            steps = int(words[1])
+        if keys in ("x", "stand"):
+            direction = np.zeros(2)
+        elif keys and all(k in _ROBOT_KEYS for k in keys) and len(keys) <= 2:
+            direction = sum(_ROBOT_KEYS[k] for k in keys)
+            if not direction.any():
+                return f"{keys!r} cancels out: choose directions that are not opposite (wd, sa, ...)"
+            direction = direction / np.linalg.norm(direction)
+        else:
+            return f"{keys!r} is not a direction: type w (up), a (left), s (down), d (right), two of them, or x"
+        self.direction, self.text, self.held = direction, keys, steps
+        return None
+
+    def draw(self, rules: Any) -> str:
+        team = int(rules.team_of[self.seat])
+        text = ascii_topdown(rules.render_topdown()) + (
+            f"\nYou are the ant of team {team} (digit {team}); the white stroke on each ant points where it faces.")
+        rings = [numbers[0] for kind, numbers in rules.scene.layout.markings if kind == "ring"]
+        if rings:  # Sumo: the ring's edge is too thin to draw in text
+            torsos = rules.data.xpos[rules.scene.torso_body][:, :2]
+            where = ", ".join(f"{'you' if i == self.seat else f'team {int(rules.team_of[i])}'} "
+                              f"{np.linalg.norm(p):.1f} m" for i, p in enumerate(torsos))
+            text += f"\nRing radius {rings[0]:.1f} m; distance from its centre: {where}."
+        return text
+
+    def prompt(self, step: int) -> str:
+        return (f"step {step}: walk w up, a left, s down, d right, wd/sa.. diagonal, x stand; add steps to hold "
+                f"(default {self.HOLD}); Enter repeats {self.text!r} > ")
 
 
 def ascii_topdown(picture: np.ndarray, columns: int = 64) -> str:
