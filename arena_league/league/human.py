@@ -323,7 +323,12 @@ class _HumanSeat:
         kind = {"GoBang": _GoBangSeat, "Snake": _SnakeSeat, "Soccer": _SoccerSeat}.get(rules.name, _HumanSeat)
         return kind(rules, seat)
 
-    def ask(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> int:
+    def ask(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> Any:
+        self.last = int(self.read(rules, step, input_fn, out))
+        return self.last
+
+    def read(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> Any:
+        """Draw the game and ask until :meth:`parse` takes the answer (q resigns)."""
         print(self.draw(rules), file=out)
         while True:
             try:
@@ -335,8 +340,7 @@ class _HumanSeat:
                 raise _Resign
             action, problem = self.parse(text)
             if problem is None:
-                self.last = int(action)
-                return int(action)
+                return action
             print(f"  {problem}", file=out)
 
     # generic (physics games): a coarse top-down view; actions by number or name
@@ -475,20 +479,9 @@ class _RobotSeat(_HumanSeat):
         self.text = "x"
         self.held = 0
 
-    def ask(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> np.ndarray:  # type: ignore[override]
+    def ask(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> np.ndarray:
         if self.held <= 0:
-            print(self.draw(rules), file=out)
-            while True:
-                try:
-                    text = input_fn(self.prompt(step)).strip().lower()
-                except EOFError:
-                    raise _Resign from None
-                if text in _QUIT:
-                    raise _Resign
-                problem = self.command(text)
-                if problem is None:
-                    break
-                print(f"  {problem}", file=out)
+            self.direction, self.text, self.held = self.read(rules, step, input_fn, out)
         self.held -= 1
         from arena_league.envs.robots.gait import stand, trot
 
@@ -499,12 +492,12 @@ class _RobotSeat(_HumanSeat):
         turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
         return trot(obs, (turn @ self.direction)[None])[0]
 
-    def command(self, text: str) -> str | None:
-        """Take ``text`` (``<direction> [steps]``, Enter repeats the last); a problem, or None."""
+    def parse(self, text: str) -> tuple[Any, str | None]:
+        """``text`` (``<direction> [steps]``; Enter repeats the last) as ``(direction, keys, steps)``."""
         words = text.split() or [self.text]
         keys, steps = words[0], self.HOLD
         if len(words) > 2 or (len(words) == 2 and not (words[1].isdigit() and int(words[1]) > 0)):
-            return (f"{text!r} is not a command: type a direction (w, a, s, d, two of them such as wd, or x to "
+            return None, (f"{text!r} is not a command: type a direction (w, a, s, d, two of them such as wd, or x to "
                     "stand) and optionally a number of steps, such as 'd 10'")
         if len(words) == 2:
             steps = int(words[1])
@@ -513,12 +506,11 @@ class _RobotSeat(_HumanSeat):
         elif keys and all(k in _ROBOT_KEYS for k in keys) and len(keys) <= 2:
             direction = sum(_ROBOT_KEYS[k] for k in keys)
             if not direction.any():
-                return f"{keys!r} cancels out: choose directions that are not opposite (wd, sa, ...)"
+                return None, f"{keys!r} cancels out: choose directions that are not opposite (wd, sa, ...)"
             direction = direction / np.linalg.norm(direction)
         else:
-            return f"{keys!r} is not a direction: type w (up), a (left), s (down), d (right), two of them, or x"
-        self.direction, self.text, self.held = direction, keys, steps
-        return None
+            return None, f"{keys!r} is not a direction: type w (up), a (left), s (down), d (right), two of them, or x"
+        return (direction, keys, steps), None
 
     def draw(self, rules: Any) -> str:
         team = int(rules.team_of[self.seat])

@@ -618,7 +618,7 @@ def _buffer_name(name: str) -> str:
 def _actions(values: np.ndarray, arch: Architecture, uniforms: np.ndarray, mask: np.ndarray | None,
              greedy: bool, log_std: np.ndarray | None = None) -> np.ndarray:
     if arch.action_type == "continuous":
-        if greedy or log_std is None or arch.noise == "none":
+        if greedy or log_std is None:
             return values.astype(np.float32)
         return noisy_actions(values, log_std, uniforms, arch.noise)
     mask = legal_mask(mask, values.shape)

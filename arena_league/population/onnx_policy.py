@@ -194,8 +194,8 @@ def _noise(model: onnx.ModelProto, outputs: dict, spec: ActionSpec, source: str)
     if spec.action_type != "continuous" or "log_std" not in outputs:
         return "none"
     dims = _dims(outputs["log_std"])
-    if dims is None or dims[0] != _FLOAT or len(dims[1]) != 2 or dims[1][1] not in (spec.act_dim, None) \
-            and not isinstance(dims[1][1], str):
+    if dims is None or dims[0] != _FLOAT or len(dims[1]) != 2 or (isinstance(dims[1][1], int)
+                                                                   and dims[1][1] != spec.act_dim):
         raise SpaceMismatchError(f"{source}: output log_std is {_shape_text(outputs['log_std'])}; a sampling agent's "
                                  f"log_std is float32[N, {spec.act_dim}] (one per action component)")
     noise = {prop.key: prop.value for prop in model.metadata_props}.get(META_NOISE, "gaussian")
