@@ -488,17 +488,17 @@ class _RobotSeat(_HumanSeat):
         obs = rules.observe()[self.seat: self.seat + 1]
         if not self.direction.any():
             return stand(obs)[0]
-        angle = -float(rules.seat_angle[self.seat])  # world frame (as drawn) -> the seat's frame
-        turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-        return trot(obs, (turn @ self.direction)[None])[0]
+        # world frame (as drawn) -> the seat's frame: turn by minus the seat's angle
+        way = complex(*self.direction) * np.exp(-1j * float(rules.seat_angle[self.seat]))
+        return trot(obs, [[way.real, way.imag]])[0]
 
     def parse(self, text: str) -> tuple[Any, str | None]:
         """``text`` (``<direction> [steps]``; Enter repeats the last) as ``(direction, keys, steps)``."""
         words = text.split() or [self.text]
         keys, steps = words[0], self.HOLD
         if len(words) > 2 or (len(words) == 2 and not (words[1].isdigit() and int(words[1]) > 0)):
-            return None, (f"{text!r} is not a command: type a direction (w, a, s, d, two of them such as wd, or x to "
-                    "stand) and optionally a number of steps, such as 'd 10'")
+            return None, (f"{text!r} is not a command: type a direction (w, a, s, d, two of them such as wd, or x "
+                          "to stand) and optionally a number of steps, such as 'd 10'")
         if len(words) == 2:
             steps = int(words[1])
         if keys in ("x", "stand"):

@@ -314,8 +314,8 @@ class OnnxPolicy(Policy):
             state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
         out, next_state, log_std = self._forward(obs, state)
         for name, values in ((self.signature.output, out), ("log_std", log_std)):
-            bad = ~np.isfinite(values).all(axis=1) if values is not None else np.zeros(0, bool)
-            if bad.any():
+            bad = ~np.isfinite(values).all(axis=1) if values is not None else None
+            if bad is not None and bad.any():
                 raise PolicyOutputError(f"{self.name} output NaN or infinite {name} for {int(bad.sum())} of "
                                         f"{len(values)} observations (first: row {int(np.argmax(bad))})")
         if self.spec.action_type == "continuous":
