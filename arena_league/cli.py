@@ -400,7 +400,7 @@ def _required(value: Any, what: str) -> Any:
 
 
 def _build_population(args: argparse.Namespace, league) -> int:
-    from arena_league.population.build import build_population
+    from arena_league.league.population.build import build_population
 
     game = _required(args.target, "a game id, e.g. `arena-league population build Soccer-2T2P-v1`")
 
@@ -691,7 +691,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
     errors: list[type[BaseException]] = [CommandError, ValueError, FileNotFoundError, RegistryError]
     try:
-        from arena_league.population.errors import ArtifactError
+        from arena_league.policies.errors import ArtifactError
 
         errors.append(ArtifactError)
     except ImportError:

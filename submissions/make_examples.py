@@ -24,7 +24,7 @@ import torch
 from torch import nn
 
 from arena_league.envs import make
-from arena_league.population import (
+from arena_league.policies import (
     Architecture,
     TorchPolicy,
     export_onnx,
@@ -33,7 +33,7 @@ from arena_league.population import (
     scripted_policy,
     validate_submission,
 )
-from arena_league.population.families import build_module
+from arena_league.policies.families import build_module
 
 GAME = "Crossroads-2T2P-v1"
 HERE = Path(__file__).resolve().parent

@@ -12,9 +12,9 @@ import pytest
 
 from arena_league.league.human import ascii_topdown, play_human
 from arena_league.league.service import import_population, open_home
-from arena_league.population import init_parameters, save_arena_policy
-from arena_league.population.families import Architecture, with_spaces
-from arena_league.population.spaces import game_action_spec
+from arena_league.policies import init_parameters, save_arena_policy
+from arena_league.policies.families import Architecture, with_spaces
+from arena_league.policies.spaces import game_action_spec
 from arena_league.registry import get_agent, match_seat_rows
 
 

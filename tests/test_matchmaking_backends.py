@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from arena_league.matchmaking import AgentRef, play_matches, round_robin, specs_for_seatings
-from arena_league.population import (
+from arena_league.policies import (
     Architecture,
     export_onnx,
     game_action_spec,

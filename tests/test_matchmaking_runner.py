@@ -19,8 +19,8 @@ from arena_league.matchmaking import (
     round_robin,
     specs_for_seatings,
 )
-from arena_league.population.families import Architecture, TorchPolicy
-from arena_league.population.scripted import HeuristicPolicy, RandomPolicy
+from arena_league.policies.families import Architecture, TorchPolicy
+from arena_league.policies.scripted import HeuristicPolicy, RandomPolicy
 
 
 @pytest.fixture(autouse=True, scope="module")

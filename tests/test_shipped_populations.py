@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import torch
 
-from arena_league.population import load_policy
-from arena_league.population.build import CRITERIA, load_bundles
-from arena_league.population.scripted import scripted_policy
+from arena_league.policies import load_policy
+from arena_league.league.population.build import CRITERIA, load_bundles
+from arena_league.policies.scripted import scripted_policy
 
 ROOT = Path(__file__).resolve().parent.parent / "checkpoints"
 SHIPPED = sorted(p.parent for p in ROOT.glob("*/base-v1/population.json"))

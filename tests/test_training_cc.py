@@ -11,7 +11,7 @@ import pytest
 import torch
 from line_race import make_line_race
 
-from arena_league.population import load_policy
+from arena_league.policies import load_policy
 from arena_league.training import run_scheme
 from arena_league.training.cc import CC, CCConfig, CentralCriticLearner, central_critic_features
 

@@ -12,7 +12,7 @@ import torch
 from line_race import make_line_race
 
 from arena_league.envs import make
-from arena_league.population import load_policy
+from arena_league.policies import load_policy
 from arena_league.training import run_scheme
 from arena_league.training.cf import (
     CF,

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from arena_league.population import load_agent, scripted_policy
+from arena_league.policies import load_agent, scripted_policy
 from arena_league.training import PPO, PPOConfig, run_scheme
 from arena_league.training.curves import evaluate_learners
 from arena_league.training.imitation import WarmStart, warm_start

@@ -9,7 +9,7 @@ import pytest
 import torch
 from line_race import make_line_race
 
-from arena_league.population import load_policy
+from arena_league.policies import load_policy
 from arena_league.training import PBT, PPOConfig, run_scheme
 
 HURRY = {"scheme": "CP", "reward": "ranking", "scale": 1, "children": [

@@ -10,7 +10,7 @@ import torch
 from line_race import make_line_race
 from scipy.special import ndtri
 
-from arena_league.population import Architecture, TorchPolicy
+from arena_league.policies import Architecture, TorchPolicy
 from arena_league.training import PPO, Batch, Learner, PPOConfig, RunningMeanStd, gae, make_env_fn, ppo_update
 from arena_league.training.rollout import RolloutCollector, learner_batch
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from line_race import make_line_race
 
-from arena_league.population import StackedPolicy, init_parameters, scripted_policy
+from arena_league.policies import StackedPolicy, init_parameters, scripted_policy
 from arena_league.training import Learner, Opponent, PPOConfig, RolloutCollector, learner_batch, make_env_fn
 from arena_league.training.ppo import game_architecture
 

@@ -9,7 +9,7 @@ import json
 import pytest
 import torch
 
-from arena_league.population import load_agent
+from arena_league.policies import load_agent
 from arena_league.training import PPO, SCHEMES, register_scheme, run_scheme, scheme_runner
 from arena_league.training.schemes import RUN_RECORD
 

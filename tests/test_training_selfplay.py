@@ -10,7 +10,7 @@ import torch
 from line_race import make_line_race
 
 from arena_league.matchmaking import play_matches, specs_for_seatings
-from arena_league.population import TorchPolicy, load_agent
+from arena_league.policies import TorchPolicy, load_agent
 from arena_league.training import PPOConfig, SelfPlay, pfsp_weights, run_scheme
 from arena_league.training.schemes import make_env_fn
 from arena_league.training.selfplay import OpponentPool

@@ -130,7 +130,7 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     *rejected*, with the reason and the validation log. The same bytes submitted again return the
     agent already registered for them (idempotent by content hash).
     """
-    from arena_league.population import (
+    from arena_league.policies import (
         CorruptArtifactError,
         load_agent,
         read_artifact,

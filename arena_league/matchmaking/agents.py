@@ -2,7 +2,7 @@
 
 The process-pool and Ray backends never ship torch objects between processes: each worker gets
 :class:`AgentRef` records (a few strings) and loads the policies itself through
-:mod:`arena_league.population`, once per worker process. A reference names
+:mod:`arena_league.policies`, once per worker process. A reference names
 
 * ``scripted``: a built-in agent by name (``random``, ``heuristic``);
 * ``onnx``: an ONNX file following DESIGN.md's I/O convention;
@@ -17,7 +17,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from arena_league.population.policy import Policy
+from arena_league.policies.policy import Policy
 
 __all__ = ["AGENT_KINDS", "AgentRef", "load_agents"]
 
@@ -57,10 +57,10 @@ class AgentRef:
         return f"{self.kind}:{self.name}"
 
     def load(self) -> Policy:
-        """The agent's :class:`Policy`, loaded through :mod:`arena_league.population` (artifacts are
+        """The agent's :class:`Policy`, loaded through :mod:`arena_league.policies` (artifacts are
         read safely: no pickle, TorchScript or .pt2; spaces are checked against the game)."""
         if self.kind == "scripted":
-            from arena_league.population.scripted import scripted_policy
+            from arena_league.policies.scripted import scripted_policy
 
             return scripted_policy(self.name, self.game_id, self.action_type)
         return _load_artifact(self)
@@ -74,7 +74,7 @@ class AgentRef:
 
 
 def _load_artifact(ref: AgentRef) -> Policy:
-    from arena_league.population.artifacts import load_policy
+    from arena_league.policies.artifacts import load_policy
 
     return load_policy(ref.name, ref.game_id, action_type=ref.action_type)
 

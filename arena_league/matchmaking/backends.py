@@ -31,7 +31,7 @@ from typing import Any
 from arena_league.matchmaking.agents import AgentRef, load_agents
 from arena_league.matchmaking.runner import LockstepRunner
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
-from arena_league.population.policy import Policy
+from arena_league.policies.policy import Policy
 
 __all__ = ["BACKENDS", "play_chunk", "play_matches"]
 
@@ -66,7 +66,7 @@ def _worker_init() -> None:
 
 
 #: Modules the fork server imports once, so that every pool's workers start without importing them.
-_PRELOAD = ["arena_league.matchmaking", "arena_league.population"]
+_PRELOAD = ["arena_league.matchmaking", "arena_league.policies"]
 
 
 def _process_context() -> multiprocessing.context.BaseContext:

@@ -41,7 +41,7 @@ import numpy as np
 
 from arena_league.envs import make
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
-from arena_league.population.policy import ActionSpec, Policy
+from arena_league.policies.policy import ActionSpec, Policy
 
 __all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "action_spec_of", "policy_units"]
 
@@ -80,9 +80,9 @@ class PolicyUnit:
 
 def policy_units(policies: Sequence[Policy]) -> list[PolicyUnit]:
     """Groups distinct policies into units: torch agents of one architecture stack into a single
-    :class:`~arena_league.population.families.StackedPolicy` (one forward for all of them, with
+    :class:`~arena_league.policies.families.StackedPolicy` (one forward for all of them, with
     each row's owner index); every other policy is a unit of its own."""
-    families = sys.modules.get("arena_league.population.families")
+    families = sys.modules.get("arena_league.policies.families")
     if families is None:  # no torch agent can exist unless the families module was imported
         return [PolicyUnit(p, (i,), False) for i, p in enumerate(policies)]
     return [PolicyUnit(g.policy, tuple(g.members), isinstance(g.policy, families.StackedPolicy))

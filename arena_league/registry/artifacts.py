@@ -14,7 +14,7 @@ outside the store.
 Writes are atomic: content is copied (and hashed on the way) into `artifacts/.incoming/`, flushed
 to disk, then renamed into place, so a crash leaves either nothing or a complete artifact. This
 module stores and finds bytes; what they mean (ONNX graphs, manifests) is
-`arena_league.population`'s business.
+`arena_league.policies`'s business.
 """
 
 from __future__ import annotations

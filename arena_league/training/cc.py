@@ -8,7 +8,7 @@ Benchmarks), MAPPO:
 * **Decentralised actors.** Each seat acts from its own observation only (the game's base
   observation, what an exported agent reads). The seats of the trained team share one actor
   (MAPPO's parameter sharing among homogeneous agents), a
-  :class:`~arena_league.population.families.FamilyNet`, so every snapshot is an ordinary agent.
+  :class:`~arena_league.policies.families.FamilyNet`, so every snapshot is an ordinary agent.
 * **A centralised critic** ``V(s, i)`` reads the global state ``env.state()`` and the seat's id
   (a one-hot seat index: one value function serves every seat, and MAPPO's "agent-specific"
   input tells it whose return to predict). It is used in training only; nothing of it is
@@ -26,7 +26,7 @@ other teams are played by
   (:class:`~arena_league.training.selfplay.OpponentPool`: ``"latest"``, ``"uniform"``,
   ``"80/20"``, ``"pfsp_hard"``, ``"pfsp_var"``);
 * ``"scripted:heuristic"`` / ``"scripted:random"``, a path to an agent artifact (ONNX, arena-policy
-  folder) or any league :class:`~arena_league.population.policy.Policy`: a fixed opponent;
+  folder) or any league :class:`~arena_league.policies.policy.Policy`: a fixed opponent;
 * ``"none"``: the learner plays every seat (for cooperative social trees, e.g. Crossroads'
   ``all_CL``).
 
@@ -52,8 +52,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from arena_league.population.families import Architecture, StackedPolicy
-from arena_league.population.policy import Policy
+from arena_league.policies.families import Architecture, StackedPolicy
+from arena_league.policies.policy import Policy
 from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 from arena_league.training.schemes import register_scheme, scheme_runner

@@ -5,7 +5,7 @@ Toolkit for Multi-Agent Intelligence", AAAI 2020), after Foerster, Farquhar, Afo
 Whiteson, "Counterfactual Multi-Agent Policy Gradients" (AAAI 2018), COMA:
 
 * **Decentralised actors**, one actor shared by the seats of the trained team (a
-  :class:`~arena_league.population.families.FamilyNet` reading the seat's own observation, so
+  :class:`~arena_league.policies.families.FamilyNet` reading the seat's own observation, so
   every snapshot is an ordinary agent).
 * **A centralised Q critic** ``Q(s, u^-a, a, .)``: from the global state ``s = env.state()``, the
   seat's one-hot id ``a`` and the actions ``u^-a`` of every *other* seat (one-hot blocks in seat
@@ -60,8 +60,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from arena_league.population.families import Architecture, legal_mask
-from arena_league.population.policy import Policy
+from arena_league.policies.families import Architecture, legal_mask
+from arena_league.policies.policy import Policy
 from arena_league.training.cc import TeamSeats, paper_config, paper_runner
 from arena_league.training.ppo import (
     Learner,

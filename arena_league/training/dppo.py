@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from arena_league.population.families import Architecture
+from arena_league.policies.families import Architecture
 from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
 from arena_league.training.rollout import RolloutCollector
 

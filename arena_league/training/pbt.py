@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from arena_league.population.families import Architecture
+from arena_league.policies.families import Architecture
 from arena_league.rating import elo_expected_score
 from arena_league.training.dppo import learner_seed
 from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record

@@ -15,7 +15,7 @@ Multi-Agent Games", NeurIPS 2022).
 The pieces, in the order one iteration uses them:
 
 * :class:`PPOConfig`: the hyper-parameters, each with its default's source;
-* :class:`Learner`: an actor (a :class:`~arena_league.population.families.FamilyNet`, so a
+* :class:`Learner`: an actor (a :class:`~arena_league.policies.families.FamilyNet`, so a
   snapshot is an arena-policy / ONNX agent as it stands), a critic, the optimiser and the value
   normaliser; :meth:`Learner.act` samples actions from caller-given noise (deterministic);
 * :func:`gae`: advantages and returns of ``[T, N]`` trajectories;
@@ -48,8 +48,8 @@ import numpy as np
 import torch
 from torch import nn
 
-from arena_league.population.families import Architecture, FamilyNet, TorchPolicy, build_module, legal_mask
-from arena_league.population.policy import sample_from_logits
+from arena_league.policies.families import Architecture, FamilyNet, TorchPolicy, build_module, legal_mask
+from arena_league.policies.policy import sample_from_logits
 
 __all__ = [
     "PPO",
@@ -310,7 +310,7 @@ class Learner:
         return params
 
     def policy(self, greedy: bool = False, name: str | None = None) -> TorchPolicy:
-        """The actor as a league :class:`~arena_league.population.policy.Policy` (a frozen copy)."""
+        """The actor as a league :class:`~arena_league.policies.policy.Policy` (a frozen copy)."""
         return TorchPolicy(self.architecture, self.actor_parameters(), name=name or self.name, greedy=greedy,
                            compute_dtype=torch.float32)
 

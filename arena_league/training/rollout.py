@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from arena_league.population.policy import Policy
+from arena_league.policies.policy import Policy
 from arena_league.training.ppo import Batch, Learner, gae
 
 __all__ = ["Episode", "Opponent", "Rollout", "RolloutCollector", "check_trainable", "learner_batch"]

@@ -50,13 +50,13 @@ from typing import Any
 import torch
 from safetensors.torch import load_file
 
-from arena_league.population.artifacts import (
+from arena_league.policies.artifacts import (
     MANIFEST_FILE,
     WEIGHTS_FILE,
     manifest_architecture,
     save_arena_policy,
 )
-from arena_league.population.families import Architecture
+from arena_league.policies.families import Architecture
 from arena_league.training.dppo import DPPO
 from arena_league.training.imitation import WarmStart, warm_start
 from arena_league.training.pbt import PBT
@@ -90,7 +90,7 @@ class Snapshot:
     """The actor's float32 parameters (the arena-policy safetensors layout; a continuous actor's
     include its ``log_std``, and its architecture its noise, so the snapshot samples as it learned)."""
     path: Path
-    """Its arena-policy folder (load with ``arena_league.population.load_policy(path, game_id)``)."""
+    """Its arena-policy folder (load with ``arena_league.policies.load_policy(path, game_id)``)."""
     learner: str = "learner"
     metrics: dict[str, Any] = field(default_factory=dict)
     """Episode return, hyper-parameters and scheme-specific figures (Elo, win rates)."""

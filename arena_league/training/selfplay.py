@@ -35,7 +35,7 @@ past players and exploiters. The learner's running score against each is logged.
 
 The pool holds at most ``pool_size`` snapshots; once full, a new snapshot replaces the oldest in
 place. All pool members play as one stacked policy (one batched forward for every opponent seat
-of every env, with owner indices; :class:`~arena_league.population.families.StackedPolicy`).
+of every env, with owner indices; :class:`~arena_league.policies.families.StackedPolicy`).
 """
 
 from __future__ import annotations
@@ -46,8 +46,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from arena_league.population.families import Architecture, StackedPolicy
-from arena_league.population.policy import Policy
+from arena_league.policies.families import Architecture, StackedPolicy
+from arena_league.policies.policy import Policy
 from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 
@@ -74,7 +74,7 @@ def load_fixed_opponent(reference: str, game_id: str, action_type: str) -> Polic
     """A fixed opponent of a trainer (SP's ``fixed_opponents``, CC's ``opponent``): an agent reference
     (``scripted:random``, ``onnx:agent.onnx``, ``arena-policy:folder``) or an artifact path. Loading
     it for the game's action type checks its spaces; a bad name or path is explained by the loader."""
-    from arena_league.population import load_policy
+    from arena_league.policies import load_policy
 
     kind, sep, rest = reference.partition(":")
     path = rest if sep and kind in ("onnx", "arena-policy") else reference

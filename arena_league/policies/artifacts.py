@@ -47,7 +47,7 @@ from safetensors import SafetensorError
 from safetensors.torch import load as load_safetensors
 from safetensors.torch import save as save_safetensors
 
-from arena_league.population.errors import (
+from arena_league.policies.errors import (
     ArtifactError,
     ArtifactTooLargeError,
     CorruptArtifactError,
@@ -55,22 +55,22 @@ from arena_league.population.errors import (
     SpaceMismatchError,
     UnsafeArtifactError,
 )
-from arena_league.population.families import (
+from arena_league.policies.families import (
     Architecture,
     TorchPolicy,
     architecture_from_manifest,
     check_parameters,
 )
-from arena_league.population.onnx_policy import OnnxPolicy, parse_onnx
-from arena_league.population.policy import ActionSpec, Policy
-from arena_league.population.scripted import (
+from arena_league.policies.onnx_policy import OnnxPolicy, parse_onnx
+from arena_league.policies.policy import ActionSpec, Policy
+from arena_league.policies.scripted import (
     SCRIPTED_FORMAT,
     SCRIPTED_NAMES,
     SCRIPTED_PREFIX,
     scripted_descriptor,
     scripted_policy,
 )
-from arena_league.population.spaces import action_types, game_action_spec
+from arena_league.policies.spaces import action_types, game_action_spec
 
 MiB = 1 << 20
 #: Artifact kinds, named as the registry's ``ArtifactFormat`` values.

@@ -9,7 +9,7 @@ output ``log_std`` ``float32[N, act_dim]`` (its learned constant, repeated per r
 noise is ``"squashed"``, says so in the metadata (``arena_league.noise``).
 
 The graph is written node by node with the ``onnx`` helper API from the family's parameters
-(the same structure as :class:`arena_league.population.families.FamilyNet`), not traced, so the
+(the same structure as :class:`arena_league.policies.families.FamilyNet`), not traced, so the
 export needs no exporter package and gives the same bytes for the same weights. Opset 17, which
 every onnxruntime since 1.14 runs.
 """
@@ -24,7 +24,7 @@ import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
 
-from arena_league.population.families import Architecture, check_parameters
+from arena_league.policies.families import Architecture, check_parameters
 
 OPSET = 17
 IR_VERSION = 8

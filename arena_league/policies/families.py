@@ -65,8 +65,8 @@ from scipy.special import ndtri
 from torch import nn
 from torch.nn import functional as F
 
-from arena_league.population.errors import ManifestError
-from arena_league.population.policy import ActionSpec, Policy, legal_mask, sample_from_logits
+from arena_league.policies.errors import ManifestError
+from arena_league.policies.policy import ActionSpec, Policy, legal_mask, sample_from_logits
 
 FAMILIES: tuple[str, ...] = ("mlp", "cnn", "gru")
 ACTIVATIONS: tuple[str, ...] = ("tanh", "relu")
@@ -307,7 +307,7 @@ def architecture_from_manifest(family: Any, sizes: Any, spaces: Mapping[str, Any
                             action_type=action_type, **{out_key: _as_int(spaces[out_key], out_key)}, **kwargs)
     except (TypeError, KeyError) as error:
         raise ManifestError(f"manifest sizes or spaces are malformed ({error}); see an example with "
-                            "`arena_league.population.save_arena_policy`") from None
+                            "`arena_league.policies.save_arena_policy`") from None
 
 
 def _as_int(value: Any, name: str) -> int:
@@ -675,7 +675,7 @@ class TorchPolicy(Policy):
 
     def export_onnx(self, path: str | None = None, game_id: str | None = None) -> bytes:
         """This agent as ONNX bytes (written to ``path`` when given); see :mod:`.onnx_export`."""
-        from arena_league.population.onnx_export import export_onnx
+        from arena_league.policies.onnx_export import export_onnx
 
         return export_onnx(self.architecture, self.parameters(), path, game_id)
 

@@ -25,10 +25,10 @@ import onnxruntime as ort
 from google.protobuf.message import DecodeError
 from onnxruntime.capi import onnxruntime_pybind11_state as _ort_state
 
-from arena_league.population.errors import CorruptArtifactError, SpaceMismatchError
-from arena_league.population.families import NOISES, noisy_actions
-from arena_league.population.onnx_export import META_GAME, META_NOISE
-from arena_league.population.policy import ActionSpec, Policy, legal_mask, sample_from_logits
+from arena_league.policies.errors import CorruptArtifactError, SpaceMismatchError
+from arena_league.policies.families import NOISES, noisy_actions
+from arena_league.policies.onnx_export import META_GAME, META_NOISE
+from arena_league.policies.policy import ActionSpec, Policy, legal_mask, sample_from_logits
 
 _FLOAT = onnx.TensorProto.FLOAT
 #: onnxruntime's exception types (they derive from Exception directly).
@@ -67,7 +67,7 @@ class OnnxSignature:
 
 def parse_onnx(data: bytes, source: str = "the ONNX file") -> onnx.ModelProto:
     """Parse and check an ONNX model; a truncated or corrupt file raises :class:`CorruptArtifactError`."""
-    fix = "re-export the model (torch.onnx.export or arena_league.population.export_onnx) and submit the whole file"
+    fix = "re-export the model (torch.onnx.export or arena_league.policies.export_onnx) and submit the whole file"
     try:
         model = onnx.load_model_from_string(data)
     except (DecodeError, ValueError, RuntimeError) as error:

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import torch
 
-from arena_league.population import (
+from arena_league.policies import (
     Architecture,
     ArtifactError,
     ArtifactLimits,

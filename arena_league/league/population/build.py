@@ -14,7 +14,7 @@ as the base population new agents are ranked against. :func:`build_population` m
    on the batched match engine (torch agents of one architecture stacked into one forward);
 4. **rate**: Bradley-Terry over the round robin (Elo scale);
 5. **select**: ``size`` candidates spanning the rating range from just above the random agent to
-   the strongest, differing in whom they beat (:mod:`arena_league.population.selection`);
+   the strongest, differing in whom they beat (:mod:`arena_league.league.population.selection`);
 6. **figures**: the members' ratings with bootstrap intervals (over the matches among members
    and the scripted references), the Bradley-Terry spread, the best member against the worst
    (``verify_matches`` extra matches), the random agent's rank, the schemes present, the
@@ -58,9 +58,9 @@ import numpy as np
 import torch
 from safetensors.torch import load_file, save_file
 
-from arena_league.population.artifacts import manifest_architecture, save_arena_policy
-from arena_league.population.families import Architecture, StackedPolicy, TorchPolicy, check_parameters
-from arena_league.population.selection import select_spanning
+from arena_league.policies.artifacts import manifest_architecture, save_arena_policy
+from arena_league.policies.families import Architecture, StackedPolicy, TorchPolicy, check_parameters
+from arena_league.league.population.selection import select_spanning
 
 __all__ = [
     "BUNDLE_FORMAT",
@@ -582,7 +582,7 @@ def _thin(candidates: list[Candidate], limit: int) -> list[Candidate]:
 
 
 def _policies(game_id: str, candidates: list[Candidate]) -> dict[str, Any]:
-    from arena_league.population.scripted import scripted_policy
+    from arena_league.policies.scripted import scripted_policy
 
     policies: dict[str, Any] = {c.key: TorchPolicy(c.architecture, c.params, name=c.key) for c in candidates}
     for ref in _REFERENCES:
@@ -904,12 +904,12 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
                  + f"snapshots={build['snapshots_per_run']}, seed={build['seed']}, "
                  f"matches_per_pair={build['matches_per_pair']}, max_candidates={build['max_candidates']}"
                  + (f", scheme_options={build['scheme_options']!r}" if build["scheme_options"] else "") + ")")
-    reproduce = "from arena_league.population.build import build_population\n    " + reproduce
+    reproduce = "from arena_league.league.population.build import build_population\n    " + reproduce
     return f"""# {name}: the base population of {game}
 
 {len(manifest['members'])} agents that {len(figures.get('schemes', {}))} training schemes produced, frozen as
 the base population new {game} agents are ranked against (after Arena, Song et al., AAAI 2020).
-Built by `arena_league.population.build.build_population` (code {build['code']}).
+Built by `arena_league.league.population.build.build_population` (code {build['code']}).
 
 ## Provenance
 
@@ -940,7 +940,7 @@ Built by `arena_league.population.build.build_population` (code {build['code']})
 |---|---|---|---|---|
 {scheme_rows}
 
-## Criteria (issue 5)
+## Criteria
 
 | criterion | rule | value | met |
 |---|---|---|---|
@@ -958,7 +958,7 @@ Built by `arena_league.population.build.build_population` (code {build['code']})
     arena-league rank my-agent --population {name}
 
 or, in Python, `arena_league.league.service.import_population(league, "checkpoints/{game}/{name}")`
-and `arena_league.population.build.load_bundles("checkpoints/{game}/{name}")` for the stacked weights.
+and `arena_league.league.population.build.load_bundles("checkpoints/{game}/{name}")` for the stacked weights.
 """
 
 

@@ -12,7 +12,7 @@ import pytest
 import torch
 from onnx import TensorProto, helper, numpy_helper
 
-from arena_league.population import (
+from arena_league.policies import (
     Architecture,
     GridLayout,
     OnnxPolicy,

@@ -29,7 +29,7 @@ import numpy as np
 import torch
 
 from arena_league.envs import game_spec, make
-from arena_league.population.artifacts import (
+from arena_league.policies.artifacts import (
     DEFAULT_LIMITS,
     AgentArtifact,
     AgentInfo,
@@ -37,11 +37,11 @@ from arena_league.population.artifacts import (
     load_agent,
     read_artifact,
 )
-from arena_league.population.errors import ArtifactError
-from arena_league.population.onnx_policy import PolicyOutputError
-from arena_league.population.policy import ActionSpec, Policy
-from arena_league.population.scripted import RandomPolicy
-from arena_league.population.spaces import action_types
+from arena_league.policies.errors import ArtifactError
+from arena_league.policies.onnx_policy import PolicyOutputError
+from arena_league.policies.policy import ActionSpec, Policy
+from arena_league.policies.scripted import RandomPolicy
+from arena_league.policies.spaces import action_types
 
 #: Relative tolerance when comparing a row computed alone with the same row in a batch.
 BATCH_TOLERANCE = 1e-4

@@ -20,8 +20,8 @@ import json
 import numpy as np
 
 from arena_league.envs import game_spec
-from arena_league.population.policy import ActionSpec, Policy, legal_mask, sample_from_logits
-from arena_league.population.spaces import game_action_spec
+from arena_league.policies.policy import ActionSpec, Policy, legal_mask, sample_from_logits
+from arena_league.policies.spaces import game_action_spec
 
 SCRIPTED_NAMES: tuple[str, ...] = ("random", "heuristic")
 #: Prefix of a scripted agent's reference, e.g. ``scripted:heuristic``.

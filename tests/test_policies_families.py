@@ -9,7 +9,7 @@ import onnxruntime as ort
 import pytest
 import torch
 
-from arena_league.population import (
+from arena_league.policies import (
     Architecture,
     GridLayout,
     ManifestError,
@@ -23,8 +23,8 @@ from arena_league.population import (
     scripted_policy,
     stack_policies,
 )
-from arena_league.population.artifacts import manifest_architecture
-from arena_league.population.families import RowGroups
+from arena_league.policies.artifacts import manifest_architecture
+from arena_league.policies.families import RowGroups
 
 ARCHITECTURES = {
     "mlp-discrete": Architecture("mlp", 25, "discrete", n_actions=5, hidden=(32, 32)),
@@ -254,7 +254,7 @@ def test_noisy_continuous_agents_sample_around_their_mean_the_same_way_everywher
 
 
 def load_policy_from_onnx(data: bytes, arch: Architecture):
-    from arena_league.population.onnx_policy import OnnxPolicy
+    from arena_league.policies.onnx_policy import OnnxPolicy
 
     return OnnxPolicy(data, arch.spec, "Crossroads-2T2P-v1")
 
@@ -277,7 +277,7 @@ def test_noise_is_named_in_the_manifest_and_bad_noise_is_refused():
 
 
 def test_an_onnx_agent_with_a_malformed_log_std_or_noise_is_refused_with_the_fix():
-    from arena_league.population import SpaceMismatchError
+    from arena_league.policies import SpaceMismatchError
 
     arch = ARCHITECTURES["mlp-gaussian"]
     model = onnx.load_model_from_string(TorchPolicy(arch, _sharpened(arch, 0)).export_onnx())

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from arena_league.envs import game_spec, list_games, make
-from arena_league.population import game_action_spec, load_agent, scripted_descriptor, scripted_policy
+from arena_league.policies import game_action_spec, load_agent, scripted_descriptor, scripted_policy
 
 
 def test_random_respects_masks_and_is_uniform_over_legal_actions():

@@ -10,7 +10,7 @@ from __future__ import annotations
 from functools import cache
 
 from arena_league.envs import game_spec, make_rules
-from arena_league.population.policy import ActionSpec
+from arena_league.policies.policy import ActionSpec
 
 
 @cache
