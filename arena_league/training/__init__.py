@@ -1,9 +1,10 @@
-"""The training layer (DESIGN.md, "training/"): Arena's baselines on one PPO core.
+"""The training layer: Arena's baselines on one PPO core.
 
 After Song et al., "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent
 Intelligence" (AAAI 2020), whose base populations come from several training schemes:
 
-* :mod:`.ppo`: the PPO core (config, learner, GAE, the update) and the plain parameter-shared scheme;
+* :mod:`.ppo`: the PPO core (config, learner, GAE, the update);
+* :mod:`.trainer`: what every scheme shares, and the plain parameter-shared PPO scheme;
 * :mod:`.rollout`: K envs in lockstep, every seat's action from one batched forward per controller;
 * :mod:`.dppo`: independent learners, one per seat or team;
 * :mod:`.selfplay`: self-play against snapshots ("latest", "uniform", "80/20", PFSP);
@@ -19,7 +20,6 @@ Intelligence" (AAAI 2020), whose base populations come from several training sch
 from arena_league.training.dppo import DPPO
 from arena_league.training.pbt import PBT
 from arena_league.training.ppo import (
-    PPO,
     Batch,
     Learner,
     PPOConfig,
@@ -39,11 +39,12 @@ from arena_league.training.schemes import (
     scheme_runner,
 )
 from arena_league.training.selfplay import OPPONENT_SAMPLING, SelfPlay, pfsp_weights
+from arena_league.training.trainer import PPO, TrainerBase
 
 __all__ = [
     "DPPO", "OPPONENT_SAMPLING", "PBT", "PPO", "SCHEMES",
     "Batch", "Episode", "Learner", "Opponent", "PPOConfig", "Rollout", "RolloutCollector", "RunningMeanStd",
-    "SelfPlay", "Snapshot", "UpdateStats",
+    "SelfPlay", "Snapshot", "TrainerBase", "UpdateStats",
     "gae", "learner_batch", "make_env_fn", "pfsp_weights", "ppo_update", "register_scheme", "run_scheme",
     "run_trainer", "scheme_runner", "train",
 ]

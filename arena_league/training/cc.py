@@ -52,12 +52,14 @@ from typing import Any
 import numpy as np
 import torch
 
-from arena_league.policies.families import Architecture, StackedPolicy
+from arena_league.policies.architecture import Architecture
+from arena_league.policies.families import StackedPolicy
 from arena_league.policies.policy import Policy
-from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
+from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 from arena_league.training.schemes import register_scheme, scheme_runner
 from arena_league.training.selfplay import OPPONENT_SAMPLING, OpponentPool, load_fixed_opponent
+from arena_league.training.trainer import TrainerBase, format_record, iteration_record
 
 __all__ = ["CC", "CCConfig", "CentralCriticLearner", "TeamSeats", "central_critic_features", "paper_config",
            "paper_runner"]
@@ -284,7 +286,7 @@ class CC(TrainerBase):
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self.seats.seating,
                                           opponents=self.seats.opponents(), on_episode=self.seats.record)
 
-    def iterate(self) -> dict[str, Any]:
+    def _iterate(self) -> dict[str, Any]:
         """One iteration: rollout (states recorded), GAE on the centralised values, PPO update."""
         # rollout: the learner's seats in one actor and one critic forward per step
         rollout, start, collect_time = self._collect()

@@ -60,19 +60,14 @@ import numpy as np
 import torch
 from torch import nn
 
-from arena_league.policies.families import Architecture, legal_mask
+from arena_league.policies.architecture import Architecture
+from arena_league.policies.families import legal_mask
 from arena_league.policies.policy import Policy
 from arena_league.training.cc import TeamSeats, paper_config, paper_runner
-from arena_league.training.ppo import (
-    Learner,
-    PPOConfig,
-    TrainerBase,
-    annealed_lr,
-    format_record,
-    iteration_record,
-)
+from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import RolloutCollector, learner_batch
 from arena_league.training.schemes import register_scheme
+from arena_league.training.trainer import TrainerBase, annealed_lr, format_record, iteration_record
 
 __all__ = ["CF", "CFConfig", "COMACritic", "counterfactual_advantage", "counterfactual_critic_inputs",
            "policy_probabilities", "td_lambda_targets"]
@@ -273,7 +268,7 @@ class CF(TrainerBase):
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self.seats.seating,
                                           opponents=self.seats.opponents(), on_episode=self.seats.record)
 
-    def iterate(self) -> dict[str, Any]:
+    def _iterate(self) -> dict[str, Any]:
         """One iteration: rollout, critic update on TD(lambda) targets, counterfactual advantages,
         the actor's clipped update. The record's losses report the Q critic's loss as
         ``value_loss`` and its explained variance of the targets as ``explained_variance``."""

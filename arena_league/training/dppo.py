@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from arena_league.policies.families import Architecture
-from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
+from arena_league.policies.architecture import Architecture
+from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import RolloutCollector
+from arena_league.training.trainer import TrainerBase, format_record, iteration_record
 
 __all__ = ["DPPO", "learner_seed"]
 
@@ -63,7 +64,7 @@ class DPPO(TrainerBase):
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed,
                                           seating=lambda env_index, episode: self.learner_of_seat)
 
-    def iterate(self) -> dict[str, Any]:
+    def _iterate(self) -> dict[str, Any]:
         """One iteration: a shared rollout, then each learner's GAE and update on its own seats."""
         # rollout: every learner acts for its seats of every env, one forward each per step
         rollout, start, collect_time = self._collect()

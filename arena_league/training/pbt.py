@@ -30,11 +30,12 @@ from typing import Any
 
 import numpy as np
 
-from arena_league.policies.families import Architecture
+from arena_league.policies.architecture import Architecture
 from arena_league.rating import elo_expected_score
 from arena_league.training.dppo import learner_seed
-from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
+from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import Episode, RolloutCollector
+from arena_league.training.trainer import TrainerBase, format_record, iteration_record
 
 __all__ = ["PBT", "PERTURB_FACTORS"]
 
@@ -152,7 +153,7 @@ class PBT(TrainerBase):
         return events
 
     # --- training ---------------------------------------------------------------------------------
-    def iterate(self) -> dict[str, Any]:
+    def _iterate(self) -> dict[str, Any]:
         """One iteration: a rollout of matches among the population, every learner's update, and
         every ``interval`` updates the exploit/explore step."""
         # rollout: each seated learner acts for its seats in one forward per step

@@ -21,10 +21,10 @@ The pieces, in the order one iteration uses them:
 * :func:`gae`: advantages and returns of ``[T, N]`` trajectories;
 * :class:`Batch`: the flat samples one update consumes;
 * :func:`ppo_update`: the optimisation epochs over minibatches (separate from collection, so the
-  centralised-critic and counterfactual learners reuse it with their own advantages and critics);
-* :class:`PPO`: the plain scheme, one learner sharing its parameters over every seat of the
-  game (each seat of every team plays the current policy: naive self-play), readable top to
-  bottom as the model for the other schemes.
+  centralised-critic and counterfactual learners reuse it with their own advantages and critics).
+
+The schemes drive these pieces from :mod:`arena_league.training.trainer` (the trainer base and
+the plain parameter-shared PPO scheme) and :mod:`arena_league.training.rollout` (collection).
 
 Heads: discrete actions are a categorical over the actor's logits, restricted to the legal ones
 when the game masks actions; continuous actions are a Gaussian around the actor's ``tanh`` output
@@ -38,8 +38,7 @@ state each step started from (stored at collection), so gradients do not flow ba
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from itertools import pairwise
 from typing import Any
@@ -48,11 +47,11 @@ import numpy as np
 import torch
 from torch import nn
 
-from arena_league.policies.families import Architecture, FamilyNet, TorchPolicy, build_module, legal_mask
+from arena_league.policies.architecture import Architecture
+from arena_league.policies.families import FamilyNet, TorchPolicy, build_module, legal_mask
 from arena_league.policies.policy import sample_from_logits
 
 __all__ = [
-    "PPO",
     "Batch",
     "Learner",
     "PPOConfig",
@@ -608,131 +607,8 @@ def _masked_mean(x: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
     return (x * mask).sum() / count.clamp(min=1)
 
 
-# --- what every trainer shares ---------------------------------------------------------------------
-
-class TrainerBase:
-    """The parts every scheme's trainer shares: seeding first (:meth:`_begin`), then per iteration a
-    rollout (:meth:`_collect`) and each learner's GAE and clipped update (:meth:`_update`)."""
-
-    scheme = "base"
-
-    def _begin(self, env_fn: Callable[[], Any], config: PPOConfig, seed: int, architecture: Architecture | None,
-               total_steps: int | None, log: Callable[[str], None] | None) -> Any:
-        """Seed torch, keep the run's settings, check the game and choose the actor; returns a probe env."""
-        from arena_league.training.rollout import check_trainable
-
-        # seeding first: every draw of the run comes from these
-        torch.set_num_threads(1)
-        torch.manual_seed(seed)
-        self.config = config
-        self.seed = seed
-        self.rng = np.random.default_rng(np.random.SeedSequence([seed, 0]))
-        self.total_steps = total_steps
-        self.log = log
-        self.env_steps = 0
-        self.iteration = 0
-        probe = env_fn()
-        check_trainable(probe)
-        self.architecture = architecture or game_architecture(self.config, probe)
-        return probe
-
-    def _collect(self) -> tuple[Any, float, float]:
-        """``config.num_steps`` lockstep steps of every env: (the rollout, its start time, seconds)."""
-        start = time.perf_counter()
-        rollout = self.collector.collect(self.learners, self.config.num_steps)
-        self.env_steps += rollout.env_steps
-        return rollout, start, time.perf_counter() - start
-
-    def _update(self, rollout: Any, code: int, learner: Learner) -> UpdateStats:
-        """GAE over the slots learner ``code`` held, then its clipped update at the annealed step size."""
-        from arena_league.training.rollout import learner_batch
-
-        batch = learner_batch(rollout, code, learner)
-        return learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps, self.total_steps))
-
-
-# --- the plain scheme: one learner for every seat ---------------------------------------------------
-
-class PPO(TrainerBase):
-    """PPO with one learner sharing its parameters over every seat of every team (each team plays
-    the current policy: naive self-play through parameter sharing). The model the other schemes
-    follow: seeding first, then per iteration a rollout, GAE, the update, and a log line with the
-    env steps per second.
-
-    Args:
-        env_fn: makes one env of the game (``arena_league.envs.make(...)``).
-        config: hyper-parameters.
-        seed: seeds the learner, the env resets and the action noise.
-        architecture: the actor's family and sizes (default from ``config``; a CNN needs one).
-        total_steps: env steps the run will take, for learning-rate annealing (default: no annealing
-            horizon known, so the step size stays fixed).
-        log: called with a line per iteration (default: none).
-    """
-
-    scheme = "ppo"
-
-    def __init__(self, env_fn: Callable[[], Any], config: PPOConfig | None = None, seed: int = 0, *,
-                 architecture: Architecture | None = None, total_steps: int | None = None,
-                 log: Callable[[str], None] | None = None) -> None:
-        from arena_league.training.rollout import RolloutCollector
-
-        probe = self._begin(env_fn, config or PPOConfig(), seed, architecture, total_steps, log)
-        self.learners = [Learner(self.architecture, self.config, seed, name="ppo")]
-        self.collector = RolloutCollector(env_fn, self.config.num_envs, seed,
-                                          seating=lambda env_index, episode: np.zeros(probe.rules.n_agents, int))
-
-    def iterate(self) -> dict[str, Any]:
-        """One iteration: rollout, GAE, update; returns its log record."""
-        # rollout: num_steps lockstep steps of num_envs games, one forward per step for all seats
-        rollout, start, collect_time = self._collect()
-        # GAE and the update
-        stats = self._update(rollout, 0, self.learners[0])
-        self.iteration += 1
-        record = iteration_record(self, rollout, [stats], start, collect_time)
-        if self.log:
-            self.log(format_record(record))
-        return record
-
-
 def game_architecture(config: PPOConfig, env: Any) -> Architecture:
     """The actor architecture of ``config`` for the base observation and actions of ``env``."""
     rules = env.rules
     return learner_architecture(config, rules.obs_dim, rules.action_type, getattr(rules, "n_actions", 0),
                                 getattr(rules, "act_dim", 0))
-
-
-def annealed_lr(config: PPOConfig, env_steps: int, total_steps: int | None) -> float:
-    """Linear annealing (Schulman et al. 2017) over ``total_steps`` env steps, when known."""
-    if not config.anneal_lr or not total_steps:
-        return config.learning_rate
-    frac = max(0.0, 1.0 - env_steps / total_steps)
-    return config.learning_rate * max(frac, 1e-3)
-
-
-def iteration_record(trainer: Any, rollout: Any, stats: list[UpdateStats], start: float,
-                     collect_time: float) -> dict[str, Any]:
-    """The log record of one iteration of any scheme: steps, speed, returns, losses."""
-    elapsed = time.perf_counter() - start
-    returns = [e.mean_return for e in rollout.episodes]
-    return {
-        "scheme": trainer.scheme,
-        "iteration": trainer.iteration,
-        "env_steps": trainer.env_steps,
-        "episodes": len(rollout.episodes),
-        "episode_return": float(np.mean(returns)) if returns else float("nan"),
-        "episode_length": float(np.mean([e.length for e in rollout.episodes])) if rollout.episodes else float("nan"),
-        "steps_per_second": rollout.env_steps / elapsed if elapsed > 0 else float("inf"),
-        "collect_steps_per_second": rollout.env_steps / collect_time if collect_time > 0 else float("inf"),
-        "losses": [s.as_dict() for s in stats],
-    }
-
-
-def format_record(record: Mapping[str, Any]) -> str:
-    """One log line of an iteration record."""
-    loss = record["losses"][0] if record["losses"] else {}
-    return (f"{record['scheme']} iter {record['iteration']} steps {record['env_steps']} "
-            f"return {record['episode_return']:.3f} ({record['episodes']} episodes) "
-            f"SPS {record['steps_per_second']:.0f} "
-            f"pi_loss {loss.get('policy_loss', float('nan')):.4f} v_loss {loss.get('value_loss', float('nan')):.4f} "
-            f"entropy {loss.get('entropy', float('nan')):.3f} kl {loss.get('approx_kl', float('nan')):.4f}")
-

@@ -7,7 +7,7 @@ training schemes produce. This module is the one door the population build goes 
 * :data:`SCHEMES` maps a scheme name to a *runner*, a function
   ``runner(game_id, *, steps, seed, snapshot_every, out_dir, callback=None, log=None, **overrides)
   -> list[Snapshot]``. Registered here: ``"ppo"`` (one learner shared by every seat,
-  :class:`~arena_league.training.ppo.PPO`), ``"dppo"`` (independent learners,
+  :class:`~arena_league.training.trainer.PPO`), ``"dppo"`` (independent learners,
   :class:`~arena_league.training.dppo.DPPO`), ``"sp"`` (self-play,
   :class:`~arena_league.training.selfplay.SelfPlay`) and ``"pbt"``
   (:class:`~arena_league.training.pbt.PBT`). ``training/cc.py`` and ``training/cf.py`` add
@@ -50,18 +50,19 @@ from typing import Any
 import torch
 from safetensors.torch import load_file
 
+from arena_league.policies.architecture import Architecture
 from arena_league.policies.artifacts import (
     MANIFEST_FILE,
     WEIGHTS_FILE,
     manifest_architecture,
     save_arena_policy,
 )
-from arena_league.policies.families import Architecture
 from arena_league.training.dppo import DPPO
 from arena_league.training.imitation import WarmStart, warm_start
 from arena_league.training.pbt import PBT
-from arena_league.training.ppo import PPO, PPOConfig
+from arena_league.training.ppo import PPOConfig
 from arena_league.training.selfplay import SelfPlay
+from arena_league.training.trainer import PPO
 
 __all__ = ["ENV_OPTIONS", "RUN_RECORD", "SCHEMES", "Runner", "Snapshot", "make_env_fn", "register_scheme",
            "run_scheme", "run_trainer", "scheme_runner", "split_overrides"]

@@ -46,10 +46,12 @@ from typing import Any
 import numpy as np
 import torch
 
-from arena_league.policies.families import Architecture, StackedPolicy
+from arena_league.policies.architecture import Architecture
+from arena_league.policies.families import StackedPolicy
 from arena_league.policies.policy import Policy
-from arena_league.training.ppo import Learner, PPOConfig, TrainerBase, format_record, iteration_record
+from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
+from arena_league.training.trainer import TrainerBase, format_record, iteration_record
 
 __all__ = ["OPPONENT_SAMPLING", "OpponentPool", "RunningScores", "SelfPlay", "load_fixed_opponent", "pfsp_weights"]
 
@@ -248,7 +250,7 @@ class SelfPlay(TrainerBase):
                 self.pool.record(index - len(self.fixed), score)
 
     # --- training ---------------------------------------------------------------------------------
-    def iterate(self) -> dict[str, Any]:
+    def _iterate(self) -> dict[str, Any]:
         """One iteration: rollout against pool snapshots, GAE, update, and maybe a new snapshot."""
         # rollout: the learner's seats in one forward, the snapshots' seats in one stacked forward
         rollout, start, collect_time = self._collect()
