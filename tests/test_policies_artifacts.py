@@ -1,4 +1,4 @@
-"""Agent artifacts (issue 4's bad inputs that concern them): code-carrying formats refused whatever
+"""Agent artifacts (the bad inputs that concern them): code-carrying formats refused whatever
 the file is called, size limits checked before reading, truncated files, wrong spaces, unknown
 families, and content addresses that survive packing."""
 

@@ -1,7 +1,7 @@
 """Agent artifacts: reading them safely, their content address, and loading them as policies.
 
 Arena (Song et al., AAAI 2020) ranks agents that people submit. The league accepts three kinds
-of agent (DESIGN.md, "ONNX agents"), and nothing that can carry code:
+of agent, and nothing that can carry code:
 
 * ``onnx``: one ONNX file following the I/O convention (see :mod:`.onnx_policy`);
 * ``arena-policy``: a folder holding ``manifest.json`` (a known family, its sizes, the game id
@@ -23,9 +23,7 @@ and code), ``.pt2`` exported programs and numpy ``.npy`` files are recognised fr
 whatever the file is called, and refused with the format named. Sizes are checked with ``stat``
 before a byte is read.
 
-Content address (the registry's): a file's is the SHA-256 of its bytes; a folder's is the
-SHA-256 of its ``sha256sum`` listing, one line ``<sha256 of the file>  <name>\\n`` per file,
-sorted by name.
+Content address (the registry's): :mod:`arena_league.policies.address`.
 """
 
 from __future__ import annotations
@@ -47,6 +45,8 @@ from safetensors import SafetensorError
 from safetensors.torch import load as load_safetensors
 from safetensors.torch import save as save_safetensors
 
+from arena_league.policies.address import file_address, folder_address
+from arena_league.policies.architecture import Architecture, architecture_from_manifest, check_parameters
 from arena_league.policies.errors import (
     ArtifactError,
     ArtifactTooLargeError,
@@ -55,12 +55,7 @@ from arena_league.policies.errors import (
     SpaceMismatchError,
     UnsafeArtifactError,
 )
-from arena_league.policies.families import (
-    Architecture,
-    TorchPolicy,
-    architecture_from_manifest,
-    check_parameters,
-)
+from arena_league.policies.families import TorchPolicy
 from arena_league.policies.onnx_policy import OnnxPolicy, parse_onnx
 from arena_league.policies.policy import ActionSpec, Policy
 from arena_league.policies.scripted import (
@@ -119,10 +114,9 @@ class AgentArtifact:
         if self.kind not in ARTIFACT_KINDS:
             raise ValueError(f"unknown artifact kind {self.kind!r}; valid: {', '.join(ARTIFACT_KINDS)}")
         if self.kind == "arena-policy":
-            listing = "".join(f"{hashlib.sha256(self.files[n]).hexdigest()}  {n}\n" for n in sorted(self.files))
-            digest = hashlib.sha256(listing.encode()).hexdigest()
+            digest = folder_address((name, file_address(data)) for name, data in self.files.items())
         else:
-            digest = hashlib.sha256(self.content).hexdigest()
+            digest = file_address(self.content)
         object.__setattr__(self, "digest", digest)
 
     @property

@@ -1,4 +1,4 @@
-"""Export one agent of a policy family to ONNX, following DESIGN.md's "ONNX agents" convention.
+"""Export one agent of a policy family to ONNX, in the league's I/O convention (:mod:`.onnx_policy`).
 
 Arena (Song et al., AAAI 2020) ranks agents submitted as trained weights; the league's portable,
 code-free form of an agent is an ONNX graph with one input ``obs`` ``float32[N, obs_dim]`` and one
@@ -24,7 +24,7 @@ import numpy as np
 import onnx
 from onnx import TensorProto, helper, numpy_helper
 
-from arena_league.policies.families import Architecture, check_parameters
+from arena_league.policies.architecture import Architecture, check_parameters
 
 OPSET = 17
 IR_VERSION = 8

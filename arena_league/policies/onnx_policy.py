@@ -1,7 +1,7 @@
 """ONNX agents: checking a model's inputs and outputs against a game, and running it batched.
 
 Arena (Song et al., AAAI 2020) evaluates agents that people train anywhere; the league takes them
-as ONNX graphs (DESIGN.md, "ONNX agents"): input ``obs`` ``float32[N, obs_dim]``; output
+as ONNX graphs in one I/O convention: input ``obs`` ``float32[N, obs_dim]``; output
 ``logits`` ``float32[N, n_actions]`` (discrete) or ``action`` ``float32[N, act_dim]`` in [-1, 1]
 (continuous); recurrent agents add ``state_in`` / ``state_out`` ``float32[N, ...]`` of one shape.
 A continuous agent that samples adds the output ``log_std`` ``float32[N, act_dim]``: it then plays
@@ -25,8 +25,9 @@ import onnxruntime as ort
 from google.protobuf.message import DecodeError
 from onnxruntime.capi import onnxruntime_pybind11_state as _ort_state
 
+from arena_league.policies.architecture import NOISES
 from arena_league.policies.errors import CorruptArtifactError, SpaceMismatchError
-from arena_league.policies.families import NOISES, noisy_actions
+from arena_league.policies.families import noisy_actions
 from arena_league.policies.onnx_export import META_GAME, META_NOISE
 from arena_league.policies.policy import ActionSpec, Policy, legal_mask, sample_from_logits
 
@@ -124,7 +125,7 @@ def _shape_text(value: onnx.ValueInfoProto) -> str:
 
 def onnx_signature(model: onnx.ModelProto, spec: ActionSpec, game_id: str, source: str = "the ONNX model"
                    ) -> OnnxSignature:
-    """Check the model's inputs and outputs against ``spec`` (DESIGN.md's convention).
+    """Check the model's inputs and outputs against ``spec`` (the module's I/O convention).
 
     Raises :class:`SpaceMismatchError` naming the wrong names or sizes and the expected ones.
     """

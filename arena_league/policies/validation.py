@@ -26,7 +26,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import torch
 
 from arena_league.envs import game_spec, make
 from arena_league.policies.artifacts import (
@@ -42,6 +41,7 @@ from arena_league.policies.onnx_policy import PolicyOutputError
 from arena_league.policies.policy import ActionSpec, Policy
 from arena_league.policies.scripted import RandomPolicy
 from arena_league.policies.spaces import action_types
+from arena_league.policies.threads import torch_threads
 
 #: Relative tolerance when comparing a row computed alone with the same row in a batch.
 BATCH_TOLERANCE = 1e-4
@@ -97,23 +97,20 @@ def validate_submission(source: str | os.PathLike[str] | AgentArtifact, game_id:
     def log(stage: str, message: str) -> None:
         lines.append(f"[{stage}] {message}")
 
-    threads = torch.get_num_threads()
     # Tiny forwards run far faster on one thread than with OpenMP's hand-offs on a busy machine.
-    torch.set_num_threads(1)
-    try:
-        artifact = _stage_read(source, limits, log)
-        state["digest"] = artifact.digest
-        loaded = _stage_load(artifact, game_id, action_type, limits, log)
-        state["spec"] = loaded.info
-        _stage_probe(loaded.policy, game_id, loaded.info, n_probes, seed, log)
-        state["match"] = _stage_match(loaded.policy, game_id, loaded.info, match_cycles, seed, max_seconds, log)
-    except _Rejected as rejection:
-        reason = str(rejection)
-        log("result", f"rejected: {reason}")
-        return ValidationResult(False, reason, "\n".join(lines) + "\n", game_id, state["digest"], state["spec"],
-                                time.perf_counter() - start, state["match"])
-    finally:
-        torch.set_num_threads(threads)
+    with torch_threads(1):
+        try:
+            artifact = _stage_read(source, limits, log)
+            state["digest"] = artifact.digest
+            loaded = _stage_load(artifact, game_id, action_type, limits, log)
+            state["spec"] = loaded.info
+            _stage_probe(loaded.policy, game_id, loaded.info, n_probes, seed, log)
+            state["match"] = _stage_match(loaded.policy, game_id, loaded.info, match_cycles, seed, max_seconds, log)
+        except _Rejected as rejection:
+            reason = str(rejection)
+            log("result", f"rejected: {reason}")
+            return ValidationResult(False, reason, "\n".join(lines) + "\n", game_id, state["digest"], state["spec"],
+                                    time.perf_counter() - start, state["match"])
     seconds = time.perf_counter() - start
     log("result", f"accepted in {seconds:.2f} s")
     return ValidationResult(True, None, "\n".join(lines) + "\n", game_id, state["digest"], state["spec"], seconds,

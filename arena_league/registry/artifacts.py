@@ -6,10 +6,9 @@ re-submitting them finds the agent already there.
 
 Layout: `<home>/artifacts/<first two hex digits>/<sha256><suffix>`, where the suffix is `.onnx`
 for ONNX files, `.json` for scripted-policy descriptions and nothing for `arena-policy` folders.
-A file's address is the SHA-256 of its bytes. A folder's address is the SHA-256 of its listing in
-`sha256sum` format: one line `<sha256 of the file>  <relative POSIX path>\\n` per file, sorted by
-path; folders may hold only regular files and folders (no links), since a link could reach
-outside the store.
+Addresses follow `arena_league.policies.address` (a file's: the SHA-256 of its bytes; a folder's:
+the SHA-256 of its `sha256sum` listing); folders may hold only regular files and folders (no
+links), since a link could reach outside the store.
 
 Writes are atomic: content is copied (and hashed on the way) into `artifacts/.incoming/`, flushed
 to disk, then renamed into place, so a crash leaves either nothing or a complete artifact. This
@@ -28,6 +27,7 @@ from pathlib import Path
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from arena_league.policies.address import folder_address
 from arena_league.registry.db import ARTIFACTS_DIRNAME
 from arena_league.registry.errors import ArtifactError, ArtifactTooLargeError, InvalidRecordError
 from arena_league.registry.models import Artifact, ArtifactFormat
@@ -202,8 +202,8 @@ def _folder_files(folder: Path) -> list[tuple[str, Path]]:
 def _folder_digest(folder: Path) -> tuple[str, int]:
     """The folder's address and total size, without copying it."""
     files = _folder_files(folder)
-    listing = "".join(f"{_hash_file(path)}  {relative}\n" for relative, path in files)
-    return hashlib.sha256(listing.encode()).hexdigest(), sum(path.stat().st_size for _, path in files)
+    address = folder_address((relative, _hash_file(path)) for relative, path in files)
+    return address, sum(path.stat().st_size for _, path in files)
 
 
 def _stage_folder(folder: Path, incoming: Path, max_bytes: int | None) -> tuple[Path, str, int]:
@@ -220,11 +220,11 @@ def _stage_folder(folder: Path, incoming: Path, max_bytes: int | None) -> tuple[
             file_sha, file_size = _copy_hashing(path, target, None)
             total += file_size
             _check_size(total, max_bytes, str(folder))
-            listing.append(f"{file_sha}  {relative}\n")
+            listing.append((relative, file_sha))
     except BaseException:
         shutil.rmtree(staged, ignore_errors=True)
         raise
-    return staged, hashlib.sha256("".join(listing).encode()).hexdigest(), total
+    return staged, folder_address(listing), total
 
 
 def _move_into_place(staged: Path, final: Path) -> None:

@@ -87,7 +87,7 @@ class AgentStatus(enum.StrEnum):
 
 
 class ArtifactFormat(enum.StrEnum):
-    """How an artifact's bytes are to be read (DESIGN.md, "ONNX agents")."""
+    """How an artifact's bytes are to be read (ONNX file, arena-policy folder or scripted description)."""
 
     ONNX = "onnx"
     ARENA_POLICY = "arena-policy"  # a folder: manifest.json + weights.safetensors
