@@ -11,8 +11,7 @@ import dataclasses
 import json
 import sys
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from pathlib import Path
+from contextlib import ExitStack, contextmanager
 from typing import Any
 
 from rich.console import Console
@@ -60,23 +59,9 @@ def progress_bar(description: str, total: int) -> Iterator[Callable[[int, int], 
 # --- commands ------------------------------------------------------------------------------------
 
 def cmd_games(args: argparse.Namespace) -> int:
-    from arena_league.envs import default_tree, game_spec, list_games, make_rules
+    from arena_league.league import game_rows
 
-    rows = []
-    for game_id in list_games():
-        spec = game_spec(game_id)
-        rules = make_rules(game_id)
-        rows.append({
-            "game_id": game_id,
-            "teams": spec.n_teams,
-            "players_per_team": spec.players_per_team,
-            "action_types": list(spec.rules.action_types),
-            "turn_based": spec.rules.turn_based,
-            "obs_dim": rules.obs_dim,
-            "max_cycles": spec.rules.default_max_cycles,
-            "summary": spec.rules.summary,
-            "default_tree": default_tree(game_id),
-        })
+    rows = game_rows()
     if args.json:
         emit_json({"games": rows})
         return 0
@@ -109,10 +94,10 @@ def tree_outline(spec: Any) -> str:
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
-    from arena_league.envs.social.verify import verify
+    from arena_league.league import verify_social_tree
 
     with progress_bar(f"verifying {args.game}", args.samples) as update:
-        report = verify(args.game, tree=args.tree, samples=args.samples, seed=args.seed,
+        report = verify_social_tree(args.game, tree=args.tree, samples=args.samples, seed=args.seed,
                         max_cycles=args.max_cycles, action_type=args.action_type, progress=update)
     if args.json:
         emit_json(report.to_dict())
@@ -177,7 +162,7 @@ def cmd_rank(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(report.to_dict())
         return 0
-    level = int(round(report.level * 100))
+    level = round(report.level * 100)
     stdout.print(f"[bold]{report.agent}[/] on {report.game_id} against {report.base} ({report.base_size} agents), "
                  f"{report.matches} matches:")
     stdout.print(f"  rating      {report.rating:.0f}  ({level}% CI {report.lower:.0f} .. {report.upper:.0f})")
@@ -190,9 +175,7 @@ def cmd_rank(args: argparse.Namespace) -> int:
 
 
 def cmd_leaderboard(args: argparse.Namespace) -> int:
-    from arena_league.league import leaderboard
-    from arena_league.league.leaderboards import render_terminal
-    from arena_league.league.report import write_html_report
+    from arena_league.league import leaderboard, render_terminal, write_html_report
 
     with _league(args) as league:
         board = leaderboard(league, args.game, args.method, population=args.population, rounds=args.rounds,
@@ -258,49 +241,38 @@ def cmd_matches(args: argparse.Namespace) -> int:
 def cmd_worker(args: argparse.Namespace) -> int:
     import logging
 
-    from arena_league.league import job_handlers
-    from arena_league.registry import run_worker
+    from arena_league.league import run_worker
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s", stream=sys.stderr)
     with _league(args) as league:
-        report = run_worker(league, job_handlers(), worker_id=args.worker_id, lease_seconds=args.lease,
-                            poll_seconds=args.poll, max_jobs=args.max_jobs, until_idle=args.until_idle)
-    summary = {"completed": report.completed, "failed": report.failed, "lost": report.lost, "jobs": report.job_ids}
+        summary = run_worker(league, worker_id=args.worker_id, lease_seconds=args.lease, poll_seconds=args.poll,
+                             max_jobs=args.max_jobs, until_idle=args.until_idle)
     if args.json:
-        emit_json(summary)
+        emit_json(summary.to_dict())
     else:
-        stderr.print(f"worker stopped: {summary}")
-    return 0 if report.failed == 0 else 1
+        stderr.print(f"worker stopped: {summary.to_dict()}")
+    return 0 if summary.failed == 0 else 1
 
 
 def cmd_schedule(args: argparse.Namespace) -> int:
-    from arena_league.league import register_game
-    from arena_league.registry import add_schedule, list_schedules, remove_schedule
+    from arena_league.league import add_evaluation_schedule, list_schedules, remove_schedule
 
     with _league(args) as league:
         if args.action == "add":
-            if (args.every is None) == (args.cron is None):
-                raise CommandError("give exactly one of --every SECONDS or --cron 'MIN HOUR DOM MON DOW'")
-            register_game(league, args.game)
-            payload = {"game_id": args.game, "agents": None, "matches_per_pair": args.matches_per_pair,
-                       "seed": args.seed, "backend": args.backend, "workers": None, "record": False}
-            with league.transaction() as session:
-                schedule = add_schedule(session, args.name, "evaluate", payload, interval_seconds=args.every,
-                                        cron=args.cron)
-                row = _schedule_row(schedule)
+            row = add_evaluation_schedule(league, args.name, args.game, every=args.every, cron=args.cron,
+                                          matches_per_pair=args.matches_per_pair, seed=args.seed,
+                                          backend=args.backend)
             if args.json:
                 emit_json(row)
             else:
                 stdout.print(f"schedule {row['name']}: evaluate {args.game}, next run {row['next_run_at']}")
             return 0
         if args.action == "remove":
-            with league.transaction() as session:
-                remove_schedule(session, args.name)
+            remove_schedule(league, args.name)
             if args.json:
                 emit_json({"removed": args.name})
             return 0
-        with league.reading() as session:
-            rows = [_schedule_row(s) for s in list_schedules(session)]
+        rows = list_schedules(league)
     if args.json:
         emit_json({"schedules": rows})
     else:
@@ -315,14 +287,8 @@ def cmd_schedule(args: argparse.Namespace) -> int:
     return 0
 
 
-def _schedule_row(schedule) -> dict[str, Any]:
-    return {"name": schedule.name, "kind": schedule.kind, "payload": schedule.payload,
-            "interval_seconds": schedule.interval_seconds, "cron": schedule.cron,
-            "next_run_at": schedule.next_run_at.isoformat(timespec="seconds"), "enabled": schedule.enabled}
-
-
 def cmd_scheduler(args: argparse.Namespace) -> int:
-    from arena_league.registry import run_scheduler, tick
+    from arena_league.league import run_scheduler, tick
 
     with _league(args) as league:
         if args.action == "tick":
@@ -339,16 +305,11 @@ def cmd_scheduler(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from dataclasses import asdict
+    from arena_league.league import replay_summary
 
-    from arena_league.replay import export_gif, read_replay
-
-    summary = read_replay(args.file)
-    document = asdict(summary) if hasattr(summary, "__dataclass_fields__") else dict(summary)
+    document = replay_summary(args.file, gif=args.gif, fps=args.fps, every=args.every)
     if args.gif:
-        frames = export_gif(args.file, args.gif, fps=args.fps, every=args.every)
-        document["gif"] = {"path": args.gif, "frames": frames}
-        stderr.print(f"wrote {args.gif} ({frames} frames)")
+        stderr.print(f"wrote {args.gif} ({document['gif']['frames']} frames)")
     if args.json:
         emit_json(document)
     else:
@@ -357,8 +318,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_population(args: argparse.Namespace) -> int:
-    from arena_league.league import export_population, import_population
-    from arena_league.registry import list_populations
+    from arena_league.league import export_population, import_population, list_populations
 
     with _league(args) as league:
         if args.action == "build":
@@ -378,9 +338,7 @@ def cmd_population(args: argparse.Namespace) -> int:
             else:
                 stdout.print(f"exported {args.population} to {path}")
             return 0
-        with league.reading() as session:
-            rows = [{"name": p.name, "version": p.version, "game_id": p.game_id, "frozen": p.frozen,
-                     "members": len(p.members)} for p in list_populations(session, game_id=args.game)]
+        rows = list_populations(league, args.game)
     if args.json:
         emit_json({"populations": rows})
     else:
@@ -432,49 +390,24 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 
 def cmd_quickstart(args: argparse.Namespace) -> int:
-    """A whole league on the embedded default: home, agents, round robin, ranking, leaderboard.
+    """A whole league on the embedded default (see :mod:`arena_league.league.quickstart`)."""
+    from arena_league.league import quickstart, render_terminal
 
-    Where the game ships a base population (``checkpoints/<game>/base-v1``), it is imported and the
-    example submission is ranked against it; otherwise against the game's scripted agents."""
-    from arena_league.league import (
-        ensure_scripted_agents,
-        evaluate,
-        leaderboard,
-        rank,
-        submit,
-    )
-    from arena_league.league.leaderboards import render_terminal
-    from arena_league.league.service import ensure_population, shipped_population
+    def log(line: str) -> None:
+        stderr.print(line, highlight=False)
 
-    root = Path(__file__).resolve().parent.parent
-    example = root / "submissions" / "crossroads-2t2p-mlp.onnx"
-    game = args.game
-    population = None
-    with _league(args) as league:
-        stderr.print(f"league home: {league.home}")
-        names = ensure_scripted_agents(league, game)
-        if args.base and shipped_population(game) is not None:
-            population, _ = ensure_population(league, game, "base-v1")
-            stderr.print(f"base population {population} from {shipped_population(game)}")
-        entrant = None
-        if game == "Crossroads-2T2P-v1" and example.exists():
-            result = submit(league, example, game, "example-mlp", owner="arena-league")
-            entrant = result.agent if result.status == "active" else None
-            stderr.print(f"submitted {example.name}: {result.agent} {result.status}")
-        with progress_bar(f"round robin on {game}", 1) as update:
-            report = evaluate(league, game, names, matches_per_pair=args.matches_per_pair, seed=args.seed,
-                              progress=update)
-        stderr.print(f"scripted round robin: {report.played} matches in {report.seconds:.1f} s")
-        ranked = None
-        if entrant:
-            with progress_bar(f"ranking {entrant}", args.budget) as update:
-                ranked = rank(league, entrant, budget=args.budget, population=population, seed=args.seed,
-                              progress=update)
-        board = leaderboard(league, game, "bt", seed=args.seed)
+    with _league(args) as league, ExitStack() as bars:
+
+        def stage_progress(stage: str, total: int) -> Callable[[int, int], None]:
+            bars.close()  # one live bar at a time: the last stage's ends here
+            return bars.enter_context(progress_bar(stage, total))
+
+        report = quickstart(league, args.game, matches_per_pair=args.matches_per_pair, budget=args.budget,
+                            seed=args.seed, base=args.base, log=log, stage_progress=stage_progress)
     if args.json:
-        emit_json({"home": str(league.home), "population": population, "evaluation": report.to_dict(),
-                   "rank": ranked.to_dict() if ranked else None, "leaderboard": board.to_dict()})
+        emit_json(report.to_dict())
         return 0
+    ranked, board = report.ranked, report.board
     if ranked:
         stdout.print(f"[bold]{ranked.agent}[/] against {ranked.base} ({ranked.base_size} agents, {ranked.matches} "
                      f"matches): rating {ranked.rating:.0f} ({ranked.lower:.0f} .. {ranked.upper:.0f}), "
@@ -490,18 +423,16 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from arena_league.training.curves import train
+    from arena_league.league.train import train_entrant
 
     def log(line: str) -> None:
         if not args.json:
             stderr.print(line, highlight=False)
 
-    report = train(args.game, args.scheme, steps=args.steps, seed=args.seed, report_dir=args.report,
-                   eval_every=args.eval_every, eval_matches=args.eval_matches,
-                   reference=args.reference or ("scripted:random", "scripted:heuristic"),
-                   snapshot_every=args.snapshot_every, out_dir=args.out, log=log,
-                   **({"warm_start": {"steps": args.warm_start}} if args.warm_start else {}),
-                   **({"hidden": tuple(args.hidden)} if args.hidden else {}))
+    report = train_entrant(args.game, args.scheme, steps=args.steps, seed=args.seed, report_dir=args.report,
+                           eval_every=args.eval_every, eval_matches=args.eval_matches, reference=args.reference,
+                           snapshot_every=args.snapshot_every, out_dir=args.out, warm_start_steps=args.warm_start,
+                           hidden=args.hidden, log=log)
     document = report.as_dict()
     if args.json:
         emit_json(document)
@@ -687,16 +618,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     """Exceptions that describe the user's input (with the fix): printed as one line, exit 2."""
-    from arena_league.registry.errors import RegistryError
+    from arena_league.league import USER_ERRORS
 
-    errors: list[type[BaseException]] = [CommandError, ValueError, FileNotFoundError, RegistryError]
-    try:
-        from arena_league.policies.errors import ArtifactError
-
-        errors.append(ArtifactError)
-    except ImportError:
-        pass
-    return tuple(errors)
+    return (CommandError, *USER_ERRORS)
 
 
 def _int_at_least(minimum: int, requirement: str) -> Callable[[str], int]:

@@ -1,0 +1,37 @@
+"""The game set as the front ends list it, and the verification of a game's social tree."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from arena_league.envs import default_tree, game_spec, list_games, make_rules
+from arena_league.envs.social.verify import VerificationReport, verify
+
+__all__ = ["game_rows", "verify_social_tree"]
+
+
+def game_rows() -> list[dict[str, Any]]:
+    """One row per game id: layout, action types, turn order, observation size, episode length,
+    summary and default social tree."""
+    rows = []
+    for game_id in list_games():
+        spec = game_spec(game_id)
+        rules = make_rules(game_id)
+        rows.append({
+            "game_id": game_id,
+            "teams": spec.n_teams,
+            "players_per_team": spec.players_per_team,
+            "action_types": list(spec.rules.action_types),
+            "turn_based": spec.rules.turn_based,
+            "obs_dim": rules.obs_dim,
+            "max_cycles": spec.rules.default_max_cycles,
+            "summary": spec.rules.summary,
+            "default_tree": default_tree(game_id),
+        })
+    return rows
+
+
+def verify_social_tree(game_id: str, **options: Any) -> VerificationReport:
+    """Verify every node of ``game_id``'s social tree (its own, or ``tree=``) by paired sampling;
+    see :func:`arena_league.envs.social.verify.verify` for the options."""
+    return verify(game_id, **options)

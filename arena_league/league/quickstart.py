@@ -1,0 +1,89 @@
+"""A whole league on the embedded default, end to end: the workflow ``arena-league quickstart`` runs.
+
+1. the league home (SQLite under ``ARENA_LEAGUE_HOME``) and the game's scripted agents;
+2. where the game ships a base population (``checkpoints/<game>/base-v1``), its import;
+3. for Crossroads, the example ONNX submission under ``submissions/``, validated and registered;
+4. a round robin among the scripted agents;
+5. the example ranked against the base population (or, without one, against the league's agents);
+6. the Bradley-Terry leaderboard.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from arena_league.league.leaderboards import Leaderboard
+from arena_league.league.service import (
+    EvaluationReport,
+    RankReport,
+    ensure_population,
+    ensure_scripted_agents,
+    evaluate,
+    leaderboard,
+    rank,
+    shipped_population,
+    submit,
+)
+from arena_league.registry import League
+
+__all__ = ["EXAMPLE_SUBMISSIONS", "QuickstartReport", "quickstart"]
+
+#: Example submissions shipped beside the package, by game.
+EXAMPLE_SUBMISSIONS = {"Crossroads-2T2P-v1": Path(__file__).resolve().parents[2] / "submissions"
+                                             / "crossroads-2t2p-mlp.onnx"}
+
+#: Progress callbacks: ``(stage, total) -> (done, total) -> None``, one per long stage.
+StageProgress = Callable[[str, int], Callable[[int, int], None]]
+
+
+@dataclass(frozen=True)
+class QuickstartReport:
+    """What the quickstart did: the home, the base population used, the round robin, the ranking
+    of the example submission (None where the game has no example) and the leaderboard."""
+
+    home: str
+    population: str | None
+    evaluation: EvaluationReport
+    ranked: RankReport | None
+    board: Leaderboard
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"home": self.home, "population": self.population, "evaluation": self.evaluation.to_dict(),
+                "rank": self.ranked.to_dict() if self.ranked else None, "leaderboard": self.board.to_dict()}
+
+
+def quickstart(league: League, game_id: str = "Crossroads-2T2P-v1", *, matches_per_pair: int = 10,
+               budget: int = 40, seed: int = 0, base: bool = True, log: Callable[[str], None] | None = None,
+               stage_progress: StageProgress | None = None) -> QuickstartReport:
+    """Run the quickstart workflow on ``league`` (see the module docstring); ``base=False`` leaves
+    the shipped base population out. ``log`` gets a line per stage; ``stage_progress(stage, total)``
+    returns the progress callback of a long stage (round robin, ranking)."""
+    say = log or (lambda line: None)
+
+    def progress(stage: str, total: int) -> Callable[[int, int], None] | None:
+        return stage_progress(stage, total) if stage_progress else None
+
+    say(f"league home: {league.home}")
+    names = ensure_scripted_agents(league, game_id)
+    population = None
+    if base and shipped_population(game_id) is not None:
+        population, _ = ensure_population(league, game_id, "base-v1")
+        say(f"base population {population} from {shipped_population(game_id)}")
+    entrant = None
+    example = EXAMPLE_SUBMISSIONS.get(game_id)
+    if example is not None and example.exists():
+        result = submit(league, example, game_id, "example-mlp", owner="arena-league")
+        entrant = result.agent if result.status == "active" else None
+        say(f"submitted {example.name}: {result.agent} {result.status}")
+    report = evaluate(league, game_id, names, matches_per_pair=matches_per_pair, seed=seed,
+                      progress=progress(f"round robin on {game_id}", 1))
+    say(f"scripted round robin: {report.played} matches in {report.seconds:.1f} s")
+    ranked = None
+    if entrant:
+        ranked = rank(league, entrant, budget=budget, population=population, seed=seed,
+                      progress=progress(f"ranking {entrant}", budget))
+    board = leaderboard(league, game_id, "bt", seed=seed)
+    return QuickstartReport(str(league.home), population, report, ranked, board)
