@@ -24,7 +24,7 @@ from arena_league.envs import game_spec, list_games, make
 
 def pin_to_one_core() -> str:
     if hasattr(os, "sched_setaffinity"):
-        os.sched_setaffinity(0, {sorted(os.sched_getaffinity(0))[0]})
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
         return "pinned to one core"
     return "not pinned (no sched_setaffinity)"
 
@@ -40,7 +40,7 @@ def steps_per_second(env, action_pool: list[dict], seconds: float, seed: int = 0
     while True:
         for _ in range(256):
             actions = action_pool[steps % n_pool]
-            _, _, terminations, truncations, _ = env.step({a: actions[a] for a in env.agents})
+            env.step({a: actions[a] for a in env.agents})
             steps += 1
             if not env.agents:
                 episodes += 1
@@ -81,14 +81,37 @@ def pettingzoo_peer(name: str, seconds: float) -> dict:
     return result
 
 
+def board_steps(boards, seconds: float, observe: bool = False) -> tuple[int, float]:
+    """Step a grid engine's auto-resetting ``boards`` (``GoBangBoards`` or ``SnakeBoards``) with
+    uniformly random legal actions from the engine's own generator (sampling included) for about
+    ``seconds``; returns (board steps, elapsed seconds). With ``observe``, every seat's observation
+    is built every step too."""
+    for _ in range(10):  # warm up: fill the boards a little
+        boards.step(boards.random_actions())
+    steps = 0
+    start = time.perf_counter()
+    while True:
+        for _ in range(16):
+            boards.step(boards.random_actions())
+            if observe:
+                boards.observe()
+        steps += 16
+        elapsed = time.perf_counter() - start
+        if elapsed >= seconds:
+            return steps * boards.n_boards, elapsed
+
+
 def batched_grid(seconds: float) -> list[dict]:
     """Board steps/s of the batched grid engines (random legal actions)."""
-    from arena_league.envs.games import gobang, snake
+    from arena_league.envs.games.gobang import GoBangBoards
+    from arena_league.envs.games.snake import SnakeBoards
 
+    n_boards = 4096
     results = []
-    for name, engine, n_boards in (("GoBang", gobang.benchmark_boards, 4096), ("Snake-4T1P", snake.benchmark_boards, 4096)):
-        board_steps, elapsed = engine(n_boards=n_boards, seconds=seconds, seed=0)
-        results.append({"engine": name, "boards": n_boards, "board_steps_per_s": round(board_steps / elapsed),
+    for name, boards in (("GoBang", GoBangBoards(n_boards, autoreset=True, seed=0)),
+                         ("Snake-4T1P", SnakeBoards(n_boards, n_snakes=4, autoreset=True, seed=0))):
+        steps, elapsed = board_steps(boards, seconds)
+        results.append({"engine": name, "boards": n_boards, "board_steps_per_s": round(steps / elapsed),
                         "seconds": round(elapsed, 3)})
     return results
 

@@ -1,12 +1,17 @@
-"""Every game id: PettingZoo's API tests, 200-step determinism, headless top-down render, bad input."""
+"""Every game id: PettingZoo's API tests, 200-step determinism, headless top-down render, bad input,
+and what each game declares for the layers above (a person's controls, its replay scene)."""
 
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import pytest
 from pettingzoo.test import api_test, parallel_api_test
 
 from arena_league.envs import game_spec, list_games, make, make_aec
+from arena_league.envs.controls import Controls
+from arena_league.replay.schemas import scene_update_schema
 
 GAMES = list_games()
 TURN_BASED = [g for g in GAMES if game_spec(g).rules.turn_based]
@@ -119,3 +124,47 @@ def test_continuous_actions_out_of_range_or_wrong_shape(game_id):
         env.step({**good, "player_1": np.zeros(dim + 1, np.float32)})
     with pytest.raises(ValueError, match="not NaN|finite"):
         env.step({**good, "player_0": np.full(dim, np.nan, np.float32)})
+
+
+#: Answers some game's controls take (Enter, an action number, a cell, a direction).
+SAMPLE_ANSWERS = ("", "1", "h8", "w", "d 3")
+
+
+@pytest.mark.parametrize("game_id", GAMES)
+def test_every_game_declares_a_persons_controls_and_its_replay_scene(game_id):
+    env = make(game_id)
+    env.reset(seed=0)
+    rules = env.rules
+    rng = np.random.default_rng(0)
+    for seat in (0, rules.n_agents - 1):
+        controls = rules.human_controls(seat)
+        assert isinstance(controls, Controls) and controls.seat == seat
+        assert controls.view().strip() and controls.prompt(0).strip() and controls.final_view().strip()
+        command, problem = controls.parse("%%")  # nonsense is refused with what to type instead
+        assert command is None and isinstance(problem, str) and problem
+        accepted = [answer for answer in SAMPLE_ANSWERS if controls.parse(answer)[1] is None]
+        assert accepted, f"{game_id}: the controls take none of {SAMPLE_ANSWERS}"
+        assert controls.wants_command()
+        action = controls.action(controls.parse(accepted[0])[0])
+        actions = {a: rules.random_action(i, rng) for i, a in enumerate(env.possible_agents)}
+        env.step({**actions, f"player_{seat}": action})  # the env takes the person's action as it is
+    required = scene_update_schema()["properties"]["entities"]["items"]["required"]
+    first = rules.scene_entities(1_500_000_000)
+    assert first and json.loads(json.dumps(first, allow_nan=False)) == first
+    ids = [e["id"] for e in first]
+    assert len(set(ids)) == len(ids)
+    for entity in first:
+        assert set(required) <= set(entity) and entity["frame_id"] == "arena"
+        assert entity["timestamp"] == {"sec": 1, "nsec": 500_000_000}
+    if env.agents:
+        env.step({a: rules.random_action(i, rng) for i, a in enumerate(env.agents)})
+    assert [e["id"] for e in rules.scene_entities(1_600_000_000)] == ids  # ids stay: updates replace entities
+
+
+@pytest.mark.parametrize("game_id", [g for g in GAMES if "continuous" in game_spec(g).rules.action_types
+                                     and "discrete" in game_spec(g).rules.action_types])
+def test_the_default_controls_ask_for_the_discrete_variant(game_id):
+    env = make(game_id, action_type="continuous")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action_type='discrete'"):
+        env.rules.human_controls(0)

@@ -35,7 +35,7 @@ def test_heuristic_alone_arrives_well_within_max_cycles(action_type, seed):
     rules = CrossroadsRules(2, 1, action_type)
     rules.reset(seed)
     start = rules.measures.target_distance[0]
-    for step in range(1, rules.default_max_cycles + 1):
+    for step in range(1, rules.default_max_cycles + 1):  # noqa: B007 - read after the loop
         actions = _idle(rules)
         actions[0] = rules.heuristic(rules.observe(), action_type)[0]  # seat 1 stays parked
         rules.step(actions)
@@ -97,7 +97,7 @@ def _drive_head_on(rules: CrossroadsRules, steps: int) -> tuple[list[float], lis
 def test_agents_driven_into_each_other_collide_and_bounce(action_type):
     rules = CrossroadsRules(4, 1, action_type)
     rules.reset(3)
-    for step in range(120):
+    for _ in range(120):
         gaps, forces = _drive_head_on(rules, 1)
         if forces[0][0] > 0:
             break
@@ -243,7 +243,7 @@ def test_every_layout_constructs_and_observes_from_its_own_frame(layout, action_
     tree = RULES.default_tree(n_teams, players)
     assert tree["scheme"] == "CP" and tree["reward"] == "ranking" and tree["scale"] == 100
     assert tree["params"] == {"order": "depart"} and len(tree["children"]) == n_teams
-    leaves = [c for c in tree["children"]] if players == 1 else [
+    leaves = list(tree["children"]) if players == 1 else [
         leaf for team in tree["children"] for leaf in team["children"]]
     if players > 1:
         assert all(team["scheme"] == "NL" for team in tree["children"])

@@ -284,7 +284,7 @@ def test_heuristic_takes_any_batch_of_observations():
     r = rules(3)
     obs = r.observe()
     discrete = SoccerRules.heuristic(obs, "discrete")
-    assert discrete.dtype == np.int64 and discrete.shape == (6,) and ((0 <= discrete) & (discrete < 9)).all()
+    assert discrete.dtype == np.int64 and discrete.shape == (6,) and ((discrete >= 0) & (discrete < 9)).all()
     continuous = SoccerRules.heuristic(obs[:1], "continuous")
     assert continuous.dtype == np.float32 and continuous.shape == (1, 2) and np.abs(continuous).max() <= 1.0
 

@@ -10,10 +10,12 @@ from pathlib import Path
 
 import pytest
 
-from arena_league.league.human import ascii_topdown, play_human
+from arena_league.envs.controls import ascii_topdown
+from arena_league.league.human import play_human
 from arena_league.league.service import import_population, open_home
 from arena_league.policies import init_parameters, save_arena_policy
-from arena_league.policies.families import Architecture, with_spaces
+from arena_league.policies.architecture import Architecture
+from arena_league.policies.families import with_spaces
 from arena_league.policies.spaces import game_action_spec
 from arena_league.registry import get_agent, match_seat_rows
 

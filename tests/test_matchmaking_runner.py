@@ -19,7 +19,8 @@ from arena_league.matchmaking import (
     round_robin,
     specs_for_seatings,
 )
-from arena_league.policies.families import Architecture, TorchPolicy
+from arena_league.policies.architecture import Architecture
+from arena_league.policies.families import TorchPolicy
 from arena_league.policies.scripted import HeuristicPolicy, RandomPolicy
 
 
@@ -159,7 +160,7 @@ def test_every_path_gives_the_env_results(game_id):
     seatings = [tuple((["random", "heuristic"] * n_teams)[shift: shift + n_teams]) for shift in (0, 1)]
     specs = specs_for_seatings(game_id, seatings * 2, league_seed=8)
     expected = LockstepRunner(game_id, agents, batch_size=3, env_kwargs=env_kwargs, path="env").play(specs)
-    paths = ["rules"] + (["engine"] if game_id.split("-")[0] in ("GoBang", "Snake") else [])
+    paths = ["rules"] + (["engine"] if game_spec(game_id).rules.batched_matches is not None else [])
     for path in paths:
         runner = LockstepRunner(game_id, agents, batch_size=3, env_kwargs=env_kwargs, path=path)
         assert runner.stepping_path() == path

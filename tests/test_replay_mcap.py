@@ -14,6 +14,7 @@ from arena_league.matchmaking import AgentRef, play_matches, specs_for_seatings
 from arena_league.replay import (
     SCENE_SCHEMA_NAME,
     ReplayError,
+    ReplayRecording,
     export_gif,
     iter_messages,
     read_replay,
@@ -36,7 +37,7 @@ def _record(game_id, env_kwargs, directory, seatings=None):
     n_teams = game_spec(game_id).n_teams
     seatings = seatings or [tuple(["random", "heuristic"] * n_teams)[:n_teams]]
     specs = specs_for_seatings(game_id, seatings, league_seed=12, first_match_id=3)
-    recorded = play_matches(specs, agents, env_kwargs=env_kwargs, record_dir=directory)
+    recorded = play_matches(specs, agents, env_kwargs=env_kwargs, recording=ReplayRecording(directory))
     plain = play_matches(specs, agents, env_kwargs=env_kwargs)
     return specs, recorded, plain
 

@@ -6,7 +6,7 @@ boards and termination follow the same rules and social tree as the parallel env
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from pettingzoo import AECEnv
@@ -17,7 +17,7 @@ from arena_league.envs.env import ArenaParallelEnv
 class ArenaAECEnv(AECEnv):
     """Turn-based play over an :class:`ArenaParallelEnv` (which holds the rules and the tree)."""
 
-    metadata = {"render_modes": ["rgb_array"], "is_parallelizable": True, "render_fps": 4}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "is_parallelizable": True, "render_fps": 4}
 
     def __init__(self, parallel: ArenaParallelEnv) -> None:
         super().__init__()
@@ -40,10 +40,10 @@ class ArenaAECEnv(AECEnv):
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
         self._obs = self._par.reset_arrays(seed)
         self.agents = list(self.possible_agents)
-        self.rewards = {a: 0.0 for a in self.agents}
-        self._cumulative_rewards = {a: 0.0 for a in self.agents}
-        self.terminations = {a: False for a in self.agents}
-        self.truncations = {a: False for a in self.agents}
+        self.rewards = dict.fromkeys(self.agents, 0.0)
+        self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
+        self.terminations = dict.fromkeys(self.agents, False)
+        self.truncations = dict.fromkeys(self.agents, False)
         self.infos = {a: self._par._info(i) for i, a in enumerate(self.agents)}
         self.agent_selection = self.possible_agents[self._par.rules.current_player()]
 

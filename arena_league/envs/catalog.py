@@ -1,7 +1,9 @@
 """The game catalog: ids in Arena's convention ``<Game>-<x>T<y>P-v<N>`` mapped to game rules.
 
 Each module listed in :data:`GAME_MODULES` defines ``RULES``, a :class:`GameRules` subclass whose
-``layouts`` give the ids it offers.
+``layouts`` give the ids it offers. A game is that one module: its rules also declare how a person
+plays a seat, its replay scene and its whole-array engine, if any (see :mod:`arena_league.envs.core`),
+so adding a game means adding its module here and touches no other package.
 """
 
 from __future__ import annotations

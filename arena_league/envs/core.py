@@ -17,15 +17,26 @@ Conventions every game follows:
 * every random draw comes from ``self.rng``, created in :meth:`GameRules.reset` from the seed;
 * discrete actions arrive as ``int64[n_agents]``; continuous ones as ``float32[n_agents, act_dim]``
   already checked to lie in [-1, 1].
+
+Besides the match itself, a game declares, on its rules, everything the layers above need of it,
+so that adding a game touches no other package:
+
+* ``human_controls(seat)``: how a person plays a seat at a terminal (:mod:`arena_league.envs.controls`);
+* ``scene_entities(timestamp_ns)``: the match as a 3D replay scene (:mod:`arena_league.envs.scene`);
+* ``batched_matches``: its whole-array engine of many matches, if it has one (the contract is in
+  ``arena_league.matchmaking.batched``).
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
+
+from arena_league.envs.controls import ActionControls, Controls
 
 #: Every measure a game may emit, with its meaning. Arrays have one entry per seat.
 MEASURE_DOCS: dict[str, str] = {
@@ -118,6 +129,11 @@ class GameRules(ABC):
     default_max_cycles: ClassVar[int]
     #: One-line description for ``arena-league games``.
     summary: ClassVar[str] = ""
+    #: The game's whole-array engine, or None: a class called as ``batched_matches(rules, n_slots,
+    #: max_cycles)`` whose instances step ``n_slots`` matches of these rules' layout and options
+    #: together, with exactly the moves and results of one match at a time (the engine-adapter
+    #: contract of ``arena_league.matchmaking.batched``).
+    batched_matches: ClassVar[Callable[..., Any] | None] = None
 
     # Set by every subclass __init__:
     n_teams: int
@@ -214,3 +230,17 @@ class GameRules(ABC):
     def events(self) -> list[dict]:
         """Events of the last step for replays and logs, e.g. ``{"kind": "arrive", "seat": 2}``."""
         return []
+
+    # --- what the layers above ask of a game -------------------------------------------------------
+    def human_controls(self, seat: int) -> Controls:
+        """How a person plays ``seat`` at a terminal. Default: :class:`~arena_league.envs.controls.ActionControls`
+        (the actions by number or name under a text view of the top-down picture; discrete actions
+        only). Games with a board, a seat frame or continuous actions give their own."""
+        return ActionControls(self, seat)
+
+    def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
+        """The match now as ``foxglove.SceneEntity`` dicts stamped ``timestamp_ns``, built with
+        :mod:`arena_league.envs.scene`, entity ids stable across steps: what a replay shows."""
+        raise ValueError(f"{self.name} has no replay scene: give {type(self).__name__} a "
+                         "scene_entities(timestamp_ns) method returning foxglove.SceneEntity dicts built "
+                         "with arena_league.envs.scene")

@@ -8,7 +8,7 @@ dicts. Besides the dict API it offers an array API (:meth:`ArenaParallelEnv.rese
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
@@ -28,7 +28,7 @@ class ArenaParallelEnv(ParallelEnv):
     then all are terminated (the rules ended the match) or truncated (``max_cycles``) together.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "is_parallelizable": True, "render_fps": 20}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "is_parallelizable": True, "render_fps": 20}
 
     def __init__(self, game_id: str, rules: GameRules, tree: SocialTree, max_cycles: int,
                  render_mode: str | None = None, state_in_obs: bool = False) -> None:
@@ -69,7 +69,6 @@ class ArenaParallelEnv(ParallelEnv):
         r = self.rules
         base_action = (spaces.Discrete(r.n_actions) if self._discrete
                        else spaces.Box(-1.0, 1.0, (r.act_dim,), dtype=np.float32))
-        self._base_action_space = base_action
         self._action_spaces: dict[str, spaces.Space] = {}
         self._observation_spaces: dict[str, spaces.Space] = {}
         for i, agent in enumerate(self.possible_agents):
@@ -163,7 +162,7 @@ class ArenaParallelEnv(ParallelEnv):
         if arr.shape != (n, self.rules.act_dim):
             raise ValueError(f"{self.game_id}: continuous actions have shape ({n}, {self.rules.act_dim}) "
                              f"(one vector of {self.rules.act_dim} floats in [-1, 1] per seat); got {arr.shape}")
-        if not (-1.0 <= arr.min() and arr.max() <= 1.0):  # NaN fails both comparisons
+        if not (arr.min() >= -1.0 and arr.max() <= 1.0):  # NaN fails both comparisons
             seat = int(np.flatnonzero(~(np.isfinite(arr) & (np.abs(arr) <= 1.0)).all(axis=1))[0])
             raise ValueError(f"{self.game_id}: action {arr[seat].tolist()} of player_{seat} is out of range; "
                              f"every component must be finite and within [-1, 1]")
@@ -233,8 +232,10 @@ class ArenaParallelEnv(ParallelEnv):
             if array is None:
                 for i, a in enumerate(flat):
                     if not isinstance(a, (int, np.integer)) or isinstance(a, bool):
-                        raise ValueError(f"{self.game_id}: action {a!r} of player_{i} is not an integer; "
-                                         f"valid actions: {self._action_help()}")
+                        # ValueError, as for every other bad action: the front ends report it as bad input
+                        raise ValueError(  # noqa: TRY004
+                            f"{self.game_id}: action {a!r} of player_{i} is not an integer; "
+                            f"valid actions: {self._action_help()}")
         else:
             try:
                 array = np.asarray(flat, dtype=np.float32)

@@ -29,8 +29,8 @@ class Canvas:
                  background: tuple[int, int, int] = (240, 240, 235)) -> None:
         self.x0, self.y1 = x0, y1
         self.scale = size / max(x1 - x0, y1 - y0)
-        self.width = max(1, int(round((x1 - x0) * self.scale)))
-        self.height = max(1, int(round((y1 - y0) * self.scale)))
+        self.width = max(1, round((x1 - x0) * self.scale))
+        self.height = max(1, round((y1 - y0) * self.scale))
         self.image = Image.new("RGB", (self.width, self.height), background)
         self.draw = ImageDraw.Draw(self.image)
 

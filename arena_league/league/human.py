@@ -15,25 +15,18 @@ base agents and are placed among them like any entrant. :func:`play_human` does 
   others); in team layouts the person's teammates are played by the same base agent as the
   opponents, so the two teams differ only in the seat the person holds.
 
-Drawing and input, per game:
-
-* **GoBang**: the board in text (``X`` black, ``O`` white, the last stone in lower case); a move
-  is a cell such as ``H8`` (column letter, row number) or ``8 8`` (row, column). An occupied
-  cell, a cell off the board or something that is not a cell is refused with the reason, and
-  asked again.
-* **Snake**: the board in text (``#`` wall, ``*`` food, your snake ``@`` head and ``o`` body,
-  the others ``A``/``a``, ``B``/``b``, ...); a move is ``w``/``a``/``s``/``d`` (or ``up``,
-  ``left``, ``down``, ``right``) on the board as drawn; Enter keeps going straight.
-* **physics games** (Crossroads, Soccer, and any other): a coarse text view of the top-down
-  picture (team digits, ``#``/``+`` walls and markings, ``o`` a ball, ``*`` other objects), and optionally the picture itself as
-  a PNG per step (``picture_dir``); a move is the action's number or name; Enter repeats the last.
+What the person sees and types is the game's own: its rules give the controls of the person's
+seat (``GameRules.human_controls``, see :mod:`arena_league.envs.controls`), and each game's
+manual (its module docstring, "Playing it") says what to type: a cell on a board game, a move on
+the board as drawn, an action by number or name, a walking direction for the robots. An answer
+the controls refuse is refused with the reason, and asked again. ``picture_dir`` also saves the
+top-down picture of every step the person acts as a PNG.
 
 ``q`` (or end of input) resigns the match in progress, which counts as a loss, and ends the session.
 """
 
 from __future__ import annotations
 
-import re
 import sys
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -44,20 +37,16 @@ import numpy as np
 
 from arena_league import registry as reg
 from arena_league.envs import game_spec, make
+from arena_league.envs.controls import Controls
 from arena_league.matchmaking import MatchResult, MatchSpec
 from arena_league.rating import place_entrant
 from arena_league.registry.repository import AGENT_NAME_PATTERN
 
-__all__ = ["HumanMatch", "HumanSession", "ascii_topdown", "play_human"]
+__all__ = ["HumanMatch", "HumanSession", "play_human"]
 
 InputFn = Callable[[str], str]
 
 _QUIT = {"q", "quit", "resign", "exit"}
-_SNAKE_KEYS = {"w": 0, "up": 0, "u": 0, "d": 1, "right": 1, "r": 1, "s": 2, "down": 2, "a": 3, "left": 3, "l": 3}
-#: Robot games: walking directions on the arena as drawn (x right, y up).
-_ROBOT_KEYS = {"w": np.array([0.0, 1.0]), "s": np.array([0.0, -1.0]), "a": np.array([-1.0, 0.0]),
-               "d": np.array([1.0, 0.0])}
-_SOCCER_MIRROR = np.array([0, 5, 4, 3, 2, 1, 8, 7, 6])  # E <-> W for the team seeing the field mirrored
 
 
 @dataclass
@@ -118,7 +107,7 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
         seed: seeds the matches (env and the agents' sampling).
         matches: matches to play at most (default: until the person types ``q``).
         climb: places to climb after a win (default a tenth of the base, at least 1).
-        picture_dir: save the top-down picture of every step there as PNG (physics games).
+        picture_dir: save the top-down picture of every step the person acts there as PNG.
     """
     from arena_league.league.service import (
         agent_ref,
@@ -267,7 +256,7 @@ def _play_match(game_id: str, spec: MatchSpec, policy: Any, team: int, input_fn:
     seat = int(np.flatnonzero(rules.team_of == team)[0])
     width = policy.spec.uniforms_per_seat
     states = policy.initial_state(n)
-    human = _HumanSeat.for_game(rules, seat)
+    controls = rules.human_controls(seat)
     max_cycles = env.max_cycles
     steps = 0
     if picture_dir is not None:
@@ -296,275 +285,28 @@ def _play_match(game_id: str, spec: MatchSpec, policy: Any, team: int, input_fn:
                 from PIL import Image
 
                 Image.fromarray(rules.render_topdown()).save(Path(picture_dir) / f"step-{steps:05d}.png")
-            actions[seat] = human.ask(rules, steps, input_fn, out)
+            command = _ask(controls, steps, input_fn, out) if controls.wants_command() else None
+            actions[seat] = controls.action(command)
         rules.step(actions)
         steps += 1
     if not rules.game_over:
         rules.finish()
-    print(human.draw(rules), file=out)
+    print(controls.final_view(), file=out)
     return np.asarray(rules.team_result(), dtype=np.float64), steps
 
 
-class _HumanSeat:
-    """Draws the game for the person and reads their moves."""
-
-    def __init__(self, rules: Any, seat: int) -> None:
-        self.rules = rules
-        self.seat = seat
-        self.last: int = 0
-
-    @staticmethod
-    def for_game(rules: Any, seat: int) -> _HumanSeat:
-        if hasattr(rules, "seat_angle"):  # the MuJoCo robot games
-            return _RobotSeat(rules, seat)
-        if rules.action_type != "discrete":
-            raise ValueError(f"{rules.name} has no human controls for continuous actions; make the game with "
-                             "action_type='discrete'")
-        kind = {"GoBang": _GoBangSeat, "Snake": _SnakeSeat, "Soccer": _SoccerSeat}.get(rules.name, _HumanSeat)
-        return kind(rules, seat)
-
-    def ask(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> Any:
-        self.last = int(self.read(rules, step, input_fn, out))
-        return self.last
-
-    def read(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> Any:
-        """Draw the game and ask until :meth:`parse` takes the answer (q resigns)."""
-        print(self.draw(rules), file=out)
-        while True:
-            try:
-                text = input_fn(self.prompt(step))
-            except EOFError:
-                raise _Resign from None
-            text = text.strip().lower()
-            if text in _QUIT:
-                raise _Resign
-            action, problem = self.parse(text)
-            if problem is None:
-                return action
-            print(f"  {problem}", file=out)
-
-    # generic (physics games): a coarse top-down view; actions by number or name
-    def draw(self, rules: Any) -> str:
-        team = int(rules.team_of[self.seat])
-        return ascii_topdown(rules.render_topdown()) + f"\nYou are seat {self.seat}, team {team} (digit {team})."
-
-    def prompt(self, step: int) -> str:
-        names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
-        return f"step {step}: action ({names}; Enter repeats {self.last}) > "
-
-    def meanings(self) -> tuple[str, ...]:
-        return tuple(self.rules.action_meanings) or tuple(str(i) for i in range(self.rules.n_actions))
-
-    def parse(self, text: str) -> tuple[int | None, str | None]:
-        if text == "":
-            return self.last, None
-        meanings = [m.lower() for m in self.meanings()]
-        if text in meanings:
-            return meanings.index(text), None
-        if not text.lstrip("-").isdigit():
-            return None, (f"{text!r} is not an action: type a number 0..{len(meanings) - 1} or a name "
-                          f"({', '.join(meanings)})")
-        action = int(text)
-        if not 0 <= action < len(meanings):
-            return None, f"action {action} does not exist: type a number 0..{len(meanings) - 1}"
-        return action, None
-
-
-class _GoBangSeat(_HumanSeat):
-    """Stones by cell: ``H8`` (column letter, row number) or ``8 8`` (row, column), 1-based."""
-
-    def draw(self, rules: Any) -> str:
-        size = rules.size
-        cells = rules.engine.cells[0]
-        last = int(rules.engine.last_action[0])
-        letters = [chr(ord("A") + c) for c in range(size)]
-        lines = ["    " + " ".join(letters)]
-        for r in range(size):
-            marks = []
-            for c in range(size):
-                cell = r * size + c
-                mark = ".XO"[int(cells[cell])]
-                marks.append(mark.lower() if cell == last and mark != "." else mark)
-            lines.append(f"{r + 1:>3} " + " ".join(marks))
-        colour = "X (black, first)" if int(rules.team_of[self.seat]) == 0 else "O (white)"
-        lines.append(f"You play {colour}.")
-        return "\n".join(lines)
-
-    def prompt(self, step: int) -> str:
-        return "your move (e.g. H8, or row col: 8 8) > "
-
-    def parse(self, text: str) -> tuple[int | None, str | None]:
-        rules = self.rules
-        size = rules.size
-        letter = re.fullmatch(r"([a-z])\s*(-?\d+)", text)
-        numbers = re.fullmatch(r"(-?\d+)[\s,]+(-?\d+)", text)
-        if letter:
-            row, col = int(letter.group(2)) - 1, ord(letter.group(1)) - ord("a")
-        elif numbers:
-            row, col = int(numbers.group(1)) - 1, int(numbers.group(2)) - 1
-        else:
-            return None, (f"{text!r} is not a cell: type a column letter and a row number such as H8, or two numbers "
-                          "(row, column) such as 8 8")
-        if not (0 <= row < size and 0 <= col < size):
-            return None, (f"row {row + 1}, column {col + 1} is off the board: rows and columns run from 1 to {size} "
-                          f"(columns A to {chr(ord('A') + size - 1)})")
-        cell = row * size + col
-        if rules.engine.cells[0, cell] != 0:
-            return None, f"{chr(ord('A') + col)}{row + 1} is occupied: choose an empty cell (shown as .)"
-        return cell, None
-
-
-class _SnakeSeat(_HumanSeat):
-    """Moves on the board as drawn (w/a/s/d), turned into the seat's own frame."""
-
-    def draw(self, rules: Any) -> str:
-        engine = rules.engine
-        grid = engine.grid(0)
-        size = grid.shape[0]
-        others = [s for s in range(rules.n_agents) if s != self.seat]
-        chars = np.full(grid.shape, ".", dtype="<U1")
-        chars[grid == -2] = "*"
-        for s in range(rules.n_agents):
-            body = "o" if s == self.seat else chr(ord("a") + others.index(s))
-            chars[grid == s] = body
-            if engine.alive[0, s]:
-                head = int(engine.head[0, s])
-                chars.reshape(-1)[head] = "@" if s == self.seat else body.upper()
-        border = "#" * (size + 2)
-        lines = [border] + ["#" + "".join(row) + "#" for row in chars] + [border]
-        lengths = ", ".join(f"{'you' if s == self.seat else chr(ord('A') + others.index(s))}: length "
-                            f"{int(engine.length[0, s])}{'' if engine.alive[0, s] else ' (dead)'}"
-                            for s in range(rules.n_agents))
-        return "\n".join(lines) + f"\nYou are @ (body o). {lengths}"
-
-    def prompt(self, step: int) -> str:
-        return f"step {step}: w up, a left, s down, d right (Enter: straight on) > "
-
-    def parse(self, text: str) -> tuple[int | None, str | None]:
-        rotation = int(self.rules.engine.rotations[self.seat])
-        if text == "":
-            heading = int(self.rules.engine.direction[0, self.seat])  # board frame
-            return (heading - rotation) % 4, None
-        if text not in _SNAKE_KEYS:
-            return None, f"{text!r} is not a move: type w (up), a (left), s (down) or d (right), or Enter to go on"
-        return (_SNAKE_KEYS[text] - rotation) % 4, None
-
-
-class _SoccerSeat(_HumanSeat):
-    """Compass moves on the field as drawn (E = right), mirrored for the team that sees the field
-    flipped."""
-
-    def parse(self, text: str) -> tuple[int | None, str | None]:
-        action, problem = super().parse(text)
-        if problem is None and text != "" and int(self.rules.team_of[self.seat]) == 1:
-            action = int(_SOCCER_MIRROR[action])
-        return action, problem
-
-    def prompt(self, step: int) -> str:
-        names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
-        return f"step {step}: move on the field as drawn ({names}; Enter repeats) > "
-
-
-class _RobotSeat(_HumanSeat):
-    """An ant steered on the arena as drawn: the person picks a direction (w up, a left, s down,
-    d right, two letters for a diagonal such as ``wd``, ``x`` to stand) and, optionally, how many
-    steps to hold it (``d 10``); the scripted trot (:mod:`arena_league.envs.robots.gait`) walks
-    that way, as the game's heuristic does toward its own choice."""
-
-    HOLD = 5  # steps a command lasts unless told (0.25 s of play)
-
-    def __init__(self, rules: Any, seat: int) -> None:
-        super().__init__(rules, seat)
-        self.direction = np.zeros(2)
-        self.text = "x"
-        self.held = 0
-
-    def ask(self, rules: Any, step: int, input_fn: InputFn, out: TextIO) -> np.ndarray:
-        if self.held <= 0:
-            self.direction, self.text, self.held = self.read(rules, step, input_fn, out)
-        self.held -= 1
-        from arena_league.envs.robots.gait import stand, trot
-
-        obs = rules.observe()[self.seat: self.seat + 1]
-        if not self.direction.any():
-            return stand(obs)[0]
-        # world frame (as drawn) -> the seat's frame: turn by minus the seat's angle
-        way = complex(*self.direction) * np.exp(-1j * float(rules.seat_angle[self.seat]))
-        return trot(obs, [[way.real, way.imag]])[0]
-
-    def parse(self, text: str) -> tuple[Any, str | None]:
-        """``text`` (``<direction> [steps]``; Enter repeats the last) as ``(direction, keys, steps)``."""
-        words = text.split() or [self.text]
-        keys, steps = words[0], self.HOLD
-        if len(words) > 2 or (len(words) == 2 and not (words[1].isdigit() and int(words[1]) > 0)):
-            return None, (f"{text!r} is not a command: type a direction (w, a, s, d, two of them such as wd, or x "
-                          "to stand) and optionally a number of steps, such as 'd 10'")
-        if len(words) == 2:
-            steps = int(words[1])
-        if keys in ("x", "stand"):
-            direction = np.zeros(2)
-        elif keys and all(k in _ROBOT_KEYS for k in keys) and len(keys) <= 2:
-            direction = sum(_ROBOT_KEYS[k] for k in keys)
-            if not direction.any():
-                return None, f"{keys!r} cancels out: choose directions that are not opposite (wd, sa, ...)"
-            direction = direction / np.linalg.norm(direction)
-        else:
-            return None, f"{keys!r} is not a direction: type w (up), a (left), s (down), d (right), two of them, or x"
-        return (direction, keys, steps), None
-
-    def draw(self, rules: Any) -> str:
-        team = int(rules.team_of[self.seat])
-        text = ascii_topdown(rules.render_topdown()) + (
-            f"\nYou are the ant of team {team} (digit {team}); the white stroke on each ant points where it faces.")
-        rings = [numbers[0] for kind, numbers in rules.scene.layout.markings if kind == "ring"]
-        if rings:  # Sumo: the ring's edge is too thin to draw in text
-            torsos = rules.data.xpos[rules.scene.torso_body][:, :2]
-            where = ", ".join(f"{'you' if i == self.seat else f'team {int(rules.team_of[i])}'} "
-                              f"{np.linalg.norm(p):.1f} m" for i, p in enumerate(torsos))
-            text += f"\nRing radius {rings[0]:.1f} m; distance from its centre: {where}."
-        return text
-
-    def prompt(self, step: int) -> str:
-        return (f"step {step}: walk w up, a left, s down, d right, wd/sa.. diagonal, x stand; add steps to hold "
-                f"(default {self.HOLD}); Enter repeats {self.text!r} > ")
-
-
-def ascii_topdown(picture: np.ndarray, columns: int = 64) -> str:
-    """A coarse text view of a top-down picture: each character stands for a block of pixels;
-    a team's colour is its team digit, dark strokes ``#`` (walls), light grey ``+`` (walls,
-    markings), white ``o`` (a ball), other colours ``*``, open ground ``.``."""
-    from arena_league.envs.rendering import TEAM_COLOURS
-
-    image = np.asarray(picture, dtype=np.int64)
-    height, width = image.shape[:2]
-    block = max(1, width // columns)
-    rows = max(1, height // (2 * block))  # characters are about twice as tall as wide
-    flat = image.reshape(-1, 3)
-    colours, counts = np.unique(flat, axis=0, return_counts=True)
-    background = colours[np.argsort(-counts)[:2]]  # the two commonest colours are ground
-    palette = np.asarray(TEAM_COLOURS[:4])
-    lines = []
-    for r in range(rows):
-        line = []
-        for c in range(width // block):
-            cell = image[r * 2 * block:(r + 1) * 2 * block, c * block:(c + 1) * block].reshape(-1, 3)
-            ground = (np.abs(cell[:, None, :] - background[None]).sum(axis=2) < 30).any(axis=1)
-            things = cell[~ground]
-            if things.shape[0] < max(1, cell.shape[0] // 8):
-                line.append(".")
-                continue
-            mean = things.mean(axis=0)
-            team_distance = np.abs(palette - mean).sum(axis=1)
-            grey = mean.max() - mean.min() < 30
-            if team_distance.min() < 90:
-                line.append(str(int(team_distance.argmin())))
-            elif grey and mean.mean() < 100:
-                line.append("#")
-            elif grey and mean.mean() <= 240:
-                line.append("+")
-            elif grey:
-                line.append("o")
-            else:
-                line.append("*")
-        lines.append("".join(line))
-    return "\n".join(lines)
+def _ask(controls: Controls, step: int, input_fn: InputFn, out: TextIO) -> Any:
+    """Show the match and ask until the controls take the answer; q (or end of input) resigns."""
+    print(controls.view(), file=out)
+    while True:
+        try:
+            text = input_fn(controls.prompt(step))
+        except EOFError:
+            raise _Resign from None
+        text = text.strip().lower()
+        if text in _QUIT:
+            raise _Resign
+        command, problem = controls.parse(text)
+        if problem is None:
+            return command
+        print(f"  {problem}", file=out)

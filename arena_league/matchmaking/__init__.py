@@ -1,5 +1,6 @@
 """The match engine: match specs and seeds, the batched lockstep runner, its backends (in-process,
-process pool, Ray) and opponent selection (see DESIGN.md, "matchmaking/").
+process pool, Ray) and opponent selection. Replays are recorded by a :class:`MatchRecording` the
+caller passes in (``arena_league.replay.ReplayRecording``), so the engine writes no file format itself.
 
     from arena_league.matchmaking import AgentRef, play_matches, round_robin, specs_for_seatings
 
@@ -13,6 +14,7 @@ from arena_league.matchmaking.agents import AGENT_KINDS, AgentRef, load_agents
 from arena_league.matchmaking.backends import BACKENDS, play_chunk, play_matches
 from arena_league.matchmaking.runner import (
     LockstepRunner,
+    MatchRecording,
     PolicyError,
     PolicyUnit,
     action_spec_of,
@@ -42,6 +44,7 @@ __all__ = [
     "AgentRef",
     "LeastPlayedChooser",
     "LockstepRunner",
+    "MatchRecording",
     "MatchResult",
     "MatchSpec",
     "OpponentChooser",

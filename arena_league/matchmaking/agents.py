@@ -5,7 +5,7 @@ The process-pool and Ray backends never ship torch objects between processes: ea
 :mod:`arena_league.policies`, once per worker process. A reference names
 
 * ``scripted``: a built-in agent by name (``random``, ``heuristic``);
-* ``onnx``: an ONNX file following DESIGN.md's I/O convention;
+* ``onnx``: an ONNX file in the league's I/O convention (:mod:`arena_league.policies.onnx_policy`);
 * ``arena-policy``: an ``arena-policy`` folder (``manifest.json`` + ``weights.safetensors``).
 
 Its text form is ``<kind>:<name or path>`` (``scripted:heuristic``, ``onnx:/league/ab12.onnx``).

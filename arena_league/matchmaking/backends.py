@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from arena_league.matchmaking.agents import AgentRef, load_agents
-from arena_league.matchmaking.runner import LockstepRunner
+from arena_league.matchmaking.runner import LockstepRunner, MatchRecording
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import Policy
 
@@ -42,7 +42,7 @@ _WORKER_POLICIES: dict[tuple[AgentRef, ...], dict[str, Policy]] = {}
 
 
 def play_chunk(game_id: str, agents: Mapping[str, AgentRef], specs: Sequence[MatchSpec], batch_size: int,
-               env_kwargs: Mapping[str, Any] | None, record_dir: str | None) -> list[MatchResult]:
+               env_kwargs: Mapping[str, Any] | None, recording: MatchRecording | None) -> list[MatchResult]:
     """Plays one chunk of specs of one game in this process (the unit of work of the process-pool
     and Ray backends); policies are loaded once per process and kept."""
     cache_key = tuple(sorted(set(agents.values()), key=lambda ref: (ref.key, ref.game_id, str(ref.action_type))))
@@ -52,7 +52,7 @@ def play_chunk(game_id: str, agents: Mapping[str, AgentRef], specs: Sequence[Mat
         _WORKER_POLICIES[cache_key] = policies
     seat_policies = {key: policies[ref.key] for key, ref in agents.items()}
     runner = LockstepRunner(game_id, seat_policies, batch_size=batch_size, env_kwargs=env_kwargs,
-                            record_dir=record_dir)
+                            recording=recording)
     return runner.play(specs)
 
 
@@ -66,7 +66,7 @@ def _worker_init() -> None:
 
 
 #: Modules the fork server imports once, so that every pool's workers start without importing them.
-_PRELOAD = ["arena_league.matchmaking", "arena_league.policies"]
+_PRELOAD = ["arena_league.matchmaking", "arena_league.policies.artifacts"]
 
 
 def _process_context() -> multiprocessing.context.BaseContext:
@@ -77,14 +77,10 @@ def _process_context() -> multiprocessing.context.BaseContext:
     return context
 
 
-def _chunks(specs: Sequence[MatchSpec], chunk_size: int) -> list[list[MatchSpec]]:
-    return [list(specs[i: i + chunk_size]) for i in range(0, len(specs), chunk_size)]
-
-
 def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Policy], *,
                  backend: str = "inprocess", batch_size: int = 64, workers: int | None = None,
                  chunk_size: int | None = None, ray_address: str | None = None,
-                 env_kwargs: Mapping[str, Any] | None = None, record_dir: str | Path | None = None,
+                 env_kwargs: Mapping[str, Any] | None = None, recording: MatchRecording | None = None,
                  on_result: Callable[[MatchResult], None] | None = None) -> list[MatchResult]:
     """Plays ``specs`` and returns their results in the same order.
 
@@ -100,7 +96,8 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
         ray_address: the Ray cluster to join (``"auto"``, ``"ray://host:10001"``); default
             ``RAY_ADDRESS`` or a new local instance.
         env_kwargs: options of :func:`arena_league.envs.make` for every match.
-        record_dir: write one MCAP replay per match there.
+        recording: opens a recorder per match (``arena_league.replay.ReplayRecording(directory)``
+            writes one MCAP replay per match there); see :class:`MatchRecording`.
         on_result: called with each result as it arrives (in-process: as each match ends; other
             backends: as each chunk returns).
     """
@@ -111,7 +108,6 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
     if missing:
         raise KeyError(f"no agent for key(s) {missing[:10]}; give every agent key named in the specs an "
                        "AgentRef or a Policy")
-    record = None if record_dir is None else str(record_dir)
     by_game: dict[str, list[int]] = {}
     for index, spec in enumerate(specs):
         by_game.setdefault(spec.game_id, []).append(index)
@@ -121,7 +117,7 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
         policies = load_agents(agents)
         for game_id, indices in by_game.items():
             runner = LockstepRunner(game_id, {k: policies[k] for k in _keys_of(specs, indices)},
-                                    batch_size=batch_size, env_kwargs=env_kwargs, record_dir=record)
+                                    batch_size=batch_size, env_kwargs=env_kwargs, recording=recording)
             for index, result in zip(indices, runner.play([specs[i] for i in indices], on_result)):
                 results[index] = result
         return [r for r in results if r is not None]
@@ -137,7 +133,7 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
         for start in range(0, len(indices), size):
             part = indices[start: start + size]
             refs = {k: agents[k] for k in _keys_of(specs, part)}
-            tasks.append((part, (game_id, refs, [specs[i] for i in part], batch_size, env_kwargs, record)))
+            tasks.append((part, (game_id, refs, [specs[i] for i in part], batch_size, env_kwargs, recording)))
 
     def collect(part: list[int], chunk_results: list[MatchResult]) -> None:
         for index, result in zip(part, chunk_results):

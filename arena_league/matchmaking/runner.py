@@ -25,8 +25,9 @@ zeros) that the rules ignore; recurrent states advance only when a seat acts.
 
 Stepping paths: a result needs the rules' outcome, not the social-tree rewards, so unless a replay
 is recorded (or observations carry broadcast boards or the global state) the runner steps each
-match's game rules directly, or, for games with a whole-array engine (GoBang, Snake), all matches at
-once on it; see :class:`LockstepRunner`'s ``path``. Every path gives the same results.
+match's game rules directly, or, for games whose rules declare a whole-array engine
+(``batched_matches``, see :mod:`arena_league.matchmaking.batched`), all matches at once on it; see
+:class:`LockstepRunner`'s ``path``. Every path gives the same results.
 """
 
 from __future__ import annotations
@@ -34,8 +35,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -47,6 +47,18 @@ __all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "action_spec_
 
 #: How a runner steps its matches (see :class:`LockstepRunner`).
 PATHS = ("auto", "env", "rules", "engine")
+
+
+class MatchRecording(Protocol):
+    """One match's recorder, opened when the match starts on the env path.
+
+    ``recording(spec, env, env_kwargs)`` is called right after ``env`` was reset with ``spec.seed``
+    and returns a recorder with ``before_step(obs, actions, acting)``, ``after_step(rewards)``,
+    ``close(result) -> path`` (the result then carries that path as ``replay_path``) and
+    ``abort()``. Must pickle for the process-pool and Ray backends.
+    """
+
+    def __call__(self, spec: MatchSpec, env: Any, env_kwargs: dict[str, Any]) -> Any: ...
 
 
 class PolicyError(RuntimeError):
@@ -122,11 +134,8 @@ class _EnvMatches:
             self.steps[position] = 0
             return
         self.obs[position] = env.reset_arrays(spec.seed)
-        if self.runner.record_dir is not None:
-            from arena_league.replay.writer import MatchRecorder
-
-            self.recorders[position] = MatchRecorder.open(self.runner.record_dir, spec, env,
-                                                          self.runner.env_kwargs)
+        if self.runner.recording is not None:
+            self.recorders[position] = self.runner.recording(spec, env, self.runner.env_kwargs)
 
     def gather(self, live: list[int], obs: np.ndarray, mask: np.ndarray | None, acting: np.ndarray) -> None:
         n = self.runner.n_agents
@@ -227,8 +236,9 @@ class LockstepRunner:
         batch_size: matches in flight at once (1 plays them one after another).
         env_kwargs: extra arguments of :func:`arena_league.envs.make` (``tree``, ``action_type``,
             ``max_cycles``, game options); the same for every match.
-        record_dir: when given, each match writes an MCAP replay there
-            (:mod:`arena_league.replay`) and its result carries the path.
+        recording: when given, opens a recorder for each match (a :class:`MatchRecording`, such as
+            ``arena_league.replay.ReplayRecording(directory)``, which writes MCAP replays), and
+            each result carries the path its recorder returns.
         path: how matches are stepped. ``"env"``: one env per match through its array API (what
             recording uses). ``"rules"``: one game-rules object per match stepped directly, without
             the social-tree rewards no result needs. ``"engine"``: every match on the game's
@@ -239,7 +249,7 @@ class LockstepRunner:
     """
 
     def __init__(self, game_id: str, policies: Mapping[str, Policy], *, batch_size: int = 64,
-                 env_kwargs: Mapping[str, Any] | None = None, record_dir: str | Path | None = None,
+                 env_kwargs: Mapping[str, Any] | None = None, recording: MatchRecording | None = None,
                  path: str = "auto") -> None:
         if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
             raise ValueError(f"batch_size must be a positive integer (matches in flight), not {batch_size!r}")
@@ -254,7 +264,7 @@ class LockstepRunner:
         if "render_mode" in self.env_kwargs:
             raise ValueError("env_kwargs must not set render_mode: matches are played without pictures "
                              "(replays render afterwards from the recorded actions)")
-        self.record_dir = None if record_dir is None else Path(record_dir)
+        self.recording = recording
         self.path = path
         if path not in PATHS:
             raise ValueError(f"path must be one of {', '.join(PATHS)}, not {path!r}")
@@ -379,12 +389,12 @@ class LockstepRunner:
 
     def stepping_path(self, width: int = 1) -> str:
         """The path (see the class docstring) this runner takes: ``"env"``, ``"rules"`` or ``"engine"``."""
-        from arena_league.matchmaking.batched import BATCHED_GAMES
+        from arena_league.matchmaking.batched import has_batched_engine
 
         probe = self._probe
         plain = (not self.env_kwargs.get("state_in_obs")
                  and probe.observation_space(probe.possible_agents[0]).shape[0] == probe.rules.obs_dim)
-        if self.path == "env" or self.record_dir is not None:
+        if self.path == "env" or self.recording is not None:
             return "env"
         if not plain:
             if self.path != "auto":
@@ -393,7 +403,7 @@ class LockstepRunner:
             return "env"
         if self.path == "rules":
             return "rules"
-        has_engine = probe.rules.name in BATCHED_GAMES
+        has_engine = has_batched_engine(probe.rules)
         if self.path == "engine" and not has_engine:
             raise ValueError(f"{self.game_id} has no whole-array engine; use path='rules' or 'auto'")
         return "engine" if has_engine else "rules"

@@ -153,7 +153,7 @@ class MatchResult:
 
     def team_scores(self) -> dict[int, float]:
         """Each team's score."""
-        return {t: s for t, s in zip(self.teams, self.scores)}
+        return dict(zip(self.teams, self.scores))
 
     def seat_rows(self) -> list[dict[str, Any]]:
         """One row per seat with the registry's ``match_seats`` columns (agent is the seat's key)."""

@@ -1,10 +1,10 @@
 """Match replays: one MCAP file per match (JSON schemas; observations, actions, rewards, events and
 a ``foxglove.SceneUpdate`` top-down scene that Foxglove Studio opens), a reader that summarises
-one, and GIF export of the top-down view (see DESIGN.md, "replay/").
+one, and GIF export of the top-down view.
 
-    results = play_matches(specs, agents, record_dir="replays/")      # --record
-    summary = read_replay(results[0].replay_path)                     # arena-league replay FILE
-    export_gif(results[0].replay_path, "match.gif")                   # --gif match.gif
+    results = play_matches(specs, agents, recording=ReplayRecording("replays/"))   # --record
+    summary = read_replay(results[0].replay_path)                                    # arena-league replay FILE
+    export_gif(results[0].replay_path, "match.gif")                                  # --gif match.gif
 """
 
 from arena_league.replay.reader import (
@@ -15,21 +15,28 @@ from arena_league.replay.reader import (
     read_replay,
     replay_frames,
 )
-from arena_league.replay.scenes import FRAME_ID, SCENE_ADAPTERS, scene_entities, scene_update
+from arena_league.replay.scenes import FRAME_ID, scene_entities, scene_update
 from arena_league.replay.schemas import CHANNEL_SCHEMAS, SCENE_SCHEMA_NAME, TOPICS, scene_update_schema
-from arena_league.replay.writer import FORMAT_VERSION, PROFILE, STEP_NS, MatchRecorder, replay_file_name
+from arena_league.replay.writer import (
+    FORMAT_VERSION,
+    PROFILE,
+    STEP_NS,
+    MatchRecorder,
+    ReplayRecording,
+    replay_file_name,
+)
 
 __all__ = [
     "CHANNEL_SCHEMAS",
     "FORMAT_VERSION",
     "FRAME_ID",
     "PROFILE",
-    "SCENE_ADAPTERS",
     "SCENE_SCHEMA_NAME",
     "STEP_NS",
     "TOPICS",
     "MatchRecorder",
     "ReplayError",
+    "ReplayRecording",
     "ReplaySummary",
     "export_gif",
     "iter_messages",

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +37,7 @@ from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.replay.scenes import scene_update
 from arena_league.replay.schemas import CHANNEL_SCHEMAS, SCENE_SCHEMA_NAME, TOPICS, scene_update_schema
 
-__all__ = ["FORMAT_VERSION", "PROFILE", "STEP_NS", "MatchRecorder", "replay_file_name"]
+__all__ = ["FORMAT_VERSION", "PROFILE", "STEP_NS", "MatchRecorder", "ReplayRecording", "replay_file_name"]
 
 #: Nanoseconds of log time per env step (0.1 s: the physics step of the pymunk games).
 STEP_NS = 100_000_000
@@ -52,6 +53,19 @@ def replay_file_name(spec: MatchSpec) -> str:
 
 def _dumps(message: dict[str, Any]) -> bytes:
     return json.dumps(message, separators=(",", ":"), allow_nan=False).encode()
+
+
+@dataclass(frozen=True)
+class ReplayRecording:
+    """Records every match into ``directory``, one MCAP file each: give it to the match engine as
+    ``play_matches(specs, agents, recording=ReplayRecording("replays/"))``. Pickles, so process-pool
+    and Ray workers write their matches' replays themselves."""
+
+    directory: str | Path
+    record_observations: bool = True
+
+    def __call__(self, spec: MatchSpec, env: Any, env_kwargs: dict[str, Any]) -> MatchRecorder:
+        return MatchRecorder.open(self.directory, spec, env, env_kwargs, self.record_observations)
 
 
 class MatchRecorder:
@@ -125,8 +139,8 @@ class MatchRecorder:
         """Records the step's rewards, events, observations and scene."""
         self._step += 1
         self._write("rewards", {"step": self._step, "rewards": np.asarray(rewards, dtype=np.float64).tolist()})
-        for event in self.env.rules.events():
-            event = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in dict(event).items()}
+        for raw in self.env.rules.events():
+            event = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in dict(raw).items()}
             self._write("events", {"step": self._step, "kind": str(event.get("kind", "")), "event": event})
         self._record_state(self.env.last_obs)
 

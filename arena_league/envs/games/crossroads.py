@@ -84,19 +84,30 @@ Heuristic
 
 Game kwargs
     ``arrival_radius`` (float > 0, default 1.0), ``agent_shape`` (``"circle"`` or ``"box"``).
+
+Playing it (``arena-league play``)
+    A coarse text view of the top-down picture (team digits, ``#`` the road's edges); a move is an
+    action's number or name (``forward``, ``turn_left``, ...); Enter repeats the last. Discrete
+    actions only.
+
+Replay scene
+    The two roads (flat cubes), every agent (a sphere, or a cube with ``agent_shape="box"``, faded
+    once arrived) with a heading arrow, and each target (a flat disc of the arrival radius):
+    entities ``roads``, ``agent/<seat>`` and ``target/<seat>``.
 """
 
 from __future__ import annotations
 
 import math
 from types import SimpleNamespace
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import pymunk
-import pymunk.batch
 
+from arena_league.envs import scene
 from arena_league.envs.core import GameRules
+from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, body_cells, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Distance from the centre to the end of each arm.
@@ -157,88 +168,12 @@ _DISCRETE_TABLE = np.concatenate([
     np.zeros((len(ACTION_MEANINGS), 3))])
 
 
-class _SpaceBatch:
-    """One pymunk space's step and its bulk transfers to and from numpy arrays, as direct C calls.
-
-    These are the iterators behind ``pymunk.batch.get_space_bodies``, ``set_space_bodies`` and
-    ``get_space_arbiters``, called with their request structs built once (the public functions
-    build one per call, which costs more than the transfer itself), over ``pymunk.batch.Buffer``
-    arrays that point at numpy memory. The arrays are sized so that pymunk never grows them (it
-    reallocates one push before an array is full, which on numpy memory would corrupt the heap):
-    body arrays hold every body of the space plus spare cells, contact arrays every shape pair.
-
-    Bodies are visited in the order they were added (the agents, in seat order, then the space's
-    static body); reads give x, y, angle, vx, vy per body; writes take angular velocity, fx, fy.
-
-    ``step`` is ``cpSpaceStep`` itself: ``Space.step`` wraps it in Python bookkeeping for objects
-    added or removed from callbacks and for post-step callbacks, and these spaces have none (no
-    collision handlers, nothing added or removed after construction).
-    """
-
-    READ_CELLS = 5
-    WRITE_CELLS = 3
-    SPARE = 4
-
-    def __init__(self, read_floats: np.ndarray, write_floats: np.ndarray, max_arbiters: int) -> None:
-        batch = pymunk.batch
-        self._ffi, lib = batch.ffi, batch.lib
-        self._each_body = lib.cpSpaceEachBody
-        self._each_arbiter = lib.cpSpaceEachCachedArbiter
-        self._space_step = lib.cpSpaceStep
-        self._get_body = self._ffi.addressof(lib, "pmSpaceBodyGetIteratorFuncBatched")
-        self._set_body = self._ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched")
-        self._get_arbiter = self._ffi.addressof(lib, "pmSpaceArbiterIteratorFuncBatched")
-        self.contact_floats = np.zeros(2 * max_arbiters + self.SPARE)
-        self.contact_ids = np.zeros(2 * max_arbiters + self.SPARE, dtype=np.uintp)
-        self._buffers = []
-        self._read = self._request(batch.BodyFields.POSITION | batch.BodyFields.ANGLE
-                                   | batch.BodyFields.VELOCITY, read_floats)
-        self._write = self._request(batch.BodyFields.ANGULAR_VELOCITY | batch.BodyFields.FORCE,
-                                    write_floats)
-        self._contacts = self._request(batch.ArbiterFields.BODY_A_ID | batch.ArbiterFields.BODY_B_ID
-                                       | batch.ArbiterFields.TOTAL_IMPULSE, self.contact_floats,
-                                       self.contact_ids)
-        self._contact_ints = self._buffers[-1]._int_arr
-        self._space = None
-
-    def _request(self, fields, floats: np.ndarray, ints: np.ndarray | None = None):
-        """A request for ``fields`` over ``floats`` (and ``ints``), with its float array's
-        header, whose ``num`` (cells pushed) is reset before every call."""
-        buffer = pymunk.batch.Buffer()
-        buffer.set_float_buf(floats)
-        if ints is not None:
-            buffer.set_int_buf(ints)
-        buffer.clear()
-        request = self._ffi.new("pmBatchedData *")
-        request.fields = fields.value
-        request.floatArray = buffer._float_arr
-        request.intArray = buffer._int_arr
-        self._buffers.append(buffer)  # keeps the arrays alive as long as the request
-        return buffer._float_arr, request
-
-    def bind(self, space: pymunk.Space) -> None:
-        self._space = space._space
-
-    def step(self, dt: float) -> None:
-        self._space_step(self._space, dt)
-
-    def read_bodies(self) -> None:
-        floats, request = self._read
-        floats.num = 0
-        self._each_body(self._space, self._get_body, request)
-
-    def write_bodies(self) -> None:
-        floats, request = self._write
-        floats.num = 0  # the setter reads from the start of the array
-        self._each_body(self._space, self._set_body, request)
-
-    def read_contacts(self) -> int:
-        """Fill ``contact_ids`` (body ids a, b) and ``contact_floats`` (total impulse x, y) for
-        every cached arbiter; returns how many. Arbiters not touching this step report 0."""
-        floats, request = self._contacts
-        floats.num = self._contact_ints.num = 0
-        self._each_arbiter(self._space, self._get_arbiter, request)
-        return floats.num // 2
+#: Body fields read after every step (x, y, angle, vx, vy per body) and written before every
+#: physics step (angular velocity, fx, fy per body).
+_READ_FIELDS = BodyFields.POSITION | BodyFields.ANGLE | BodyFields.VELOCITY
+_WRITE_FIELDS = BodyFields.ANGULAR_VELOCITY | BodyFields.FORCE
+_READ_CELLS = body_cells(_READ_FIELDS)
+_WRITE_CELLS = body_cells(_WRITE_FIELDS)
 
 
 def _wall_outline() -> list[tuple[float, float]]:
@@ -319,25 +254,26 @@ class CrossroadsRules(GameRules):
 
         # One flat float64 vector ``z`` holds everything observations and state are gathered from;
         # pymunk writes the bodies' state straight into its first block.
-        read_len = _SpaceBatch.READ_CELLS * (n + 1) + _SpaceBatch.SPARE  # agents + static body
+        read_len = _READ_CELLS * (n + 1) + SPARE_CELLS  # agents + static body
         self._z_motion = read_len  # per seat: vx, vy, cos, sin
         self._z_target = self._z_motion + 4 * n
         self._z_active = self._z_target + 2 * n
         self._z_distance = self._z_active + n
         self._z_zero = self._z_distance + n  # always 0.0
         self._z = z = np.zeros(self._z_zero + 1)
-        bodies = z[:_SpaceBatch.READ_CELLS * n].reshape(n, _SpaceBatch.READ_CELLS)
+        bodies = z[:_READ_CELLS * n].reshape(n, _READ_CELLS)
         self._position, self._angle, self._velocity = bodies[:, 0:2], bodies[:, 2], bodies[:, 3:5]
         self._motion = z[self._z_motion:self._z_target].reshape(n, 2, 2)  # [velocity, heading]
         self._heading = self._motion[:, 1]
         self._target = z[self._z_target:self._z_active].reshape(n, 2)
         self._active_z = z[self._z_active:self._z_distance]
         self._distance = z[self._z_distance:self._z_zero]
-        controls = np.zeros(_SpaceBatch.WRITE_CELLS * (n + 1) + _SpaceBatch.SPARE)
-        control_rows = controls[:_SpaceBatch.WRITE_CELLS * n].reshape(n, _SpaceBatch.WRITE_CELLS)
+        controls = np.zeros(_WRITE_CELLS * (n + 1) + SPARE_CELLS)
+        control_rows = controls[:_WRITE_CELLS * n].reshape(n, _WRITE_CELLS)
         self._turn_rate, self._force = control_rows[:, 0], control_rows[:, 1:3]
-        n_walls = len(_wall_outline())
-        self._batch = _SpaceBatch(z[:read_len], controls, max_arbiters=n * (n - 1) // 2 + n * n_walls)
+        # The physics link: chipmunk's batch transfers to and from these arrays, its step, and
+        # the contact impulses of its arbiters.
+        self._link = space_link(_READ_FIELDS, z[:read_len], _WRITE_FIELDS, controls, contacts=True)
         self._obs_index, self._obs_scale = self._observation_gather()
         self._state_index, self._state_scale = self._state_gather()
 
@@ -405,7 +341,7 @@ class CrossroadsRules(GameRules):
             scale[cell] = frame[row, k] * factor
 
         L2, V2 = 2 * ARM_LENGTH, 2 * TOP_SPEED
-        pos = [_SpaceBatch.READ_CELLS * s for s in range(n)]
+        pos = [_READ_CELLS * s for s in range(n)]
         vel = [self._z_motion + 4 * s for s in range(n)]
         for s in range(n):
             R, o = self._frame(s), s * self.obs_dim
@@ -428,7 +364,7 @@ class CrossroadsRules(GameRules):
         """Index and scale arrays so that ``state = z[index] * scale`` (world frame)."""
         index, scale = [], []
         for s in range(self.n_agents):
-            p, m = _SpaceBatch.READ_CELLS * s, self._z_motion + 4 * s
+            p, m = _READ_CELLS * s, self._z_motion + 4 * s
             index += [p, p + 1, m, m + 1, m + 2, m + 3,
                       self._z_target + 2 * s, self._z_target + 2 * s + 1, self._z_active + s]
             scale += [1 / ARM_LENGTH] * 2 + [1 / TOP_SPEED] * 2 + [1.0] * 2 + [1 / ARM_LENGTH] * 2 + [1.0]
@@ -479,8 +415,8 @@ class CrossroadsRules(GameRules):
             wall.elasticity, wall.friction = 0.5, 0.2
             space.add(wall)
         self._seat_of_body = {body_id: seat for seat, body_id in enumerate(ids)}
-        self._space = space  # owns the C space the batch points at: keep it alive
-        self._batch.bind(space)
+        self._space = space
+        self._link.bind(space)
 
     # --- the match ---------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
@@ -518,7 +454,7 @@ class CrossroadsRules(GameRules):
         self._force_set = False
         for impulses in self._impulses_of:
             impulses.clear()
-        self._batch.read_bodies()
+        self._link.read_bodies()
         self._update_kinematics()
         self.game_over = False
         self._step_count = 0
@@ -558,13 +494,13 @@ class CrossroadsRules(GameRules):
             np.add(v.squares_thrust, v.squares_turn, out=v.energy)
             np.multiply(v.energy, self._half_active, out=v.energy)
 
-        batch = self._batch
+        link = self._link
         touching = False
         for _ in range(SUBSTEPS):
-            batch.write_bodies()  # chipmunk clears forces after every step
-            batch.step(PHYSICS_DT)
+            link.write_bodies()  # chipmunk clears forces after every step
+            link.step(PHYSICS_DT)
             touching |= self._collect_contacts()
-        batch.read_bodies()
+        link.read_bodies()
         self._update_kinematics()
         if touching:
             self._sum_contact_forces()
@@ -580,14 +516,14 @@ class CrossroadsRules(GameRules):
     def _collect_contacts(self) -> bool:
         """After a physics step: the magnitude of every touching arbiter's impulse, per seat.
         Returns whether any touched."""
-        n_arbiters = self._batch.read_contacts()
+        n_arbiters = self._link.read_contacts()
         if not n_arbiters:
             return False
-        impulses = self._batch.contact_floats[:2 * n_arbiters]
+        impulses = self._link.contact_impulses[:2 * n_arbiters]
         if not np.count_nonzero(impulses):  # nothing touching (cached arbiters report zero)
             return False
         # Few arbiters touch at once: a loop over them beats a dozen numpy calls.
-        body_ids = self._batch.contact_ids[:2 * n_arbiters].tolist()
+        body_ids = self._link.contact_ids[:2 * n_arbiters].tolist()
         impulse = impulses.tolist()
         seat_of_body, impulses_of = self._seat_of_body.get, self._impulses_of
         for i in range(0, 2 * n_arbiters, 2):
@@ -737,6 +673,26 @@ class CrossroadsRules(GameRules):
                 canvas.draw.polygon([canvas.px(px, py) for px, py in corners], fill=colour, outline=(20, 20, 20))
             canvas.line(x, y, x + c * AGENT_RADIUS, y + s * AGENT_RADIUS, fill=(255, 255, 255), width_px=2)
         return canvas.array()
+
+    def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
+        arm, half_width, radius, ts = ARM_LENGTH, ROAD_HALF_WIDTH, AGENT_RADIUS, timestamp_ns
+        road = (0.55, 0.55, 0.55, 1.0)
+        out = [scene.entity("roads", ts, cubes=[scene.cube(0, 0, -0.05, (2 * arm, 2 * half_width, 0.1), road),
+                                                scene.cube(0, 0, -0.05, (2 * half_width, 2 * arm, 0.1), road)])]
+        cells = self.state().astype(np.float64).reshape(self.n_agents, _STATE_CELLS)
+        for seat, row in enumerate(cells):
+            x, y = row[0] * arm, row[1] * arm
+            yaw = math.atan2(float(row[5]), float(row[4]))
+            team = int(self.team_of[seat])
+            colour = scene.team_colour(team, 1.0 if row[8] > 0.5 else 0.35)
+            body = ({"cubes": [scene.cube(x, y, radius, (2 * radius, 2 * radius, 2 * radius), colour, yaw)]}
+                    if self.agent_shape == "box"
+                    else {"spheres": [scene.sphere(x, y, radius, (2 * radius,) * 3, colour)]})
+            out.append(scene.entity(f"agent/{seat}", ts, arrows=[scene.arrow(x, y, 2 * radius, yaw, 1.2, colour)],
+                                    **body))
+            out.append(scene.entity(f"target/{seat}", ts, cylinders=[
+                scene.disc(row[6] * arm, row[7] * arm, 2 * self.arrival_radius, scene.team_colour(team, 0.3))]))
+        return out
 
 
 RULES = CrossroadsRules

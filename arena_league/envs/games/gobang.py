@@ -82,18 +82,33 @@ throughput benchmark and the single-match :class:`GoBangRules` both use it)::
 * ``autoreset=True``: a board whose game ends is cleared at the end of that same ``step`` while
   ``done`` and ``winner`` still report the finished game until the next ``step``.
 
-``benchmark_boards(n_boards=4096, seconds=2.0, seed=0, observe=False) -> (board_steps, seconds)``
-times the engine with random legal moves (sampling included).
+:class:`GoBangMatches` is the match engine's whole-array path (``GoBangRules.batched_matches``):
+many matches of one layout on one ``GoBangBoards``, seat turns and team observations as the rules
+give them, a match cut at ``max_cycles`` a draw.
+
+Playing it (``arena-league play``)
+----------------------------------
+The board is drawn in text, ``X`` black, ``O`` white, the last stone in lower case, columns
+lettered ``A`` onward and rows numbered from 1 at the top. A move is a cell: a column letter and
+a row number such as ``H8``, or two numbers (row, column) such as ``8 8``. An occupied cell, a
+cell off the board or something that is not a cell is refused with the reason, and asked again.
+
+Replay scene
+------------
+The board (a wooden slab with its grid lines), the stones (flat spheres, black and white) and a
+red mark on the last stone: entities ``board``, ``stones`` and ``last_move``.
 """
 
 from __future__ import annotations
 
-import time
+import re
 from functools import cache
 from typing import Any, ClassVar
 
 import numpy as np
 
+from arena_league.envs import scene
+from arena_league.envs.controls import Controls
 from arena_league.envs.core import GameRules
 from arena_league.envs.rendering import Canvas
 
@@ -255,25 +270,114 @@ class GoBangBoards:
         return obs
 
 
-def benchmark_boards(n_boards: int = 4096, seconds: float = 2.0, seed: int = 0, observe: bool = False
-                     ) -> tuple[int, float]:
-    """Step ``n_boards`` auto-resetting boards with uniformly random legal moves (sampling
-    included) for about ``seconds``; returns (board steps, elapsed seconds). With ``observe``,
-    both colours' observations are built every step too."""
-    boards = GoBangBoards(n_boards, autoreset=True, seed=seed)
-    for _ in range(10):  # warm up: fill the boards a little
-        boards.step(boards.random_actions())
-    steps = 0
-    start = time.perf_counter()
-    while True:
-        for _ in range(16):
-            boards.step(boards.random_actions())
-            if observe:
-                boards.observe()
-        steps += 16
-        elapsed = time.perf_counter() - start
-        if elapsed >= seconds:
-            return steps * n_boards, elapsed
+class GoBangMatches:
+    """GoBang matches stepped together on a ``GoBangBoards`` engine: the match engine's whole-array
+    path (turn order, observation layout, illegal moves and draws as in the module docstring)."""
+
+    def __init__(self, rules: GoBangRules, n_slots: int, max_cycles: int) -> None:
+        self.n_slots = n_slots
+        self.n_agents = rules.n_agents
+        self.players_per_team = rules.players_per_team
+        self.team_of = np.asarray(rules.team_of, dtype=np.int64)
+        self.max_cycles = max_cycles
+        self.boards = GoBangBoards(n_slots, rules.size, rules.n_in_row)
+        self.n_cells = self.boards.n_cells
+        self.boards.done[:] = True  # idle slots: the engine leaves finished boards alone
+        self._steps = np.zeros(n_slots, dtype=np.int64)
+        self._seats = np.arange(self.n_agents)
+
+    def start(self, slot: int, seed: int) -> None:
+        # GoBang draws nothing at random: the seed is not needed, the board starts empty
+        self.boards.reset(np.array([slot]))
+        self._steps[slot] = 0
+
+    def current_player(self) -> np.ndarray:
+        """The seat to move on each board (GoBangRules.current_player, for every board at once)."""
+        boards = self.boards
+        return boards.to_move * self.players_per_team + (boards.n_stones // 2) % self.players_per_team
+
+    def observe(self) -> np.ndarray:
+        by_colour = self.boards.observe()  # [B, 2, obs_dim], 2T1P layout
+        if self.players_per_team == 1:
+            return by_colour
+        obs = by_colour[:, self.team_of]  # teammates share a colour; "my turn" is per seat
+        obs[:, :, 2 * self.n_cells] = self.current_player()[:, None] == self._seats[None, :]
+        return obs
+
+    def action_mask(self) -> np.ndarray:
+        legal = self.boards.legal_mask()
+        return np.broadcast_to(legal[:, None, :], (self.n_slots, self.n_agents, self.n_cells))
+
+    def acting(self) -> np.ndarray:
+        return (self.current_player()[:, None] == self._seats[None, :]) & ~self.boards.done[:, None]
+
+    def step(self, actions: np.ndarray) -> np.ndarray:
+        boards = self.boards
+        live = ~boards.done
+        moves = actions[np.arange(self.n_slots), self.current_player()]
+        boards.step(np.where(live, moves, 0).astype(np.int64))
+        self._steps += live
+        # the env cuts a match at max_cycles: a draw (no winner yet, or the board would have ended it)
+        cut = live & ~boards.done & (self._steps >= self.max_cycles)
+        boards.done |= cut
+        return live & boards.done
+
+    def steps(self, slot: int) -> int:
+        return int(self._steps[slot])
+
+    def team_result(self, slot: int) -> np.ndarray:
+        winner = int(self.boards.winner[slot])
+        if winner < 0:
+            return np.full(2, 0.5)
+        return (np.arange(2) == winner).astype(np.float64)
+
+
+class GoBangControls(Controls):
+    """A person places stones by cell: ``H8`` (column letter, row number) or ``8 8`` (row,
+    column), 1-based, on the board drawn in text."""
+
+    rules: GoBangRules
+
+    def view(self) -> str:
+        rules = self.rules
+        size = rules.size
+        cells = rules.engine.cells[0]
+        last = int(rules.engine.last_action[0])
+        letters = [chr(ord("A") + c) for c in range(size)]
+        lines = ["    " + " ".join(letters)]
+        for r in range(size):
+            marks = []
+            for c in range(size):
+                cell = r * size + c
+                mark = ".XO"[int(cells[cell])]
+                marks.append(mark.lower() if cell == last and mark != "." else mark)
+            lines.append(f"{r + 1:>3} " + " ".join(marks))
+        colour = "X (black, first)" if int(rules.team_of[self.seat]) == 0 else "O (white)"
+        lines.append(f"You play {colour}.")
+        return "\n".join(lines)
+
+    def prompt(self, step: int) -> str:
+        return "your move (e.g. H8, or row col: 8 8) > "
+
+    def parse(self, text: str) -> tuple[int | None, str | None]:
+        rules = self.rules
+        size = rules.size
+        letter = re.fullmatch(r"([a-z])\s*(-?\d+)", text)
+        numbers = re.fullmatch(r"(-?\d+)[\s,]+(-?\d+)", text)
+        if letter:
+            row, col = int(letter.group(2)) - 1, ord(letter.group(1)) - ord("a")
+        elif numbers:
+            row, col = int(numbers.group(1)) - 1, int(numbers.group(2)) - 1
+        else:
+            return None, (f"{text!r} is not a cell: type a column letter and a row number such as H8, or two numbers "
+                          "(row, column) such as 8 8")
+        if not (0 <= row < size and 0 <= col < size):
+            return None, (f"row {row + 1}, column {col + 1} is off the board: rows and columns run from 1 to {size} "
+                          f"(columns A to {chr(ord('A') + size - 1)})")
+        cell = row * size + col
+        if rules.engine.cells[0, cell] != 0:
+            return None, f"{chr(ord('A') + col)}{row + 1} is occupied: choose an empty cell (shown as .)"
+        return cell, None
 
 
 def _check_geometry(size: Any, n_in_row: Any) -> None:
@@ -334,6 +438,7 @@ class GoBangRules(GameRules):
     measures_provided: ClassVar[frozenset[str]] = frozenset({"active", "outcome"})
     default_max_cycles: ClassVar[int] = 225
     summary: ClassVar[str] = "15x15 five in a row (freestyle), turn-based; an illegal move loses"
+    batched_matches: ClassVar[type[GoBangMatches]] = GoBangMatches
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str, size: int = 15,
                  n_in_row: int = 5, **unknown: Any) -> None:
@@ -356,7 +461,6 @@ class GoBangRules(GameRules):
         self.action_meanings = (f"place a stone at row * {self.size} + col",)
         self.default_max_cycles = self.n_cells  # type: ignore[misc]  # the board fills first
         self.engine = GoBangBoards(1, self.size, self.n_in_row)
-        self._seat_of_colour = np.arange(2) * players_per_team
         self._events: list[dict] = []
 
     # --- the match -------------------------------------------------------------------------
@@ -449,6 +553,31 @@ class GoBangRules(GameRules):
             row, col = divmod(last, size)
             canvas.circle(col + 0.5, size - row - 0.5, 0.12, fill=(220, 40, 40))
         return canvas.array()
+
+    def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
+        size, ts = self.size, timestamp_ns
+        board = self.state()[: size * size].astype(np.float64)
+        grid = [p for k in range(size) for p in ((0.5, k + 0.5, 0.001), (size - 0.5, k + 0.5, 0.001),
+                                                (k + 0.5, 0.5, 0.001), (k + 0.5, size - 0.5, 0.001))]
+        out = [scene.entity("board", ts,
+                            cubes=[scene.cube(size / 2, size / 2, -0.05, (size, size, 0.1), (0.87, 0.72, 0.43, 1.0))],
+                            lines=[scene.lines(grid, (0.35, 0.24, 0.12, 1.0), 0.03)])]
+        stones = []
+        for cell in np.flatnonzero(board):
+            x, y = scene.board_xy(int(cell), size)
+            colour = (0.1, 0.1, 0.1, 1.0) if board[cell] > 0 else (0.96, 0.96, 0.96, 1.0)
+            stones.append(scene.sphere(x, y, 0.1, (0.88, 0.88, 0.25), colour))
+        out.append(scene.entity("stones", ts, spheres=stones))
+        last = int(self.engine.last_action[0])
+        marks = []
+        if 0 <= last < size * size and board[last] != 0:
+            x, y = scene.board_xy(last, size)
+            marks.append(scene.sphere(x, y, 0.25, (0.25, 0.25, 0.1), (0.86, 0.16, 0.16, 1.0)))
+        out.append(scene.entity("last_move", ts, spheres=marks))
+        return out
+
+    def human_controls(self, seat: int) -> GoBangControls:
+        return GoBangControls(self, seat)
 
     # --- the social tree and the scripted player ----------------------------------------------
     @classmethod

@@ -74,6 +74,16 @@ Game kwargs
     ``target_radius`` (float in [0.3, 1.2], default 0.6), ``box_distance`` (float in [1.5, 4.0],
     default 2.0), ``start_jitter`` (float in [0, 0.4], default 0.2), ``frame_skip`` (int in
     [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0).
+
+Playing it (``arena-league play``)
+    Steer your ant by direction on the arena as drawn (``envs.robots.controls``): ``w`` up, ``a``
+    left, ``s`` down, ``d`` right, two letters for a diagonal (``wd``), ``x`` to stand, optionally
+    followed by the steps to hold it (``d 10``; default 5); Enter repeats. The scripted trot walks
+    that way; push your team's box onto the target.
+
+Replay scene
+    The floor, the target disc, both boxes (``box/<b>``, in their poses) and each ant in 3D
+    (``envs.robots.render.replay_scene``).
 """
 
 from __future__ import annotations

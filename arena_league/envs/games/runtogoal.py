@@ -58,6 +58,15 @@ Heuristic
 Game kwargs
     ``field_length`` (float in [3, 10], default 5.0), ``start_jitter`` (float in [0, 0.5], default
     0.2), ``frame_skip`` (int in [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0).
+
+Playing it (``arena-league play``)
+    Steer your ant by direction on the arena as drawn (``envs.robots.controls``): ``w`` up, ``a``
+    left, ``s`` down, ``d`` right, two letters for a diagonal (``wd``), ``x`` to stand, optionally
+    followed by the steps to hold it (``d 10``; default 5); Enter repeats. The scripted trot walks
+    that way.
+
+Replay scene
+    The floor, the two goal lines and each ant in 3D (``envs.robots.render.replay_scene``).
 """
 
 from __future__ import annotations

@@ -128,19 +128,33 @@ cell stores the step its snake's head entered it, so a cell belongs to snake ``o
 * ``autoreset=True``: a board whose match ends is started afresh at the end of that ``step``;
   ``done``, ``truncated`` and ``final_scores`` report the finished match until the next ``step``.
 
-``benchmark_boards(n_boards=4096, seconds=2.0, seed=0, n_snakes=4, observe=False) ->
-(board_steps, seconds)`` times the engine with random actions (sampling included).
+:class:`SnakeMatches` is the match engine's whole-array path (``SnakeRules.batched_matches``):
+many matches of one layout on one ``SnakeBoards`` built like the rules' own one-board engine, each
+match's board key drawn from its seed exactly as ``SnakeRules.reset`` draws it.
+
+Playing it (``arena-league play``)
+----------------------------------
+The board is drawn in text: ``#`` wall, ``*`` food, your snake ``@`` (head) and ``o`` (body), the
+others ``A``/``a``, ``B``/``b``, ... with every snake's length. A move is ``w``, ``a``, ``s`` or
+``d`` (or ``up``, ``left``, ``down``, ``right``) on the board *as drawn*, turned into the seat's own
+frame for you; Enter keeps going straight. Once your snake is dead you watch the others finish.
+
+Replay scene
+------------
+The walled grid, every snake's body cells (cubes in its team's colour, the head taller) and the
+food (spheres): entities ``grid``, ``snake/<seat>`` and ``food``.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+from arena_league.envs import scene
+from arena_league.envs.controls import Controls
 from arena_league.envs.core import GameRules
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 
@@ -308,8 +322,6 @@ class SnakeBoards:
         self._others = np.array(others, dtype=np.int64).reshape(s, s - 1)
         self._team_onehot = self.team_of[:, None] == np.arange(self.n_teams)[None, :]  # [S, T]
         self._team_members = [np.flatnonzero(self.team_of == t) for t in range(self.n_teams)]
-        # a cell's team by its owner (-2 wall and -1 empty index the two trailing entries)
-        self._team_of_owner = np.concatenate([self.team_of, [-1, -1]])
 
     # --- board cells ----------------------------------------------------------------------------
     def _to_frame(self, drow: np.ndarray, dcol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -413,7 +425,7 @@ class SnakeBoards:
                     self.direction[b, s] = int(directions[s]) % 4
                 elif len(body) > 1:
                     dr, dc = body[0] // n - body[1] // n, body[0] % n - body[1] % n
-                    self.direction[b, s] = int(np.flatnonzero((DROW == dr) & (DCOL == dc))[0])
+                    self.direction[b, s] = int(np.flatnonzero((dr == DROW) & (dc == DCOL))[0])
                 else:
                     self.direction[b, s] = 0
         self._food[b] = -1
@@ -756,25 +768,95 @@ class SnakeBoards:
         return grid.reshape(self.size, self.size)
 
 
-def benchmark_boards(n_boards: int = 4096, seconds: float = 2.0, seed: int = 0, n_snakes: int = 4,
-                     observe: bool = False) -> tuple[int, float]:
-    """Step ``n_boards`` auto-resetting boards of ``n_snakes`` snakes with uniformly random actions
-    (sampling included) for about ``seconds``; returns (board steps, elapsed seconds). With
-    ``observe``, every snake's observation is built every step too."""
-    boards = SnakeBoards(n_boards, n_snakes=n_snakes, autoreset=True, seed=seed)
-    for _ in range(10):
-        boards.step(boards.random_actions())
-    steps = 0
-    start = time.perf_counter()
-    while True:
-        for _ in range(16):
-            boards.step(boards.random_actions())
-            if observe:
-                boards.observe()
-        steps += 16
-        elapsed = time.perf_counter() - start
-        if elapsed >= seconds:
-            return steps * n_boards, elapsed
+class SnakeMatches:
+    """Snake matches stepped together on a ``SnakeBoards`` engine built like ``SnakeRules``' own
+    one-board engine (same size, food, start length, view, teams and quarter turns); each match's
+    board key is drawn from its seed exactly as ``SnakeRules.reset`` draws it."""
+
+    def __init__(self, rules: SnakeRules, n_slots: int, max_cycles: int) -> None:
+        one = rules.engine
+        self.n_slots = n_slots
+        self.max_cycles = max_cycles
+        self.boards = SnakeBoards(n_slots, one.n_snakes, size=one.size, n_food=one.n_food,
+                                  start_length=one.start_length, view_radius=one.view_radius,
+                                  team_of=one.team_of, rotations=one.rotations)
+        self.boards.done[:] = True  # idle slots: the engine leaves finished boards alone
+        self._steps = np.zeros(n_slots, dtype=np.int64)
+
+    def start(self, slot: int, seed: int) -> None:
+        key = np.random.default_rng(seed).integers(0, 2**64, size=1, dtype=np.uint64)
+        self.boards.reset(np.array([slot]), keys=key)
+        self._steps[slot] = 0
+
+    def observe(self) -> np.ndarray:
+        return self.boards.observe()
+
+    def action_mask(self) -> None:
+        return None
+
+    def acting(self) -> np.ndarray:
+        return self.boards.alive & ~self.boards.done[:, None]
+
+    def step(self, actions: np.ndarray) -> np.ndarray:
+        boards = self.boards
+        live = ~boards.done
+        boards.step(actions.astype(np.int64, copy=False))
+        self._steps += live
+        cut = live & ~boards.done & (self._steps >= self.max_cycles)  # the env's max_cycles
+        boards.done[cut] = True
+        return live & boards.done
+
+    def steps(self, slot: int) -> int:
+        return int(self._steps[slot])
+
+    def team_result(self, slot: int) -> np.ndarray:
+        return self.boards.team_scores(np.array([slot]))[0]
+
+
+#: What a person types for each move on the board as drawn (board frame: 0 up, 1 right, 2 down, 3 left).
+HUMAN_KEYS: dict[str, int] = {"w": 0, "up": 0, "u": 0, "d": 1, "right": 1, "r": 1, "s": 2, "down": 2, "a": 3,
+                              "left": 3, "l": 3}
+
+
+class SnakeControls(Controls):
+    """A person steers a snake on the board as drawn (w/a/s/d), turned into the seat's own frame;
+    Enter keeps going straight."""
+
+    rules: SnakeRules
+
+    def view(self) -> str:
+        rules = self.rules
+        engine = rules.engine
+        grid = engine.grid(0)
+        size = grid.shape[0]
+        others = [s for s in range(rules.n_agents) if s != self.seat]
+        chars = np.full(grid.shape, ".", dtype="<U1")
+        chars[grid == -2] = "*"
+        for s in range(rules.n_agents):
+            body = "o" if s == self.seat else chr(ord("a") + others.index(s))
+            chars[grid == s] = body
+            if engine.alive[0, s]:
+                head = int(engine.head[0, s])
+                chars.reshape(-1)[head] = "@" if s == self.seat else body.upper()
+        border = "#" * (size + 2)
+        lines = [border] + ["#" + "".join(row) + "#" for row in chars] + [border]
+        lengths = ", ".join(f"{'you' if s == self.seat else chr(ord('A') + others.index(s))}: length "
+                            f"{int(engine.length[0, s])}{'' if engine.alive[0, s] else ' (dead)'}"
+                            for s in range(rules.n_agents))
+        return "\n".join(lines) + f"\nYou are @ (body o). {lengths}"
+
+    def prompt(self, step: int) -> str:
+        return f"step {step}: w up, a left, s down, d right (Enter: straight on) > "
+
+    def parse(self, text: str) -> tuple[int | None, str | None]:
+        engine = self.rules.engine
+        rotation = int(engine.rotations[self.seat])
+        if text == "":
+            heading = int(engine.direction[0, self.seat])  # board frame
+            return (heading - rotation) % 4, None
+        if text not in HUMAN_KEYS:
+            return None, f"{text!r} is not a move: type w (up), a (left), s (down) or d (right), or Enter to go on"
+        return (HUMAN_KEYS[text] - rotation) % 4, None
 
 
 def heuristic_actions(obs: np.ndarray) -> np.ndarray:
@@ -808,6 +890,7 @@ class SnakeRules(GameRules):
         {"active", "alive", "resource_gain", "target_distance", "velocity_to_target", "outcome"})
     default_max_cycles: ClassVar[int] = 500
     summary: ClassVar[str] = "grid snakes eat food and grow; on a collision the shorter snake dies"
+    batched_matches: ClassVar[type[SnakeMatches]] = SnakeMatches
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str, size: int = 20,
                  n_food: int | None = None, start_length: int = 3, view_radius: int = 3, **unknown: Any) -> None:
@@ -902,6 +985,35 @@ class SnakeRules(GameRules):
         framed = np.full((picture.shape[0] + 4, picture.shape[1] + 4, 3), 60, dtype=np.uint8)
         framed[2:-2, 2:-2] = picture
         return framed
+
+    def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
+        size, n, ts = self.size, self.n_agents, timestamp_ns
+        state = self.state().astype(np.float64)
+        cells = size * size
+        wall = (0.3, 0.3, 0.3, 1.0)
+        out = [scene.entity("grid", ts, cubes=[
+            scene.cube(size / 2, size / 2, -0.05, (size, size, 0.1), (0.94, 0.94, 0.92, 1.0)),
+            scene.cube(size / 2, -0.1, 0.25, (size + 0.4, 0.2, 0.5), wall),
+            scene.cube(size / 2, size + 0.1, 0.25, (size + 0.4, 0.2, 0.5), wall),
+            scene.cube(-0.1, size / 2, 0.25, (0.2, size, 0.5), wall),
+            scene.cube(size + 0.1, size / 2, 0.25, (0.2, size, 0.5), wall)])]
+        for seat in range(n):
+            plane = state[seat * cells:(seat + 1) * cells]
+            colour = scene.team_colour(int(self.team_of[seat]))
+            body = []
+            for cell in np.flatnonzero(plane):
+                x, y = scene.board_xy(int(cell), size)
+                height = 0.9 if plane[cell] > 0.75 else 0.6
+                body.append(scene.cube(x, y, height / 2, (0.9, 0.9, height), colour))
+            out.append(scene.entity(f"snake/{seat}", ts, cubes=body))
+        food = state[n * cells:(n + 1) * cells]
+        out.append(scene.entity("food", ts, spheres=[
+            scene.sphere(*scene.board_xy(int(c), size), 0.35, (0.7, 0.7, 0.7), (1.0, 0.0, 0.78, 1.0))
+            for c in np.flatnonzero(food)]))
+        return out
+
+    def human_controls(self, seat: int) -> SnakeControls:
+        return SnakeControls(self, seat)
 
     # --- the social tree and the scripted player ----------------------------------------------
     @classmethod

@@ -90,23 +90,29 @@ Heuristic
 Game kwargs
     ``goal_width`` (float in [0.6, 4.0], default 1.6), ``kickoff_jitter`` (float in [0, 0.5],
     default 0.3).
+
+Playing it (``arena-league play``)
+    A coarse text view of the top-down picture (team digits, ``#``/``+`` walls and markings, ``o``
+    the ball). A move is an action's number or name, a compass direction *on the field as drawn*
+    (``E`` = right, whichever side you play: team 1's moves are mirrored into its seat frame for
+    you); Enter repeats the last move. Discrete actions only.
+
+Replay scene
+    The field and both goal boxes (in the colour of the team defending each), every agent and the
+    ball (spheres) and the score (text): entities ``field``, ``agent/<seat>``, ``ball``, ``score``.
 """
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import pymunk
-import pymunk.batch
 
-try:  # pymunk's cffi module: lets _SpaceLink call Chipmunk without per-call bookkeeping
-    from pymunk._chipmunk_cffi import ffi as _ffi
-    from pymunk._chipmunk_cffi import lib as _lib
-except ImportError:  # pragma: no cover - other pymunk builds use the public batch API
-    _ffi = _lib = None
-
+from arena_league.envs import scene
+from arena_league.envs.controls import ActionControls
 from arena_league.envs.core import GameRules
+from arena_league.envs.physics2d import BodyFields, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half length and half width of the field (inner faces of the walls).
@@ -143,6 +149,9 @@ _MOVE_DIRECTIONS = np.array(
     [(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)], dtype=np.float64
 )
 _MOVE_DIRECTIONS[np.abs(_MOVE_DIRECTIONS) < 1e-12] = 0.0
+
+#: Each move seen mirrored in x (E <-> W): a seat of team 1 and the field as drawn.
+_MIRRORED_MOVE = np.array([0, 5, 4, 3, 2, 1, 8, 7, 6])
 
 DEFAULT_GOAL_WIDTH = 1.6
 _GAME_KWARGS = {"goal_width": (0.6, 4.0, DEFAULT_GOAL_WIDTH), "kickoff_jitter": (0.0, 0.5, 0.3)}
@@ -186,63 +195,9 @@ def _wall_segments(outline: list[tuple[float, float]]) -> list[tuple[tuple[float
     return [(corners[k], corners[(k + 1) % len(corners)]) for k in range(len(corners))]
 
 
-_STATE_FIELDS = pymunk.batch.BodyFields.POSITION | pymunk.batch.BodyFields.VELOCITY
-_FORCE_FIELDS = pymunk.batch.BodyFields.FORCE
-
-
-class _SpaceLink:
-    """Moves every body's state between one pymunk space and numpy arrays, one C call each way.
-
-    ``pymunk.batch`` reads (position, velocity) or writes (force) every body of a space through a
-    buffer laid over a numpy array. Its public functions allocate a C struct and go through enum
-    and lock bookkeeping on every call, which is most of their cost for a handful of bodies; where
-    pymunk's cffi module is reachable the link builds those structs once and calls Chipmunk
-    directly (same functions, same results), otherwise it uses the public API.
-    """
-
-    def __init__(self, space: pymunk.Space, state: pymunk.batch.Buffer, forces: pymunk.batch.Buffer) -> None:
-        self.space = space
-        self._state, self._forces = state, forces
-        self.direct = False
-        if _lib is not None:
-            try:
-                self._handle = space._space
-                self._state_floats, self._force_floats = state._float_arr, forces._float_arr
-                self._get = _ffi.addressof(_lib, "pmSpaceBodyGetIteratorFuncBatched")
-                self._set = _ffi.addressof(_lib, "pmSpaceBodySetIteratorFuncBatched")
-                self._get_data = self._batched_data(state, _STATE_FIELDS)
-                self._set_data = self._batched_data(forces, _FORCE_FIELDS)
-                self._each_body, self._space_step = _lib.cpSpaceEachBody, _lib.cpSpaceStep
-                self.direct = True
-            except AttributeError:  # pragma: no cover - a pymunk whose internals differ
-                self.direct = False
-
-    @staticmethod
-    def _batched_data(buffer: pymunk.batch.Buffer, fields: pymunk.batch.BodyFields):
-        data = _ffi.new("pmBatchedData *")
-        data.fields = fields.value
-        data.floatArray = buffer._float_arr
-        data.intArray = buffer._int_arr
-        return data
-
-    def read(self) -> None:
-        """Write ``[x, y, vx, vy]`` of every body, in the space's order, into the state array."""
-        if self.direct:
-            self._state_floats.num = 0
-            self._each_body(self._handle, self._get, self._get_data)
-        else:
-            self._state.clear()
-            pymunk.batch.get_space_bodies(self.space, _STATE_FIELDS, self._state)
-
-    def apply_forces_and_step(self, dt: float) -> None:
-        """Set every body's force from the force array, then advance the space by ``dt``."""
-        if self.direct:
-            self._force_floats.num = 0
-            self._each_body(self._handle, self._set, self._set_data)
-            self._space_step(self._handle, dt)
-        else:
-            pymunk.batch.set_space_bodies(self.space, _FORCE_FIELDS, self._forces)
-            self.space.step(dt)
+#: Body fields the physics link reads after every step and writes before it.
+_STATE_FIELDS = BodyFields.POSITION | BodyFields.VELOCITY
+_FORCE_FIELDS = BodyFields.FORCE
 
 
 class SoccerRules(GameRules):
@@ -308,11 +263,11 @@ class SoccerRules(GameRules):
         measures are each one matrix product of it (few numpy calls: the hot path is Python-bound).
 
         Layout: ``[x, y, vx, vy]`` of every seat, the ball and pymunk's static body (written in place
-        by ``pymunk.batch``), spare room, the seats' velocities before the step, their world-frame
+        by the physics link), spare room, the seats' velocities before the step, their world-frame
         unit thrust, the ball's x before the step, and a constant 1.
         """
         n = self.n_agents
-        self._n_bodies = n + 2  # pymunk.batch also visits the space's static body
+        self._n_bodies = n + 2  # the physics link also visits the space's static body
         body_floats = 4 * self._n_bodies
         # pymunk's batch array grows (reallocates) when fewer than 3 free slots are left: leave 8
         self._v_before_at = body_floats + 8
@@ -324,7 +279,6 @@ class SoccerRules(GameRules):
         self._work = work
         table = work[:body_floats].reshape(self._n_bodies, 4)
         self._agent_pos = table[:n, 0:2]
-        self._agent_vel = table[:n, 2:4]
         self._ball_state = table[n]
         self._ball_x_at, self._ball_y_at = 4 * n, 4 * n + 1
         # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
@@ -332,12 +286,8 @@ class SoccerRules(GameRules):
         self._v_before_c = work[self._v_before_at: self._thrust_at].view(np.complex128)
         self._thrust = work[self._thrust_at: self._ball_x_before_at].reshape(n, 2)
         self._thrust_c = work[self._thrust_at: self._ball_x_before_at].view(np.complex128)
-        self._body_buffer = pymunk.batch.Buffer()
-        self._body_buffer.set_float_buf(work)
         self._force_array = np.zeros(2 * self._n_bodies)
-        self._force_buffer = pymunk.batch.Buffer()
-        self._force_buffer.set_float_buf(self._force_array)
-        self._id_buffer = pymunk.batch.Buffer()
+        self._link = space_link(_STATE_FIELDS, work, _FORCE_FIELDS, self._force_array)
         self._obs_matrix = self._observation_map()
         self._measure_matrix = self._measure_map()
         # applied force of every body (zero for the ball and the static body)
@@ -442,17 +392,14 @@ class SoccerRules(GameRules):
         space.add(ball, shape)
         self._ball = ball
         self.space = space
-        self._link = _SpaceLink(space, self._body_buffer, self._force_buffer)
-        self._id_buffer.clear()
-        pymunk.batch.get_space_bodies(space, pymunk.batch.BodyFields.BODY_ID, self._id_buffer)
-        ids = list(memoryview(self._id_buffer.int_buf()).cast("P"))
-        if ids != [body.id for body in self._agents] + [ball.id, space.static_body.id]:
+        self._link.bind(space)
+        if self._link.body_ids != [body.id for body in self._agents] + [ball.id, space.static_body.id]:
             raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; Soccer supports "
                                "pymunk 7 (pip install 'pymunk>=7,<8')")
         self._read_bodies()
 
     def _read_bodies(self) -> None:
-        self._link.read()
+        self._link.read_bodies()
 
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
@@ -514,8 +461,9 @@ class SoccerRules(GameRules):
         # thrust against a linear drag; pymunk clears the forces after every step
         np.dot(self._force_matrix, work, out=self._force_array)
         link = self._link
-        link.apply_forces_and_step(DT)
-        link.read()
+        link.write_bodies()
+        link.step(DT)
+        link.read_bodies()
         self._update_measures(energy)
 
         ball_x = work[self._ball_x_at]
@@ -591,6 +539,34 @@ class SoccerRules(GameRules):
         canvas.circle(bx, by, BALL_RADIUS, fill=(250, 250, 250), outline=(20, 20, 20))
         return canvas.array()
 
+    def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
+        length, width, depth, ts = HALF_LENGTH, HALF_WIDTH, GOAL_DEPTH, timestamp_ns
+        state = self.state().astype(np.float64)
+        goal_width = 2 * self.goal_half_width
+        n = self.n_agents
+        grass = (0.35, 0.65, 0.35, 1.0)
+        out = [scene.entity("field", ts, cubes=[
+            scene.cube(0, 0, -0.05, (2 * length, 2 * width, 0.1), grass),
+            # goal x = -L is defended by team 0, x = +L by team 1
+            scene.cube(-length - depth / 2, 0, -0.05, (depth, goal_width, 0.1), scene.team_colour(0, 0.6)),
+            scene.cube(length + depth / 2, 0, -0.05, (depth, goal_width, 0.1), scene.team_colour(1, 0.6))])]
+        unit = length  # positions are stored divided by HALF_LENGTH
+        for seat in range(n):
+            x, y = state[4 * seat] * unit, state[4 * seat + 1] * unit
+            d = 2 * AGENT_RADIUS
+            out.append(scene.entity(f"agent/{seat}", ts, spheres=[
+                scene.sphere(x, y, d / 2, (d, d, d), scene.team_colour(int(self.team_of[seat])))]))
+        bx, by = state[4 * n] * unit, state[4 * n + 1] * unit
+        d = 2 * BALL_RADIUS
+        out.append(scene.entity("ball", ts, spheres=[scene.sphere(bx, by, d / 2, (d, d, d), (0.97, 0.97, 0.97, 1.0))]))
+        goals = state[4 * n + 4: 4 * n + 6]
+        out.append(scene.entity("score", ts, texts=[scene.text(0, width + 0.6, 0.2,
+                                                               f"{int(goals[0])} : {int(goals[1])}")]))
+        return out
+
+    def human_controls(self, seat: int) -> SoccerControls:
+        return SoccerControls(self, seat)
+
     # --- social tree and scripted play ---------------------------------------------------------
     @classmethod
     def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
@@ -659,6 +635,21 @@ class SoccerRules(GameRules):
         angle = np.arctan2(heading[:, 1], heading[:, 0])
         move = 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
         return np.where(length < 0.3, 0, move).astype(np.int64)
+
+
+class SoccerControls(ActionControls):
+    """Compass moves on the field as drawn (E = right), mirrored for the team that sees the field
+    flipped."""
+
+    def parse(self, text: str) -> tuple[int | None, str | None]:
+        action, problem = super().parse(text)
+        if problem is None and text != "" and int(self.rules.team_of[self.seat]) == 1:
+            action = int(_MIRRORED_MOVE[action])
+        return action, problem
+
+    def prompt(self, step: int) -> str:
+        names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
+        return f"step {step}: move on the field as drawn ({names}; Enter repeats) > "
 
 
 RULES = SoccerRules

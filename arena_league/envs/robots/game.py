@@ -28,7 +28,11 @@ Many matches: the game logic is written over arrays of ``B`` matches (:class:`Ma
 rules play one (``B = 1``), and :class:`RobotMatches` (the match engine's batched path) plays many,
 one ``MjData`` each, stepping them on a pool of threads: ``mj_step`` releases Python's GIL, so
 threads step matches in parallel. Every match is stepped exactly as the rules step it, so results
-are bit-identical to the env path whatever the batch or the thread count.
+are bit-identical to the env path whatever the batch or the thread count. It is every robot game's
+``batched_matches``.
+
+A person plays a robot game by walking directions (``envs.robots.controls``); a replay shows the
+scene in 3D (``envs.robots.render.replay_scene``).
 """
 
 from __future__ import annotations
@@ -45,6 +49,7 @@ import numpy as np
 from arena_league.envs.core import GameRules
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.ant import ROBOTS
+from arena_league.envs.robots.controls import RobotControls
 from arena_league.envs.robots.rewards import RobotMeasures, check_anneal
 from arena_league.envs.robots.scene import Affine, Readout, Scene, SceneLayout, compile_scene
 
@@ -544,6 +549,15 @@ class RobotGameRules(GameRules):
 
         return camera_picture(self.model, self.data, width, height)
 
+    def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
+        from arena_league.envs.robots.render import replay_scene
+
+        return replay_scene(self.scene, self.data, self.view_extent(), timestamp_ns)
+
+    def human_controls(self, seat: int) -> RobotControls:
+        """The ant steered by direction on the arena as drawn (``envs.robots.controls``)."""
+        return RobotControls(self, seat)
+
     # --- the outcome helpers shared by the two-team games --------------------------------------
     def end_match(self, st: MatchState, slot: int, winner_team: int) -> None:
         """End the one match in ``slot``, won by ``winner_team`` (-1: a draw); see :meth:`end_matches`."""
@@ -665,3 +679,6 @@ class RobotMatches:
 
     def team_result(self, slot: int) -> np.ndarray:
         return self.match.result[slot].copy()
+
+
+RobotGameRules.batched_matches = RobotMatches  # defined after the rules it steps

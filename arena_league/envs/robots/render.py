@@ -6,11 +6,18 @@ team's colour, darker once it has fallen, with a tick along its forward axis) an
 segments from the torso through hip and ankle to the foot tip, each box as its horizontal square,
 and the floor markings (ring, lines, target discs) of the scene layout. Body poses come from
 ``MjData.xpos`` / ``xmat``, the same instant as the sensors (see ``envs.robots.scene``).
+
+The replay scene (:func:`replay_scene`, every robot game's ``scene_entities``) shows the same in
+3D: the floor of the picture's extent, the markings (``markings``: the ring as a loop, lines, target
+discs), each box (``box/<b>``, a cube in its pose) and each robot (``agent/<seat>``: its torso as a
+sphere in its team's colour, darker once fallen, its legs as lines from the torso through hip and
+ankle to the foot tip, and an arrow along its forward axis).
 """
 
 from __future__ import annotations
 
 import os
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -18,6 +25,7 @@ import numpy as np
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 from arena_league.envs.robots.ant import ROBOTS
 from arena_league.envs.robots.scene import Scene
+from arena_league.envs.scene import Colour, arrow, colour_of, cube, disc, entity, lines, sphere, team_colour
 
 FLOOR_COLOUR = (90, 115, 90)
 MARKING_COLOUR = (240, 240, 240)
@@ -69,6 +77,54 @@ def topdown_picture(scene: Scene, data: mujoco.MjData, extent: tuple[float, floa
         canvas.line(torso[0], torso[1], torso[0] + 0.3 * forward[0], torso[1] + 0.3 * forward[1],
                     fill=(250, 250, 250), width_px=max(1, leg_px // 2))
     return canvas.array()
+
+
+def replay_scene(scene: Scene, data: mujoco.MjData, extent: tuple[float, float, float, float],
+                 timestamp_ns: int) -> list[dict[str, Any]]:
+    """The scene's ``foxglove.SceneEntity`` dicts now (see the module docstring); the floor
+    covers the world box ``extent`` of the top-down picture."""
+    ts = timestamp_ns
+    x0, x1, y0, y1 = extent
+    floor, marking, target = colour_of(FLOOR_COLOUR), colour_of(MARKING_COLOUR), colour_of(TARGET_COLOUR)
+    loops, segments, discs = [], [], []
+    for kind, numbers in scene.layout.markings:
+        if kind == "ring":
+            angles = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
+            loops.append(lines([(numbers[0] * np.cos(a), numbers[0] * np.sin(a), 0.005) for a in angles], marking,
+                               0.04, kind="loop"))
+        elif kind == "line":
+            segments += [(numbers[0], numbers[1], 0.005), (numbers[2], numbers[3], 0.005)]
+        elif kind == "disc":
+            discs.append(disc(numbers[0], numbers[1], 2.0 * numbers[2], target, height=0.01))
+    if segments:
+        loops.append(lines(segments, marking, 0.04))
+    out = [entity("floor", ts, cubes=[cube((x0 + x1) / 2, (y0 + y1) / 2, -0.01, (x1 - x0, y1 - y0, 0.02), floor)]),
+           entity("markings", ts, lines=loops, cylinders=discs)]
+    xpos, xquat = data.xpos, data.xquat
+    xmat = data.xmat.reshape(-1, 3, 3)
+    side = 2.0 * scene.layout.box_half
+    for b, (body, team) in enumerate(zip(scene.box_body, scene.layout.box_teams)):
+        colour = colour_of(_shade(TEAM_COLOURS[team % len(TEAM_COLOURS)], 0.45))
+        out.append(entity(f"box/{b}", ts, cubes=[cube(*xpos[body], (side, side, side), colour,
+                                                      quaternion=tuple(xquat[body]))]))
+    for i, (kind, team) in enumerate(zip(scene.layout.robots, scene.layout.teams)):
+        torso_body = scene.torso_body[i]
+        torso = xpos[torso_body]
+        diameter = 2.0 * ROBOTS[kind][1].torso_radius
+        colour: Colour = team_colour(team)
+        leg_colour: Colour = (0.7 * colour[0], 0.7 * colour[1], 0.7 * colour[2], 1.0)
+        legs = []
+        for k in range(scene.hip_body.shape[1]):
+            shin_body = scene.shin_body[i, k]
+            foot = xpos[shin_body] + xmat[shin_body] @ scene.foot_vector[k]
+            legs.append(lines([tuple(torso), tuple(xpos[scene.hip_body[i, k]]), tuple(xpos[shin_body]), tuple(foot)],
+                              leg_colour, 0.08, kind="strip"))
+        fallen = xmat[torso_body][2, 2] < 0
+        forward = xmat[torso_body][:, 0]
+        out.append(entity(f"agent/{i}", ts, spheres=[sphere(*torso, (diameter,) * 3, leg_colour if fallen else colour)],
+                          lines=legs, arrows=[arrow(*torso, float(np.arctan2(forward[1], forward[0])), 0.6,
+                                                    (0.98, 0.98, 0.98, 1.0))]))
+    return out
 
 
 def camera_picture(model: mujoco.MjModel, data: mujoco.MjData, width: int = 480, height: int = 360,

@@ -26,7 +26,6 @@ from typing import Any
 import numpy as np
 import yaml
 
-from arena_league.envs.core import Measures
 from arena_league.envs.social.rewards import (
     SCHEMES,
     NodeView,
@@ -209,7 +208,7 @@ class SocialTree:
             for seat in node.agents:
                 tree.board_slices.setdefault(int(seat), []).append((b, slice(0, node.board)))
         # message slices in the order the seat's boards appear root-to-leaf (pre-order keeps that)
-        for seat, parts in tree.board_slices.items():
+        for parts in tree.board_slices.values():
             offset = 0
             for i, (b, _) in enumerate(parts):
                 width = tree.boards[b].board
@@ -298,8 +297,3 @@ def load_tree_spec(spec: Any) -> Any:
         except json.JSONDecodeError as exc:
             raise TreeSpecError(f"social tree given as a string is not valid JSON: {exc}") from exc
     return spec
-
-
-def new_context(measures: Measures, tree: SocialTree) -> RewardContext:
-    """The context of the first step of an episode (previous = the measures at reset)."""
-    return RewardContext(measures, measures.copy_of(tree.previous_needed), tree.team_of, 0, False)

@@ -1,0 +1,156 @@
+"""How a person plays a seat: the controls a game gives a human player at a terminal.
+
+A game's rules give the controls of one seat with ``GameRules.human_controls(seat)``; the session
+that seats a person (``arena-league play``) draws, asks and steps, and knows no game::
+
+    controls = rules.human_controls(seat)
+    # every step the seat acts:
+    if controls.wants_command():
+        print(controls.view())
+        text = input(controls.prompt(step)).strip().lower()      # q resigns (the session's word)
+        command, problem = controls.parse(text)                  # refused: print problem, ask again
+    action = controls.action(command)                             # None on a step not asked
+    # when the match ends:
+    print(controls.final_view())
+
+:class:`Controls` is that contract. :class:`ActionControls`, every game's default, offers the
+game's actions by number or name (``action_meanings``) under a coarse text view of the top-down
+picture (:func:`ascii_topdown`); games with a board or their own frames override
+``human_controls`` (GoBang's cells, Snake's moves on the board as drawn, Soccer's mirrored
+compass, the robot games' walking directions in ``envs.robots.controls``).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from arena_league.envs.rendering import TEAM_COLOURS
+
+if TYPE_CHECKING:
+    from arena_league.envs.core import GameRules
+
+__all__ = ["ActionControls", "Controls", "ascii_topdown"]
+
+
+class Controls(ABC):
+    """A person's controls of one seat: what they are shown, what they may type, and the action
+    it makes. Subclasses give :meth:`view`, :meth:`prompt` and :meth:`parse`; the rest has
+    defaults.
+
+    ``parse`` receives the answer stripped and lower-cased (``""`` is Enter; the session keeps
+    ``q`` for resigning) and returns ``(command, None)`` or ``(None, why it is refused)``, the
+    reason saying what to type instead.
+    """
+
+    def __init__(self, rules: GameRules, seat: int) -> None:
+        self.rules = rules
+        self.seat = int(seat)
+
+    @abstractmethod
+    def view(self) -> str:
+        """The match as the person sees it before they answer."""
+
+    @abstractmethod
+    def prompt(self, step: int) -> str:
+        """The question asked at ``step``."""
+
+    @abstractmethod
+    def parse(self, text: str) -> tuple[Any, str | None]:
+        """``(command, None)`` for an accepted answer, ``(None, reason)`` for a refused one."""
+
+    def wants_command(self) -> bool:
+        """Whether to ask the person this step (False while a command they gave still holds)."""
+        return True
+
+    def action(self, command: Any) -> int | np.ndarray:
+        """The seat's action this step from the accepted ``command`` (None on a step
+        :meth:`wants_command` declined). Default: the command is the action."""
+        return command
+
+    def final_view(self) -> str:
+        """What the person is shown when the match ends. Default: :meth:`view`."""
+        return self.view()
+
+
+class ActionControls(Controls):
+    """The game's actions by number or name under a text view of the top-down picture; Enter
+    repeats the last action. Every discrete game's default controls."""
+
+    def __init__(self, rules: GameRules, seat: int) -> None:
+        if rules.action_type != "discrete":
+            raise ValueError(f"{rules.name} has no human controls for continuous actions; make the game with "
+                             "action_type='discrete'")
+        super().__init__(rules, seat)
+        self.last = 0
+
+    def view(self) -> str:
+        team = int(self.rules.team_of[self.seat])
+        return ascii_topdown(self.rules.render_topdown()) + f"\nYou are seat {self.seat}, team {team} (digit {team})."
+
+    def prompt(self, step: int) -> str:
+        names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
+        return f"step {step}: action ({names}; Enter repeats {self.last}) > "
+
+    def meanings(self) -> tuple[str, ...]:
+        """What each action does (its number when the game names none)."""
+        return tuple(self.rules.action_meanings) or tuple(str(i) for i in range(self.rules.n_actions))
+
+    def parse(self, text: str) -> tuple[int | None, str | None]:
+        if text == "":
+            return self.last, None
+        meanings = [m.lower() for m in self.meanings()]
+        if text in meanings:
+            return meanings.index(text), None
+        if not text.lstrip("-").isdigit():
+            return None, (f"{text!r} is not an action: type a number 0..{len(meanings) - 1} or a name "
+                          f"({', '.join(meanings)})")
+        action = int(text)
+        if not 0 <= action < len(meanings):
+            return None, f"action {action} does not exist: type a number 0..{len(meanings) - 1}"
+        return action, None
+
+    def action(self, command: Any) -> int:
+        self.last = int(command)
+        return self.last
+
+
+def ascii_topdown(picture: np.ndarray, columns: int = 64) -> str:
+    """A coarse text view of a top-down picture: each character stands for a block of pixels;
+    a team's colour is its team digit, dark strokes ``#`` (walls), light grey ``+`` (walls,
+    markings), white ``o`` (a ball), other colours ``*``, open ground ``.``."""
+    image = np.asarray(picture, dtype=np.int64)
+    height, width = image.shape[:2]
+    block = max(1, width // columns)
+    rows = max(1, height // (2 * block))  # characters are about twice as tall as wide
+    flat = image.reshape(-1, 3)
+    colours, counts = np.unique(flat, axis=0, return_counts=True)
+    background = colours[np.argsort(-counts)[:2]]  # the two commonest colours are ground
+    palette = np.asarray(TEAM_COLOURS[:4])
+    lines = []
+    for r in range(rows):
+        line = []
+        for c in range(width // block):
+            cell = image[r * 2 * block:(r + 1) * 2 * block, c * block:(c + 1) * block].reshape(-1, 3)
+            ground = (np.abs(cell[:, None, :] - background[None]).sum(axis=2) < 30).any(axis=1)
+            things = cell[~ground]
+            if things.shape[0] < max(1, cell.shape[0] // 8):
+                line.append(".")
+                continue
+            mean = things.mean(axis=0)
+            team_distance = np.abs(palette - mean).sum(axis=1)
+            grey = mean.max() - mean.min() < 30
+            if team_distance.min() < 90:
+                line.append(str(int(team_distance.argmin())))
+            elif grey and mean.mean() < 100:
+                line.append("#")
+            elif grey and mean.mean() <= 240:
+                line.append("+")
+            elif grey:
+                line.append("o")
+            else:
+                line.append("*")
+        lines.append("".join(line))
+    return "\n".join(lines)
