@@ -1,4 +1,4 @@
-"""Leaderboards from stored matches (issue 4): every method on simulated leagues of known strength."""
+"""Leaderboards from stored matches: every method on simulated leagues of known strength."""
 
 import json
 import math
@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from rich.console import Console
 
+from arena_league.league import leaderboards
 from arena_league.league.leaderboards import (
     METHODS,
     Leaderboard,
@@ -15,6 +16,7 @@ from arena_league.league.leaderboards import (
     outcome_table,
     render_terminal,
 )
+from arena_league.rating import bootstrap
 
 GAME = "Duel-2T1P-v1"
 STRENGTHS = [-300.0, -150.0, 0.0, 100.0, 250.0, 400.0]  # Elo points; agent-5 is the best
@@ -348,3 +350,82 @@ def test_every_method_returns_a_board(league):
         assert len(board.rated_rows) == 6 and board.rows[-1].agent == "idle-submission"
         assert board.nash_p is not None and board.alpharank_pi is not None
         assert 0.0 <= board.intransitivity < 0.3  # a transitive league
+
+
+# --- each figure computed at most once, and only where the board shows it ------------------------
+
+LEAGUE_FIGURES = ("bootstrap_ratings", "nash_averaging", "alpha_rank_sweep", "intransitivity")
+"""Computed for the league beside any method whose matches reduce to pairwise results."""
+OWN_FIGURES = {"elo": "elo_online", "openskill": "openskill_ratings", "nash": "nash_intervals",
+               "alpharank": "alpha_rank_intervals"}
+"""What one method alone computes."""
+
+
+def count_calls(monkeypatch, module, names):
+    """Wraps ``module``'s functions ``names`` to count their calls; returns the counts by name."""
+    calls = dict.fromkeys(names, 0)
+    for name in names:
+        original = getattr(module, name)
+
+        def counted(*args, _name=name, _original=original, **kwargs):
+            calls[_name] += 1
+            return _original(*args, **kwargs)
+
+        monkeypatch.setattr(module, name, counted)
+    return calls
+
+
+def refuse(monkeypatch, module, names):
+    """Makes ``module``'s functions ``names`` fail if called."""
+    for name in names:
+        def refused(*args, _name=name, **kwargs):
+            raise AssertionError(f"{_name} was computed for a board that does not show it")
+
+        monkeypatch.setattr(module, name, refused)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_board_computes_each_figure_once_and_no_other_method_s(league, method, monkeypatch):
+    rows, _, info = league
+    refuse(monkeypatch, leaderboards, [own for other, own in OWN_FIGURES.items() if other != method])
+    calls = count_calls(monkeypatch, leaderboards, [*LEAGUE_FIGURES, *OWN_FIGURES.get(method, "").split()])
+    board = compute_leaderboard(rows, info, GAME, method, rounds=10)
+    assert board.nash_p is not None and board.alpharank_pi is not None and board.intransitivity is not None
+    assert calls == dict.fromkeys(calls, 1)
+
+
+def test_choosing_elo_runs_no_nash_or_alpharank_bootstrap_and_no_openskill(league, monkeypatch):
+    rows, names, info = league
+    plain = compute_leaderboard(rows, info, GAME, "elo", rounds=20).to_dict()
+    refuse(monkeypatch, leaderboards, ["nash_intervals", "alpha_rank_intervals", "openskill_ratings"])
+    assert compute_leaderboard(rows, info, GAME, "elo", rounds=20).to_dict() == plain
+    refuse(monkeypatch, leaderboards, ["elo_online"])
+    assert compute_leaderboard(rows, info, GAME, "bt", rounds=20).rated_rows[0].agent == names[-1]
+
+
+def test_an_openskill_board_of_mixed_teams_computes_no_pairwise_figure(monkeypatch):
+    rng = np.random.default_rng(1)
+    rows = []
+    for match in range(60):
+        lineup = rng.permutation(["a", "b", "c", "d"])
+        rows += [{"match_id": match, "seat": s, "agent": str(agent), "team": s // 2, "score": 0.0,
+                  "outcome": "win" if s // 2 == match % 2 else "loss", "position": None}
+                 for s, agent in enumerate(lineup)]
+    refuse(monkeypatch, leaderboards, [*LEAGUE_FIGURES, "alpha_rank", "elo_online", "nash_intervals",
+                                       "alpha_rank_intervals"])
+    board = compute_leaderboard(rows, kinds("abcd"), "Soccer-2T2P-v1", "openskill")
+    assert len(board.rated_rows) == 4 and board.nash_p is None
+
+
+def test_a_method_s_own_score_is_solved_once_on_the_whole_league(league, monkeypatch):
+    """The Nash method's point score is the league's Nash solve, not a second one; so with alpha-Rank.
+    The whole league is solved once and each bootstrap replicate once: rounds + 1 solves."""
+    rows, _, info = league
+    nash = count_calls(monkeypatch, leaderboards, ["nash_averaging"])
+    nash_replicates = count_calls(monkeypatch, bootstrap, ["nash_averaging"])
+    compute_leaderboard(rows, info, GAME, "nash", rounds=12)
+    assert nash["nash_averaging"] + nash_replicates["nash_averaging"] == 12 + 1
+    alpha = count_calls(monkeypatch, leaderboards, ["alpha_rank"])
+    alpha_replicates = count_calls(monkeypatch, bootstrap, ["alpha_rank"])
+    compute_leaderboard(rows, info, GAME, "alpharank", rounds=12, alpha=1.0)
+    assert alpha["alpha_rank"] + alpha_replicates["alpha_rank"] == 12 + 1

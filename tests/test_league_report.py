@@ -1,4 +1,4 @@
-"""The self-contained HTML leaderboard report and its JSON twin (issue 4)."""
+"""The self-contained HTML leaderboard report and its JSON twin."""
 
 import base64
 import json
@@ -21,7 +21,7 @@ WHEN = datetime(2026, 1, 2, 3, 4, 5, tzinfo=UTC)
 @pytest.fixture(scope="module")
 def board():
     rows, names = simulated_league(STRENGTHS, 400, seed=2)
-    names = names + ["<b>new & shiny</b>"]  # an unrated entrant whose name needs escaping
+    names = [*names, "<b>new & shiny</b>"]  # an unrated entrant whose name needs escaping
     return compute_leaderboard(rows, kinds(names), GAME, "bt", rounds=50)
 
 

@@ -35,7 +35,7 @@ def run_cli(capsys, *argv: str) -> tuple[int, dict | None, str]:
 
 
 def linear_onnx(path: Path, obs_dim: int, n_actions: int, *, nan: bool = False) -> Path:
-    """A one-layer ONNX policy `logits = obs @ W (+ NaN)` following DESIGN.md's I/O names."""
+    """A one-layer ONNX policy `logits = obs @ W (+ NaN)` in the league's ONNX I/O names."""
     weights = np.random.default_rng(0).normal(size=(obs_dim, n_actions)).astype(np.float32)
     nodes = [helper.make_node("MatMul", ["obs", "W"], ["z" if nan else "logits"])]
     inits = [numpy_helper.from_array(weights, "W")]
@@ -81,7 +81,7 @@ def test_name_already_taken_changes_nothing(home, tmp_path, capsys):
     run_cli(capsys, "submit", str(EXAMPLE), "--game", GAME, "--name", "alice", "--json")
     before = snapshot(home)
     other = linear_onnx(tmp_path / "other.onnx", rules.obs_dim, rules.n_actions)
-    code, doc, err = run_cli(capsys, "submit", str(other), "--game", GAME, "--name", "alice", "--json")
+    code, doc, _err = run_cli(capsys, "submit", str(other), "--game", GAME, "--name", "alice", "--json")
     assert code == 2 and "alice" in doc["error"] and "already" in doc["error"] and "alice-" in doc["error"]
     assert snapshot(home) == before
 
@@ -197,7 +197,8 @@ def test_worker_killed_mid_job_completes_once_without_duplicates(home):
     assert 0 < partial < 3000, "the worker was killed mid-job"
     time.sleep(2.5)  # the lease expires
     second = subprocess.run([sys.executable, "-m", "arena_league.cli", "worker", "--lease", "5", "--poll", "0.2",
-                             "--until-idle", "--json"], env=env, capture_output=True, text=True, timeout=300)
+                             "--until-idle", "--json"], env=env, capture_output=True, text=True, timeout=300,
+                            check=False)
     assert json.loads(second.stdout)["completed"] == 1
     with open_home(home) as league, league.reading() as session:
         assert count_matches(session, game) == 3000
@@ -237,7 +238,7 @@ def test_league_on_postgresql(tmp_path):
             base = ensure_scripted_agents(league, GAME)
             assert evaluate(league, GAME, base, matches_per_pair=4).stored == 4
             board = leaderboard(league, GAME)
-            assert [r.agent for r in board.rows][0] == f"heuristic@{GAME}"
+            assert next(r.agent for r in board.rows) == f"heuristic@{GAME}"
     finally:
         with engine.begin() as conn:
             conn.execute(sqlalchemy.text(f'DROP SCHEMA "{schema}" CASCADE'))

@@ -1,4 +1,4 @@
-"""alpha-Rank (issue 3): exact cases by hand, and agreement with OpenSpiel's implementation."""
+"""alpha-Rank: exact cases by hand, and agreement with OpenSpiel's implementation."""
 
 import warnings
 

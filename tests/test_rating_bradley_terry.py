@@ -1,4 +1,4 @@
-"""Bradley-Terry ratings, their bootstrap intervals, and online Elo (issue 3)."""
+"""Bradley-Terry ratings, their bootstrap intervals, and online Elo."""
 
 import math
 
@@ -105,7 +105,7 @@ def test_davidson_recovers_the_draw_rate():
 
 
 def test_bootstrap_intervals_cover_the_truth_in_200_leagues():
-    """Issue 3: over 200 simulated leagues the 95% intervals hold the true rating 90-99% of the
+    """Over 200 simulated leagues the 95% intervals hold the true rating 90-99% of the
     time (pooled over agents)."""
     rng = np.random.default_rng(4)
     hits = []

@@ -1,4 +1,4 @@
-"""Nash averaging and population measures (issue 3; Balduzzi et al. 2018, 2019)."""
+"""Nash averaging and population measures (Balduzzi et al. 2018, 2019)."""
 
 import time
 
@@ -7,6 +7,7 @@ import pytest
 
 from arena_league.rating import (
     PairCounts,
+    bootstrap_statistic,
     effective_diversity,
     intransitivity,
     nash_averaging,
@@ -54,7 +55,7 @@ def test_copies_change_no_score_but_change_mean_win_rate():
     rng = np.random.default_rng(1)
     A = random_antisymmetric(rng, 8, transitive=0.5)
     p, scores = nash_averaging(A)
-    copies = list(range(8)) + [2, 2, 2, 5]
+    copies = [*range(8), 2, 2, 2, 5]
     A_copied = A[np.ix_(copies, copies)]
     p_copied, scores_copied = nash_averaging(A_copied)
     np.testing.assert_allclose(scores_copied[:8], scores, atol=1e-9)
@@ -156,3 +157,24 @@ def test_nash_score_intervals():
     result = nash_intervals(PairCounts.from_matrices(wins), rounds=50)
     assert (result.lower <= result.point + 1e-12).all() and (result.point <= result.upper + 1e-12).all()
     assert result.point[3] == pytest.approx(0.0) and result.upper[0] < 0
+
+
+def test_a_known_point_is_taken_as_given_and_the_interval_is_unchanged():
+    wins = np.array([[0, 30, 25], [10, 0, 20], [15, 20, 0]])
+    counts = PairCounts.from_matrices(wins)
+    calls = []
+
+    def scores(c):
+        calls.append(c)
+        return nash_averaging(c.logit_payoff())[1]
+
+    fresh = bootstrap_statistic(counts, scores, rounds=20, seed=4)
+    assert len(calls) == 21  # the point, then one per round
+    calls.clear()
+    known = bootstrap_statistic(counts, scores, rounds=20, seed=4, point=fresh.point)
+    assert len(calls) == 20
+    np.testing.assert_array_equal(known.point, fresh.point)
+    np.testing.assert_array_equal(known.lower, fresh.lower)
+    np.testing.assert_array_equal(known.upper, fresh.upper)
+    via_nash = nash_intervals(counts, rounds=20, seed=4, point=fresh.point)
+    np.testing.assert_array_equal(via_nash.samples, fresh.samples)

@@ -1,9 +1,19 @@
-"""Outcome tables, pairwise results and deduplicated counts (issue 3)."""
+"""Outcome tables, pairwise results and deduplicated counts."""
+
+import inspect
 
 import numpy as np
 import pytest
 
-from arena_league.rating import OutcomeTable, PairCounts, SeatResult, openskill_ratings
+from arena_league.rating import (
+    PSEUDO_COUNT,
+    OutcomeTable,
+    PairCounts,
+    SeatResult,
+    alpha_rank_intervals,
+    nash_intervals,
+    openskill_ratings,
+)
 
 
 def test_from_registry_rows_two_teams_of_two_seats():
@@ -87,6 +97,16 @@ def test_win_rates_and_logits():
     assert A[0, 1] == pytest.approx(np.log(3.5 / 1.5))
     with pytest.raises(ValueError, match="symmetric"):
         PairCounts.from_matrices([[0, 1], [1, 0]], [[0, 1], [0, 0]])
+
+
+def test_one_pseudo_count_is_every_default():
+    from arena_league.league import leaderboards
+
+    assert PSEUDO_COUNT == 0.5 and leaderboards.PSEUDO_COUNT is PSEUDO_COUNT
+    for function in (PairCounts.logit_payoff, nash_intervals, alpha_rank_intervals):
+        assert inspect.signature(function).parameters["pseudo_count"].default is PSEUDO_COUNT
+    # an unbeaten pair keeps a finite logit: log((3 + 1/2) / (0 + 1/2))
+    assert PairCounts.from_matrices([[0, 3], [0, 0]]).logit_payoff()[0, 1] == pytest.approx(np.log(7.0))
 
 
 def test_resampling_keeps_the_number_of_matches():

@@ -1,4 +1,4 @@
-"""Placing an entrant against a frozen base population (issue 3)."""
+"""Placing an entrant against a frozen base population."""
 
 import numpy as np
 import pytest
@@ -17,7 +17,7 @@ def test_place_entrant_by_hand():
     assert placement.lower < placement.rating < placement.upper
     assert placement.rank_best <= placement.rank <= placement.rank_worst
     assert placement.percentile_lower <= placement.percentile <= placement.percentile_upper
-    assert placement.rank == 1 + int((BASE > placement.rating).sum())
+    assert placement.rank == 1 + int((placement.rating < BASE).sum())
     assert placement.matches == 200
 
 

@@ -16,26 +16,35 @@ match order, and every figure comes from the pure functions of :mod:`arena_leagu
 - ``"alpharank"``: single-population alpha-Rank mass (Omidshafiei et al. 2019) on the win-rate
   table, alpha from the automatic sweep unless given, with bootstrap intervals.
 
-Every method also returns what it can of the others at no great cost: wherever the league reduces
-to pairwise results, the Bradley-Terry columns, the Nash equilibrium, the alpha-Rank mass and the
-intransitivity share (the cyclic part of the Hodge decomposition) come with the board, so that a
-report always shows them. The win-rate matrices use the pseudo-count 0.5 (Haldane-Anscombe) where
-logits or a complete payoff table are needed.
+Each method is one entry of the method table: a function that computes its score, interval and own
+columns, and how the board labels, sorts and shows them. Beside any method, wherever the league
+reduces to pairwise results, the board shows the league's figures: the Bradley-Terry columns, the
+Nash equilibrium, the alpha-Rank mass and the intransitivity share (the cyclic part of the Hodge
+decomposition), so that a report always holds them. Every figure is computed at most once per
+board, on first use, and only if the board shows it: the bootstraps of the Nash score and of the
+alpha-Rank mass run for those methods only, and a method's own score is not computed again as a
+league column. The win-rate matrices use the pseudo-count :data:`~arena_league.rating.PSEUDO_COUNT`
+where logits or a complete payoff table are needed.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Hashable, Iterable, Mapping
+from collections.abc import Callable, Hashable, Iterable, Mapping
 from dataclasses import asdict, dataclass, field
+from functools import cached_property
 from typing import Any, Literal
 
 import numpy as np
 
 from arena_league.rating import (
     DEFAULT_PRIOR_SD,
+    PSEUDO_COUNT,
     OutcomeTable,
     PairCounts,
+    PairwiseResults,
+    RatingIntervals,
+    SkillRatings,
     alpha_rank,
     alpha_rank_intervals,
     alpha_rank_sweep,
@@ -67,11 +76,7 @@ __all__ = [
 ]
 
 Method = Literal["bt", "elo", "openskill", "nash", "alpharank"]
-METHODS: tuple[str, ...] = ("bt", "elo", "openskill", "nash", "alpharank")
 
-PSEUDO_COUNT = 0.5
-"""Pseudo-count added to each side of every pair before logits or alpha-Rank payoffs are taken, so
-that unbeaten pairs stay finite and unplayed pairs read as even."""
 ELO_K = 32.0
 """Online Elo's K-factor."""
 ELO_INITIAL = 1000.0
@@ -85,15 +90,6 @@ SCORE_RESOLUTION = 9
 """Nash scores and alpha-Rank masses are compared to this many decimals: the solvers are exact to
 about 1e-12, and at a swept alpha the mass of every agent outside the top underflows to ~1e-30 or
 0, so that smaller differences order agents by rounding noise. Ties go to the Bradley-Terry rating."""
-
-RATING_LABELS: dict[str, str] = {
-    "bt": "Bradley-Terry rating (Elo scale)",
-    "elo": "Elo rating (online, match order)",
-    "openskill": "OpenSkill mu (interval mu ± 3 sigma)",
-    "nash": "Nash-averaged score (logit win rate)",
-    "alpharank": "alpha-Rank mass",
-}
-_DECIMALS = {"bt": 0, "elo": 0, "openskill": 2, "nash": 3, "alpharank": 3}
 
 
 class LeaderboardError(ValueError):
@@ -124,7 +120,9 @@ class LeaderboardRow:
     """Share of the other rated agents with a lower sort score, in percent."""
     method_columns: dict[str, float | int | None] = field(default_factory=dict)
     """Method-specific figures: ``mu``, ``sigma``, ``conservative`` (OpenSkill); ``nash_mass``,
-    ``nash_score``, ``alpharank_mass`` (point estimates, wherever pairwise results exist);
+    ``nash_score``, ``alpharank_mass`` (point estimates, wherever pairwise results exist, but not
+    the method's own rating: no ``nash_score`` for ``"nash"``, no ``alpharank_mass`` for
+    ``"alpharank"``);
     ``bt_rating``, ``bt_lower``, ``bt_upper``, ``bt_rank``, ``bt_rank_worst`` (the Bradley-Terry
     columns, for every method but ``"bt"``); ``percentile_lower``, ``percentile_upper`` (``"bt"``)."""
 
@@ -225,6 +223,172 @@ def outcome_table(rows: Iterable[Mapping[str, Any]]) -> OutcomeTable:
         raise LeaderboardError(str(error)) from error
 
 
+# --- the league's figures and the method table ----------------------------------------------------
+
+class _Matches:
+    """One board's matches: the seat table and, where they reduce to one agent against another,
+    their pairwise results. OpenSkill's ratings are computed on first use and kept."""
+
+    def __init__(self, table: OutcomeTable, results: PairwiseResults | None) -> None:
+        self.table = table
+        self.results = results
+
+    @cached_property
+    def skill(self) -> SkillRatings:
+        return openskill_ratings(self.table)
+
+
+class _League:
+    """The pairwise figures of the rated agents (indexed like them), each computed on first use and
+    kept: every method's board reads them from here, so that none is computed twice."""
+
+    def __init__(self, counts: PairCounts, alpha: float | None, *, rounds: int, level: float,
+                 seed: int) -> None:
+        self.counts = counts
+        self.alpha_given = alpha
+        self.rounds, self.level, self.seed = rounds, level, seed
+
+    @cached_property
+    def payoff(self) -> np.ndarray:
+        """The logit win-rate meta-game."""
+        return self.counts.logit_payoff(PSEUDO_COUNT)
+
+    @cached_property
+    def nash(self) -> tuple[np.ndarray, np.ndarray]:
+        """(maximum-entropy Nash equilibrium, Nash-averaged scores) of the meta-game."""
+        return nash_averaging(self.payoff)
+
+    @cached_property
+    def alpha_rank(self) -> tuple[np.ndarray, float]:
+        """(alpha-Rank mass, alpha) on the smoothed win-rate table; alpha from the sweep unless given."""
+        smoothed = self.counts.win_rate(PSEUDO_COUNT)
+        if self.alpha_given is None:
+            sweep = alpha_rank_sweep([smoothed], m=ALPHA_RANK_M)
+            return sweep.pi, float(sweep.alpha)
+        return alpha_rank([smoothed], alpha=self.alpha_given, m=ALPHA_RANK_M), float(self.alpha_given)
+
+    @cached_property
+    def bt(self) -> RatingIntervals:
+        """Bradley-Terry ratings with bootstrap intervals, ranks and percentiles."""
+        return bootstrap_ratings(self.counts, rounds=self.rounds, level=self.level, seed=self.seed)
+
+    @cached_property
+    def intransitivity(self) -> float:
+        return intransitivity(self.payoff).cyclic_share
+
+
+_LEAGUE_COLUMNS: dict[str, Callable[[_League], np.ndarray]] = {
+    "nash_mass": lambda league: league.nash[0],
+    "nash_score": lambda league: league.nash[1],
+    "alpharank_mass": lambda league: league.alpha_rank[0],
+    "bt_rating": lambda league: league.bt.rating,
+    "bt_lower": lambda league: league.bt.lower,
+    "bt_upper": lambda league: league.bt.upper,
+    "bt_rank": lambda league: league.bt.rank,
+    "bt_rank_worst": lambda league: league.bt.rank_worst,
+}
+"""The league's figures shown as method columns beside every method (in this order), unless the
+method's own score is the same figure (:attr:`_MethodSpec.replaces`)."""
+
+
+@dataclass(frozen=True)
+class _MethodScores:
+    """What a method puts on the board, indexed by the rated agents."""
+
+    rating: np.ndarray
+    lower: np.ndarray | None = None
+    upper: np.ndarray | None = None
+    sort_score: np.ndarray | None = None
+    """The score the board is sorted by, descending; the rating when None."""
+    rank: tuple[np.ndarray, np.ndarray] | None = None
+    """(rank, rank_worst) when the method has its own; otherwise they follow from the sort score
+    and the interval."""
+    columns: dict[str, np.ndarray] = field(default_factory=dict)
+    params: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class _MethodSpec:
+    """One leaderboard method: how its scores are computed and how the board shows them."""
+
+    score: Callable[[_Matches, np.ndarray, _League | None], _MethodScores]
+    """``(matches, rated agents' indices into the table, league figures or None) -> scores``."""
+    label: str
+    """The board's :attr:`~Leaderboard.rating_label`."""
+    header: str
+    """Header of the rating column in the terminal and HTML tables."""
+    decimals: int
+    pairwise: bool = True
+    """Needs matches of two teams of one agent each; otherwise rates team games and free-for-all,
+    and its rated agents are OpenSkill's."""
+    bootstrap: bool = False
+    """Its interval is a bootstrap interval at the board's level (named in the header)."""
+    sort_by: str = "rating"
+    replaces: tuple[str, ...] = ()
+    """League columns (:data:`_LEAGUE_COLUMNS`) left off its rows: its own score is that figure."""
+    columns_shown: tuple[tuple[str, str], ...] = ()
+    """(header, column key) of its own method columns in the tables, before the league's."""
+
+
+def _score_bt(matches: _Matches, rated: np.ndarray, league: _League | None) -> _MethodScores:
+    bt = league.bt
+    return _MethodScores(bt.rating, bt.lower, bt.upper, rank=(bt.rank, bt.rank_worst), columns={
+        "percentile_lower": bt.percentile_lower, "percentile_upper": bt.percentile_upper})
+
+
+def _score_elo(matches: _Matches, rated: np.ndarray, league: _League | None) -> _MethodScores:
+    results = matches.results
+    rating = elo_online(results.first, results.second, results.score, matches.table.n_agents, k=ELO_K,
+                        initial=ELO_INITIAL)[rated]
+    return _MethodScores(rating, params={"elo_k": ELO_K, "elo_initial": ELO_INITIAL})
+
+
+def _score_openskill(matches: _Matches, rated: np.ndarray, league: _League | None) -> _MethodScores:
+    skill = matches.skill
+    mu, sigma = skill.mu[rated], skill.sigma[rated]
+    lower = mu - OPENSKILL_BAND * sigma
+    return _MethodScores(mu, lower, mu + OPENSKILL_BAND * sigma, sort_score=lower,
+                         columns={"mu": mu, "sigma": sigma, "conservative": lower},
+                         params={"openskill_model": "plackett_luce", "openskill_band": OPENSKILL_BAND,
+                                 "openskill_skipped_matches": skill.skipped})
+
+
+def _score_nash(matches: _Matches, rated: np.ndarray, league: _League | None) -> _MethodScores:
+    interval = nash_intervals(league.counts, pseudo_count=PSEUDO_COUNT, rounds=league.rounds,
+                              level=league.level, seed=league.seed, point=league.nash[1])
+    return _MethodScores(interval.point, interval.lower, interval.upper,
+                         sort_score=np.round(interval.point, SCORE_RESOLUTION))
+
+
+def _score_alpharank(matches: _Matches, rated: np.ndarray, league: _League | None) -> _MethodScores:
+    pi, alpha = league.alpha_rank
+    interval = alpha_rank_intervals(league.counts, alpha=alpha, m=ALPHA_RANK_M, pseudo_count=PSEUDO_COUNT,
+                                    rounds=league.rounds, level=league.level, seed=league.seed, point=pi)
+    return _MethodScores(pi, interval.lower, interval.upper, sort_score=np.round(pi, SCORE_RESOLUTION))
+
+
+_METHOD_TABLE: dict[str, _MethodSpec] = {
+    "bt": _MethodSpec(
+        score=_score_bt, label="Bradley-Terry rating (Elo scale)", header="BT rating", decimals=0,
+        bootstrap=True, replaces=("bt_rating", "bt_lower", "bt_upper", "bt_rank", "bt_rank_worst"),
+        columns_shown=(("Percentile CI", "percentile_lower"),)),
+    "elo": _MethodSpec(score=_score_elo, label="Elo rating (online, match order)", header="Elo", decimals=0),
+    "openskill": _MethodSpec(
+        score=_score_openskill, label="OpenSkill mu (interval mu ± 3 sigma)", header="mu ± 3 sigma",
+        decimals=2, pairwise=False, sort_by="lower",
+        columns_shown=(("mu", "mu"), ("sigma", "sigma"), ("mu - 3 sigma", "conservative"))),
+    "nash": _MethodSpec(
+        score=_score_nash, label="Nash-averaged score (logit win rate)", header="Nash score", decimals=3,
+        bootstrap=True, replaces=("nash_score",)),
+    "alpharank": _MethodSpec(
+        score=_score_alpharank, label="alpha-Rank mass", header="alpha-Rank mass", decimals=3,
+        bootstrap=True, replaces=("alpharank_mass",)),
+}
+"""The leaderboard methods by name."""
+
+METHODS: tuple[str, ...] = tuple(_METHOD_TABLE)
+
+
 def compute_leaderboard(
     rows: Iterable[Mapping[str, Any]],
     agents_info: Mapping[str, Mapping[str, Any]],
@@ -255,7 +419,8 @@ def compute_leaderboard(
         LeaderboardError: an unknown method; no matches or fewer than two rated agents; more than
             two teams or teams of mixed agents with a method other than ``"openskill"``.
     """
-    if method not in METHODS:
+    spec = _METHOD_TABLE.get(method)
+    if spec is None:
         raise LeaderboardError(f"unknown leaderboard method {method!r}; choose one of {', '.join(METHODS)}")
     if not 0 < level < 1 or rounds < 2:
         raise LeaderboardError(f"intervals need 0 < level < 1 and at least 2 bootstrap rounds (100 is usual); "
@@ -265,75 +430,48 @@ def compute_leaderboard(
         raise LeaderboardError(f"no matches of {game_id} to rank yet; play matches first: "
                                f"`arena-league evaluate {game_id}`")
     n_teams = np.bincount(np.unique(np.stack([table.match, table.team], axis=1), axis=0)[:, 0])
-    if n_teams.max() > 2 and method != "openskill":
+    if n_teams.max() > 2 and spec.pairwise:
         raise LeaderboardError(f"{game_id} has matches of {int(n_teams.max())} teams (free-for-all); "
                                f"{method!r} rates two-team games only: use --method openskill")
     try:
         results = table.pairwise()
     except ValueError as error:
-        if method != "openskill":
+        if spec.pairwise:
             raise LeaderboardError(f"{game_id}: a team holds several different agents, so its matches are "
                                    f"not one agent against another; {method!r} needs that: use --method "
                                    "openskill") from error
         results = None
-
-    skill = openskill_ratings(table) if method == "openskill" else None
-    if skill is not None:
-        rated = np.flatnonzero(skill.matches > 0)
-    else:
+    matches = _Matches(table, results)
+    if spec.pairwise:
         rated = np.flatnonzero(np.bincount(np.r_[results.first, results.second], minlength=table.n_agents) > 0)
+    else:
+        rated = np.flatnonzero(matches.skill.matches > 0)
     if rated.size < 2:
         raise LeaderboardError(f"{game_id} needs rated matches between at least two different agents "
                                f"(it has {rated.size}); play matches first: `arena-league evaluate {game_id}`")
     names = [table.agents[i] for i in rated]
     params: dict[str, Any] = {"pseudo_count": PSEUDO_COUNT, "draw_model": "half", "prior_sd": DEFAULT_PRIOR_SD}
 
-    # League matrices (wherever matches reduce to pairwise results), for every method.
-    league = counts = None
+    league = None
     if results is not None:
         all_counts = PairCounts.from_results(results.first, results.second, results.score, table.agents)
         counts = PairCounts(names, all_counts.wins[np.ix_(rated, rated)], all_counts.draws[np.ix_(rated, rated)])
-        league = _league_matrices(counts, alpha, rounds=rounds, level=level, seed=seed)
-        params.update(alpha=league["alpha"], alpha_from_sweep=alpha is None, alpha_rank_m=ALPHA_RANK_M)
+        league = _League(counts, alpha, rounds=rounds, level=level, seed=seed)
+        params.update(alpha=league.alpha_rank[1], alpha_from_sweep=alpha is None, alpha_rank_m=ALPHA_RANK_M)
 
-    # The method's primary score, its interval and its own columns.
+    scores = spec.score(matches, rated, league)
+    params.update(scores.params)
     columns: dict[str, np.ndarray] = {}
     if league is not None:
-        columns.update(nash_mass=league["nash_p"], nash_score=league["nash_score"], alpharank_mass=league["pi"])
-        if method != "bt":
-            bt = league["bt"]
-            columns.update(bt_rating=bt.rating, bt_lower=bt.lower, bt_upper=bt.upper, bt_rank=bt.rank,
-                           bt_rank_worst=bt.rank_worst)
-    lower = upper = None
-    if method == "bt":
-        bt = league["bt"]
-        rating, lower, upper = bt.rating, bt.lower, bt.upper
-        columns.update(percentile_lower=bt.percentile_lower, percentile_upper=bt.percentile_upper)
-    elif method == "elo":
-        rating = elo_online(results.first, results.second, results.score, table.n_agents, k=ELO_K,
-                            initial=ELO_INITIAL)[rated]
-        params.update(elo_k=ELO_K, elo_initial=ELO_INITIAL)
-    elif method == "openskill":
-        mu, sigma = skill.mu[rated], skill.sigma[rated]
-        rating, lower, upper = mu, mu - OPENSKILL_BAND * sigma, mu + OPENSKILL_BAND * sigma
-        columns.update(mu=mu, sigma=sigma, conservative=lower)
-        params.update(openskill_model="plackett_luce", openskill_band=OPENSKILL_BAND,
-                      openskill_skipped_matches=skill.skipped)
-    elif method == "nash":
-        interval = nash_intervals(counts, pseudo_count=PSEUDO_COUNT, rounds=rounds, level=level, seed=seed)
-        rating, lower, upper = interval.point, interval.lower, interval.upper
-        del columns["nash_score"]
-    else:
-        interval = alpha_rank_intervals(counts, alpha=league["alpha"], m=ALPHA_RANK_M,
-                                        pseudo_count=PSEUDO_COUNT, rounds=rounds, level=level, seed=seed)
-        rating, lower, upper = league["pi"], interval.lower, interval.upper
-        del columns["alpharank_mass"]
+        columns.update((key, column(league)) for key, column in _LEAGUE_COLUMNS.items()
+                       if key not in spec.replaces)
+    columns.update(scores.columns)
+    rating, lower, upper = scores.rating, scores.lower, scores.upper
 
     # Ranks, percentiles and the order, from the sort score.
-    sort_score = {"openskill": lower, "nash": np.round(rating, SCORE_RESOLUTION),
-                  "alpharank": np.round(rating, SCORE_RESOLUTION)}.get(method, rating)
-    if method == "bt":
-        rank, rank_worst = league["bt"].rank, league["bt"].rank_worst
+    sort_score = rating if scores.sort_score is None else scores.sort_score
+    if scores.rank is not None:
+        rank, rank_worst = scores.rank
     elif lower is None:
         # competition ranking of a point score: tied agents share the range of places
         rank = 1 + (sort_score[None, :] > sort_score[:, None]).sum(axis=1)
@@ -343,7 +481,7 @@ def compute_leaderboard(
         # the Nash support); widened to hold it, the rank range always contains the sorted position
         rank, rank_worst = rank_intervals(np.minimum(lower, sort_score), np.maximum(upper, sort_score))
     percentile = 100.0 * (sort_score[None, :] < sort_score[:, None]).sum(axis=1) / (rated.size - 1)
-    tie_break = league["bt"].rating if league is not None else np.zeros(rated.size)
+    tie_break = league.bt.rating if league is not None else np.zeros(rated.size)
     order = np.array(sorted(range(rated.size), key=lambda i: (-sort_score[i], -tie_break[i], names[i])))
 
     played, points = _matches_and_points(table)
@@ -364,37 +502,18 @@ def compute_leaderboard(
             lower=None, upper=None, matches=int(played[agent_index[name]]) if name in agent_index else 0,
             win_rate=None, percentile=None))
 
-    def in_order(key: str) -> np.ndarray | None:
-        return None if league is None else league[key][order]
-
+    figures: dict[str, Any] = dict.fromkeys(("win_rate", "games", "nash_p", "nash_score", "alpharank_pi",
+                                             "alpharank_alpha", "intransitivity"))
+    if league is not None:
+        figures.update(
+            win_rate=league.counts.win_rate()[np.ix_(order, order)],
+            games=league.counts.games[np.ix_(order, order)], nash_p=league.nash[0][order],
+            nash_score=league.nash[1][order], alpharank_pi=league.alpha_rank[0][order],
+            alpharank_alpha=league.alpha_rank[1], intransitivity=league.intransitivity)
     return Leaderboard(
         game_id=game_id, method=method, level=level, rounds=rounds, seed=seed, rows=board_rows,
-        rating_label=RATING_LABELS[method], sort_by="lower" if method == "openskill" else "rating",
-        n_matches=table.n_matches, agents=[names[i] for i in order],
-        win_rate=None if league is None else league["win_rate"][np.ix_(order, order)],
-        games=None if league is None else league["games"][np.ix_(order, order)],
-        nash_p=in_order("nash_p"), nash_score=in_order("nash_score"), alpharank_pi=in_order("pi"),
-        alpharank_alpha=None if league is None else league["alpha"],
-        intransitivity=None if league is None else league["intransitivity"], params=params)
-
-
-def _league_matrices(counts: PairCounts, alpha: float | None, *, rounds: int, level: float,
-                     seed: int) -> dict[str, Any]:
-    """Win rates, Bradley-Terry intervals, Nash equilibrium, alpha-Rank and intransitivity."""
-    payoff = counts.logit_payoff(PSEUDO_COUNT)
-    nash_p, nash_score = nash_averaging(payoff)
-    smoothed = counts.win_rate(PSEUDO_COUNT)
-    if alpha is None:
-        sweep = alpha_rank_sweep([smoothed], m=ALPHA_RANK_M)
-        pi, alpha = sweep.pi, sweep.alpha
-    else:
-        pi = alpha_rank([smoothed], alpha=alpha, m=ALPHA_RANK_M)
-    return {
-        "win_rate": counts.win_rate(), "games": counts.games,
-        "bt": bootstrap_ratings(counts, rounds=rounds, level=level, seed=seed),
-        "nash_p": nash_p, "nash_score": nash_score, "pi": pi, "alpha": float(alpha),
-        "intransitivity": intransitivity(payoff).cyclic_share,
-    }
+        rating_label=spec.label, sort_by=spec.sort_by, n_matches=table.n_matches,
+        agents=[names[i] for i in order], params=params, **figures)
 
 
 def _matches_and_points(table: OutcomeTable) -> tuple[np.ndarray, np.ndarray]:
@@ -472,31 +591,24 @@ def _rank_text(row: LeaderboardRow) -> str:
     return str(row.rank) if row.rank == row.rank_worst else f"{row.rank}-{row.rank_worst}"
 
 
-def _method_column_specs(board: Leaderboard) -> list[tuple[str, str, Any]]:
-    """(header, method column key, formatter) of the method-specific columns shown."""
-    def mass(v: float) -> str:
-        return _number(v, 3)
-
-    def two(v: float) -> str:
-        return _number(v, 2)
-
-    specs: list[tuple[str, str, Any]] = []
-    if board.method == "openskill":
-        specs += [("mu", "mu", two), ("sigma", "sigma", two), ("mu - 3 sigma", "conservative", two)]
-    if board.method != "bt" and board.win_rate is not None:
-        specs.append((f"BT rating ({board.level:.0%} CI)", "bt_rating", None))
-    if board.method == "bt":
-        specs.append(("Percentile CI", "percentile_lower", None))
-    if board.nash_p is not None and board.method != "nash":
-        specs.append(("Nash score", "nash_score", mass))
-    if board.nash_p is not None:
-        specs.append(("Nash mass", "nash_mass", mass))
-    if board.alpharank_pi is not None and board.method != "alpharank":
-        specs.append(("alpha-Rank mass", "alpharank_mass", mass))
-    return specs
+_LEAGUE_COLUMNS_SHOWN: tuple[tuple[str, str], ...] = (
+    ("BT rating ({level:.0%} CI)", "bt_rating"), ("Nash score", "nash_score"), ("Nash mass", "nash_mass"),
+    ("alpha-Rank mass", "alpharank_mass"))
+"""(header, column key) of the league columns in the tables, after the method's own."""
+_COLUMN_DECIMALS = {"mu": 2, "sigma": 2, "conservative": 2, "nash_score": 3, "nash_mass": 3,
+                    "alpharank_mass": 3}
 
 
-def _method_cell(row: LeaderboardRow, key: str, formatter: Any) -> str:
+def _method_column_specs(board: Leaderboard) -> list[tuple[str, str]]:
+    """(header, method column key) of the method-specific columns shown."""
+    spec = _METHOD_TABLE[board.method]
+    shown = list(spec.columns_shown)
+    if board.win_rate is not None:
+        shown += [(header, key) for header, key in _LEAGUE_COLUMNS_SHOWN if key not in spec.replaces]
+    return [(header.format(level=board.level), key) for header, key in shown]
+
+
+def _method_cell(row: LeaderboardRow, key: str) -> str:
     columns = row.method_columns
     if key == "bt_rating":
         if columns.get("bt_rating") is None:
@@ -508,25 +620,23 @@ def _method_cell(row: LeaderboardRow, key: str, formatter: Any) -> str:
         low, high = f"{columns['percentile_lower']:.0f}", f"{columns['percentile_upper']:.0f}"
         return f"{low}%" if low == high else f"{low}-{high}%"
     value = columns.get(key)
-    return "" if value is None else formatter(value)
+    return "" if value is None else _number(value, _COLUMN_DECIMALS[key])
 
 
 def leaderboard_cells(board: Leaderboard) -> tuple[list[str], list[list[str]]]:
     """The leaderboard as text: headers and one list of cells per row (terminal and HTML views)."""
-    decimals = _DECIMALS[board.method]
+    spec = _METHOD_TABLE[board.method]
     specs = _method_column_specs(board)
-    rating_header = {"bt": "BT rating", "elo": "Elo", "openskill": "mu ± 3 sigma", "nash": "Nash score",
-                     "alpharank": "alpha-Rank mass"}[board.method]
-    if board.method in ("bt", "nash", "alpharank"):
-        rating_header += f" ({board.level:.0%} CI)"
+    rating_header = spec.header + (f" ({board.level:.0%} CI)" if spec.bootstrap else "")
     headers = ["Rank", "Agent", "Kind", rating_header, "Matches", "Win rate", "Percentile"]
-    headers += [header for header, _, _ in specs]
+    headers += [header for header, _ in specs]
     cells = []
     for row in board.rows:
-        line = [_rank_text(row), row.agent, row.kind or "", _interval_text(row, decimals), str(row.matches),
+        line = [_rank_text(row), row.agent, row.kind or "", _interval_text(row, spec.decimals),
+                str(row.matches),
                 "" if row.win_rate is None else f"{100 * row.win_rate:.1f}%",
                 "" if row.percentile is None else f"{row.percentile:.0f}"]
-        line += [_method_cell(row, key, formatter) if row.rated else "" for _, key, formatter in specs]
+        line += [_method_cell(row, key) if row.rated else "" for _, key in specs]
         cells.append(line)
     return headers, cells
 

@@ -1,7 +1,7 @@
 """League operations: the library calls the ``arena-league`` command (and any web front end) are
-thin layers over. They join the layers of DESIGN.md's data flow: the registry (SQL), agent
-artifacts and validation (population/), the match engine (matchmaking/) and the rating engine
-(rating/), after Arena's "ranking among the base population" (Song et al., AAAI 2020).
+thin layers over. They join the layers below: the registry (SQL), agent artifacts and
+validation (policies/), the match engine (matchmaking/), the rating engine (rating/) and
+replays, after Arena's "ranking among the base population" (Song et al., AAAI 2020).
 
 Every match is played by a job (kind ``evaluate`` or ``rank``), queued for workers or run at
 once in the caller's process. A job's matches get ids ``job_id * MATCH_IDS_PER_JOB + k``, so match
@@ -33,6 +33,7 @@ from arena_league.matchmaking import (
     specs_for_seatings,
 )
 from arena_league.registry import League
+from arena_league.replay import ReplayRecording
 
 MATCH_IDS_PER_JOB = 2**20
 SCRIPTED_AGENTS = ("random", "heuristic")
@@ -150,7 +151,7 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
         load_agent(artifact, game_id)
     except CorruptArtifactError:
         raise  # unreadable (truncated, corrupt): refused, nothing stored
-    except Exception:  # noqa: BLE001 - readable but unfit (spaces...): validation rejects it with the log
+    except Exception:  # noqa: S110 - readable but unfit (spaces...): validation rejects it with the log
         pass
     verdict = validate_submission(artifact, game_id)
     status = "active" if verdict.ok else "rejected"
@@ -193,18 +194,29 @@ def queue_evaluation(league: League, game_id: str, agents: Sequence[str] | None 
                      workers: int | None = None, record: bool = False, priority: int = 0) -> int:
     """Queue a round robin among ``agents`` (default: every active agent of the game) that brings
     each pair to ``matches_per_pair`` matches; returns the job id."""
-    if matches_per_pair < 1:
-        raise ValueError(f"matches_per_pair must be at least 1, not {matches_per_pair}")
+    evaluation_payload(game_id, agents, matches_per_pair=matches_per_pair)  # bad options fail before any write
     register_game(league, game_id)
     with league.transaction() as session:
         names = [a.name for a in _active_agents(session, game_id, agents)]
         if len(names) < 2:
             raise ValueError(f"{game_id} has {len(names)} active agent(s); an evaluation needs two. Submit agents "
                              f"with `arena-league submit PATH --game {game_id} --name NAME`")
-        job = reg.enqueue(session, "evaluate", {
-            "game_id": game_id, "agents": names, "matches_per_pair": int(matches_per_pair), "seed": int(seed),
-            "backend": backend, "workers": workers, "record": bool(record)}, priority=priority)
+        job = reg.enqueue(session, "evaluate", evaluation_payload(game_id, names, matches_per_pair=matches_per_pair,
+                                                                  seed=seed, backend=backend, workers=workers,
+                                                                  record=record), priority=priority)
         return job.id
+
+
+def evaluation_payload(game_id: str, agents: Sequence[str] | None, *, matches_per_pair: int = 10, seed: int = 0,
+                       backend: str = "inprocess", workers: int | None = None, record: bool = False
+                       ) -> dict[str, Any]:
+    """The payload of an ``evaluate`` job, queued now or by a schedule (``agents`` None: every agent
+    active when the job runs). :func:`handle_evaluate` reads it."""
+    if matches_per_pair < 1:
+        raise ValueError(f"matches_per_pair must be at least 1, not {matches_per_pair}")
+    return {"game_id": game_id, "agents": None if agents is None else list(agents),
+            "matches_per_pair": int(matches_per_pair), "seed": int(seed), "backend": backend, "workers": workers,
+            "record": bool(record)}
 
 
 def evaluate(league: League, game_id: str, agents: Sequence[str] | None = None, *, matches_per_pair: int = 10,
@@ -222,7 +234,7 @@ def _played_seatings(rows: list[dict[str, Any]]) -> dict[tuple[str, ...], int]:
     seatings: dict[tuple[str, ...], int] = {}
     current: dict[int, str] = {}
     last = None
-    for row in rows + [{"match_id": None}]:
+    for row in [*rows, {"match_id": None}]:
         if row["match_id"] != last and current:
             key = tuple(current[t] for t in sorted(current))
             seatings[key] = seatings.get(key, 0) + 1
@@ -275,12 +287,12 @@ def match_key(job_id: int, match_id: int) -> str:
     return f"job:{job_id}:{match_id}"
 
 
-def _record_dir(league: League, payload: Mapping[str, Any]) -> Path | None:
+def _recording(league: League, payload: Mapping[str, Any]) -> ReplayRecording | None:
     if not payload.get("record"):
         return None
     path = Path(league.home) / "replays" / payload["game_id"]
     path.mkdir(parents=True, exist_ok=True)
-    return path
+    return ReplayRecording(path)
 
 
 def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> dict[str, Any]:
@@ -302,7 +314,7 @@ def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> di
     specs = [s for s in specs if match_key(ctx.job.id, s.match_id) not in done_keys]
     recorder = _Recorder(ctx, game_id, len(specs), progress)
     play_matches(specs, refs, backend=payload.get("backend", "inprocess"), workers=payload.get("workers"),
-                 record_dir=_record_dir(ctx.league, payload), on_result=recorder)
+                 recording=_recording(ctx.league, payload), on_result=recorder)
     recorder.flush()
     return {"job_id": ctx.job.id, "game_id": game_id, "agents": names,
             "matches_per_pair": int(payload["matches_per_pair"]), "played": recorder.played,
@@ -432,7 +444,7 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
                             first_match_id=ctx.job.id * MATCH_IDS_PER_JOB, max_matches=int(p["budget"]) + 1)
     recorder.flush()
     placement = chooser.placement
-    # Nash score of the entrant in the meta-game of base + entrant (logit win rates, pseudo-count 0.5)
+    # Nash score of the entrant in the meta-game of base + entrant (logit win rates, smoothed by PSEUDO_COUNT)
     everyone = [*names, agent]
     with ctx.league.reading() as session:
         rows = reg.match_seat_rows(session, game_id, agents=everyone)
@@ -454,10 +466,10 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
 
 
 def _nash_of(rows: list[dict[str, Any]], agents: list[str], nash_averaging) -> tuple[np.ndarray, np.ndarray]:
-    from arena_league.rating import OutcomeTable
+    from arena_league.rating import PSEUDO_COUNT, OutcomeTable
 
     counts = OutcomeTable.from_rows(rows, agents=agents).pair_counts()
-    return nash_averaging(counts.logit_payoff(pseudo_count=0.5))
+    return nash_averaging(counts.logit_payoff(pseudo_count=PSEUDO_COUNT))
 
 
 # --- leaderboards ----------------------------------------------------------------------------------
@@ -509,6 +521,13 @@ def recent_matches(league: League, game_id: str, *, agent: str | None = None, li
 # --- populations -----------------------------------------------------------------------------------
 
 POPULATION_MANIFEST = "population.json"
+
+
+def list_populations(league: League, game_id: str | None = None) -> list[dict[str, Any]]:
+    """Every population of the league (or of ``game_id``): name, version, game, frozen, member count."""
+    with league.reading() as session:
+        return [{"name": p.name, "version": p.version, "game_id": p.game_id, "frozen": p.frozen,
+                 "members": len(p.members)} for p in reg.list_populations(session, game_id=game_id)]
 
 
 def export_population(league: League, population: str, destination: str | Path) -> Path:
@@ -619,11 +638,13 @@ def import_population(league: League, source: str | Path, *, name: str | None = 
 
 def job_handlers(progress: Progress | None = None) -> dict[str, Callable[[reg.JobContext], Any]]:
     """The job kinds a league worker runs."""
-    import torch
+    from arena_league.policies.threads import torch_threads
 
-    # a league process runs many tiny batched forwards: one thread beats OpenMP's hand-offs
-    torch.set_num_threads(1)
-    return {
-        "evaluate": lambda ctx: handle_evaluate(ctx, progress),
-        "rank": lambda ctx: handle_rank(ctx, progress),
-    }
+    def on_one_thread(handler: Callable[[reg.JobContext, Progress | None], Any]) -> Callable[[reg.JobContext], Any]:
+        # a job runs many tiny batched forwards: one thread beats OpenMP's hand-offs
+        def run(ctx: reg.JobContext) -> Any:
+            with torch_threads(1):
+                return handler(ctx, progress)
+        return run
+
+    return {"evaluate": on_one_thread(handle_evaluate), "rank": on_one_thread(handle_rank)}

@@ -1,5 +1,5 @@
 """Rating engine of arena-league: pure numpy/scipy functions over outcome tables and payoff
-matrices (DESIGN.md: ratings know nothing of games or SQL).
+matrices; ratings know nothing of games or SQL.
 
 - :mod:`.outcomes`: per-seat match records, pairwise results, deduplicated win/draw counts.
 - :mod:`.elo`: classic online Elo.
@@ -39,7 +39,14 @@ from arena_league.rating.bradley_terry import (
 )
 from arena_league.rating.elo import elo_expected_score, elo_online
 from arena_league.rating.nash import check_antisymmetric, nash_averaging, zero_sum_value
-from arena_league.rating.outcomes import OUTCOME_PLACE, OutcomeTable, PairCounts, PairwiseResults, SeatResult
+from arena_league.rating.outcomes import (
+    OUTCOME_PLACE,
+    PSEUDO_COUNT,
+    OutcomeTable,
+    PairCounts,
+    PairwiseResults,
+    SeatResult,
+)
 from arena_league.rating.placement import (
     MIN_PLACEMENT_MATCHES,
     PLACEMENT_PRIOR_SD,
@@ -65,6 +72,7 @@ __all__ = [
     "MIN_PLACEMENT_MATCHES",
     "OUTCOME_PLACE",
     "PLACEMENT_PRIOR_SD",
+    "PSEUDO_COUNT",
     "AdaptivePlacement",
     "AlphaRankSweep",
     "BootstrapInterval",

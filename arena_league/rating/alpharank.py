@@ -193,7 +193,7 @@ def _transitions(tables: list[np.ndarray], alpha: float, m: int, use_inf_alpha: 
     for k, (payoff, n_k) in enumerate(zip(tables, shape)):
         stride = int(np.prod(shape[k + 1:]))
         # deviant[s, j]: population k's payoff at profile s with its own strategy replaced by j
-        deviant = np.broadcast_to(np.expand_dims(np.moveaxis(payoff, k, -1), k), shape + (n_k,))
+        deviant = np.broadcast_to(np.expand_dims(np.moveaxis(payoff, k, -1), k), (*shape, n_k))
         deviant = deviant.reshape(n_states, n_k)
         resident = payoff.reshape(n_states)
         own = (state // stride % n_k).reshape(n_states)

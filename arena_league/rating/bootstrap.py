@@ -30,7 +30,7 @@ from arena_league.rating.bradley_terry import (
     anchoring,
 )
 from arena_league.rating.nash import nash_averaging
-from arena_league.rating.outcomes import PairCounts
+from arena_league.rating.outcomes import PSEUDO_COUNT, PairCounts
 
 __all__ = [
     "BootstrapInterval",
@@ -133,11 +133,16 @@ def bootstrap_statistic(
     rounds: int = 100,
     level: float = 0.95,
     seed: int = 0,
+    point: np.ndarray | None = None,
 ) -> BootstrapInterval:
     """Percentile-bootstrap interval of any statistic of the counts (a function returning an
-    array), over leagues resampled match by match."""
+    array), over leagues resampled match by match.
+
+    ``point`` is ``statistic(counts)`` when the caller has computed it already; it is then taken as
+    given rather than computed again (the replicates and the interval do not depend on it).
+    """
     _check_level(level, rounds)
-    point = np.asarray(statistic(counts), dtype=np.float64)
+    point = np.asarray(statistic(counts) if point is None else point, dtype=np.float64)
     wins, draws = counts.resample(np.random.default_rng(seed), rounds)
     samples = np.stack([np.asarray(statistic(PairCounts(counts.agents, w, d)), dtype=np.float64)
                         for w, d in zip(wins, draws)])
@@ -145,20 +150,22 @@ def bootstrap_statistic(
     return BootstrapInterval(point, lower, upper, samples, level)
 
 
-def nash_intervals(counts: PairCounts, *, pseudo_count: float = 0.5, rounds: int = 100,
-                   level: float = 0.95, seed: int = 0) -> BootstrapInterval:
-    """Bootstrap intervals of the Nash-averaged scores on A = logit(win rate) (pseudo-count 0.5,
-    so that unbeaten pairs stay finite)."""
+def nash_intervals(counts: PairCounts, *, pseudo_count: float = PSEUDO_COUNT, rounds: int = 100,
+                   level: float = 0.95, seed: int = 0, point: np.ndarray | None = None) -> BootstrapInterval:
+    """Bootstrap intervals of the Nash-averaged scores on A = logit(win rate) (with the
+    pseudo-count, so that unbeaten pairs stay finite). ``point``: the scores of ``counts`` when
+    already known (see :func:`bootstrap_statistic`)."""
     return bootstrap_statistic(counts, lambda c: nash_averaging(c.logit_payoff(pseudo_count))[1],
-                               rounds=rounds, level=level, seed=seed)
+                               rounds=rounds, level=level, seed=seed, point=point)
 
 
 def alpha_rank_intervals(counts: PairCounts, *, alpha: float = 100.0, m: int = 50,
-                         pseudo_count: float = 0.5, rounds: int = 100, level: float = 0.95,
-                         seed: int = 0) -> BootstrapInterval:
-    """Bootstrap intervals of the single-population alpha-Rank mass on the win-rate table."""
+                         pseudo_count: float = PSEUDO_COUNT, rounds: int = 100, level: float = 0.95,
+                         seed: int = 0, point: np.ndarray | None = None) -> BootstrapInterval:
+    """Bootstrap intervals of the single-population alpha-Rank mass on the win-rate table.
+    ``point``: the mass of ``counts`` when already known (see :func:`bootstrap_statistic`)."""
     return bootstrap_statistic(counts, lambda c: alpha_rank([c.win_rate(pseudo_count)], alpha=alpha, m=m),
-                               rounds=rounds, level=level, seed=seed)
+                               rounds=rounds, level=level, seed=seed, point=point)
 
 
 def _check_level(level: float, rounds: int) -> None:

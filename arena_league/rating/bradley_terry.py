@@ -219,7 +219,7 @@ class StrengthFitter:
     def start(self, wins: np.ndarray, draws: np.ndarray) -> np.ndarray:
         """Starting point: equal strengths, and nu from the draw share."""
         batch = wins.shape[:-2]
-        x = np.zeros(batch + (self.n + (self.draw_model == "davidson"),))
+        x = np.zeros((*batch, self.n + (self.draw_model == "davidson")))
         if self.draw_model == "davidson":
             n_draws = 0.5 * draws.sum(axis=(-2, -1))
             n_matches = wins.sum(axis=(-2, -1)) + n_draws
@@ -239,12 +239,11 @@ class StrengthFitter:
                  draws[:, self.first, self.second])
         objective = self._half if self.draw_model == "half" else self._davidson
         f, g, h = objective(x, *pairs, derivatives=True)
-        iterations = 0
         for iterations in range(1, max_iter + 1):
             step = -solve_positive_definite(h, g)
             size = np.abs(step).max(axis=-1)
             if (size < tol).all():
-                break
+                return x.reshape((*batch, x.shape[-1])), iterations
             slope = (g * step).sum(axis=-1)
             # Try the full Newton step first (its derivatives are needed next anyway); backtrack
             # only the batch elements whose objective did not decrease enough.
@@ -263,9 +262,7 @@ class StrengthFitter:
                 t = np.where(ok, t, 0.5 * t)
             x = x + t[:, None] * step
             f, g, h = objective(x, *pairs, derivatives=True)
-        else:
-            raise RuntimeError(f"Bradley-Terry Newton did not converge in {max_iter} iterations")
-        return x.reshape(batch + (x.shape[-1],)), iterations
+        raise RuntimeError(f"Bradley-Terry Newton did not converge in {max_iter} iterations")
 
     def _to_agents(self, per_pair: np.ndarray, matrix: sparse.csr_matrix) -> np.ndarray:
         """Sums per-pair values ``(batch, pairs)`` onto agents through ``matrix``."""

@@ -24,6 +24,8 @@ from numpy.typing import ArrayLike
 from scipy.optimize import linprog, minimize
 from scipy.special import logsumexp, softmax
 
+from arena_league.rating.outcomes import PSEUDO_COUNT
+
 __all__ = ["check_antisymmetric", "nash_averaging", "zero_sum_value"]
 
 
@@ -35,7 +37,7 @@ def check_antisymmetric(A: ArrayLike, atol: float = 1e-8) -> np.ndarray:
         raise ValueError(f"the meta-game must be a square matrix, got shape {A.shape}")
     if not np.isfinite(A).all():
         raise ValueError("the meta-game has infinite or NaN entries; build it with a pseudo-count, "
-                         "e.g. PairCounts.logit_payoff(pseudo_count=0.5)")
+                         f"e.g. PairCounts.logit_payoff(pseudo_count={PSEUDO_COUNT})")
     scale = max(1.0, float(np.abs(A).max(initial=0.0)))
     if np.abs(A + A.T).max(initial=0.0) > atol * scale:
         raise ValueError("the meta-game must be antisymmetric (A[i, j] == -A[j, i]); from win rates W "
@@ -59,14 +61,15 @@ def nash_averaging(A: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     n = A.shape[0]
     if n == 1:
         return np.ones(1), np.zeros(1)
-    support, p_lp = _maximal_support(A)
+    support = _maximal_support(A)
     p = np.zeros(n)
-    p[support] = _max_entropy_on_support(A, support, p_lp[support])
+    p[support] = _max_entropy_on_support(A, support)
     return p, A @ p
 
 
-def _maximal_support(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """An equilibrium with p_i > 0 or (A p)_i < 0 for all i (Tucker), and its support."""
+def _maximal_support(A: np.ndarray) -> np.ndarray:
+    """The support of an equilibrium with p_i > 0 or (A p)_i < 0 for all i (Tucker): the
+    maximal support, on which the maximum-entropy equilibrium lies."""
     n = A.shape[0]
     # variables (p, t): maximise t s.t. A p <= 0, t - p_i + (A p)_i <= 0, sum p = 1, p >= 0, t <= 1
     c = np.zeros(n + 1)
@@ -79,11 +82,10 @@ def _maximal_support(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         raise RuntimeError(f"Nash averaging LP failed: {result.message}")
     p = np.clip(result.x[:n], 0.0, None)
     p /= p.sum()
-    support = np.flatnonzero(p > -(A @ p))
-    return support, p
+    return np.flatnonzero(p > -(A @ p))
 
 
-def _max_entropy_on_support(A: np.ndarray, support: np.ndarray, p_start: np.ndarray) -> np.ndarray:
+def _max_entropy_on_support(A: np.ndarray, support: np.ndarray) -> np.ndarray:
     """Maximum-entropy q on ``support`` with A_SS q = 0, A_rest,S q <= 0, sum q = 1."""
     m = support.size
     if m == 1:

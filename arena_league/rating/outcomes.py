@@ -21,10 +21,18 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["OUTCOME_PLACE", "OutcomeTable", "PairCounts", "PairwiseResults", "SeatResult"]
+__all__ = ["OUTCOME_PLACE", "PSEUDO_COUNT", "OutcomeTable", "PairCounts", "PairwiseResults", "SeatResult"]
 
 OUTCOME_PLACE: dict[str, int] = {"win": 0, "draw": 0, "loss": 1}
 """Finishing place of a team given its two-team outcome word (0 is first; equal places tie)."""
+
+PSEUDO_COUNT: float = 0.5
+"""Points added to each side of every pair before its win rate is smoothed or its logit taken (the
+logit meta-game of Nash averaging, the alpha-Rank payoff table). Half a point each way is
+Jeffreys-style smoothing: the win rate becomes the posterior mean under the Jeffreys prior
+Beta(1/2, 1/2), and the logit becomes the Haldane-Anscombe log-odds log((w + 1/2) / (l + 1/2)).
+So an unbeaten pair has a finite logit, an unplayed pair reads as even, and a well-played pair is
+barely moved. Every default and caller in the package uses this one value."""
 
 
 class SeatResult(NamedTuple):
@@ -292,8 +300,8 @@ class PairCounts:
     def win_rate(self, pseudo_count: float = 0.0) -> np.ndarray:
         """Empirical payoff ``(wins + draws/2 + c) / (games + 2c)`` of row against column.
 
-        With ``pseudo_count`` c = 0, unplayed pairs are NaN; c > 0 (0.5 is the Haldane-Anscombe
-        correction) shrinks towards 0.5 and keeps logits finite. The diagonal is 0.5.
+        With ``pseudo_count`` c = 0, unplayed pairs are NaN; c > 0 (:data:`PSEUDO_COUNT` is the
+        package's choice) shrinks towards 0.5 and keeps logits finite. The diagonal is 0.5.
         """
         points = self.wins + 0.5 * self.draws + pseudo_count
         games = self.games + 2.0 * pseudo_count
@@ -302,11 +310,12 @@ class PairCounts:
         np.fill_diagonal(rate, 0.5)
         return rate
 
-    def logit_payoff(self, pseudo_count: float = 0.5) -> np.ndarray:
+    def logit_payoff(self, pseudo_count: float = PSEUDO_COUNT) -> np.ndarray:
         """The antisymmetric meta-game ``A = logit(win_rate)`` of Balduzzi et al. (2018), with a
-        pseudo-count (default 0.5) so that unbeaten pairs stay finite; unplayed pairs give 0."""
+        pseudo-count (default :data:`PSEUDO_COUNT`) so that unbeaten pairs stay finite; unplayed
+        pairs give 0."""
         if pseudo_count <= 0 and (self.games + np.eye(self.n_agents) == 0).any():
-            raise ValueError("some pairs never played; pass pseudo_count > 0 (e.g. 0.5)")
+            raise ValueError(f"some pairs never played; pass pseudo_count > 0 (e.g. {PSEUDO_COUNT})")
         points = self.wins + 0.5 * self.draws + pseudo_count
         return np.log(points) - np.log(points.T)
 

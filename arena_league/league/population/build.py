@@ -58,9 +58,11 @@ import numpy as np
 import torch
 from safetensors.torch import load_file, save_file
 
-from arena_league.policies.artifacts import manifest_architecture, save_arena_policy
-from arena_league.policies.families import Architecture, StackedPolicy, TorchPolicy, check_parameters
 from arena_league.league.population.selection import select_spanning
+from arena_league.policies.architecture import Architecture, check_parameters
+from arena_league.policies.artifacts import manifest_architecture, save_arena_policy
+from arena_league.policies.families import StackedPolicy, TorchPolicy
+from arena_league.policies.threads import torch_threads
 
 __all__ = [
     "BUNDLE_FORMAT",
@@ -299,10 +301,6 @@ class BuildReport:
         return asdict(self)
 
 
-class _StopBuild(Exception):
-    """Raised inside the build to stop after ``stop_after``."""
-
-
 # --- the build -------------------------------------------------------------------------------------
 
 def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", schemes: Sequence[str] | None = None,
@@ -449,11 +447,11 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
 
     # 4-5. rate and select
     clock = time.perf_counter()
-    from arena_league.rating import PairCounts, fit_bradley_terry
+    from arena_league.rating import PSEUDO_COUNT, PairCounts, fit_bradley_terry
 
     counts = PairCounts.from_results(table[:, 0], table[:, 1], table[:, 2], keys)
     ratings = fit_bradley_terry(counts).ratings
-    payoff = counts.logit_payoff(pseudo_count=0.5)
+    payoff = counts.logit_payoff(pseudo_count=PSEUDO_COUNT)
     payoff[counts.games == 0] = np.nan
     np.fill_diagonal(payoff, np.nan)
     n_trained = len(candidates)
@@ -534,7 +532,7 @@ def _steps_per_scheme(schemes: list[str], steps: int | Mapping[str, int] | None,
 def _runs_per_scheme(schemes: list[str], runs: int | Mapping[str, int], minimum: int = 1,
                      what: str = "runs_per_scheme") -> dict[str, int]:
     counts = ({s: runs.get(s, minimum) for s in schemes} if isinstance(runs, Mapping)
-              else {s: runs for s in schemes})
+              else dict.fromkeys(schemes, runs))
     bad = {s: n for s, n in counts.items() if isinstance(n, bool) or not isinstance(n, int) or n < minimum}
     if bad:
         raise ValueError(f"{what} must be a number of runs >= {minimum} (per scheme), not {bad}")
@@ -574,8 +572,8 @@ def _thin(candidates: list[Candidate], limit: int) -> list[Candidate]:
         ladders.setdefault((c.scheme, c.learner), []).append(c)
     quota = {k: max(2, int(limit * len(v) / len(candidates))) for k, v in ladders.items()}
     kept = []
-    for k, ladder in ladders.items():
-        ladder = sorted(ladder, key=lambda c: c.steps)
+    for k, unsorted in ladders.items():
+        ladder = sorted(unsorted, key=lambda c: c.steps)
         index = np.unique(np.round(np.linspace(0, len(ladder) - 1, min(quota[k], len(ladder)))).astype(int))
         kept += [ladder[i] for i in index]
     return kept
@@ -637,21 +635,17 @@ def play_seatings(game_id: str, seatings: Sequence[Sequence[str]], policies: Map
     team 1's), played in process on the batched engine with match ids from ``first_match_id``."""
     from arena_league.matchmaking import play_matches, specs_for_seatings
 
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)  # many small batched forwards: one thread beats OpenMP's hand-offs
-    try:
+    with torch_threads(1):  # many small batched forwards: one thread beats OpenMP's hand-offs
         specs = specs_for_seatings(game_id, [tuple(s) for s in seatings], seed, first_match_id)
         used = {k for s in seatings for k in s}
         results = play_matches(specs, {k: policies[k] for k in used}, batch_size=batch_size)
-    finally:
-        torch.set_num_threads(threads)
     return [float(r.scores[r.teams.index(0)]) for r in results]
 
 
 def _figures(game_id: str, members: list[Candidate], keys: list[str], counts: Any, policies: Mapping[str, Any],
              seed: int, rounds: int, verify_matches: int, batch_size: int, work: Path, digest: str,
              report: BuildReport) -> tuple[PopulationFigures, Any]:
-    from arena_league.rating import PairCounts, bootstrap_ratings, effective_diversity
+    from arena_league.rating import PSEUDO_COUNT, PairCounts, bootstrap_ratings, effective_diversity
 
     names = [m.key for m in members] + list(_REFERENCES)
     index = np.asarray([keys.index(n) for n in names])
@@ -667,7 +661,7 @@ def _figures(game_id: str, members: list[Candidate], keys: list[str], counts: An
     schemes: dict[str, int] = {}
     for m in members:
         schemes[m.scheme] = schemes.get(m.scheme, 0) + 1
-    member_payoff = PairCounts(names[:n], sub.wins[:n, :n], sub.draws[:n, :n]).logit_payoff(pseudo_count=0.5)
+    member_payoff = PairCounts(names[:n], sub.wins[:n, :n], sub.draws[:n, :n]).logit_payoff(pseudo_count=PSEUDO_COUNT)
     figures = PopulationFigures(
         size=n, spread=round(float(member_ratings.max() - member_ratings.min()), 1),
         best=members[best].key, worst=members[worst].key, best_vs_worst_matches=played,
