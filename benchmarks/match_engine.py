@@ -44,7 +44,8 @@ from arena_league.matchmaking import (
     specs_for_seatings,
 )
 from arena_league.matchmaking.specs import MatchResult
-from arena_league.policies.families import Architecture, TorchPolicy
+from arena_league.policies.architecture import Architecture
+from arena_league.policies.families import TorchPolicy
 
 GAMES = ("Crossroads-2T2P-v1", "GoBang-2T1P-v1")
 #: Per game: matches the engine plays, and matches in flight (the setting that ran fastest on the

@@ -2,7 +2,7 @@
 
     PYTHONPATH=. python3 benchmarks/rating.py [--seed 0] [--repeats 5] [--quick]
 
-Measures, on a seeded simulated league (issue 3):
+Measures, on a seeded simulated league:
 - Bradley-Terry plus 100 bootstrap rounds on 100 agents and 124,000 matches (target <= 1 s);
 - Nash averaging on 200 agents (target <= 1 s);
 - alpha-Rank on 100 agents, ours against OpenSpiel's ``open_spiel.python.egt.alpharank`` in the

@@ -51,7 +51,7 @@ def test_ray_matches_in_process(league):
     ray = pytest.importorskip("ray", reason="the ray backend needs Ray (pip install 'arena-league[ray]')")
     try:
         ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
-    except Exception as error:  # noqa: BLE001 - any failure to start a local instance is a skip
+    except Exception as error:  # any failure to start a local instance is a skip
         pytest.skip(f"a local Ray instance cannot start here: {error}")
     try:
         results = play_matches(specs, agents, backend="ray", chunk_size=4, batch_size=4)

@@ -202,9 +202,9 @@ def test_row_groups_round_trip_and_keep_padding_bounded():
     rng = np.random.default_rng(7)
     n_members = 100
     layouts = set()
-    for owners in (rng.integers(0, n_members, 800), rng.integers(0, 10, 50), np.array([3] * 500 + [1, 2, 9]),
-                   rng.zipf(1.5, 400) % n_members):
-        owners = torch.from_numpy(owners.astype(np.int64))
+    for owner_rows in (rng.integers(0, n_members, 800), rng.integers(0, 10, 50), np.array([3] * 500 + [1, 2, 9]),
+                       rng.zipf(1.5, 400) % n_members):
+        owners = torch.from_numpy(owner_rows.astype(np.int64))
         groups = RowGroups.of(owners, n_members)
         rows = torch.arange(len(owners), dtype=torch.float64)[:, None]
         assert torch.equal(groups.unpad(groups.pad(rows)), rows)

@@ -274,7 +274,7 @@ def test_two_worker_threads_run_each_job_exactly_once(league: League) -> None:
     for thread in threads:
         thread.join()
 
-    assert _matches_per_job(league) == Counter({job_id: 1 for job_id in jobs})
+    assert _matches_per_job(league) == Counter(dict.fromkeys(jobs, 1))
     claimed = [job_id for report in reports for job_id in report.job_ids]
     assert sorted(claimed) == sorted(jobs)
     with league.reading() as session:
@@ -294,7 +294,7 @@ def test_two_worker_processes_run_each_job_exactly_once(sqlite_league: League) -
         _, stderr = worker.communicate(timeout=60)
         assert worker.returncode == 0, stderr.decode()
 
-    assert _matches_per_job(league) == Counter({job_id: 1 for job_id in jobs})
+    assert _matches_per_job(league) == Counter(dict.fromkeys(jobs, 1))
     with league.reading() as session:
         owners = Counter(job.result["worker"] for job in list_jobs(session))
         assert queue_counts(session)["done"] == len(jobs)

@@ -95,7 +95,7 @@ def test_cc_runs_end_to_end_through_run_scheme(tmp_path):
         assert manifest["provenance"]["metrics"]["opponent"] == "scripted:heuristic"
         policy = load_policy(snapshot.path, game)
         actions, _ = policy.act(np.zeros((3, 25), dtype=np.float32), np.full((3, 1), 0.5))
-        assert actions.shape == (3,) and ((0 <= actions) & (actions < 5)).all()
+        assert actions.shape == (3,) and ((actions >= 0) & (actions < 5)).all()
     # MAPPO's values unless overridden
     assert snapshots[0].metrics["config"]["clip_coef"] == CCConfig().clip_coef
     assert snapshots[0].metrics["config"]["update_epochs"] == 2

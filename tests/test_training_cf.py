@@ -141,7 +141,7 @@ def test_cf_runs_end_to_end_through_run_scheme(tmp_path):
         assert manifest["provenance"]["scheme"] == "cf"
         policy = load_policy(snapshot.path, game)
         actions, _ = policy.act(np.zeros((3, 25), dtype=np.float32), np.full((3, 1), 0.5))
-        assert actions.shape == (3,) and ((0 <= actions) & (actions < 5)).all()
+        assert actions.shape == (3,) and ((actions >= 0) & (actions < 5)).all()
     config = snapshots[-1].metrics["config"]
     assert config["td_lambda"] == 0.6 and config["critic_lr"] == CFConfig().critic_lr
     assert snapshots[-1].metrics["critic_steps"] > 0

@@ -4,6 +4,8 @@ load as arena-policy agents and play in the league's match engine."""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 import torch
@@ -69,7 +71,7 @@ def test_seats_swap_every_episode_and_results_are_tracked():
         learner_seat = int(np.flatnonzero(episode.controllers == 0)[0])
         by_env.setdefault(episode.env_index, []).append(learner_seat)
     for seats in by_env.values():
-        assert all(a != b for a, b in zip(seats, seats[1:]))  # team 0, team 1, team 0...
+        assert all(a != b for a, b in itertools.pairwise(seats))  # team 0, team 1, team 0...
     assert record["pool_size"] == 1 and sum(sp.pool.games) > 0
 
 
@@ -102,8 +104,8 @@ def test_run_scheme_snapshots_load_and_play(tmp_path):
 
 def test_fixed_opponents_take_their_share_and_are_recorded(tmp_path):
     game = "Crossroads-2T1P-v1"
-    options = dict(steps=1024, seed=3, snapshot_every=None, max_cycles=30, num_envs=4, num_steps=64, hidden=(16,),
-                   fixed_opponents=("scripted:random", "scripted:heuristic"), fixed_share=0.5)
+    options = {"steps": 1024, "seed": 3, "snapshot_every": None, "max_cycles": 30, "num_envs": 4, "num_steps": 64,
+               "hidden": (16,), "fixed_opponents": ("scripted:random", "scripted:heuristic"), "fixed_share": 0.5}
     first = run_scheme("sp", game, out_dir=tmp_path / "a", **options)
     again = run_scheme("sp", game, out_dir=tmp_path / "b", **options)
     for name, tensor in first[-1].params.items():  # same seed, same opponents drawn, same weights

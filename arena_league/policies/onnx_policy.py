@@ -33,10 +33,10 @@ from arena_league.policies.policy import ActionSpec, Policy, legal_mask, sample_
 
 _FLOAT = onnx.TensorProto.FLOAT
 #: onnxruntime's exception types (they derive from Exception directly).
-_ORT_ERRORS: tuple[type[BaseException], ...] = (RuntimeError, ValueError) + tuple(
+_ORT_ERRORS: tuple[type[BaseException], ...] = (RuntimeError, ValueError, *(
     getattr(_ort_state, name) for name in ("Fail", "InvalidGraph", "InvalidArgument", "NotImplemented",
                                            "RuntimeException", "InvalidProtobuf", "NoSuchFile", "EPFail")
-    if hasattr(_ort_state, name))
+    if hasattr(_ort_state, name)))
 _OUT_NAME = {"discrete": "logits", "continuous": "action"}
 
 
@@ -180,7 +180,7 @@ def onnx_signature(model: onnx.ModelProto, spec: ActionSpec, game_id: str, sourc
             raise SpaceMismatchError(f"{source}: state_in is {_shape_text(inputs['state_in'])}; it must be "
                                      "float32[N, ...] with fixed sizes after the batch dimension")
         state_shape = tuple(int(d) for d in state_in[1][1:])  # type: ignore[arg-type]
-        if state_out is not None and state_out[1] and [d for d in state_out[1][1:]] != list(state_shape):
+        if state_out is not None and state_out[1] and list(state_out[1][1:]) != list(state_shape):
             raise SpaceMismatchError(f"{source}: state_out is {_shape_text(outputs['state_out'])} but state_in is "
                                      f"{_shape_text(inputs['state_in'])}; they must have the same shape")
     batch = batch_dim if isinstance(batch_dim, int) and batch_dim > 0 else None

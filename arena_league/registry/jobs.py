@@ -296,10 +296,7 @@ def list_jobs(
 
 def queue_counts(session: Session) -> dict[str, int]:
     """How many jobs are in each status (every status listed, zero included)."""
-    counts = {
-        status: n
-        for status, n in session.execute(select(Job.status, func.count(Job.id)).group_by(Job.status))
-    }
+    counts = dict(session.execute(select(Job.status, func.count(Job.id)).group_by(Job.status)).all())
     return {status.value: int(counts.get(status.value, 0)) for status in JobStatus}
 
 
@@ -416,7 +413,7 @@ def _run_one(
     except KeyboardInterrupt:
         release_job(league, job)
         raise
-    except Exception:  # noqa: BLE001 - any handler error fails this attempt; the worker goes on
+    except Exception:  # any handler error fails this attempt; the worker goes on
         error = traceback.format_exc()
         logger.error("job %d (%s) failed on attempt %d:\n%s", job.id, job.kind, job.attempt, error)
         try:

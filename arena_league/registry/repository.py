@@ -693,7 +693,7 @@ def _refuse_foreign_agents(
     ids = sorted(seated)
     for start in range(0, len(ids), _BATCH_ROWS):
         query = select(Agent.id, Agent.game_id).where(Agent.id.in_(ids[start : start + _BATCH_ROWS]))
-        agent_games.update({agent_id: agent_game for agent_id, agent_game in session.execute(query)})
+        agent_games.update(dict(session.execute(query).all()))
     for agent_id in ids:
         if agent_games.get(agent_id) != game_id:
             plays = (

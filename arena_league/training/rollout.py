@@ -295,8 +295,7 @@ class RolloutCollector:
             noise = self.rng.random(S) if self.discrete else self.rng.standard_normal((S, self.act_dim))
             uniforms = self.rng.random((S, k_uniform))
             # act: one batched forward per learner over every slot it holds
-            for code in np.unique(self.controllers):
-                code = int(code)
+            for code in np.unique(self.controllers).tolist():
                 rows = np.flatnonzero(self.controllers == code)
                 if code >= 0:
                     self._learner_act(t, code, learners[code], rows, obs, noise, mask, state_rows, seats, acting,
@@ -333,8 +332,7 @@ class RolloutCollector:
         next_state_rows = None
         if needs_state:
             next_state_rows = np.stack([env.state() for env in self.envs])[env_of]
-        for code in np.unique(self.controllers):
-            code = int(code)
+        for code in np.unique(self.controllers).tolist():
             if code < 0:
                 continue
             rows = np.flatnonzero(self.controllers == code)
