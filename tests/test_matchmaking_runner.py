@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import torch
 
 from arena_league.envs import game_spec, list_games, make
 from arena_league.matchmaking import (
@@ -22,15 +21,14 @@ from arena_league.matchmaking import (
 from arena_league.policies.architecture import Architecture
 from arena_league.policies.families import TorchPolicy
 from arena_league.policies.scripted import HeuristicPolicy, RandomPolicy
+from arena_league.policies.threads import torch_threads
 
 
 @pytest.fixture(autouse=True, scope="module")
 def one_torch_thread():
     """Small batched forwards run fastest on one thread (waking a thread pool costs more than they do)."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+    with torch_threads(1):
+        yield
 
 
 def _scripted(game_id):

@@ -36,6 +36,7 @@ from arena_league.policies import (
     unpack_artifact,
     write_artifact,
 )
+from arena_league.policies.threads import torch_threads
 
 GAME = "Crossroads-2T2P-v1"
 CROSSROADS = Architecture("mlp", obs_dim=25, action_type="discrete", n_actions=5, hidden=(16,))
@@ -43,10 +44,8 @@ CROSSROADS = Architecture("mlp", obs_dim=25, action_type="discrete", n_actions=5
 
 @pytest.fixture(autouse=True)
 def one_torch_thread():
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+    with torch_threads(1):
+        yield
 
 
 @pytest.fixture

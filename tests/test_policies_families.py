@@ -25,6 +25,7 @@ from arena_league.policies import (
 )
 from arena_league.policies.artifacts import manifest_architecture
 from arena_league.policies.families import RowGroups
+from arena_league.policies.threads import torch_threads
 
 ARCHITECTURES = {
     "mlp-discrete": Architecture("mlp", 25, "discrete", n_actions=5, hidden=(32, 32)),
@@ -42,10 +43,8 @@ ARCHITECTURES = {
 
 @pytest.fixture(autouse=True)
 def one_torch_thread():
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+    with torch_threads(1):
+        yield
 
 
 def _sharpened(arch: Architecture, seed: int) -> dict[str, torch.Tensor]:

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import torch
 
 from arena_league.league.population.build import CRITERIA, load_bundles
 from arena_league.policies import load_policy
 from arena_league.policies.scripted import scripted_policy
+from arena_league.policies.threads import torch_threads
 
 ROOT = Path(__file__).resolve().parent.parent / "checkpoints"
 SHIPPED = sorted(p.parent for p in ROOT.glob("*/base-v1/population.json"))
@@ -76,8 +76,8 @@ def test_best_member_beats_worst_and_random_in_fresh_matches(folder):
               "random": scripted_policy("random", game)}
     seatings = [("best", "worst"), ("worst", "best"), ("best", "random"), ("random", "best")] * 4
     specs = specs_for_seatings(game, seatings, league_seed=12345, first_match_id=0)
-    torch.set_num_threads(1)
-    results = play_matches(specs, agents, backend="inprocess", batch_size=len(specs))
+    with torch_threads(1):
+        results = play_matches(specs, agents, backend="inprocess", batch_size=len(specs))
     score = {"worst": [], "random": []}
     for seats, result in zip(seatings, results):
         team = seats.index("best")
