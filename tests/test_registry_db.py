@@ -241,3 +241,42 @@ def test_migrations_go_down_to_empty_and_up_again(fresh_league: League) -> None:
 def test_postgresql_leagues_use_psycopg_3(pg_league: League) -> None:
     assert pg_league.engine.dialect.driver == "psycopg"
     assert postgres_user() is not None and psycopg.__version__.startswith("3")
+
+
+def test_schema_head_is_alembics_head() -> None:
+    from alembic.script import ScriptDirectory
+
+    from arena_league.registry.db import SCHEMA_HEAD
+
+    assert ScriptDirectory.from_config(alembic_config()).get_current_head() == SCHEMA_HEAD
+
+
+def test_a_league_of_the_first_schema_upgrades_keeping_its_populations(fresh_league: League) -> None:
+    """Before 0002 population versions counted across games; upgrading keeps every row and
+    version, then counts new versions per game, and jobs can be cancelled."""
+    from arena_league.registry import JobStatus, cancel_job, create_population, enqueue, ensure_game, get_job
+
+    with fresh_league.transaction() as session:
+        ensure_game(session, GAME_ID)
+        ensure_game(session, "Snake-2T2P-v1")
+    with fresh_league.engine.begin() as connection:
+        command.downgrade(alembic_config(connection), "0001")
+        connection.execute(text(
+            "INSERT INTO populations (name, version, game_id, frozen, provenance, created_at) VALUES "
+            f"('base-v1', 1, '{GAME_ID}', TRUE, '{{}}', '2026-11-01'), "
+            "('base-v1', 2, 'Snake-2T2P-v1', TRUE, '{}', '2026-11-02')"))
+    url = fresh_league.engine.url.render_as_string(hide_password=False)
+    reopened = open_league(url, home=fresh_league.home)
+    with reopened.transaction() as session:
+        rows = session.execute(text("SELECT game_id, version FROM populations ORDER BY id")).all()
+        assert [tuple(r) for r in rows] == [(GAME_ID, 1), ("Snake-2T2P-v1", 2)]
+        assert create_population(session, "base-v1", "Snake-2T2P-v1").version == 3
+        assert create_population(session, "base-v1", GAME_ID).version == 2
+        assert create_population(session, "other", GAME_ID).version == 1
+        job = enqueue(session, "evaluate", {"game_id": GAME_ID})
+        job_id = job.id
+    cancel_job(reopened, job_id)
+    with reopened.reading() as session:
+        assert get_job(session, job_id).status == JobStatus.CANCELLED.value
+    assert _schema_differences(reopened) == []
+    reopened.close()

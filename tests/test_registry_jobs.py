@@ -74,7 +74,7 @@ def test_jobs_are_claimed_by_priority_then_age_and_only_once(league: League) -> 
     assert claim_job(league, "w4", now=T0).id == other_kind
     assert first.attempt == 1 and first.lease_expires_at == T0 + timedelta(hours=2)
     with league.reading() as session:
-        assert queue_counts(session) == {"queued": 0, "running": 4, "done": 0, "failed": 0}
+        assert queue_counts(session) == {"queued": 0, "running": 4, "done": 0, "failed": 0, "cancelled": 0}
 
 
 def test_an_expired_lease_is_reclaimed_and_the_old_worker_is_fenced_off(league: League) -> None:

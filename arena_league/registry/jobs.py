@@ -271,6 +271,32 @@ def release_job(league: League, job: ClaimedJob) -> None:
         )
 
 
+def cancel_job(league: League, job_id: int, *, now: datetime | None = None) -> Job:
+    """Cancel a queued or running job: it will not run (again). A worker running it loses its
+    lease at the next renewal and discards its result; matches it already stored stay. Cancelling
+    a cancelled job changes nothing. Raises InvalidRecordError for an unknown or finished job."""
+    with league.transaction() as session:
+        job = session.get(Job, job_id)
+        if job is None:
+            raise InvalidRecordError(f"there is no job {job_id}; see `arena-league jobs list`")
+        if job.status in (JobStatus.DONE.value, JobStatus.FAILED.value):
+            raise InvalidRecordError(f"job {job_id} has already ended ({job.status}); there is nothing to cancel")
+        if job.status != JobStatus.CANCELLED.value:
+            job.status = JobStatus.CANCELLED.value
+            job.finished_at = _naive_utc(now)
+            job.lease_owner = None
+            job.lease_expires_at = None
+            session.flush()
+        return job
+
+
+def _cancel_held(league: League, job: ClaimedJob) -> None:
+    """Cancel a job this process holds (its caller gave up on it, e.g. on Ctrl-C)."""
+    with league.transaction() as session:
+        _fenced_update(session, job, "cancel", status=JobStatus.CANCELLED.value, finished_at=_naive_utc(None),
+                       lease_owner=None, lease_expires_at=None)
+
+
 def get_job(session: Session, job_id: int) -> Job | None:
     """The job with this id, or None."""
     return session.get(Job, job_id)
@@ -376,7 +402,8 @@ def run_job_now(
 ) -> Any:
     """Claim the job `job_id` and run it here, in the caller's process, under a renewed lease (for
     commands that queue work and wait for it). Returns its result; a handler error fails the
-    attempt and is re-raised, so the caller sees the cause."""
+    attempt and is re-raised, so the caller sees the cause. Interrupted (Ctrl-C), the job is
+    cancelled rather than left queued: nobody else waits for it."""
     job = claim_job(league, worker_id or default_worker_id(), lease_seconds=lease_seconds, job_id=job_id)
     if job is None:
         raise InvalidRecordError(f"job {job_id} cannot be claimed: it is not queued (or already taken by a worker)")
@@ -386,7 +413,7 @@ def run_job_now(
     try:
         result, _ = _under_lease(league, handlers[job.kind], job, lease_seconds)
     except KeyboardInterrupt:
-        release_job(league, job)
+        _cancel_held(league, job)
         raise
     except Exception:
         fail_job(league, job, traceback.format_exc())

@@ -103,12 +103,15 @@ class Outcome(enum.StrEnum):
 
 
 class JobStatus(enum.StrEnum):
-    """Life cycle of a queued job: queued -> running -> done | failed (running -> queued on retry)."""
+    """Life cycle of a queued job: queued -> running -> done | failed (running -> queued on retry);
+    queued or running -> cancelled when someone cancels it (a running job's worker stops at its
+    next lease renewal)."""
 
     QUEUED = "queued"
     RUNNING = "running"
     DONE = "done"
     FAILED = "failed"
+    CANCELLED = "cancelled"
 
 
 def _one_of(column: str, values: type[enum.StrEnum]) -> str:
@@ -188,7 +191,7 @@ class Agent(Base):
 
 
 class Population(Base):
-    """A named, versioned set of agents of one game; frozen once published."""
+    """A named set of agents of one game, versioned per game and name; frozen once published."""
 
     __tablename__ = "populations"
 
@@ -206,7 +209,7 @@ class Population(Base):
         back_populates="population", order_by="PopulationMember.id", cascade="all, delete-orphan"
     )
 
-    __table_args__ = (UniqueConstraint("name", "version"), CheckConstraint("version >= 1", name="version"))
+    __table_args__ = (UniqueConstraint("game_id", "name", "version"), CheckConstraint("version >= 1", name="version"))
 
 
 class PopulationMember(Base):

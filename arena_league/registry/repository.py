@@ -388,18 +388,21 @@ def create_population(
     version: int | None = None,
     provenance: Mapping[str, Any] | None = None,
 ) -> Population:
-    """Create a population of a game: version `version`, or one past the latest of that name.
+    """Create a population of a game: version `version`, or one past the latest of that name in
+    that game (versions count per game: every game's first ``base-v1`` is version 1).
 
-    Raises NameTakenError if that name and version exist, UnknownGameError for an unknown game.
+    Raises NameTakenError if that name and version exist for the game, UnknownGameError for an
+    unknown game.
     """
     require_game(session, game_id)
-    latest = session.scalar(select(func.max(Population.version)).where(Population.name == name)) or 0
+    same = (Population.game_id == game_id, Population.name == name)
+    latest = session.scalar(select(func.max(Population.version)).where(*same)) or 0
     chosen = latest + 1 if version is None else version
     if chosen < 1:
         raise InvalidRecordError(f"population versions start at 1, not {chosen}")
-    if session.scalar(select(Population.id).where(Population.name == name, Population.version == chosen)):
+    if session.scalar(select(Population.id).where(*same, Population.version == chosen)):
         raise NameTakenError(
-            "population", f"{name} v{chosen}", f"population {name} v{chosen}", f"{name} v{latest + 1}"
+            "population", f"{name} v{chosen}", f"population {name} v{chosen} of {game_id}", f"{name} v{latest + 1}"
         )
     population = Population(name=name, version=chosen, game_id=game_id, provenance=dict(provenance or {}))
     session.add(population)
@@ -407,13 +410,18 @@ def create_population(
     return population
 
 
-def get_population(session: Session, name: str, version: int | None = None) -> Population | None:
-    """A population by name and version (the latest version when None), members loaded."""
+def get_population(
+    session: Session, name: str, version: int | None = None, *, game_id: str | None = None
+) -> Population | None:
+    """A population by name and version (the latest version when None), members loaded; of
+    `game_id`, or of any game (the newest such population) when None."""
     query = select(Population).where(Population.name == name).options(selectinload(Population.members))
+    if game_id is not None:
+        query = query.where(Population.game_id == game_id)
     if version is None:
-        query = query.order_by(Population.version.desc()).limit(1)
+        query = query.order_by(Population.version.desc(), Population.id.desc()).limit(1)
     else:
-        query = query.where(Population.version == version)
+        query = query.where(Population.version == version).order_by(Population.id.desc())
     return session.scalars(query).first()
 
 
@@ -642,9 +650,11 @@ def match_keys_of_job(session: Session, job_id: int) -> set[str]:
     return set(session.scalars(select(Match.match_key).where(Match.job_id == job_id)))
 
 
-def count_matches(session: Session, game_id: str | None = None) -> int:
-    """How many matches are stored (of one game, or of all)."""
-    query = select(func.count(Match.id))
+def count_matches(session: Session, game_id: str | None = None, *, agent_id: int | None = None) -> int:
+    """How many matches are stored (of one game, or of all; those `agent_id` sat in, when given)."""
+    query = select(func.count(func.distinct(Match.id)))
+    if agent_id is not None:
+        query = query.join(MatchSeat, MatchSeat.match_id == Match.id).where(MatchSeat.agent_id == agent_id)
     if game_id is not None:
         query = query.where(Match.game_id == game_id)
     return int(session.scalar(query) or 0)
