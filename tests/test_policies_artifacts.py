@@ -12,10 +12,14 @@ import pathlib
 import pickle
 
 import numpy as np
+import onnx
 import pytest
 import torch
+from onnx import external_data_helper, helper, numpy_helper
 
+from arena_league.cli import main
 from arena_league.policies import (
+    AgentArtifact,
     Architecture,
     ArtifactError,
     ArtifactLimits,
@@ -262,3 +266,201 @@ def test_onnx_and_folder_of_the_same_weights_play_the_same(tmp_path):
     logits_onnx, _ = onnx_policy.forward(obs)
     logits_torch, _ = torch_policy.forward(obs)
     np.testing.assert_allclose(logits_onnx, logits_torch, rtol=1e-5, atol=1e-5)
+
+
+# --- ONNX external data ---------------------------------------------------------------------------
+
+WEIGHT = np.random.default_rng(3).standard_normal((25, 5)).astype(np.float32)
+BIAS = np.linspace(-1.0, 1.0, 5, dtype=np.float32)
+
+
+def _linear_model(weight_name: str = "W") -> onnx.ModelProto:
+    """A Crossroads agent: logits = obs @ W + B, inline tensors."""
+    graph = helper.make_graph(
+        [helper.make_node("MatMul", ["obs", weight_name], ["h"]), helper.make_node("Add", ["h", "B"], ["logits"])],
+        "linear", [helper.make_tensor_value_info("obs", onnx.TensorProto.FLOAT, ["N", 25])],
+        [helper.make_tensor_value_info("logits", onnx.TensorProto.FLOAT, ["N", 5])],
+        [numpy_helper.from_array(WEIGHT, weight_name), numpy_helper.from_array(BIAS, "B")])
+    return helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)], ir_version=8)
+
+
+def _externalize(tensor: onnx.TensorProto, location: str, offset: int | None = None, length: int | None = None
+                 ) -> None:
+    external_data_helper.set_external_data(tensor, location, offset, length)
+    tensor.ClearField("raw_data")
+
+
+def _external_onnx(folder: pathlib.Path, location: str = "model.onnx.data", *, offset: int | None = None,
+                   length: int | None = None, data: bytes | None = None) -> pathlib.Path:
+    """``folder/model.onnx`` keeping W in ``location``; ``data`` (default: W's bytes) is written to
+    ``folder/model.onnx.data`` unless it is ``b""``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    model = _linear_model()
+    _externalize(model.graph.initializer[0], location, offset, length)
+    data = WEIGHT.tobytes() if data is None else data
+    if data:
+        (folder / "model.onnx.data").write_bytes(data)
+    path = folder / "model.onnx"
+    path.write_bytes(model.SerializeToString())
+    return path
+
+
+def _if_branch_onnx(folder: pathlib.Path, location: str = "w.bin") -> pathlib.Path:
+    """An agent whose ``If`` then-branch keeps its weight in ``location`` (written beside it)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    then_weight = numpy_helper.from_array(WEIGHT, "W_then")
+    _externalize(then_weight, location, 0, WEIGHT.nbytes)
+    (folder / location).write_bytes(WEIGHT.tobytes())
+    out = helper.make_tensor_value_info
+    then_branch = helper.make_graph([helper.make_node("MatMul", ["obs", "W_then"], ["then_out"])], "then", [],
+                                    [out("then_out", onnx.TensorProto.FLOAT, ["N", 5])], [then_weight])
+    else_branch = helper.make_graph([helper.make_node("MatMul", ["obs", "W_else"], ["else_out"])], "else", [],
+                                    [out("else_out", onnx.TensorProto.FLOAT, ["N", 5])],
+                                    [numpy_helper.from_array(WEIGHT, "W_else")])
+    graph = helper.make_graph(
+        [helper.make_node("If", ["cond"], ["logits"], then_branch=then_branch, else_branch=else_branch)], "if",
+        [out("obs", onnx.TensorProto.FLOAT, ["N", 25])], [out("logits", onnx.TensorProto.FLOAT, ["N", 5])],
+        [numpy_helper.from_array(np.array(True), "cond")])
+    path = folder / "model.onnx"
+    path.write_bytes(helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)],
+                                       ir_version=8).SerializeToString())
+    return path
+
+
+def _spy_on_files(monkeypatch) -> list[tuple[str, str]]:
+    """``(operation, path)`` of every file opened (``open``) or looked at (``stat``) from now on."""
+    touched: list[tuple[str, str]] = []
+
+    def spy(real, operation):
+        def call(path, *args, **kwargs):
+            touched.append((operation, os.fspath(path)))
+            return real(path, *args, **kwargs)
+        return call
+
+    for module, name, operation in ((os, "open", "open"), (builtins, "open", "open"), (pathlib.Path, "open", "open"),
+                                    (os, "lstat", "stat"), (os, "stat", "stat")):
+        monkeypatch.setattr(module, name, spy(getattr(module, name), operation))
+    return touched
+
+
+def test_external_data_beside_the_model_is_folded_into_one_file(tmp_path):
+    path = _external_onnx(tmp_path / "agent")
+    artifact = read_artifact(path)
+    inline = tmp_path / "inline.onnx"
+    inline.write_bytes(_linear_model().SerializeToString())
+    assert artifact.content == inline.read_bytes() and artifact.digest == artifact_digest(inline)
+    folded = onnx.load_model_from_string(artifact.content)
+    assert not any(t.external_data or t.data_location == onnx.TensorProto.EXTERNAL for t in folded.graph.initializer)
+    obs = np.random.default_rng(0).standard_normal((8, 25)).astype(np.float32)
+    logits, _ = load_agent(path, GAME).policy.forward(obs)
+    np.testing.assert_allclose(logits, obs @ WEIGHT + BIAS, rtol=1e-5, atol=1e-5)
+    # offset into a shared file, and a length left out (to the end of the file)
+    padded = _external_onnx(tmp_path / "padded", offset=64, data=bytes(64) + WEIGHT.tobytes())
+    assert read_artifact(padded).digest == artifact.digest
+
+
+@pytest.mark.parametrize(("location", "problem"), [
+    ("ABSOLUTE", r"by the absolute path '/.*outside\.bin'"),
+    ("../outside.bin", r"climbs out of the model's folder \(\.\.\)"),
+    ("sub/model.onnx.data", "has a directory part"),
+    ("sub/../model.onnx.data", r"climbs out of the model's folder \(\.\.\)"),
+    ("..\\outside.bin", r"climbs out of the model's folder \(\.\.\)"),
+])
+def test_external_data_outside_the_models_folder_is_refused_and_never_read(tmp_path, monkeypatch, location,
+                                                                          problem):
+    outside = tmp_path / "outside.bin"
+    outside.write_bytes(WEIGHT.tobytes())
+    (tmp_path / "agent" / "sub").mkdir(parents=True)
+    (tmp_path / "agent" / "sub" / "model.onnx.data").write_bytes(WEIGHT.tobytes())
+    path = _external_onnx(tmp_path / "agent", str(outside) if location == "ABSOLUTE" else location)
+    touched = _spy_on_files(monkeypatch)
+    with pytest.raises(UnsafeArtifactError, match=rf"{problem}; it is never read.*torch\.onnx\.export"):
+        read_artifact(path)
+    assert touched and {pathlib.Path(p) for _, p in touched} == {path}  # the model alone
+
+
+def test_a_missing_data_file_names_the_torch_export(tmp_path):
+    path = _external_onnx(tmp_path / "agent", data=b"")
+    with pytest.raises(ArtifactError, match=r"'model\.onnx\.data', but .*agent holds no such file; submit the \.onnx "
+                                            r"file itself with its \.onnx\.data beside it.*external_data=False"):
+        read_artifact(path)
+
+
+def test_offsets_and_lengths_outside_the_data_file_are_refused(tmp_path):
+    path = _external_onnx(tmp_path / "beyond", offset=WEIGHT.nbytes + 1, length=4)
+    with pytest.raises(CorruptArtifactError, match=rf"reads bytes {WEIGHT.nbytes + 1} to .*that file is "
+                                                   rf"{WEIGHT.nbytes} bytes.*truncated or comes from another export"):
+        read_artifact(path)
+    path = _external_onnx(tmp_path / "long", offset=8, length=WEIGHT.nbytes)
+    with pytest.raises(CorruptArtifactError, match="but that file is"):
+        read_artifact(path)
+    path = _external_onnx(tmp_path / "short", length=WEIGHT.nbytes - 4)
+    with pytest.raises(CorruptArtifactError, match=rf"is float\[25, 5\] \({WEIGHT.nbytes} bytes\).*"
+                                                   rf"{WEIGHT.nbytes - 4} bytes long"):
+        read_artifact(path)
+
+
+def test_a_linked_or_special_data_file_is_refused(tmp_path, monkeypatch):
+    path = _external_onnx(tmp_path / "agent", data=b"")
+    (tmp_path / "real.bin").write_bytes(WEIGHT.tobytes())
+    (tmp_path / "agent" / "model.onnx.data").symlink_to(tmp_path / "real.bin")
+    touched = _spy_on_files(monkeypatch)
+    with pytest.raises(UnsafeArtifactError, match=r"'model\.onnx\.data', which is a link and is never followed"):
+        read_artifact(path)
+    assert not any(p.endswith(("real.bin", "model.onnx.data")) for operation, p in touched if operation == "open")
+    if hasattr(os, "mkfifo"):
+        (tmp_path / "agent" / "model.onnx.data").unlink()
+        os.mkfifo(tmp_path / "agent" / "model.onnx.data")  # opening it to read would block
+        with pytest.raises(ArtifactError, match="which is not a regular file"):
+            read_artifact(path)
+
+
+def test_external_data_in_an_if_branch_is_refused_wherever_the_process_runs(tmp_path, monkeypatch):
+    path = _if_branch_onnx(tmp_path / "agent")
+    with pytest.raises(ArtifactError, match=r"If node attribute 'then_branch' > initializer 'W_then' keeps its "
+                                            r"data in an external file \('w\.bin'\) inside a subgraph.*"
+                                            r"external_data=False"):
+        read_artifact(path)
+    # The same bytes handed over as an artifact, run where a w.bin lies in the current directory:
+    # onnxruntime would take that file as the weights; the model is refused before it is run.
+    monkeypatch.chdir(tmp_path / "agent")
+    raw = AgentArtifact("onnx", {"model.onnx": path.read_bytes()}, "if.onnx")
+    with pytest.raises(CorruptArtifactError, match=r"then_branch' > initializer 'W_then' keeps its data in an "
+                                                   r"external file \('w\.bin'\).*\.onnx\.data beside it"):
+        load_agent(raw, GAME)
+    with pytest.raises(CorruptArtifactError, match="external file"):
+        load_agent(unpack_artifact(path.read_bytes()), GAME)
+
+
+def test_the_size_limit_covers_the_model_and_its_data_together(tmp_path, monkeypatch):
+    path = _external_onnx(tmp_path / "agent")
+    data = path.parent / "model.onnx.data"
+    together = path.stat().st_size + data.stat().st_size
+    assert read_artifact(path, ArtifactLimits(max_onnx_bytes=together)).kind == "onnx"
+    with pytest.raises(ArtifactTooLargeError, match=rf"\(model\.onnx\.data\) are {together} bytes together"):
+        read_artifact(path, ArtifactLimits(max_onnx_bytes=together - 1))
+    os.truncate(data, 300 * 1024**2)  # sparse: nothing written
+    touched = _spy_on_files(monkeypatch)
+    with pytest.raises(ArtifactTooLargeError, match=r"and its external data \(model\.onnx\.data\) are \d+ bytes "
+                                                    r"together \(300 MiB\), over the limit of 256 MiB.*not read"):
+        read_artifact(path)
+    assert ("stat", str(data)) in touched
+    assert not any(p.endswith("model.onnx.data") for operation, p in touched if operation == "open")
+
+
+def test_submit_refuses_external_data_outside_the_folder_and_stores_nothing(tmp_path, monkeypatch, capsys):
+    home = tmp_path / "home"
+    monkeypatch.setenv("ARENA_LEAGUE_HOME", str(home))
+    monkeypatch.delenv("ARENA_LEAGUE_DB", raising=False)
+    (tmp_path / "outside.bin").write_bytes(WEIGHT.tobytes())
+    path = _external_onnx(tmp_path / "agent", "../outside.bin")
+    code = main(["submit", str(path), "--game", GAME, "--name", "escaper", "--json"])
+    error = json.loads(capsys.readouterr().out)
+    assert code == 2 and error["kind"] == "UnsafeArtifactError"
+    assert "'../outside.bin', which climbs out of the model's folder" in error["error"]
+    assert "external_data=False" in error["error"]
+    assert not list(home.rglob("*.onnx"))  # nothing stored
+    good = _external_onnx(tmp_path / "good")
+    assert main(["submit", str(good), "--game", GAME, "--name", "escaper", "--json"]) == 0  # the name is free
+    stored = json.loads(capsys.readouterr().out)
+    assert stored["status"] == "active" and stored["digest"] == read_artifact(good).digest

@@ -23,11 +23,37 @@ and code), ``.pt2`` exported programs and numpy ``.npy`` files are recognised fr
 whatever the file is called, and refused with the format named. Sizes are checked with ``stat``
 before a byte is read.
 
+External data. ``torch.onnx.export(model, args, "model.onnx")`` (the dynamo exporter, torch's
+default) writes the graph to ``model.onnx`` and every tensor over 256 bytes to ``model.onnx.data``
+beside it, each tensor naming its file by ``location`` and its bytes by ``offset`` and ``length``.
+Such a file is read with its data when:
+
+* the tensors with external data are the main graph's (its initializers and its nodes' tensor
+  attributes); one inside a subgraph (an ``If`` / ``Loop`` / ``Scan`` branch), a function or a
+  sparse tensor is refused;
+* ``location`` is a plain file name: not absolute, no directory part, no ``..``;
+* that file is a regular file (not a link) in the model's own folder, and each tensor's offset
+  and length lie inside it (and match the tensor's size where its type has a fixed one);
+* the model and its data files together are within ``ArtifactLimits.max_onnx_bytes``, checked
+  with ``stat`` before the data is read.
+
+The data is read from the folder of the model's path as given (a link to the model is not
+resolved), never from the current directory, and no file outside that folder is ever opened. It
+is folded in: each such tensor takes its bytes as ``raw_data`` and drops its external-data
+entries and its ``data_location`` (left unset, as an exporter writing one file leaves it), and
+the model is serialized again (protobuf, deterministic). The artifact, its content address and the stored file are that one
+self-contained ONNX file, so the model and its data moved together to another folder are the same
+agent. With torch 2.13, a dynamo export with external data folds to the very bytes the same
+export writes with ``external_data=False``: both are one agent. The TorchScript exporter
+(``dynamo=False``) builds a different graph, so its file is another agent. A file without
+external data is kept byte for byte as given, never re-serialized.
+
 Content address (the registry's): :mod:`arena_league.policies.address`.
 """
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import io
 import json
@@ -37,10 +63,13 @@ import stat
 import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
 
+import numpy as np
+import onnx
 import torch
+from google.protobuf.message import DecodeError
 from safetensors import SafetensorError
 from safetensors.torch import load as load_safetensors
 from safetensors.torch import save as save_safetensors
@@ -56,7 +85,16 @@ from arena_league.policies.errors import (
     UnsafeArtifactError,
 )
 from arena_league.policies.families import TorchPolicy
-from arena_league.policies.onnx_policy import OnnxPolicy, parse_onnx
+from arena_league.policies.onnx_policy import (
+    EXTERNAL_DATA_FIX,
+    ONE_FILE_EXPORT,
+    OnnxPolicy,
+    TensorPlace,
+    external_location,
+    model_tensors,
+    parse_onnx,
+    uses_external_data,
+)
 from arena_league.policies.policy import ActionSpec, Policy
 from arena_league.policies.scripted import (
     SCRIPTED_FORMAT,
@@ -79,6 +117,15 @@ _MANIFEST_KEYS = frozenset({"format", "format_version", "family", "game", "space
                             "provenance", "license"})
 _HEAD_BYTES = 512
 _PACK_MAGIC = b"arena-policy-pack 1\n"
+#: Bytes per element of the tensor types whose size is fixed (the rest are left to onnxruntime).
+_ITEM_BYTES = {onnx.TensorProto.FLOAT: 4, onnx.TensorProto.DOUBLE: 8, onnx.TensorProto.FLOAT16: 2,
+               onnx.TensorProto.BFLOAT16: 2, onnx.TensorProto.INT8: 1, onnx.TensorProto.UINT8: 1,
+               onnx.TensorProto.INT16: 2, onnx.TensorProto.UINT16: 2, onnx.TensorProto.INT32: 4,
+               onnx.TensorProto.UINT32: 4, onnx.TensorProto.INT64: 8, onnx.TensorProto.UINT64: 8,
+               onnx.TensorProto.BOOL: 1, onnx.TensorProto.COMPLEX64: 8, onnx.TensorProto.COMPLEX128: 16}
+_INLINE_FIELDS = ("raw_data", "float_data", "int32_data", "string_data", "int64_data", "double_data", "uint64_data")
+#: The most one serialized protobuf message (so one ONNX file) can hold.
+_PROTOBUF_MAX_BYTES = (1 << 31) - 1
 _SUBMIT_INSTEAD = ("submit an ONNX file (torch.onnx.export with input 'obs' and output 'logits' or 'action') or an "
                    "arena-policy folder (manifest.json + weights.safetensors)")
 
@@ -100,7 +147,8 @@ DEFAULT_LIMITS = ArtifactLimits()
 class AgentArtifact:
     """An artifact's bytes, read once and checked for format (not yet for the game).
 
-    ``files`` maps a name to its bytes: ``{"model.onnx": ...}`` for an ONNX file,
+    ``files`` maps a name to its bytes: ``{"model.onnx": ...}`` for an ONNX file (its external
+    data folded in, see the module docstring),
     ``{"manifest.json": ..., "weights.safetensors": ...[, "README.md": ...]}`` for an
     arena-policy folder, ``{"scripted.json": ...}`` for a scripted agent.
     """
@@ -230,7 +278,11 @@ def _head(path: Path) -> bytes:
 
 def read_artifact(source: str | os.PathLike[str], limits: ArtifactLimits = DEFAULT_LIMITS) -> AgentArtifact:
     """Read an agent artifact (ONNX file, arena-policy folder, or ``scripted:<name>``), refusing
-    code-carrying formats and over-size files before their content is read."""
+    code-carrying formats and over-size files before their content is read.
+
+    An ONNX file's external data (``model.onnx.data`` beside ``model.onnx``) is read from the
+    file's folder and folded into the artifact, or refused, as the module docstring says.
+    """
     if isinstance(source, str) and source.startswith(SCRIPTED_PREFIX):
         return AgentArtifact("scripted", {"scripted.json": scripted_descriptor(source)}, source)
     path = Path(source).expanduser()
@@ -252,7 +304,170 @@ def read_artifact(source: str | os.PathLike[str], limits: ArtifactLimits = DEFAU
         return _read_json_agent(path, size, limits)
     if size == 0:
         raise CorruptArtifactError(f"{path} is empty; submit the exported ONNX file")
-    return AgentArtifact("onnx", {"model.onnx": _read_exact(path, size)}, str(path))
+    data = _fold_external_data(path, size, _read_exact(path, size), limits)
+    return AgentArtifact("onnx", {"model.onnx": data}, str(path))
+
+
+# --- ONNX external data ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _ExternalSlice:
+    """One tensor's bytes in a data file beside the model."""
+
+    place: TensorPlace
+    location: str
+    offset: int
+    #: None: to the end of the file.
+    length: int | None
+
+
+def _fold_external_data(path: Path, size: int, data: bytes, limits: ArtifactLimits) -> bytes:
+    """``data`` (the bytes of the ONNX file at ``path``) with the tensors it keeps in data files
+    beside it folded in; ``data`` itself when it keeps none (see the module docstring)."""
+    try:
+        model = onnx.load_model_from_string(data)
+    except (DecodeError, ValueError, RuntimeError):
+        return data  # not readable as ONNX: parse_onnx names the problem when the agent is loaded
+    places = [place for place in model_tensors(model) if uses_external_data(place.tensor)]
+    if not places:
+        return data
+    slices = [_external_slice(path, place) for place in places]
+    folder = path.absolute().parent
+    sizes = {name: _data_file_stat(path, folder, name).st_size for name in sorted({s.location for s in slices})}
+    total = size + sum(sizes.values())
+    limit = min(limits.max_onnx_bytes, _PROTOBUF_MAX_BYTES)  # the folded file is one protobuf message
+    if total > limit:
+        raise ArtifactTooLargeError(f"{path} and its external data ({', '.join(sizes)}) are {total} bytes together "
+                                    f"({human_size(total)}), over the limit of {human_size(limit)} for an ONNX agent; "
+                                    "the data was not read. Shrink the agent (fewer or smaller layers) or raise the "
+                                    "limit (ArtifactLimits, at most 2 GiB: one ONNX file)")
+    for piece in slices:
+        _check_slice(path, piece, sizes[piece.location])
+    for name, file_size in sizes.items():
+        _read_slices(path, folder, name, file_size, [s for s in slices if s.location == name])
+    return model.SerializeToString(deterministic=True)
+
+
+def _external_slice(path: Path, place: TensorPlace) -> _ExternalSlice:
+    """Where a tensor's external data lies, its entries checked (nothing is opened yet)."""
+    tensor, where = place.tensor, place.where
+    again = f"export the model again and {EXTERNAL_DATA_FIX}"
+    if not place.main:
+        raise ArtifactError(f"{path}: {where} keeps its data in an external file ({external_location(tensor)!r}) "
+                            "inside a subgraph (If / Loop / Scan branch), function or sparse tensor; the league folds "
+                            "external data only for the main graph's tensors. Export one self-contained file: "
+                            f"{ONE_FILE_EXPORT}")
+    if tensor.data_location != onnx.TensorProto.EXTERNAL:
+        raise CorruptArtifactError(f"{path}: {where} has external-data entries but is not marked external; {again}")
+    inline = [name for name in _INLINE_FIELDS if len(getattr(tensor, name))]
+    if inline:
+        raise CorruptArtifactError(f"{path}: {where} holds data both inline ({inline[0]}) and in an external file; "
+                                   f"{again}")
+    entries: dict[str, str] = {}
+    for entry in tensor.external_data:
+        if entry.key in entries and entry.key in ("location", "offset", "length"):
+            raise CorruptArtifactError(f"{path}: {where} names its external data {entry.key} twice; {again}")
+        entries[entry.key] = entry.value
+    location = entries.get("location", "")
+    if not location:
+        raise CorruptArtifactError(f"{path}: {where} keeps its data externally but names no file; {again}")
+    _check_location(path, where, location)
+    numbers: dict[str, int | None] = {}
+    for key in ("offset", "length"):
+        text = entries.get(key)
+        if text is not None and not (text.isascii() and text.isdigit()):
+            raise CorruptArtifactError(f"{path}: {where} has external data {key} {text!r}, not a byte count; {again}")
+        numbers[key] = int(text) if text is not None else None
+    return _ExternalSlice(place, location, numbers["offset"] or 0, numbers["length"])
+
+
+def _check_location(path: Path, where: str, location: str) -> None:
+    """Refuse a ``location`` that is not a plain file name in the model's folder."""
+    parts = location.replace("\\", "/").split("/")
+    problem = None
+    if "\x00" in location:
+        problem = f"{location!r}, which holds a NUL character"
+    elif (location.startswith(("/", "\\")) or PurePosixPath(location).is_absolute()
+          or PureWindowsPath(location).is_absolute() or PureWindowsPath(location).drive):
+        problem = f"by the absolute path {location!r}"
+    elif ".." in parts:
+        problem = f"{location!r}, which climbs out of the model's folder (..)"
+    elif len(parts) > 1 or location == ".":
+        problem = f"{location!r}, which has a directory part"
+    if problem is not None:
+        raise UnsafeArtifactError(f"{path}: {where} names its external data {problem}; it is never read: the data "
+                                  f"file sits beside the model, named by its file name alone (such as "
+                                  f"{path.name}.data); {EXTERNAL_DATA_FIX}")
+
+
+def _data_file_stat(path: Path, folder: Path, name: str) -> os.stat_result:
+    """``lstat`` of the data file ``name`` in ``folder``: a regular file, not a link."""
+    data_path = folder / name
+    try:
+        info = os.lstat(data_path)
+    except FileNotFoundError:
+        raise ArtifactError(f"{path} keeps tensors in {name!r}, but {folder} holds no such file; "
+                            f"{EXTERNAL_DATA_FIX}") from None
+    except OSError as error:
+        raise ArtifactError(f"{path} keeps tensors in {name!r}, which cannot be read ({error.strerror}); "
+                            f"{EXTERNAL_DATA_FIX}") from None
+    if stat.S_ISLNK(info.st_mode):
+        raise UnsafeArtifactError(f"{path} keeps tensors in {name!r}, which is a link and is never followed; copy the "
+                                  f"real file in its place beside {path.name}, or export one self-contained file: "
+                                  f"{ONE_FILE_EXPORT}")
+    if not stat.S_ISREG(info.st_mode):
+        raise ArtifactError(f"{path} keeps tensors in {name!r}, which is not a regular file; {EXTERNAL_DATA_FIX}")
+    return info
+
+
+def _check_slice(path: Path, piece: _ExternalSlice, file_size: int) -> None:
+    tensor, where = piece.place.tensor, piece.place.where
+    end = file_size if piece.length is None else piece.offset + piece.length
+    fix = f"{piece.location} is truncated or comes from another export; export the model again and {EXTERNAL_DATA_FIX}"
+    if piece.offset > file_size or end > file_size:
+        raise CorruptArtifactError(f"{path}: {where} reads bytes {piece.offset} to {end} of {piece.location} "
+                                   f"(offset {piece.offset}, length {end - piece.offset}), but that file is "
+                                   f"{file_size} bytes; {fix}")
+    item = _ITEM_BYTES.get(tensor.data_type)
+    if item is not None:
+        expected = item * int(np.prod(tensor.dims, dtype=np.int64))
+        if end - piece.offset != expected:
+            kind = onnx.TensorProto.DataType.Name(tensor.data_type).lower()
+            raise CorruptArtifactError(f"{path}: {where} is {kind}[{', '.join(map(str, tensor.dims))}] ({expected} "
+                                       f"bytes), but its external data in {piece.location} is {end - piece.offset} "
+                                       f"bytes long; {fix}")
+
+
+def _read_slices(path: Path, folder: Path, name: str, file_size: int, slices: list[_ExternalSlice]) -> None:
+    """Read each slice's bytes from ``folder / name`` into its tensor (opened without following a
+    link, and checked to be the file that was stat'ed)."""
+    flags = (os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+             | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0))
+    before = _data_file_stat(path, folder, name)
+    try:
+        handle = os.fdopen(os.open(folder / name, flags), "rb")
+    except OSError as error:
+        if error.errno == errno.ELOOP:  # replaced by a link since it was stat'ed
+            raise UnsafeArtifactError(f"{path} keeps tensors in {name!r}, which is a link and is never followed; "
+                                      f"copy the real file in its place beside {path.name}") from None
+        raise ArtifactError(f"{path} keeps tensors in {name!r}, which cannot be read ({error.strerror}); "
+                            f"{EXTERNAL_DATA_FIX}") from None
+    with handle:
+        after = os.fstat(handle.fileno())
+        if (not stat.S_ISREG(after.st_mode) or (after.st_dev, after.st_ino) != (before.st_dev, before.st_ino)
+                or after.st_size != file_size):
+            raise CorruptArtifactError(f"{path}: {name} changed while it was read; submit again once it is written")
+        for piece in sorted(slices, key=lambda s: s.offset):
+            length = (file_size - piece.offset) if piece.length is None else piece.length
+            handle.seek(piece.offset)
+            chunk = handle.read(length)
+            if len(chunk) != length:
+                raise CorruptArtifactError(f"{path}: {name} changed size while it was read; submit again once it "
+                                           "is written")
+            tensor = piece.place.tensor
+            tensor.raw_data = chunk
+            tensor.ClearField("external_data")
+            tensor.ClearField("data_location")
 
 
 def _is_safetensors(head: bytes) -> bool:
@@ -351,8 +566,9 @@ def manifest_architecture(manifest: Mapping[str, Any]) -> Architecture:
 
 
 def artifact_digest(source: str | os.PathLike[str], limits: ArtifactLimits = DEFAULT_LIMITS) -> str:
-    """The content address (SHA-256 hex) of an artifact: of the file's bytes, or of a folder's
-    ``sha256sum`` listing (see the module docstring). Refuses what :func:`read_artifact` refuses."""
+    """The content address (SHA-256 hex) of an artifact: of the file's bytes (an ONNX file's with
+    its external data folded in), or of a folder's ``sha256sum`` listing (see the module
+    docstring). Refuses what :func:`read_artifact` refuses."""
     return read_artifact(source, limits).digest
 
 

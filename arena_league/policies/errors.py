@@ -14,7 +14,9 @@ class ArtifactError(ValueError):
 
 
 class UnsafeArtifactError(ArtifactError):
-    """The file is a format that can carry code (pickle, TorchScript, .pt2): it is never loaded."""
+    """The file is a format that can carry code (pickle, TorchScript, .pt2), or an ONNX model names
+    external data outside its own folder (an absolute path, a directory part, ``..``, a link): it
+    is never loaded, and the file it names is never read."""
 
 
 class ArtifactTooLargeError(ArtifactError):

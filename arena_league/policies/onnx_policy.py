@@ -13,11 +13,18 @@ Other outputs (a value head, say) are allowed and not computed.
 and sequential execution, so the same observations always give the same outputs. The batch
 dimension should be dynamic; a model exported with a fixed batch B is run on chunks of B rows
 (padded), which for B = 1 means one call per row, and its name says so (``onnx-batch1:<sha>``).
+
+A model given as bytes is self-contained: a tensor naming an external data file anywhere in it
+(subgraphs, functions and sparse tensors included) is refused, since onnxruntime would look that
+file up relative to the process's current directory. Reading an ``.onnx`` file with
+:func:`~arena_league.policies.artifacts.read_artifact` folds the data file beside it in first.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import onnx
@@ -38,6 +45,12 @@ _ORT_ERRORS: tuple[type[BaseException], ...] = (RuntimeError, ValueError, *(
                                            "RuntimeException", "InvalidProtobuf", "NoSuchFile", "EPFail")
     if hasattr(_ort_state, name)))
 _OUT_NAME = {"discrete": "logits", "continuous": "action"}
+#: torch's export of one self-contained ONNX file (no external data file).
+ONE_FILE_EXPORT = 'torch.onnx.export(model, (obs,), "model.onnx", dynamo=True, external_data=False)'
+#: How a torch user gets an ONNX agent the league takes, named in every external-data refusal.
+EXTERNAL_DATA_FIX = ("submit the .onnx file itself with its .onnx.data beside it in the same folder, as "
+                     'torch.onnx.export(model, (obs,), "model.onnx", dynamo=True) writes them, and the league folds '
+                     f"the data in; or export one self-contained file: {ONE_FILE_EXPORT}")
 
 
 class PolicyOutputError(RuntimeError):
@@ -77,11 +90,11 @@ def parse_onnx(data: bytes, source: str = "the ONNX file") -> onnx.ModelProto:
     if not model.HasField("graph") or not model.graph.output or not model.opset_import:
         raise CorruptArtifactError(f"{source} is not a complete ONNX model (no graph, outputs or opset: the file is "
                                    f"truncated or not ONNX); {fix}")
-    for tensor in _all_tensors(model):
-        if tensor.data_location == onnx.TensorProto.EXTERNAL:
-            raise CorruptArtifactError(f"{source} keeps tensor {tensor.name!r} in an external data file, which is not "
-                                       "accepted; save the model as one file (onnx.save_model(model, path, "
-                                       "save_as_external_data=False))")
+    for place in model_tensors(model):
+        if uses_external_data(place.tensor):
+            raise CorruptArtifactError(f"{source}: {place.where} keeps its data in an external file "
+                                       f"({external_location(place.tensor)!r}), which the model's bytes alone do "
+                                       f"not carry; {EXTERNAL_DATA_FIX}")
     try:
         onnx.checker.check_model(model)
     except (onnx.checker.ValidationError, ValueError, RuntimeError) as error:
@@ -90,12 +103,69 @@ def parse_onnx(data: bytes, source: str = "the ONNX file") -> onnx.ModelProto:
     return model
 
 
-def _all_tensors(model: onnx.ModelProto):
-    yield from model.graph.initializer
-    for node in model.graph.node:
-        for attribute in node.attribute:
-            if attribute.HasField("t"):
-                yield attribute.t
+class TensorPlace(NamedTuple):
+    """A tensor of a model and where it sits."""
+
+    tensor: onnx.TensorProto
+    #: For messages: ``initializer 'w'``, ``If node 'choose' attribute 'then_branch' > initializer 'w'``.
+    where: str
+    #: True for the main graph's dense initializers and its nodes' tensor attributes; False inside a
+    #: subgraph (an ``If``/``Loop``/``Scan`` body), a function, a training graph or a sparse tensor.
+    main: bool
+
+
+def model_tensors(model: onnx.ModelProto) -> Iterator[TensorPlace]:
+    """Every tensor a model holds, its subgraphs, functions and training graphs walked recursively."""
+    yield from _graph_tensors(model.graph, "", True)
+    for function in model.functions:
+        for node in function.node:
+            yield from _node_tensors(node, f"function {function.name!r} > ", False)
+    for index, info in enumerate(model.training_info):
+        for name in ("initialization", "algorithm"):
+            if info.HasField(name):
+                yield from _graph_tensors(getattr(info, name), f"training_info[{index}].{name} > ", False)
+
+
+def _graph_tensors(graph: onnx.GraphProto, prefix: str, main: bool) -> Iterator[TensorPlace]:
+    for tensor in graph.initializer:
+        yield TensorPlace(tensor, f"{prefix}initializer {tensor.name!r}", main)
+    for sparse in graph.sparse_initializer:
+        yield from _sparse_tensors(sparse, f"{prefix}sparse initializer {sparse.values.name!r}")
+    for node in graph.node:
+        yield from _node_tensors(node, prefix, main)
+
+
+def _node_tensors(node: onnx.NodeProto, prefix: str, main: bool) -> Iterator[TensorPlace]:
+    for attribute in node.attribute:
+        node_name = f" {node.name!r}" if node.name else ""
+        where = f"{prefix}{node.op_type} node{node_name} attribute {attribute.name!r}"
+        if attribute.HasField("t"):
+            yield TensorPlace(attribute.t, where, main)
+        for tensor in attribute.tensors:
+            yield TensorPlace(tensor, where, main)
+        if attribute.HasField("sparse_tensor"):
+            yield from _sparse_tensors(attribute.sparse_tensor, where)
+        for sparse in attribute.sparse_tensors:
+            yield from _sparse_tensors(sparse, where)
+        if attribute.HasField("g"):
+            yield from _graph_tensors(attribute.g, f"{where} > ", False)
+        for graph in attribute.graphs:
+            yield from _graph_tensors(graph, f"{where} > ", False)
+
+
+def _sparse_tensors(sparse: onnx.SparseTensorProto, where: str) -> Iterator[TensorPlace]:
+    yield TensorPlace(sparse.values, f"{where} (values)", False)
+    yield TensorPlace(sparse.indices, f"{where} (indices)", False)
+
+
+def uses_external_data(tensor: onnx.TensorProto) -> bool:
+    """Whether a tensor points at an external data file (or carries external-data entries at all)."""
+    return tensor.data_location == onnx.TensorProto.EXTERNAL or len(tensor.external_data) > 0
+
+
+def external_location(tensor: onnx.TensorProto) -> str:
+    """The ``location`` a tensor's external data names ("" when it names none)."""
+    return next((entry.value for entry in tensor.external_data if entry.key == "location"), "")
 
 
 def _dims(value: onnx.ValueInfoProto) -> tuple[int, list[int | str | None]] | None:
