@@ -68,7 +68,7 @@ class PolicyError(RuntimeError):
 def action_spec_of(env: Any) -> ActionSpec:
     """The :class:`ActionSpec` of an env made by :func:`arena_league.envs.make`."""
     rules = env.rules
-    obs_dim = int(env.observation_space(env.possible_agents[0]).shape[0])
+    obs_dim = int(env.vector_observation_space(env.possible_agents[0]).shape[0])
     if rules.action_type == "discrete":
         return ActionSpec("discrete", obs_dim, n_actions=int(rules.n_actions))
     return ActionSpec("continuous", obs_dim, act_dim=int(rules.act_dim))
@@ -185,9 +185,10 @@ class _EnvMatches:
         env = self.envs[position]
         steps = self.steps[position] if self.direct else env.step_count
         result = MatchResult.from_team_result(spec, self.runner.team_of, env.rules.team_result(), steps)
-        recorder, self.recorders[position] = self.recorders[position], None
-        if recorder is not None:
+        recorder = self.recorders[position]
+        if recorder is not None:  # held until closed: a close that fails is aborted with the others
             result = replace(result, replay_path=str(recorder.close(result)))
+            self.recorders[position] = None
         return result
 
     def abort(self) -> None:
@@ -393,7 +394,7 @@ class LockstepRunner:
 
         probe = self._probe
         plain = (not self.env_kwargs.get("state_in_obs")
-                 and probe.observation_space(probe.possible_agents[0]).shape[0] == probe.rules.obs_dim)
+                 and probe.vector_observation_space(probe.possible_agents[0]).shape[0] == probe.rules.obs_dim)
         if self.path == "env" or self.recording is not None:
             return "env"
         if not plain:

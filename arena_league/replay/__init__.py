@@ -1,6 +1,7 @@
 """Match replays: one MCAP file per match (JSON schemas; observations, actions, rewards, events and
 a ``foxglove.SceneUpdate`` top-down scene that Foxglove Studio opens), a reader that summarises
-one, and GIF export of the top-down view.
+one, and GIF export of the top-down view, captioned with the agents of each team in its colour,
+the step and the outcome (:mod:`arena_league.replay.captions`).
 
     results = play_matches(specs, agents, recording=ReplayRecording("replays/"))   # --record
     summary = read_replay(results[0].replay_path)                                    # arena-league replay FILE

@@ -140,14 +140,20 @@ def replay_frames(path: str | Path, every: int = 1) -> Iterator[np.ndarray]:
     """Top-down pictures ``uint8[H, W, 3]`` of the match, at reset and after every ``every``-th
     step (and the last), by replaying the recorded actions; raises :class:`ReplayError` if the
     replay does not reproduce the recorded result."""
+    for _, picture in _replayed(path, every, read_replay(path)):
+        yield picture
+
+
+def _replayed(path: str | Path, every: int, summary: ReplaySummary) -> Iterator[tuple[int, np.ndarray]]:
+    """``(step, picture)`` at reset and after every ``every``-th step and the last (see
+    :func:`replay_frames`)."""
     from arena_league.envs import make
 
     if isinstance(every, bool) or not isinstance(every, int) or every < 1:
         raise ValueError(f"every must be a positive integer (keep one frame in `every`), not {every!r}")
-    summary = read_replay(path)
     env = make(summary.game_id, render_mode="rgb_array", **summary.env_kwargs)
     env.reset_arrays(summary.seed)
-    yield env.render()
+    yield 0, env.render()
     dtype = np.int64 if env.rules.action_type == "discrete" else np.float32
     done = False
     for _, message in iter_messages(path, [TOPICS["actions"]]):
@@ -157,7 +163,7 @@ def replay_frames(path: str | Path, every: int = 1) -> Iterator[np.ndarray]:
         _, _, terminated, truncated = env.step_arrays(np.asarray(message["actions"], dtype=dtype))
         done = terminated or truncated
         if done or env.step_count % every == 0:
-            yield env.render()
+            yield env.step_count, env.render()
     scores = tuple(float(s) for s in env.team_result()[list(summary.teams)]) if done else None
     if not done or env.step_count != summary.steps or scores != summary.scores:
         raise ReplayError(
@@ -166,15 +172,41 @@ def replay_frames(path: str | Path, every: int = 1) -> Iterator[np.ndarray]:
             "since it was recorded")
 
 
-def export_gif(path: str | Path, gif_path: str | Path, *, fps: float = 10.0, every: int = 1) -> int:
-    """Writes the top-down view of a replay as an animated GIF (Pillow); returns the frame count."""
+def export_gif(path: str | Path, gif_path: str | Path, *, fps: float = 10.0, every: int = 1,
+               captions: bool = True, hold: float = 2.5) -> int:
+    """Writes the top-down view of a replay as an animated GIF (Pillow); returns the frame count.
+
+    With ``captions`` (the default) every frame carries a band above the picture naming each
+    team's agents in the team's colour, and a band below with the step and, on the last frame,
+    the outcome: the winner or a draw, and every team's score (see
+    :mod:`arena_league.replay.captions`). The last frame stays ``hold`` seconds (at least one
+    frame's time), so the outcome can be read before the GIF loops.
+    """
     from PIL import Image
+
+    from arena_league.replay.captions import MatchCaption
 
     if not fps > 0:
         raise ValueError(f"fps must be positive, not {fps!r}")
-    frames = [Image.fromarray(frame) for frame in replay_frames(path, every)]
+    if not hold >= 0:
+        raise ValueError(f"hold must be a number of seconds >= 0, not {hold!r}")
+    summary = read_replay(path)
+    caption: MatchCaption | None = None
+    frames = []
+    for step, picture in _replayed(path, every, summary):
+        if captions:
+            if caption is None:
+                caption = MatchCaption(picture.shape[1], summary.game_id, summary.seats, summary.teams,
+                                       summary.steps, summary.scores, summary.outcomes)
+            image = caption.draw(picture, step, final=step == summary.steps)
+        else:
+            image = Image.fromarray(picture)
+        # a palette image per frame: a third of the memory of RGB, and what the GIF stores anyway
+        frames.append(image.convert("P", palette=Image.Palette.ADAPTIVE))
     gif_path = Path(gif_path)
     gif_path.parent.mkdir(parents=True, exist_ok=True)
-    frames[0].save(gif_path, save_all=True, append_images=frames[1:], duration=max(20, round(1000 / fps)),
-                   loop=0, optimize=False)
+    duration = max(20, round(1000 / fps))
+    durations = [duration] * (len(frames) - 1) + [max(duration, round(1000 * hold))]
+    frames[0].save(gif_path, save_all=True, append_images=frames[1:], duration=durations, loop=0,
+                   optimize=False)
     return len(frames)

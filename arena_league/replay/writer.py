@@ -1,7 +1,11 @@
 """Recording a match as one MCAP file (https://mcap.dev), as the match engine plays it.
 
 One file per match, named ``<game_id>-m<match_id>-s<league_seed>.mcap``, written to a ``.part``
-file and renamed when the match ends, so a crashed worker never leaves a file that looks whole.
+file and renamed when the match ends, so a crashed worker never leaves a file that looks whole; a
+match that fails instead (an error while opening the file, in a policy or the env during a step, or
+while finishing the file) leaves no file at all: the engine calls :meth:`MatchRecorder.abort`, and a
+recorder whose own opening or closing fails removes its ``.part`` file itself.
+
 Every message is JSON (``json`` message encoding, ``jsonschema`` schemas from
 :mod:`arena_league.replay.schemas`); log times are ``step * STEP_NS``:
 
@@ -24,6 +28,7 @@ The file also carries two MCAP metadata records, ``arena_league.match`` and
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import dataclass
@@ -72,17 +77,32 @@ class MatchRecorder:
     """Writes one match's replay while it is played.
 
     The engine calls :meth:`open` just after the env's reset, :meth:`before_step` with each step's
-    actions, :meth:`after_step` with its rewards, and :meth:`close` with the result.
+    actions, :meth:`after_step` with its rewards, and :meth:`close` with the result, or
+    :meth:`abort` when the match does not reach its end.
     """
 
     def __init__(self, path: Path, spec: MatchSpec, env: Any, env_kwargs: dict[str, Any],
                  record_observations: bool = True) -> None:
+        try:
+            json.dumps(env_kwargs)
+        except TypeError as error:
+            raise ValueError(f"env_kwargs must be JSON-serialisable to be recorded in a replay ({error}); pass "
+                             "the social tree as a dict, not a SocialTree object") from error
         self.path = Path(path)
         self.spec = spec
         self.env = env
         self.record_observations = record_observations
         self._part = self.path.with_name(self.path.name + ".part")
         self._stream = open(self._part, "wb")  # noqa: SIM115 - held open until close() or abort()
+        try:
+            self._start(env_kwargs)
+        except BaseException:
+            self.abort()
+            raise
+
+    def _start(self, env_kwargs: dict[str, Any]) -> None:
+        """Writes the header, the channels, the match record and the state at reset."""
+        spec, env = self.spec, self.env
         self._writer = Writer(self._stream)
         self._writer.start(profile=PROFILE, library="arena-league")
         self._channels: dict[str, int] = {}
@@ -94,11 +114,6 @@ class MatchRecorder:
         self._channels["scene"] = self._writer.register_channel(TOPICS["scene"], "json", scene_id)
         self._sequence = 0
         self._step = 0
-        try:
-            json.dumps(env_kwargs)
-        except TypeError as error:
-            raise ValueError(f"env_kwargs must be JSON-serialisable to be recorded in a replay ({error}); pass "
-                             "the social tree as a dict, not a SocialTree object") from error
         self._match = {
             "format_version": FORMAT_VERSION, "match_id": spec.match_id, "game_id": spec.game_id,
             "league_seed": spec.league_seed, "seed": spec.seed, "seats": list(spec.seats),
@@ -145,18 +160,28 @@ class MatchRecorder:
         self._record_state(self.env.last_obs)
 
     def close(self, result: MatchResult) -> Path:
-        """Writes the result, finishes the file and returns its path."""
-        summary = {"steps": result.steps, "scores": list(result.scores), "outcomes": list(result.outcomes),
-                   "positions": None if result.positions is None else list(result.positions)}
-        self._write("result", summary)
-        self._writer.add_metadata("arena_league.result", {k: json.dumps(v) for k, v in summary.items()})
-        self._writer.finish()
-        self._stream.close()
-        os.replace(self._part, self.path)
+        """Writes the result, finishes the file and returns its path. If any of it fails, the
+        unfinished file is removed (as by :meth:`abort`) and the error raised."""
+        try:
+            summary = {"steps": result.steps, "scores": list(result.scores), "outcomes": list(result.outcomes),
+                       "positions": None if result.positions is None else list(result.positions)}
+            self._write("result", summary)
+            self._writer.add_metadata("arena_league.result", {k: json.dumps(v) for k, v in summary.items()})
+            self._writer.finish()
+            self._stream.close()
+            os.replace(self._part, self.path)
+        except BaseException:
+            self.abort()
+            raise
         return self.path
 
     def abort(self) -> None:
-        """Drops an unfinished replay (the match was not played to its end)."""
-        if not self._stream.closed:
-            self._stream.close()
-        self._part.unlink(missing_ok=True)
+        """Drops an unfinished replay (the match was not played to its end, or its file could not be
+        written): the ``.part`` file is removed, and no replay file is left. Harmless after
+        :meth:`close`, which leaves nothing to drop."""
+        try:
+            # a buffer that cannot be flushed belongs to a file about to be removed
+            with contextlib.suppress(OSError):
+                self._stream.close()
+        finally:
+            self._part.unlink(missing_ok=True)

@@ -11,7 +11,12 @@ points (a draw counts half; with more than two teams, the share of the other tea
 population performance is the mean over the references.
 
 ``report_dir`` receives ``episode_reward.png``, ``population_performance.png`` and
-``curves.json`` (the same figures as numbers).
+``curves.json`` (the same figures as numbers). The episode-reward plot draws the iterations that
+finished at least one episode, joined by one unbroken line (an iteration that finished none has no
+return to draw: it is left out of the line and marked by a tick on the bottom edge); a run that
+finished no episode at all says so on the plot. When the learners were warm-started by imitation
+(``warm_start``, :mod:`arena_league.training.imitation`), both plots shade the warm start as the
+span of its own env steps left of 0, where the RL env steps of the curves begin.
 """
 
 from __future__ import annotations
@@ -27,13 +32,15 @@ import numpy as np
 
 from arena_league.training.schemes import ENV_OPTIONS, Snapshot, json_safe, run_scheme
 
-__all__ = ["TrainingReport", "evaluate_learners", "plot_curves", "train"]
+__all__ = ["TrainingReport", "evaluate_learners", "performance_figure", "plot_curves", "reward_figure", "train"]
 
 #: The default reference population: the game's built-in scripted agents.
 DEFAULT_REFERENCE = ("scripted:random", "scripted:heuristic")
 REWARD_PLOT = "episode_reward.png"
 PERFORMANCE_PLOT = "population_performance.png"
 CURVES_FILE = "curves.json"
+#: The warm start's shade: a colour the curves (matplotlib's default cycle) do not take.
+_WARM_START_COLOUR = "#6a51a3"
 
 
 @dataclass
@@ -52,13 +59,16 @@ class TrainingReport:
     ``per_learner`` and ``per_reference`` win rates."""
     snapshots: list[Snapshot] = field(default_factory=list)
     plots: dict[str, Path] = field(default_factory=dict)
+    warm_start: dict[str, Any] | None = None
+    """The imitation before RL, when the learners were warm-started: ``expert``, ``env_steps``
+    (imitation env steps, which the history's ``env_steps`` do not count), ``rows`` and ``fit``."""
 
     def as_dict(self) -> dict[str, Any]:
         return json_safe({"game_id": self.game_id, "scheme": self.scheme, "seed": self.seed, "steps": self.steps,
                            "reference": list(self.reference), "history": self.history,
                            "evaluations": self.evaluations,
                            "snapshots": [{"name": s.name, "path": str(s.path), "steps": s.steps} for s in self.snapshots],
-                           "plots": {k: str(v) for k, v in self.plots.items()}})
+                           "plots": {k: str(v) for k, v in self.plots.items()}, "warm_start": self.warm_start})
 
 
 def train(game_id: str, scheme: str = "sp", steps: int = 100_000, seed: int = 0,
@@ -101,6 +111,11 @@ def train(game_id: str, scheme: str = "sp", steps: int = 100_000, seed: int = 0,
             tempfile.mkdtemp(prefix="arena-train-"))
 
     def on_iteration(trainer: Any, record: Mapping[str, Any]) -> None:
+        imitation = getattr(trainer, "warm_start_record", None)
+        if imitation is not None and report.warm_start is None:
+            report.warm_start = json_safe({"expert": imitation["options"]["expert"],
+                                           "env_steps": imitation["env_steps"], "rows": imitation["rows"],
+                                           "fit": imitation["fit"]})
         report.history.append(json_safe({k: v for k, v in record.items() if k != "losses"}))
         last = trainer.env_steps >= steps
         if trainer.iteration == 1 or trainer.iteration % eval_every == 0 or last:
@@ -159,27 +174,62 @@ def evaluate_learners(learners: Sequence[Any], game_id: str, references: Mapping
 
 def plot_curves(report: TrainingReport, report_dir: str | Path) -> dict[str, Path]:
     """Write ``episode_reward.png``, ``population_performance.png`` and ``curves.json``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib import pyplot as plt
-
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
-    title = f"{report.game_id}, {report.scheme} (seed {report.seed})"
-    plots = {}
+    plots = {"episode_reward": _save(reward_figure(report), report_dir / REWARD_PLOT),
+             "population_performance": _save(performance_figure(report), report_dir / PERFORMANCE_PLOT),
+             "curves": report_dir / CURVES_FILE}
+    report.plots = plots
+    plots["curves"].write_text(json.dumps(report.as_dict(), indent=1, allow_nan=False) + "\n")
+    return plots
 
+
+def reward_figure(report: TrainingReport) -> Any:
+    """The episode-reward plot of ``report`` (a matplotlib figure; :func:`plot_curves` saves it).
+
+    One point per iteration that finished at least one episode (its mean episode return), and the
+    points joined in order by a single line: an iteration that finished no episode has no return,
+    so it is left out of the line (never drawn as a gap or a made-up value) and marked by a grey
+    tick on the bottom edge. A moving mean over the points follows. A run in which no iteration
+    finished an episode shows the ticks and a note saying so instead of an empty plot. A warm
+    start is shaded (see :func:`performance_figure`).
+    """
+    plt = _pyplot()
     steps = np.array([h["env_steps"] for h in report.history], dtype=float)
     returns = np.array([np.nan if h.get("episode_return") is None else h["episode_return"] for h in report.history],
                        dtype=float)
+    finished = np.isfinite(returns)
     fig, ax = plt.subplots(figsize=(7, 4))
-    ax.plot(steps, returns, color="tab:blue", alpha=0.35, linewidth=1, label="per iteration")
-    smooth = _moving_mean(returns, max(1, len(returns) // 20))
-    ax.plot(steps, smooth, color="tab:blue", linewidth=2, label="moving mean")
-    plots["episode_reward"] = _save(fig, ax, "mean episode return of the learners' seats",
-                                    f"Episode reward: {title}", report_dir / REWARD_PLOT)
+    _mark_warm_start(ax, report)
+    if finished.any():
+        x, y = steps[finished], returns[finished]
+        ax.plot(x, y, color="tab:blue", alpha=0.45, linewidth=1, marker=".", markersize=4,
+                label="per iteration (mean of its finished episodes)")
+        ax.plot(x, _moving_mean(y, max(1, len(y) // 20)), color="tab:blue", linewidth=2, label="moving mean")
+    else:
+        ax.text(0.5, 0.55, "no episode finished in this run: every iteration ended mid-episode,\n"
+                "so there is no episode return to plot. Train for more env steps,\n"
+                "or shorten the episodes (max_cycles).", transform=ax.transAxes, ha="center", va="center",
+                fontsize=10, color="dimgray", bbox={"facecolor": "white", "edgecolor": "lightgray", "alpha": 0.9})
+    if not finished.all():
+        ax.plot(steps[~finished], np.full(int((~finished).sum()), 0.02), linestyle="none", marker="|",
+                markersize=9, color="tab:gray", transform=ax.get_xaxis_transform(), clip_on=False,
+                label=f"no finished episode ({int((~finished).sum())} of {len(steps)} iterations)")
+    title = f"Episode reward: {report.game_id}, {report.scheme} (seed {report.seed})"
+    _label(fig, ax, "mean episode return of the learners' seats", title, report)
+    return fig
 
+
+def performance_figure(report: TrainingReport) -> Any:
+    """The population-performance plot of ``report`` (a matplotlib figure; :func:`plot_curves`
+    saves it): the win rate against each reference agent and their mean, at every evaluation.
+
+    With a warm start, both plots shade it as the span ``[-w, 0]`` of its ``w`` imitation env
+    steps: the curves' env steps count RL only, which begins where the warm start ends.
+    """
+    plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4))
+    _mark_warm_start(ax, report)
     eval_steps = np.array([e["env_steps"] for e in report.evaluations], dtype=float)
     for ref in report.reference:
         ax.plot(eval_steps, [e["per_reference"][ref] for e in report.evaluations], linestyle="--", marker=".",
@@ -187,35 +237,56 @@ def plot_curves(report: TrainingReport, report_dir: str | Path) -> dict[str, Pat
     ax.plot(eval_steps, [e["population_performance"] for e in report.evaluations], color="black", linewidth=2,
             marker="o", label="population performance")
     ax.set_ylim(-0.02, 1.02)
-    plots["population_performance"] = _save(fig, ax, "win rate (draws count half)",
-                                            f"Population performance: {title}", report_dir / PERFORMANCE_PLOT)
-
-    plots["curves"] = report_dir / CURVES_FILE
-    report.plots = plots
-    plots["curves"].write_text(json.dumps(report.as_dict(), indent=1, allow_nan=False) + "\n")
-    return plots
+    title = f"Population performance: {report.game_id}, {report.scheme} (seed {report.seed})"
+    _label(fig, ax, "win rate (draws count half)", title, report)
+    return fig
 
 
-def _save(fig: Any, ax: Any, ylabel: str, title: str, path: Path) -> Path:
-    """Label a curve plot over env steps, write it to ``path`` as PNG and close it."""
-    import matplotlib.pyplot as plt
+def _pyplot() -> Any:
+    import matplotlib
 
-    ax.set_xlabel("env steps")
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+
+    return plt
+
+
+def _mark_warm_start(ax: Any, report: TrainingReport) -> None:
+    """Shades the warm start, ``[-imitation env steps, 0]``, with a label."""
+    if not report.warm_start:
+        return
+    from matplotlib.transforms import blended_transform_factory
+
+    width = float(report.warm_start["env_steps"])
+    ax.axvspan(-width, 0.0, color=_WARM_START_COLOUR, alpha=0.18, linewidth=0,
+               label=f"warm start: imitating {report.warm_start['expert']} ({width:,.0f} env steps)")
+    ax.axvline(0.0, color=_WARM_START_COLOUR, linewidth=1.2)
+    ax.text(-width / 2, 0.97, "warm start", transform=blended_transform_factory(ax.transData, ax.transAxes),
+            ha="center", va="top", fontsize=8, color=_WARM_START_COLOUR)
+
+
+def _label(fig: Any, ax: Any, ylabel: str, title: str, report: TrainingReport) -> None:
+    ax.set_xlabel("env steps" if not report.warm_start else "env steps (RL from 0; the warm start's before 0)")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(loc="best")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
+
+
+def _save(fig: Any, path: Path) -> Path:
+    """Write ``fig`` to ``path`` as PNG and close it."""
+    import matplotlib.pyplot as plt
+
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
 
 
 def _moving_mean(values: np.ndarray, window: int) -> np.ndarray:
-    """Trailing mean over ``window`` points, skipping NaN (iterations with no finished episode)."""
-    out = np.full(values.shape, np.nan)
+    """Trailing mean over ``window`` points."""
+    out = np.empty(values.shape, dtype=float)
     for i in range(len(values)):
-        chunk = values[max(0, i - window + 1): i + 1]
-        if np.isfinite(chunk).any():
-            out[i] = np.nanmean(chunk)
+        out[i] = np.mean(values[max(0, i - window + 1): i + 1])
     return out
