@@ -7,7 +7,6 @@ on stderr). Tables and progress bars are drawn with rich when stderr/stdout is a
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import sys
 from collections.abc import Callable, Iterator
@@ -118,6 +117,11 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 # --- league commands -----------------------------------------------------------------------------
 
+def _log(line: str) -> None:
+    """What a command is about to do, for a person: on stderr, so that --json stays one document."""
+    stderr.print(line, highlight=False, soft_wrap=True)
+
+
 def _league(args: argparse.Namespace):
     from arena_league.league import open_home
 
@@ -145,20 +149,23 @@ def cmd_submit(args: argparse.Namespace) -> int:
         emit_json(result.to_dict())
     else:
         colour = "green" if result.status == "active" else "bold red"
-        note = "registered" if result.created else "already registered (same bytes)"
-        stdout.print(f"[{colour}]{result.agent}: {result.status}[/] ({note}, sha256 {result.digest[:12]}, "
-                     f"{result.seconds:.1f} s)")
-        if result.reason:
-            stdout.print(f"reason: {result.reason}")
+        stdout.print(f"[{colour}]{result.agent}: {result.status}[/] ({escape(result.note)}, sha256 "
+                     f"{result.digest[:12]}, {result.seconds:.1f} s)")
+    if result.reason:
+        stderr.print(f"[bold red]rejected:[/] {escape(result.reason)}; the validation log: "
+                     f"`arena-league agent {result.agent}`", highlight=False)
     return 0 if result.status == "active" else 1
 
 
 def cmd_rank(args: argparse.Namespace) -> int:
-    from arena_league.league import rank
+    from arena_league.league import LEAGUE_WIDE, rank
 
+    if args.league_wide and args.population:
+        raise CommandError("give --population NAME or --league-wide, not both")
+    population = LEAGUE_WIDE if args.league_wide else args.population
     with _league(args) as league, progress_bar(f"ranking {args.agent}", args.budget) as update:
-        report = rank(league, args.agent, budget=args.budget, population=args.population, seed=args.seed,
-                      target_half_width=args.half_width, backend=args.backend, progress=update)
+        report = rank(league, args.agent, budget=args.budget, population=population, seed=args.seed,
+                      target_half_width=args.half_width, backend=args.backend, progress=update, log=_log)
     if args.json:
         emit_json(report.to_dict())
         return 0
@@ -186,7 +193,7 @@ def cmd_leaderboard(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(board.to_dict())
     else:
-        stdout.print(render_terminal(board))
+        stdout.print(render_terminal(board, wide=args.wide))
     return 0
 
 
@@ -196,7 +203,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     with _league(args) as league:
         if args.queue:
             job_id = queue_evaluation(league, args.game, args.agents, matches_per_pair=args.matches_per_pair,
-                                      seed=args.seed, backend=args.backend, workers=args.workers, record=args.record)
+                                      seed=args.seed, backend=args.backend, workers=args.workers, record=args.record,
+                                      max_matches=args.max_matches)
             if args.json:
                 emit_json({"queued": job_id})
             else:
@@ -204,7 +212,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             return 0
         with progress_bar(f"evaluating {args.game}", 1) as update:
             report = evaluate(league, args.game, args.agents, matches_per_pair=args.matches_per_pair, seed=args.seed,
-                              backend=args.backend, workers=args.workers, record=args.record, progress=update)
+                              backend=args.backend, workers=args.workers, record=args.record,
+                              max_matches=args.max_matches, progress=update, log=_log)
     if args.json:
         emit_json(report.to_dict())
     else:
@@ -332,7 +341,7 @@ def cmd_population(args: argparse.Namespace) -> int:
             return 0
         if args.action == "export":
             path = export_population(league, _required(args.population, "--population NAME[:VERSION]"),
-                                     _required(args.destination, "--destination FOLDER"))
+                                     _required(args.destination, "--destination FOLDER"), game_id=args.game)
             if args.json:
                 emit_json({"exported": args.population, "path": str(path)})
             else:
@@ -348,6 +357,83 @@ def cmd_population(args: argparse.Namespace) -> int:
         for r in rows:
             table.add_row(f"{r['name']}:{r['version']}", r["game_id"], str(r["members"]), str(r["frozen"]))
         stdout.print(table)
+    return 0
+
+
+def cmd_agents(args: argparse.Namespace) -> int:
+    from arena_league.league import agent_rows
+
+    with _league(args) as league:
+        rows = agent_rows(league, args.game)
+    if args.json:
+        emit_json({"game_id": args.game, "agents": rows})
+        return 0
+    if not rows:
+        stderr.print(f"no agents{' of ' + args.game if args.game else ''} in this league yet; submit one with "
+                     "`arena-league submit PATH --game GAME --name NAME`, or run `arena-league quickstart`")
+        return 0
+    table = Table(title=f"agents of {args.game}" if args.game else "agents")
+    for column in ("agent", "game", "kind", "status", "owner", "rating", "note"):
+        table.add_column(column, overflow="fold")
+    for r in rows:
+        rating = "" if r["rating"] is None else f"{r['rating']:.0f}"
+        note = r["reason"] if r["status"] == "rejected" else (r["rated_by"] or "")
+        table.add_row(_short(r["name"], args.game), r["game_id"], r["kind"], r["status"], r["owner"] or "", rating,
+                      escape(note or ""))
+    stdout.print(table)
+    return 0
+
+
+def _short(name: str, game_id: str | None) -> str:
+    """A name without the ``@<game>`` suffix a listing of that game makes redundant."""
+    return name.removesuffix(f"@{game_id}") if game_id else name
+
+
+def cmd_agent(args: argparse.Namespace) -> int:
+    from arena_league.league import agent_detail
+
+    with _league(args) as league:
+        detail = agent_detail(league, args.name)
+    if args.json:
+        emit_json(detail)
+        return 0
+    _print_record(f"agent {detail['name']}", {k: v for k, v in detail.items()
+                                             if not isinstance(v, (dict, list)) and k != "validation_log"})
+    for placed in detail["placements"][:5]:
+        stdout.print(f"placed against {placed.get('base')}: rating {placed.get('rating', float('nan')):.0f} "
+                     f"({placed.get('lower', float('nan')):.0f} .. {placed.get('upper', float('nan')):.0f}), rank "
+                     f"{placed.get('rank')} of {int(placed.get('base_size', 0)) + 1}, {placed.get('matches')} matches")
+    if detail["validation_log"]:
+        stdout.print("validation log:", style="bold")
+        stdout.print(escape(detail["validation_log"].rstrip()), highlight=False)
+    return 0
+
+
+def cmd_jobs(args: argparse.Namespace) -> int:
+    from arena_league.league import cancel_job, job_detail, job_rows
+
+    with _league(args) as league:
+        if args.action == "list":
+            rows = job_rows(league, status=args.status, limit=args.limit)
+            if args.json:
+                emit_json({"jobs": rows})
+                return 0
+            table = Table(title="jobs, newest first")
+            for column in ("id", "kind", "status", "game", "what", "created"):
+                table.add_column(column, overflow="fold")
+            for r in rows:
+                table.add_row(str(r["id"]), r["kind"], r["status"], r["game_id"] or "", escape(r["what"]),
+                              r["created_at"] or "")
+            stdout.print(table)
+            return 0
+        job_id = _required(args.job, "a job id, e.g. `arena-league jobs " + args.action + " 12`")
+        document = job_detail(league, job_id) if args.action == "show" else cancel_job(league, job_id)
+    if args.json:
+        emit_json(document)
+    elif args.action == "cancel":
+        stdout.print(f"job {document['id']} ({document['kind']}): {document['status']}")
+    else:
+        _print_record(f"job {document['id']}", {k: v for k, v in document.items() if not isinstance(v, (dict, list))})
     return 0
 
 
@@ -410,15 +496,11 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
     ranked, board = report.ranked, report.board
     if ranked:
         stdout.print(f"[bold]{ranked.agent}[/] against {ranked.base} ({ranked.base_size} agents, {ranked.matches} "
-                     f"matches): rating {ranked.rating:.0f} ({ranked.lower:.0f} .. {ranked.upper:.0f}), "
-                     f"rank {ranked.rank} ({ranked.rank_best}..{ranked.rank_worst}) of {ranked.base_size + 1}, "
-                     f"percentile {ranked.percentile:.0f} ({ranked.percentile_lower:.0f} .. "
-                     f"{ranked.percentile_upper:.0f}), Nash score {ranked.nash_score:+.2f}")
-    unrated = len(board.rows) - len(board.rated_rows)
-    stdout.print(render_terminal(dataclasses.replace(board, rows=board.rated_rows)))
-    if unrated:
-        stdout.print(f"({unrated} agents without matches in this league are not shown: base members keep the "
-                     "ratings of their build in the population manifest; `arena-league leaderboard` lists all)")
+                     f"matches):")
+        stdout.print(f"  rating {ranked.rating:.0f} ({ranked.lower:.0f} .. {ranked.upper:.0f}), rank {ranked.rank} "
+                     f"({ranked.rank_best}..{ranked.rank_worst}) of {ranked.base_size + 1}, percentile "
+                     f"{ranked.percentile:.0f} ({ranked.percentile_lower:.0f} .. {ranked.percentile_upper:.0f})")
+    stdout.print(render_terminal(board))
     return 0
 
 
@@ -449,117 +531,175 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 # --- parser --------------------------------------------------------------------------------------
 
+_BACKENDS = ("inprocess", "process", "ray")
+_BACKEND_HELP = "where matches run: inprocess (default), a process pool, or Ray"
+
+
 def _league_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--home", default=None, help="league home (default: $ARENA_LEAGUE_HOME or ~/.arena-league)")
     p.add_argument("--db", default=None, help="SQLAlchemy URL of the registry (default: $ARENA_LEAGUE_DB or "
                                               "the home's league.db)")
-    p.add_argument("--json", action="store_true", help="one JSON document on stdout")
+    _json_option(p)
+
+
+def _json_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--json", action="store_true", help="print one JSON document on stdout (progress on stderr)")
+
+
+def _seed_option(p: argparse.ArgumentParser, what: str = "the matches' seeds") -> None:
+    p.add_argument("--seed", type=int, default=0, help=f"seed of {what} (default 0): same seed, same result")
+
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="arena-league", description=__doc__.splitlines()[0])
+    common = argparse.ArgumentParser(add_help=False, allow_abbrev=False)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="on an error, show the full traceback")
+    parser = argparse.ArgumentParser(
+        prog="arena-league", allow_abbrev=False,
+        description="A league for multi-agent RL agents: submit an agent, rank it against its game's base "
+                    "population with intervals, read the leaderboard. Start with `arena-league quickstart`.")
+    parser.add_argument("--debug", action="store_true", help="on an error, show the full traceback")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    parser.set_defaults(commands=sub.choices)
 
-    p = sub.add_parser("games", help="the game set, with default social trees")
-    p.add_argument("--json", action="store_true", help="one JSON document on stdout")
+    def command(name: str, help_text: str) -> argparse.ArgumentParser:
+        return sub.add_parser(name, help=help_text, description=help_text, parents=[common], allow_abbrev=False)
+
+    p = command("games", "the game set, with default social trees")
+    _json_option(p)
     p.set_defaults(func=cmd_games)
 
-    p = sub.add_parser("verify", help="verify every node of a game's social tree by paired sampling")
+    p = command("verify", "verify every node of a game's social tree by paired sampling")
     p.add_argument("game", help="game id, e.g. Crossroads-2T2P-v1 (see `arena-league games`)")
     p.add_argument("--tree", help="a social tree spec file (YAML or JSON); default: the game's own")
     p.add_argument("--samples", type=_positive_int, default=64, help="paired episodes (default 64)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--max-cycles", type=_positive_int, default=None)
-    p.add_argument("--action-type", choices=("discrete", "continuous"), default=None)
-    p.add_argument("--json", action="store_true", help="one JSON document on stdout")
+    _seed_option(p, "the paired episodes")
+    p.add_argument("--max-cycles", type=_positive_int, default=None, help="episode length (default: the game's)")
+    p.add_argument("--action-type", choices=("discrete", "continuous"), default=None,
+                   help="the game's action type (default: its first)")
+    _json_option(p)
     p.set_defaults(func=cmd_verify)
 
-    p = sub.add_parser("submit", help="validate an agent (ONNX file or arena-policy folder) and register it")
-    p.add_argument("path")
-    p.add_argument("--game", required=True)
-    p.add_argument("--name", required=True)
-    p.add_argument("--owner", default=None)
+    p = command("submit", "validate an agent (ONNX file or arena-policy folder) and register it")
+    p.add_argument("path", help="an .onnx file (its .onnx.data beside it) or an arena-policy folder")
+    p.add_argument("--game", required=True, help="the game id the agent plays (see `arena-league games`)")
+    p.add_argument("--name", required=True, help="the agent's name in the league")
+    p.add_argument("--owner", default=None, help="who submits it (shown in listings)")
     _league_options(p)
     p.set_defaults(func=cmd_submit)
 
-    p = sub.add_parser("rank", help="place an agent against its game's base population")
-    p.add_argument("agent")
+    p = command("rank", "place an agent against its game's base population")
+    p.add_argument("agent", help="the agent's name (see `arena-league agents`)")
     p.add_argument("--budget", type=_positive_int, default=200, help="at most this many matches (default 200)")
-    p.add_argument("--population", default=None, help="base population NAME[:VERSION] (default: all active agents)")
-    p.add_argument("--half-width", type=float, default=3.0, help="stop at this rank-interval half-width (places)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess")
+    p.add_argument("--population", default=None,
+                   help="the base population NAME[:VERSION] (default: the game's own: the newest frozen one, or "
+                        "the shipped base-v1, imported on first use)")
+    p.add_argument("--league-wide", action="store_true",
+                   help="rank against every other active agent of the game instead (rated first by a round "
+                        "robin that counts against --budget)")
+    p.add_argument("--half-width", type=float, default=3.0,
+                   help="stop early at this rank-interval half-width, in places (default 3)")
+    _seed_option(p)
+    p.add_argument("--backend", choices=_BACKENDS, default="inprocess", help=_BACKEND_HELP)
     _league_options(p)
     p.set_defaults(func=cmd_rank)
 
-    p = sub.add_parser("leaderboard", help="ratings of a game's agents from the stored matches")
-    p.add_argument("game")
-    p.add_argument("--method", choices=("bt", "elo", "openskill", "nash", "alpharank"), default="bt")
-    p.add_argument("--population", default=None)
-    p.add_argument("--rounds", type=_positive_int, default=100, help="bootstrap rounds (default 100)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--html", default=None, help="also write a self-contained HTML report here")
+    p = command("leaderboard", "a game's ratings: base members and placed entrants, with intervals")
+    p.add_argument("game", help="the game id")
+    p.add_argument("--method", choices=("bt", "elo", "openskill", "nash", "alpharank"), default="bt",
+                   help="rating method (default bt: Bradley-Terry on the Elo scale)")
+    p.add_argument("--population", default=None, help="rate only this population's members, NAME[:VERSION]")
+    p.add_argument("--rounds", type=_positive_int, default=100, help="bootstrap rounds of the intervals (default 100)")
+    _seed_option(p, "the bootstrap")
+    p.add_argument("--html", default=None, help="also write a self-contained HTML report to this file")
+    p.add_argument("--wide", action="store_true", help="every column (the default table fits 100 columns)")
     _league_options(p)
     p.set_defaults(func=cmd_leaderboard)
 
-    p = sub.add_parser("evaluate", help="round robin among a game's agents (fills its payoff table)")
-    p.add_argument("game")
+    p = command("evaluate", "round robin among a game's agents (tops each pair up to N matches)")
+    p.add_argument("game", help="the game id")
     p.add_argument("--agents", nargs="+", default=None, help="agent names (default: every active agent)")
-    p.add_argument("--matches-per-pair", type=_positive_int, default=10)
-    p.add_argument("--seed", type=int, default=0, help="league seed of the matches' seeds")
-    p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess")
-    p.add_argument("--workers", type=_positive_int, default=None)
-    p.add_argument("--record", action="store_true", help="write one MCAP replay per match under the home")
+    p.add_argument("--matches-per-pair", type=_positive_int, default=10,
+                   help="bring every pair up to this many matches (default 10); pairs that have them play none")
+    p.add_argument("--max-matches", type=_positive_int, default=None, help="play at most this many matches")
+    _seed_option(p)
+    p.add_argument("--backend", choices=_BACKENDS, default="inprocess", help=_BACKEND_HELP)
+    p.add_argument("--workers", type=_positive_int, default=None, help="processes or Ray CPUs (default: all cores)")
+    p.add_argument("--record", action="store_true",
+                   help="write one MCAP replay per match played now, under the home's replays/")
     p.add_argument("--queue", action="store_true", help="queue the job for `arena-league worker` instead")
     _league_options(p)
     p.set_defaults(func=cmd_evaluate)
 
-    p = sub.add_parser("matches", help="the latest stored matches of a game")
-    p.add_argument("game")
-    p.add_argument("--agent", default=None)
-    p.add_argument("--limit", type=_positive_int, default=20)
+    p = command("matches", "the latest stored matches of a game")
+    p.add_argument("game", help="the game id")
+    p.add_argument("--agent", default=None, help="only this agent's matches")
+    p.add_argument("--limit", type=_positive_int, default=20, help="how many (default 20)")
     _league_options(p)
     p.set_defaults(func=cmd_matches)
 
-    p = sub.add_parser("worker", help="run queued and scheduled jobs")
-    p.add_argument("--worker-id", default=None)
-    p.add_argument("--lease", type=float, default=60.0, help="lease seconds (a crashed worker's job is retried after)")
-    p.add_argument("--poll", type=float, default=1.0)
-    p.add_argument("--max-jobs", type=_positive_int, default=None)
+    p = command("agents", "the league's agents: status, kind, owner, rating, why a rejected one was refused")
+    p.add_argument("game", nargs="?", default=None, help="only this game's agents")
+    _league_options(p)
+    p.set_defaults(func=cmd_agents)
+
+    p = command("agent", "one agent in full: validation log, populations, placements, recent matches")
+    p.add_argument("name", help="the agent's name")
+    _league_options(p)
+    p.set_defaults(func=cmd_agent)
+
+    p = command("jobs", "queued, running and finished jobs: list, show ID, cancel ID")
+    p.add_argument("action", choices=("list", "show", "cancel"), nargs="?", default="list",
+                   help="list (default), show one job, or cancel a queued or running one")
+    p.add_argument("job", nargs="?", type=_positive_int, default=None, help="the job id, for show and cancel")
+    p.add_argument("--status", default=None, help="list: only jobs of this status (queued, running, done, failed, "
+                                                  "cancelled)")
+    p.add_argument("--limit", type=_positive_int, default=50, help="list: how many, newest first (default 50)")
+    _league_options(p)
+    p.set_defaults(func=cmd_jobs)
+
+    p = command("worker", "run queued and scheduled jobs")
+    p.add_argument("--worker-id", default=None, help="this worker's name in leases (default host:pid)")
+    p.add_argument("--lease", type=float, default=60.0,
+                   help="lease seconds (default 60): a crashed worker's job is retried after it")
+    p.add_argument("--poll", type=float, default=1.0, help="seconds between looks at an empty queue (default 1)")
+    p.add_argument("--max-jobs", type=_positive_int, default=None, help="stop after this many jobs")
     p.add_argument("--until-idle", action="store_true", help="stop when the queue is empty")
     _league_options(p)
     p.set_defaults(func=cmd_worker)
 
-    p = sub.add_parser("schedule", help="recurring evaluations: add, list, remove")
-    p.add_argument("action", choices=("add", "list", "remove"))
-    p.add_argument("name", nargs="?", default=None)
-    p.add_argument("--game", default=None)
-    p.add_argument("--every", type=_positive_int, default=None, help="interval in seconds")
-    p.add_argument("--cron", default=None, help="cron expression, 5 fields, UTC")
-    p.add_argument("--matches-per-pair", type=_positive_int, default=10)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess")
+    p = command("schedule", "recurring evaluations: add, list, remove")
+    p.add_argument("action", choices=("add", "list", "remove"), help="what to do")
+    p.add_argument("name", nargs="?", default=None, help="the schedule's name (add, remove)")
+    p.add_argument("--game", default=None, help="add: the game to evaluate")
+    p.add_argument("--every", type=_positive_int, default=None, help="add: interval in seconds")
+    p.add_argument("--cron", default=None, help="add: cron expression, 5 fields, UTC")
+    p.add_argument("--matches-per-pair", type=_positive_int, default=10,
+                   help="add: bring every pair up to this many matches (default 10)")
+    _seed_option(p)
+    p.add_argument("--backend", choices=_BACKENDS, default="inprocess", help=_BACKEND_HELP)
     _league_options(p)
     p.set_defaults(func=cmd_schedule)
 
-    p = sub.add_parser("scheduler", help="queue due scheduled jobs: run (a loop) or tick (once, for cron)")
-    p.add_argument("action", choices=("run", "tick"))
-    p.add_argument("--poll", type=float, default=30.0)
-    p.add_argument("--max-ticks", type=_positive_int, default=None)
+    p = command("scheduler", "queue due scheduled jobs: run (a loop) or tick (once, for cron)")
+    p.add_argument("action", choices=("run", "tick"), help="run a loop, or tick once")
+    p.add_argument("--poll", type=float, default=30.0, help="run: seconds between ticks (default 30)")
+    p.add_argument("--max-ticks", type=_positive_int, default=None, help="run: stop after this many ticks")
     _league_options(p)
     p.set_defaults(func=cmd_scheduler)
 
-    p = sub.add_parser("replay", help="summarise an MCAP match replay; export a GIF of its top-down view")
-    p.add_argument("file")
-    p.add_argument("--gif", default=None)
-    p.add_argument("--fps", type=float, default=10.0)
-    p.add_argument("--every", type=_positive_int, default=1, help="keep one frame in N")
-    p.add_argument("--json", action="store_true")
+    p = command("replay", "summarise an MCAP match replay; export a GIF of its top-down view")
+    p.add_argument("file", help="the .mcap replay (see `arena-league matches GAME`)")
+    p.add_argument("--gif", default=None, help="also write the top-down view as an animated GIF here")
+    p.add_argument("--fps", type=float, default=10.0, help="GIF frames per second (default 10)")
+    p.add_argument("--every", type=_positive_int, default=1, help="keep one frame in N (default 1)")
+    _json_option(p)
     p.set_defaults(func=cmd_replay)
 
-    p = sub.add_parser("population", help="populations: list, build GAME, import FOLDER, export")
-    p.add_argument("action", choices=("list", "build", "import", "export"))
+    p = command("population", "populations: list, build GAME, import FOLDER, export")
+    p.add_argument("action", choices=("list", "build", "import", "export"), help="what to do")
     p.add_argument("target", nargs="?", default=None, help="build: the game id; import: the population folder")
-    p.add_argument("--game", default=None, help="list: only this game's populations")
+    p.add_argument("--game", default=None, help="list: only this game's; export: the population's game")
     p.add_argument("--name", default=None, help="build / import: the population's name (default base-v1)")
     p.add_argument("--size", type=_positive_int, default=100, help="build: members (default 100)")
     p.add_argument("--schemes", nargs="+", default=None, help="build: training schemes (default per game)")
@@ -567,7 +707,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--runs", type=_positive_int, default=1, help="build: runs (seeds) of each scheme from scratch")
     p.add_argument("--warm-runs", type=_non_negative_int, default=None,
                    help="build: more runs of each scheme that first imitate the game's heuristic (default per game)")
-    p.add_argument("--seed", type=int, default=0)
+    _seed_option(p, "the build")
     p.add_argument("--work-dir", default=None, help="build: runs and matches (a rerun resumes from here)")
     p.add_argument("--out-dir", default=None, help="build: the frozen population (default checkpoints/GAME/NAME)")
     p.add_argument("--population", default=None, help="export: NAME[:VERSION]")
@@ -575,25 +715,26 @@ def build_parser() -> argparse.ArgumentParser:
     _league_options(p)
     p.set_defaults(func=cmd_population)
 
-    p = sub.add_parser("play", help="play against a base population in the terminal (human ranking)")
-    p.add_argument("game")
-    p.add_argument("--against", default="base-v1", help="the base population NAME[:VERSION]")
+    p = command("play", "play against a base population in the terminal (human ranking)")
+    p.add_argument("game", help="the game id")
+    p.add_argument("--against", default="base-v1", help="the base population NAME[:VERSION] (default base-v1)")
     p.add_argument("--player", default="human", help="your name; your results are kept as <name>@GAME")
     p.add_argument("--matches", type=_positive_int, default=None, help="stop after this many matches")
-    p.add_argument("--seed", type=int, default=0)
+    _seed_option(p)
     p.add_argument("--pictures", default=None, help="physics games: save the top-down picture of each step here")
     _league_options(p)
     p.set_defaults(func=cmd_play)
 
-    p = sub.add_parser("train", help="train agents with a scheme (ppo, dppo, sp, pbt, cc, cf); plot the curves")
-    p.add_argument("game")
+    p = command("train", "train agents with a scheme (ppo, dppo, sp, pbt, cc, cf); plot the curves")
+    p.add_argument("game", help="the game id")
     p.add_argument("--scheme", default="sp", help="ppo, dppo, sp, pbt, cc or cf (default sp)")
     p.add_argument("--steps", type=_positive_int, default=100_000, help="env steps (default 100000)")
-    p.add_argument("--seed", type=int, default=0)
+    _seed_option(p, "the run")
     p.add_argument("--report", default=None, help="write episode_reward.png, population_performance.png and "
                                                   "curves.json here")
-    p.add_argument("--eval-every", type=_positive_int, default=10, help="iterations between evaluations")
-    p.add_argument("--eval-matches", type=_positive_int, default=20, help="matches per reference agent")
+    p.add_argument("--eval-every", type=_positive_int, default=10, help="iterations between evaluations (default 10)")
+    p.add_argument("--eval-matches", type=_positive_int, default=20,
+                   help="matches per reference agent at each evaluation (default 20)")
     p.add_argument("--reference", nargs="+", default=None,
                    help="the fixed reference population (default scripted:random scripted:heuristic)")
     p.add_argument("--snapshot-every", type=_positive_int, default=None, help="env steps between snapshots")
@@ -601,14 +742,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--warm-start", type=_positive_int, default=None, metavar="STEPS",
                    help="first imitate the game's heuristic (DAgger) for this many env steps")
     p.add_argument("--hidden", type=_positive_int, nargs="+", default=None, help="actor hidden widths (default 64 64)")
-    p.add_argument("--json", action="store_true")
+    _json_option(p)
     p.set_defaults(func=cmd_train)
 
-    p = sub.add_parser("quickstart", help="a league end to end: agents, round robin, ranking, leaderboard")
-    p.add_argument("--game", default="Crossroads-2T2P-v1")
-    p.add_argument("--matches-per-pair", type=_positive_int, default=10)
-    p.add_argument("--budget", type=_positive_int, default=40)
-    p.add_argument("--seed", type=int, default=0)
+    p = command("quickstart", "a league end to end: agents, round robin, ranking, leaderboard")
+    p.add_argument("--game", default="Crossroads-2T2P-v1", help="the game (default Crossroads-2T2P-v1)")
+    p.add_argument("--matches-per-pair", type=_positive_int, default=10,
+                   help="round robin matches per pair of scripted agents (default 10)")
+    p.add_argument("--budget", type=_positive_int, default=40, help="ranking matches of the example (default 40)")
+    _seed_option(p)
     p.add_argument("--no-base", dest="base", action="store_false",
                    help="leave the game's shipped base population out (scripted agents only)")
     _league_options(p)
@@ -642,16 +784,49 @@ _positive_int = _int_at_least(1, "a positive integer")
 _non_negative_int = _int_at_least(0, "0 or more")
 
 
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    """The command line parsed; an unknown option is refused by its subcommand, with that
+    subcommand's usage and the closest options it does have."""
+    parser = build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        from arena_league.league import did_you_mean
+
+        command = args.commands[args.command]
+        options = [o for action in command._actions for o in action.option_strings]
+        hints = "".join(did_you_mean(u.split("=")[0], options) for u in unknown if u.startswith("-"))
+        command.error(f"unrecognized arguments: {' '.join(unknown)}.{hints}")
+    return args
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    args = parse_args(argv)
+    debug = getattr(args, "debug", False)
     try:
         return args.func(args)
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        stderr.print("[bold red]interrupted:[/] the job this command was running is cancelled (nothing half-done "
+                      "is left queued); matches already played stay stored. See `arena-league jobs list`.",
+                      highlight=False)
+        return 130
     except _user_errors() as exc:
-        message = str(exc)
-        if getattr(args, "json", False):
-            emit_json({"error": message, "kind": type(exc).__name__})
-        stderr.print(f"[bold red]error:[/] {message}", highlight=False)
-        return 2
+        if debug:
+            raise
+        return _fail(args, str(exc), type(exc).__name__, 2)
+    except Exception as exc:  # a bug, not the user's input: one line, and the way to the traceback
+        if debug:
+            raise
+        return _fail(args, f"internal error ({type(exc).__name__}: {exc}); run again with --debug for the "
+                           "traceback and report it", type(exc).__name__, 1)
+
+
+def _fail(args: argparse.Namespace, message: str, kind: str, code: int) -> int:
+    if getattr(args, "json", False):
+        emit_json({"error": message, "kind": kind})
+    stderr.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
+    return code
 
 
 if __name__ == "__main__":

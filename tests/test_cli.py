@@ -106,7 +106,7 @@ def test_population_export_and_import(capsys, league_args, tmp_path):
 def test_leaderboard_html_and_methods(capsys, league_args, tmp_path):
     seed_league(capsys, league_args)
     html = tmp_path / "board.html"
-    code, doc = run(capsys, "leaderboard", GAME, "--html", html, *league_args, "--json")
+    code, doc = run(capsys, "leaderboard", GAME, "--population", "league", "--html", html, *league_args, "--json")
     assert code == 0 and doc["rows"][0]["agent"] == f"heuristic@{GAME}"
     text = html.read_text()
     assert "heuristic@" in text and text.count("data:image/png;base64") >= 3 and 'src="http' not in text

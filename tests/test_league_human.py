@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from arena_league.envs.controls import ascii_topdown
+from arena_league.league import import_population, open_home
 from arena_league.league.human import play_human
-from arena_league.league.service import import_population, open_home
 from arena_league.policies import init_parameters, save_arena_policy
 from arena_league.policies.architecture import Architecture
 from arena_league.policies.families import with_spaces
@@ -146,7 +146,7 @@ def test_ascii_topdown_of_a_physics_game_shows_both_teams():
 def test_unknown_population_is_refused_with_the_known_ones(tmp_path):
     league = open_home(tmp_path / "league")
     frozen_population(league, tmp_path, "GoBang-2T1P-v1", [1000.0, 1100.0])
-    with pytest.raises(ValueError, match="known: base-t:1"):
+    with pytest.raises(ValueError, match="Known for GoBang-2T1P-v1: base-t:1"):
         play_human("GoBang-2T1P-v1", "base-v9", league, input_fn=lambda p: "q", output=io.StringIO())
     with pytest.raises(ValueError, match="population import FOLDER.*population build GoBang-2T1P-v1"):
         play_human("GoBang-2T1P-v1", "base-v9", league, input_fn=lambda p: "q", output=io.StringIO())

@@ -1,7 +1,9 @@
-"""Leaderboards from stored matches: every method on simulated leagues of known strength."""
+"""Leaderboards from stored matches: every method on simulated leagues of known strength; the board
+of a base population (members frozen, entrants placed); the views' columns and widths."""
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,13 +12,18 @@ from rich.console import Console
 from arena_league.league import leaderboards
 from arena_league.league.leaderboards import (
     METHODS,
+    EntrantPlacement,
+    FrozenRating,
     Leaderboard,
     LeaderboardError,
     compute_leaderboard,
+    leaderboard_table,
     outcome_table,
+    population_leaderboard,
     render_terminal,
+    short_name,
 )
-from arena_league.rating import bootstrap
+from arena_league.rating import bootstrap, place_entrant
 
 GAME = "Duel-2T1P-v1"
 STRENGTHS = [-300.0, -150.0, 0.0, 100.0, 250.0, 400.0]  # Elo points; agent-5 is the best
@@ -329,12 +336,18 @@ def test_terminal_table_shows_rank_ranges_intervals_and_method_columns(league):
                            ("nash", "Nash score"), ("alpharank", "alpha-Rank mass")):
         board = compute_leaderboard(rows, info, GAME, method, rounds=20)
         console = Console(record=True, width=250)
-        console.print(render_terminal(board))
+        console.print(render_terminal(board, wide=True))
         text = console.export_text()
         assert header in text and "Win rate" in text and "Matches" in text
         assert all(name in text for name in names) and "unrated" in text
         if method != "elo":
             assert "±" in text or "+" in text
+        # the default table: rank, agent, kind, the rating with its interval, matches
+        console = Console(record=True, width=250)
+        console.print(render_terminal(board))
+        head = next(line for line in console.export_text().splitlines() if "Agent" in line)
+        assert [cell.strip() for cell in head.strip("┃ ").split("┃")][:2] == ["Rank", "Agent"]
+        assert "Kind" in head and "Matches" in head and "Win rate" not in head and "Percentile" not in head
     # a close league has uncertain ranks, shown as ranges
     close_rows, close_names = simulated_league([0.0, 10.0, 20.0, 30.0], 80, seed=1)
     console = Console(record=True, width=250)
@@ -429,3 +442,114 @@ def test_a_method_s_own_score_is_solved_once_on_the_whole_league(league, monkeyp
     alpha_replicates = count_calls(monkeypatch, bootstrap, ["alpha_rank"])
     compute_leaderboard(rows, info, GAME, "alpharank", rounds=12, alpha=1.0)
     assert alpha["alpha_rank"] + alpha_replicates["alpha_rank"] == 12 + 1
+
+
+# --- the board of a base population, and the views' columns ------------------------------------------
+
+SHIPPED = sorted((Path(__file__).resolve().parents[1] / "checkpoints").glob("*/base-v1/population.json"))
+ENTRANT = "example-submission-v2"
+
+
+def shipped_board(manifest_path: Path) -> Leaderboard:
+    """The board of a shipped base population with one entrant placed by 40 matches against the
+    members around the middle (it wins against the weaker ones), the scripted agents pending."""
+    manifest = json.loads(manifest_path.read_text())
+    game, label = manifest["game_id"], f"{manifest['name']}:1"
+    members = {m["name"]: FrozenRating(m["metadata"]["rating"], m["metadata"].get("rating_lower"),
+                                       m["metadata"].get("rating_upper")) for m in manifest["members"]}
+    info = {m["name"]: {"kind": m["kind"]} for m in manifest["members"]}
+    info |= {ENTRANT: {"kind": "submission"}, f"random@{game}": {"kind": "scripted"},
+             f"heuristic@{game}": {"kind": "scripted"}}
+    names = sorted(members, key=lambda name: members[name].rating)
+    middle = names[len(names) // 2 - 10: len(names) // 2 + 10]
+    rows, wins = [], np.zeros(len(names))
+    for match, opponent in enumerate(middle * 2):
+        won = names.index(opponent) < len(names) // 2
+        wins[names.index(opponent)] += won
+        for seat, (agent, outcome) in enumerate(((ENTRANT, "win" if won else "loss"),
+                                                 (opponent, "loss" if won else "win"))):
+            rows.append({"match_id": match, "seat": seat, "agent": agent, "team": seat, "score": 0.0,
+                         "outcome": outcome, "position": None})
+    played = np.array([2.0 if name in middle else 0.0 for name in names])
+    placement = place_entrant([members[name].rating for name in names], wins, played - wins)
+    return population_leaderboard(rows, info, game, label, members, {ENTRANT: EntrantPlacement(placement, 7)})
+
+
+def test_a_population_board_keeps_frozen_ratings_and_places_the_entrant_on_their_scale():
+    board = shipped_board(SHIPPED[0])
+    assert board.basis == "population" and board.population == "base-v1:1" and board.method == "bt"
+    assert [r.status for r in board.rows[-2:]] == ["pending", "pending"]
+    rated = board.rated_rows
+    assert len(rated) == 101 and [r.rating for r in rated] == sorted((r.rating for r in rated), reverse=True)
+    entrant = next(r for r in rated if r.agent == ENTRANT)
+    assert entrant.status == "placed" and entrant.matches == 40 and 0.0 < entrant.win_rate < 1.0
+    assert entrant.lower < entrant.rating < entrant.upper and entrant.method_columns["job_id"] == 7
+    # with one entrant, its place on the board is its place among the members
+    columns = entrant.method_columns
+    assert (entrant.position, entrant.rank, entrant.rank_worst) == (
+        columns["base_rank"], columns["base_rank_best"], columns["base_rank_worst"])
+    for row in rated:
+        assert row.rank <= row.position <= row.rank_worst
+    document = board.to_dict()
+    assert json.dumps(document, allow_nan=False) and document["basis"] == "population"
+    assert set(document) == set(compute_leaderboard(*cyclic_board_input(), GAME, "bt", rounds=10).to_dict())
+
+
+def cyclic_board_input():
+    return cyclic_league(), kinds(["rock", "paper", "scissors"])
+
+
+@pytest.mark.parametrize("manifest", SHIPPED, ids=lambda path: path.parent.parent.name)
+def test_default_table_of_a_hundred_agent_base_population_fits_100_columns(manifest):
+    board = shipped_board(manifest)
+    console = Console(width=100, record=True)
+    console.print(render_terminal(board))
+    lines = console.export_text().splitlines()
+    widest = max(len(line) for line in lines)
+    print(f"{board.game_id}: {len(board.rows)} rows, widest line {widest} characters")
+    assert widest <= 100
+    body = [line for line in lines if line.startswith("│")]
+    assert len(body) == len(board.rows)  # one line per agent: nothing wrapped
+    for line, row in zip(body, board.rows):
+        assert f" {short_name(row.agent, board.game_id)} " in line  # each name whole, never cut
+    assert "…" not in "".join(lines) and f"@{board.game_id}" not in "".join(body)
+    head = next(line for line in lines if "Agent" in line)
+    assert [cell.strip() for cell in head.strip("┃ ").split("┃")] == [
+        "Rank", "Agent", "Status", "Rating (95% CI)", "Matches"]
+    # the wide view keeps every column
+    wide = Console(width=400, record=True)
+    wide.print(render_terminal(board, wide=True))
+    head = next(line for line in wide.export_text().splitlines() if "Agent" in line)
+    assert [cell.strip() for cell in head.strip("┃ ").split("┃")] == [
+        "Rank", "Agent", "Kind", "Status", "Rating (95% CI)", "Matches", "Win rate", "Percentile", "Percentile CI",
+        "Rank in base-v1:1"]
+
+
+def test_a_long_name_folds_rather_than_being_cut():
+    rows, names = simulated_league([0.0, 100.0], 40, prefix="team-" + "x" * 110)
+    console = Console(width=100, record=True)
+    console.print(render_terminal(compute_leaderboard(rows, kinds(names), GAME, "bt", rounds=10)))
+    lines = console.export_text().splitlines()
+    assert max(len(line) for line in lines) <= 100 and "…" not in "".join(lines)
+    # the agent column's pieces, line after line, spell each name whole
+    agent_cells = "".join(line.split("│")[2].strip() for line in lines if line.startswith("│"))
+    assert agent_cells == "".join(sorted(names, reverse=True))
+
+
+def test_columns_without_information_are_left_out_of_the_views_but_kept_in_json():
+    board = compute_leaderboard(*cyclic_board_input(), GAME, "bt", rounds=20)
+    view = leaderboard_table(board, wide=True)
+    # rock-paper-scissors: every Nash score is 0, every agent trained, every win rate 50%
+    assert "Nash score" not in view.headers and "Kind" not in view.headers and "Win rate" not in view.headers
+    assert {"Nash score 0.000 for every agent", "Kind trained for every agent", "Win rate 50.0% for every agent",
+            "Matches 100 for every agent"} <= set(view.same)
+    assert all(len(line) == len(view.headers) for line in view.cells)
+    assert {"Rank", "Agent", "BT rating (95% CI)"} <= set(view.headers)  # shown whatever they hold
+    console = Console(width=250, record=True)
+    console.print(render_terminal(board, wide=True))
+    assert "Nash score 0.000 for every agent" in console.export_text()
+    assert all(row["method_columns"]["nash_score"] == pytest.approx(0.0, abs=1e-9) for row in board.to_dict()["rows"])
+    # a column blank for the unrated agent and equal for the rated ones says so
+    rows, names = simulated_league([0.0, 0.0], 2, seed=0, draw_share=1.0)
+    board = compute_leaderboard(rows, kinds(names) | {"idle": {"kind": "trained"}}, GAME, "bt", rounds=10)
+    assert "Win rate 50.0% for every rated agent" in leaderboard_table(board, wide=True).same

@@ -11,10 +11,11 @@ import pytest
 import torch
 from safetensors.torch import load_file
 
+from arena_league.league import open_home
 from arena_league.league.population import build as build_module
 from arena_league.league.population.build import build_population, load_bundles
 from arena_league.league.population.selection import behaviour_distances, select_spanning, target_order
-from arena_league.league.service import base_population, open_home
+from arena_league.league.service import base_population
 from arena_league.registry import get_population
 
 GAME = "GoBang-2T1P-v1"

@@ -8,7 +8,7 @@ from datetime import UTC, datetime
 
 import numpy as np
 import pytest
-from test_league_leaderboard import GAME, STRENGTHS, kinds, simulated_league
+from test_league_leaderboard import ENTRANT, GAME, SHIPPED, STRENGTHS, kinds, shipped_board, simulated_league
 
 from arena_league.league.leaderboards import METHODS, compute_leaderboard
 from arena_league.league.report import leaderboard_json, report_figures, write_html_report
@@ -114,3 +114,27 @@ def test_a_hundred_agents_render_in_a_few_seconds(tmp_path):
     assert computed + rendered < 15.0
     assert len(embedded_images(text)) == 4
     assert all(name in text for name in names)
+
+
+def test_report_of_a_base_population_tells_members_placed_entrants_and_pending(tmp_path):
+    board = shipped_board(next(path for path in SHIPPED if path.parent.parent.name == "GoBang-2T1P-v1"))
+    text = write_html_report(board, tmp_path / "base.html", generated_at=WHEN).read_text()
+    assert_self_contained(text)
+    assert len(embedded_images(text)) == 1  # the ratings on the population's scale; nothing re-rated
+    assert "GoBang-2T1P-v1 leaderboard against base-v1:1" in text and "population <b>base-v1:1</b>" in text
+    assert "<b>100</b> members, <b>1</b> entrants placed, <b>2</b> pending" in text
+    assert text.count('<tr class="rated member">') == 100 and text.count('<tr class="unrated pending">') == 2
+    entrant = next(row for row in board.rows if row.agent == ENTRANT)
+    placed = re.search(r'<tr class="rated placed">(.*?)</tr>', text).group(1)
+    assert f'<td class="name">{ENTRANT}</td>' in placed
+    assert f"{entrant.rating:.0f} ({entrant.lower:.0f}..{entrant.upper:.0f})" in placed
+    assert f"{entrant.position} ({entrant.rank}..{entrant.rank_worst})" in placed
+    assert '<td class="name">random@GoBang-2T1P-v1</td>' in text  # pending, listed by full name
+    assert "--population league" in text  # where the win-rate, Nash and alpha-Rank figures are
+    # the JSON twin keeps the keys of any board's
+    rows, names = simulated_league(STRENGTHS, 100, seed=1)
+    matches_board = leaderboard_json(compute_leaderboard(rows, kinds(names), GAME, "bt", rounds=10))
+    document = leaderboard_json(board, generated_at=WHEN)
+    assert set(document) == set(matches_board) and document["population"] == "base-v1:1"
+    assert {tuple(sorted(row)) for row in document["rows"]} == {tuple(sorted(matches_board["rows"][0]))}
+    assert json.dumps(document, allow_nan=False)

@@ -151,10 +151,10 @@ def test_evaluate_rank_and_leaderboard(home):
         report = evaluate(league, GAME, base, matches_per_pair=6)
         assert report.played == 6 and report.stored == 6
         assert evaluate(league, GAME, base, matches_per_pair=6).played == 0  # the pair is full
-        placed = rank(league, "alice", budget=24)
+        placed = rank(league, "alice", budget=24, population="league")
         assert placed.matches >= 20 and placed.lower <= placed.rating <= placed.upper
         assert 1 <= placed.rank_best <= placed.rank <= placed.rank_worst <= 3
-        board = leaderboard(league, GAME)
+        board = leaderboard(league, GAME, population="league")
         names = [row.agent for row in board.rows]
         assert set(names) == {"alice", *base}
         assert names.index(f"heuristic@{GAME}") < names.index(f"random@{GAME}")
@@ -237,7 +237,7 @@ def test_league_on_postgresql(tmp_path):
         with open_home(tmp_path, scoped) as league:
             base = ensure_scripted_agents(league, GAME)
             assert evaluate(league, GAME, base, matches_per_pair=4).stored == 4
-            board = leaderboard(league, GAME)
+            board = leaderboard(league, GAME, population="league")
             assert next(r.agent for r in board.rows) == f"heuristic@{GAME}"
     finally:
         with engine.begin() as conn:

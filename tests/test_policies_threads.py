@@ -43,7 +43,7 @@ def test_evaluate_and_rank_leave_the_callers_thread_count(tmp_path, two_threads)
         submit(league, EXAMPLE, GAME, "alice")
         evaluate(league, GAME, scripted, matches_per_pair=2)
         assert torch.get_num_threads() == two_threads
-        rank(league, "alice", budget=8)
+        rank(league, "alice", budget=8, population="league")
         assert torch.get_num_threads() == two_threads
 
 

@@ -1,66 +1,67 @@
 """League operations over the registry, the match engine and the rating engine: what the
 ``arena-league`` command and a web front end call, as plain functions.
 
-* :mod:`.service`: submit, evaluate (now or queued), rank against a base population,
-  leaderboards, recent matches, population import and export, the job handlers;
+* :mod:`.service`: submit, evaluate (now or queued), rank against a base population, leaderboards,
+  recent matches, the job handlers;
+* :mod:`.populations`: populations per game, the game's default base, import and export;
+* :mod:`.agents` / :mod:`.jobs`: agents and jobs as a person looks them up; cancelling a job;
 * :mod:`.leaderboards` / :mod:`.report`: ratings tables with intervals, for a terminal, JSON and HTML;
 * :mod:`.schedules`: recurring evaluations, the scheduler and the worker;
 * :mod:`.quickstart`: the whole workflow on the embedded default;
 * :mod:`.catalog`: the game set and social-tree verification; :mod:`.replays`: replay summaries;
 * :mod:`.train`: training an entrant; :mod:`.human`: a person playing against a base population;
+* :mod:`.home`: opening a league, registering games, suggestions for mistyped names;
 * :mod:`.population`: the base-population build (train, round robin, select, rate, freeze).
 
-Modules that pull in heavy libraries (the build, training, human play) are imported by name, on use.
+The names below load their module on first use, so that a command that only reads the registry
+does not load torch, onnxruntime or the physics engines.
 """
 
-from arena_league.league.catalog import game_rows, verify_social_tree
-from arena_league.league.errors import USER_ERRORS
-from arena_league.league.leaderboards import Leaderboard, render_terminal
-from arena_league.league.quickstart import QuickstartReport, quickstart
-from arena_league.league.replays import replay_summary
-from arena_league.league.report import write_html_report
-from arena_league.league.schedules import (
-    WorkerSummary,
-    add_evaluation_schedule,
-    list_schedules,
-    remove_schedule,
-    run_scheduler,
-    run_worker,
-    tick,
-)
-from arena_league.league.service import (
-    MATCH_IDS_PER_JOB,
-    EvaluationReport,
-    RankReport,
-    SubmitResult,
-    agent_ref,
-    base_population,
-    ensure_population,
-    ensure_scripted_agents,
-    evaluate,
-    evaluation_payload,
-    export_population,
-    import_population,
-    job_handlers,
-    leaderboard,
-    list_populations,
-    open_home,
-    queue_evaluation,
-    rank,
-    recent_matches,
-    register_game,
-    scripted_agent_name,
-    shipped_population,
-    submit,
-)
+from __future__ import annotations
 
-__all__ = [
-    "MATCH_IDS_PER_JOB", "USER_ERRORS",
-    "EvaluationReport", "Leaderboard", "QuickstartReport", "RankReport", "SubmitResult", "WorkerSummary",
-    "add_evaluation_schedule", "agent_ref", "base_population", "ensure_population", "ensure_scripted_agents",
-    "evaluate", "evaluation_payload", "export_population", "game_rows", "import_population", "job_handlers",
-    "leaderboard", "list_populations", "list_schedules", "open_home", "queue_evaluation", "quickstart", "rank",
-    "recent_matches", "register_game", "remove_schedule", "render_terminal", "replay_summary", "run_scheduler",
-    "run_worker", "scripted_agent_name", "shipped_population", "submit", "tick", "verify_social_tree",
-    "write_html_report",
-]
+import importlib
+from typing import Any
+
+#: Submodule -> the names this package offers from it.
+_EXPORTS: dict[str, tuple[str, ...]] = {
+    "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches"),
+    "catalog": ("game_rows", "verify_social_tree"),
+    "errors": ("USER_ERRORS",),
+    "home": ("did_you_mean", "open_home", "register_game"),
+    "human": ("play_human",),
+    "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),
+    "leaderboards": ("Leaderboard", "render_terminal"),
+    "populations": (
+        "ensure_population", "export_population", "game_population", "import_population", "list_populations",
+        "shipped_population",
+    ),
+    "quickstart": ("QuickstartReport", "quickstart"),
+    "replays": ("replay_summary",),
+    "report": ("write_html_report",),
+    "schedules": (
+        "WorkerSummary", "add_evaluation_schedule", "list_schedules", "remove_schedule", "run_scheduler",
+        "run_worker", "tick",
+    ),
+    "service": (
+        "LEAGUE_WIDE", "MATCH_IDS_PER_JOB", "EvaluationPlan", "EvaluationReport", "RankReport", "SubmitResult",
+        "agent_ref", "base_population", "ensure_scripted_agents", "evaluate", "evaluation_plan",
+        "job_handlers", "leaderboard", "queue_evaluation", "rank", "scripted_agent_name", "submit",
+    ),
+    "train": ("train_entrant",),
+}
+_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
+
+__all__ = sorted(_MODULE_OF)  # noqa: PLE0605 - built from _EXPORTS
+
+
+def __getattr__(name: str) -> Any:
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

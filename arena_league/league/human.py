@@ -99,7 +99,7 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
     Args:
         game_id: a two-team game.
         against: the frozen base population (``name`` or ``name:version``) of that game.
-        league: the league (default: :func:`arena_league.league.service.open_home`).
+        league: the league (default: :func:`arena_league.league.home.open_home`).
         player: the person's name; their agent is ``<player>@<game_id>`` (kind ``human``), and a
             later session with the same name continues their record.
         input_fn: reads one line after a prompt (``input``; tests pass a scripted one).
@@ -109,13 +109,9 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
         climb: places to climb after a win (default a tenth of the base, at least 1).
         picture_dir: save the top-down picture of every step the person acts there as PNG.
     """
-    from arena_league.league.service import (
-        agent_ref,
-        base_population,
-        ensure_population,
-        open_home,
-        register_game,
-    )
+    from arena_league.league.home import open_home, register_game
+    from arena_league.league.populations import ensure_population
+    from arena_league.league.service import agent_ref, base_population
 
     out = output if output is not None else sys.stdout
     spec = game_spec(game_id)

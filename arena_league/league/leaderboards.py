@@ -25,6 +25,17 @@ board, on first use, and only if the board shows it: the bootstraps of the Nash 
 alpha-Rank mass run for those methods only, and a method's own score is not computed again as a
 league column. The win-rate matrices use the pseudo-count :data:`~arena_league.rating.PSEUDO_COUNT`
 where logits or a complete payoff table are needed.
+
+A game with a frozen base population has a second kind of board (:func:`population_leaderboard`):
+Arena's ranking among the base population. Its members keep the Bradley-Terry ratings (and
+intervals) frozen with the population, every other agent stands where its latest placement against
+that population put it (:class:`~arena_league.rating.Placement`, with its interval), and agents not
+placed yet are listed as pending. Nothing is re-rated from the league's matches, so a board of many
+members and a few matches tells the same story as the placements themselves.
+
+The views (:func:`render_terminal`, :func:`leaderboard_table`, the HTML report) leave out the
+columns that carry no information (one value on every row); the JSON (:meth:`Leaderboard.to_dict`)
+keeps every field.
 """
 
 from __future__ import annotations
@@ -33,7 +44,7 @@ import math
 from collections.abc import Callable, Hashable, Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from functools import cached_property
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -43,6 +54,7 @@ from arena_league.rating import (
     OutcomeTable,
     PairCounts,
     PairwiseResults,
+    Placement,
     RatingIntervals,
     SkillRatings,
     alpha_rank,
@@ -57,6 +69,9 @@ from arena_league.rating import (
     rank_intervals,
 )
 
+if TYPE_CHECKING:
+    from rich.table import Table
+
 __all__ = [
     "ALPHA_RANK_M",
     "ELO_INITIAL",
@@ -65,14 +80,21 @@ __all__ = [
     "OPENSKILL_BAND",
     "PSEUDO_COUNT",
     "SCORE_RESOLUTION",
+    "EntrantPlacement",
+    "FrozenRating",
     "Leaderboard",
     "LeaderboardError",
     "LeaderboardRow",
+    "LeaderboardTable",
     "Method",
+    "board_title",
     "compute_leaderboard",
     "leaderboard_cells",
+    "leaderboard_table",
     "outcome_table",
+    "population_leaderboard",
     "render_terminal",
+    "short_name",
 ]
 
 Method = Literal["bt", "elo", "openskill", "nash", "alpharank"]
@@ -98,15 +120,17 @@ class LeaderboardError(ValueError):
 
 @dataclass
 class LeaderboardRow:
-    """One agent's line on a leaderboard. Rating fields are None for an agent without rated matches
-    (it is listed, unrated, at the bottom)."""
+    """One agent's line on a leaderboard. Rating fields are None for an agent without rated matches,
+    or, on a population board, for an entrant not placed yet (it is listed, pending, at the bottom)."""
 
     agent: str
     kind: str | None
     rank: int | None
-    """1 + the number of agents better beyond doubt (their interval lies above this one's)."""
+    """1 + the number of agents better beyond doubt (their interval lies above this one's; on a
+    population board: their rating lies above this one's interval)."""
     rank_worst: int | None
-    """n - the number of agents worse beyond doubt; ``rank == rank_worst`` when the rank is sure."""
+    """n - the number of agents worse beyond doubt; ``rank == rank_worst`` when the rank is sure.
+    On a population board: 1 + the number of agents rated above this one's lower end."""
     rating: float | None
     """The method's primary score (see :attr:`Leaderboard.rating_label`)."""
     lower: float | None
@@ -124,7 +148,16 @@ class LeaderboardRow:
     the method's own rating: no ``nash_score`` for ``"nash"``, no ``alpharank_mass`` for
     ``"alpharank"``);
     ``bt_rating``, ``bt_lower``, ``bt_upper``, ``bt_rank``, ``bt_rank_worst`` (the Bradley-Terry
-    columns, for every method but ``"bt"``); ``percentile_lower``, ``percentile_upper`` (``"bt"``)."""
+    columns, for every method but ``"bt"``); ``percentile_lower``, ``percentile_upper`` (``"bt"``).
+    On a population board: ``percentile_lower``, ``percentile_upper``, and ``base_rank``,
+    ``base_rank_best``, ``base_rank_worst`` (the place among the population's members alone, as a
+    placement reports it); ``job_id`` and ``placement_matches`` of a placed entrant's rank job."""
+    status: str | None = None
+    """``"rated"`` or ``"pending"`` (no rated matches) on a board of matches; ``"member"``,
+    ``"placed"`` or ``"pending"`` (not placed against the population yet) on a population board."""
+    position: int | None = None
+    """1 + the number of rated agents with a higher sort score: the place of the point estimate,
+    which lies in ``rank .. rank_worst``."""
 
     @property
     def rated(self) -> bool:
@@ -163,6 +196,13 @@ class Leaderboard:
     intransitivity: float | None
     """Cyclic share of the logit win-rate meta-game: 0 transitive, 1 rock-paper-scissors."""
     params: dict[str, Any] = field(default_factory=dict)
+    population: str | None = None
+    """``name:version`` of the population whose members the board lists (with the entrants, on a
+    population board); None: every agent of the game."""
+    basis: str = "matches"
+    """``"matches"``: every rating re-rated by :attr:`method` from the stored matches;
+    ``"population"``: members at the ratings frozen with :attr:`population`, entrants at their
+    placements against it (:func:`population_leaderboard`)."""
 
     @property
     def rated_rows(self) -> list[LeaderboardRow]:
@@ -172,6 +212,8 @@ class Leaderboard:
         """A JSON-ready document: plain lists, floats and None (for NaN and missing values)."""
         return {
             "game_id": self.game_id,
+            "population": self.population,
+            "basis": self.basis,
             "method": self.method,
             "rating_label": self.rating_label,
             "sort_by": self.sort_by,
@@ -399,6 +441,7 @@ def compute_leaderboard(
     level: float = 0.95,
     seed: int = 0,
     alpha: float | None = None,
+    population: str | None = None,
 ) -> Leaderboard:
     """The leaderboard of one game's matches by ``method`` (see the module docstring).
 
@@ -414,6 +457,8 @@ def compute_leaderboard(
         seed: seed of the bootstrap.
         alpha: alpha-Rank's selection intensity; None picks it by the sweep (as large as the
             stationary distribution allows).
+        population: ``name:version`` of the population whose members ``agents_info`` lists, for
+            the board's title; None when it lists every agent of the game.
 
     Raises:
         LeaderboardError: an unknown method; no matches or fewer than two rated agents; more than
@@ -481,6 +526,7 @@ def compute_leaderboard(
         # the Nash support); widened to hold it, the rank range always contains the sorted position
         rank, rank_worst = rank_intervals(np.minimum(lower, sort_score), np.maximum(upper, sort_score))
     percentile = 100.0 * (sort_score[None, :] < sort_score[:, None]).sum(axis=1) / (rated.size - 1)
+    position = 1 + (sort_score[None, :] > sort_score[:, None]).sum(axis=1)
     tie_break = league.bt.rating if league is not None else np.zeros(rated.size)
     order = np.array(sorted(range(rated.size), key=lambda i: (-sort_score[i], -tie_break[i], names[i])))
 
@@ -494,13 +540,14 @@ def compute_leaderboard(
             lower=None if lower is None else float(lower[i]), upper=None if upper is None else float(upper[i]),
             matches=int(played[agent]), win_rate=float(points[agent] / played[agent]) if played[agent] else None,
             percentile=float(percentile[i]),
-            method_columns={key: _plain(values[i]) for key, values in columns.items()}))
+            method_columns={key: _plain(values[i]) for key, values in columns.items()}, status="rated",
+            position=int(position[i])))
     agent_index = {name: i for i, name in enumerate(table.agents)}
     for name in sorted((set(agents_info) | set(table.agents)) - set(names)):
         board_rows.append(LeaderboardRow(
             agent=name, kind=_kind(agents_info.get(name)), rank=None, rank_worst=None, rating=None,
             lower=None, upper=None, matches=int(played[agent_index[name]]) if name in agent_index else 0,
-            win_rate=None, percentile=None))
+            win_rate=None, percentile=None, status="pending"))
 
     figures: dict[str, Any] = dict.fromkeys(("win_rate", "games", "nash_p", "nash_score", "alpharank_pi",
                                              "alpharank_alpha", "intransitivity"))
@@ -513,7 +560,134 @@ def compute_leaderboard(
     return Leaderboard(
         game_id=game_id, method=method, level=level, rounds=rounds, seed=seed, rows=board_rows,
         rating_label=spec.label, sort_by=spec.sort_by, n_matches=table.n_matches,
-        agents=[names[i] for i in order], params=params, **figures)
+        agents=[names[i] for i in order], params=params, population=population, **figures)
+
+
+# --- a base population's board ---------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FrozenRating:
+    """A member's rating as frozen with its population, and its interval where one was stored."""
+
+    rating: float
+    lower: float | None = None
+    upper: float | None = None
+
+
+@dataclass(frozen=True)
+class EntrantPlacement:
+    """An entrant's latest placement against the population, and the ``rank`` job that made it."""
+
+    placement: Placement
+    job_id: int | None = None
+
+
+def population_leaderboard(
+    rows: Iterable[Mapping[str, Any]],
+    agents_info: Mapping[str, Mapping[str, Any]],
+    game_id: str,
+    population: str,
+    members: Mapping[str, FrozenRating],
+    placements: Mapping[str, EntrantPlacement],
+    *,
+    level: float = 0.95,
+) -> Leaderboard:
+    """The board of a game ranked against a frozen base population (see the module docstring).
+
+    Every rated row stands on one scale: a member at its frozen rating, an entrant at its
+    placement's. A row's ``position`` is 1 + the number of rows rated higher, and ``rank ..
+    rank_worst`` the places its interval spans among the others' ratings, which is how a placement
+    counts them: with a single entrant, its row repeats its placement's rank, rank range and
+    percentile. ``base_rank*`` count the members alone.
+
+    Args:
+        rows: the stored seat rows of the matches among the listed agents (see
+            :func:`outcome_table`), for each row's matches and win rate in this league; no rating
+            is computed from them.
+        agents_info: ``{name: {"kind": ...}}`` of the agents to list; the members, and the
+            entrants (every other agent), placed or not. Members and placed entrants absent from
+            it are listed with kind None.
+        game_id: the game, for the title.
+        population: ``name:version`` of the population.
+        members: its members' frozen ratings.
+        placements: the entrants' latest placements against it (members' are ignored).
+        level: level of the intervals (the placements' and, as built, the members').
+
+    Raises:
+        LeaderboardError: a member's or placement's rating that is not a finite number.
+    """
+    if not 0 < level < 1:
+        raise LeaderboardError(f"intervals need 0 < level < 1; got level={level}")
+    placed = {name: entry for name, entry in placements.items() if name not in members}
+    names = [*members, *sorted(placed)]
+    ratings = [*members.values(), *(FrozenRating(e.placement.rating, e.placement.lower, e.placement.upper)
+                                    for e in (placed[name] for name in sorted(placed)))]
+    rating = np.array([r.rating for r in ratings], dtype=np.float64)
+    lower = np.array([np.nan if r.lower is None else r.lower for r in ratings], dtype=np.float64)
+    upper = np.array([np.nan if r.upper is None else r.upper for r in ratings], dtype=np.float64)
+    bad = [name for name, value in zip(names, rating) if not math.isfinite(value)]
+    if bad:
+        raise LeaderboardError(f"{population} gives {', '.join(bad[:3])} no finite rating; re-import the population "
+                               "from a folder whose members carry their ratings, or re-rank the entrant")
+    # intervals that do not hold their point (a bootstrap may not) are widened to hold it
+    low = np.where(np.isnan(lower), rating, np.minimum(lower, rating))
+    high = np.where(np.isnan(upper), rating, np.maximum(upper, rating))
+    n = rating.size
+    others = ~np.eye(n, dtype=bool)
+    member = np.arange(n) < len(members)
+    above = rating[None, :] > rating[:, None]
+    above_high = (rating[None, :] > high[:, None]) & others
+    above_low = (rating[None, :] > low[:, None]) & others
+    below = rating[None, :] < rating[:, None]
+    others_n = max(n - 1, 1)  # percentiles as a placement computes them: 100 * count / others
+    columns = {
+        "percentile_lower": 100.0 * ((rating[None, :] < low[:, None]) & others).sum(axis=1) / others_n,
+        "percentile_upper": 100.0 * ((rating[None, :] < high[:, None]) & others).sum(axis=1) / others_n,
+        "base_rank": 1 + (above & member[None, :]).sum(axis=1),
+        "base_rank_best": 1 + (above_high & member[None, :]).sum(axis=1),
+        "base_rank_worst": 1 + (above_low & member[None, :]).sum(axis=1),
+    }
+    position, rank, rank_worst = 1 + above.sum(axis=1), 1 + above_high.sum(axis=1), 1 + above_low.sum(axis=1)
+    percentile = 100.0 * below.sum(axis=1) / others_n
+    order = sorted(range(n), key=lambda i: (-rating[i], names[i]))
+
+    rows = list(rows)
+    table = outcome_table(rows)
+    played: dict[str, tuple[int, float]] = {}
+    if table.n_matches:
+        counts, points = _matches_and_points(table)
+        played = {name: (int(counts[i]), float(points[i])) for i, name in enumerate(table.agents)}
+
+    def record(name: str) -> tuple[int, float | None]:
+        count, won = played.get(name, (0, 0.0))
+        return count, (won / count if count else None)
+
+    board_rows = []
+    for i in order:
+        name = names[i]
+        matches, win_rate = record(name)
+        extra: dict[str, float | int | None] = {key: _plain(values[i]) for key, values in columns.items()}
+        if not member[i]:
+            extra.update(job_id=placed[name].job_id, placement_matches=_plain(placed[name].placement.matches))
+        board_rows.append(LeaderboardRow(
+            agent=name, kind=_kind(agents_info.get(name)), rank=int(rank[i]), rank_worst=int(rank_worst[i]),
+            rating=float(rating[i]), lower=None if np.isnan(lower[i]) else float(lower[i]),
+            upper=None if np.isnan(upper[i]) else float(upper[i]), matches=matches, win_rate=win_rate,
+            percentile=float(percentile[i]) if n > 1 else None, method_columns=extra,
+            status="member" if member[i] else "placed", position=int(position[i])))
+    pending = sorted(set(agents_info) - set(names))
+    for name in pending:
+        matches, _ = record(name)
+        board_rows.append(LeaderboardRow(
+            agent=name, kind=_kind(agents_info.get(name)), rank=None, rank_worst=None, rating=None, lower=None,
+            upper=None, matches=matches, win_rate=None, percentile=None, status="pending"))
+    return Leaderboard(
+        game_id=game_id, method="bt", level=level, rounds=0, seed=0, rows=board_rows,
+        rating_label=f"Bradley-Terry rating (Elo scale) frozen with {population}; entrants placed against it",
+        sort_by="rating", n_matches=table.n_matches, agents=[names[i] for i in order], win_rate=None, games=None,
+        nash_p=None, nash_score=None, alpharank_pi=None, alpharank_alpha=None, intransitivity=None,
+        params={"members": len(members), "placed": len(placed), "pending": len(pending)},
+        population=population, basis="population")
 
 
 def _matches_and_points(table: OutcomeTable) -> tuple[np.ndarray, np.ndarray]:
@@ -568,6 +742,12 @@ def _plain(value: Any) -> Any:
 
 # --- views: the terminal table and the cells the HTML report shares -------------------------------
 
+def short_name(name: str, game_id: str) -> str:
+    """``name`` without the ``@<game id>`` suffix that scripted and base agents carry."""
+    suffix = f"@{game_id}"
+    return name[: -len(suffix)] if name.endswith(suffix) and len(name) > len(suffix) else name
+
+
 def _number(value: float | None, decimals: int) -> str:
     if value is None:
         return ""
@@ -585,10 +765,26 @@ def _interval_text(row: LeaderboardRow, decimals: int) -> str:
     return f"{point} ± {up}" if up == down else f"{point} +{up}/-{down}"
 
 
+def _ends_text(row: LeaderboardRow) -> str:
+    """A population board's rating: the point and the ends of its interval, as a placement reports them."""
+    if row.rating is None:
+        return ""
+    if row.lower is None or row.upper is None:
+        return _number(row.rating, 0)
+    return f"{_number(row.rating, 0)} ({_number(row.lower, 0)}..{_number(row.upper, 0)})"
+
+
 def _rank_text(row: LeaderboardRow) -> str:
     if row.rank is None:
         return "-"
     return str(row.rank) if row.rank == row.rank_worst else f"{row.rank}-{row.rank_worst}"
+
+
+def _place_text(place: int | None, best: int | None, worst: int | None) -> str:
+    """A population board's rank: the place of the rating, and the places its interval spans."""
+    if place is None:
+        return "-"
+    return str(place) if best == worst == place else f"{place} ({best}..{worst})"
 
 
 _LEAGUE_COLUMNS_SHOWN: tuple[tuple[str, str], ...] = (
@@ -623,35 +819,154 @@ def _method_cell(row: LeaderboardRow, key: str) -> str:
     return "" if value is None else _number(value, _COLUMN_DECIMALS[key])
 
 
-def leaderboard_cells(board: Leaderboard) -> tuple[list[str], list[list[str]]]:
-    """The leaderboard as text: headers and one list of cells per row (terminal and HTML views)."""
+@dataclass(frozen=True)
+class _Column:
+    key: str
+    header: str
+    cell: Callable[[LeaderboardRow], str]
+    left: bool = False
+    essential: bool = False
+    """Shown whatever its cells hold (rank, agent, rating)."""
+
+
+_DEFAULT_COLUMNS = {"matches": ("rank", "agent", "kind", "rating", "matches"),
+                    "population": ("rank", "agent", "status", "rating", "matches")}
+"""The columns of the default terminal table, by :attr:`Leaderboard.basis`: with names of up to
+about 30 characters it fits 100 terminal columns."""
+
+
+def _columns(board: Leaderboard, short_names: bool) -> list[_Column]:
+    """Every column of the board's tables, in order."""
+    def agent(row: LeaderboardRow) -> str:
+        return short_name(row.agent, board.game_id) if short_names else row.agent
+
+    def win_rate(row: LeaderboardRow) -> str:
+        return "" if row.win_rate is None else f"{100 * row.win_rate:.1f}%"
+
+    def percentile(row: LeaderboardRow) -> str:
+        return "" if row.percentile is None else f"{row.percentile:.0f}"
+
+    common = {
+        "agent": _Column("agent", "Agent", agent, left=True, essential=True),
+        "kind": _Column("kind", "Kind", lambda row: row.kind or "", left=True),
+        "matches": _Column("matches", "Matches", lambda row: str(row.matches)),
+        "win_rate": _Column("win_rate", "Win rate", win_rate),
+        "percentile": _Column("percentile", "Percentile", percentile),
+    }
+    if board.basis == "population":
+        def base_rank(row: LeaderboardRow) -> str:
+            c = row.method_columns
+            if c.get("base_rank") is None:
+                return ""
+            return _place_text(int(c["base_rank"]), c.get("base_rank_best"), c.get("base_rank_worst"))
+
+        return [
+            _Column("rank", "Rank", lambda row: _place_text(row.position, row.rank, row.rank_worst), essential=True),
+            common["agent"], common["kind"],
+            _Column("status", "Status", lambda row: row.status or "", left=True),
+            _Column("rating", f"Rating ({board.level:.0%} CI)", _ends_text, essential=True),
+            common["matches"], common["win_rate"], common["percentile"],
+            _Column("percentile_lower", "Percentile CI", lambda row: _method_cell(row, "percentile_lower")),
+            _Column("base_rank", f"Rank in {board.population}", base_rank),
+        ]
     spec = _METHOD_TABLE[board.method]
-    specs = _method_column_specs(board)
     rating_header = spec.header + (f" ({board.level:.0%} CI)" if spec.bootstrap else "")
-    headers = ["Rank", "Agent", "Kind", rating_header, "Matches", "Win rate", "Percentile"]
-    headers += [header for header, _ in specs]
-    cells = []
-    for row in board.rows:
-        line = [_rank_text(row), row.agent, row.kind or "", _interval_text(row, spec.decimals),
-                str(row.matches),
-                "" if row.win_rate is None else f"{100 * row.win_rate:.1f}%",
-                "" if row.percentile is None else f"{row.percentile:.0f}"]
-        line += [_method_cell(row, key) if row.rated else "" for _, key in specs]
-        cells.append(line)
-    return headers, cells
+    columns = [
+        _Column("rank", "Rank", _rank_text, essential=True), common["agent"], common["kind"],
+        _Column("rating", rating_header, lambda row: _interval_text(row, spec.decimals), essential=True),
+        common["matches"], common["win_rate"], common["percentile"]]
+    columns += [_Column(key, header, lambda row, key=key: _method_cell(row, key) if row.rated else "")
+                for header, key in _method_column_specs(board)]
+    return columns
 
 
-def render_terminal(board: Leaderboard):
-    """The leaderboard as a :class:`rich.table.Table` (print it with a rich console)."""
-    from rich.table import Table
+@dataclass(frozen=True)
+class LeaderboardTable:
+    """A leaderboard as text, as a view shows it: the columns kept and what the others held."""
 
+    keys: list[str]
+    """Column keys: ``rank``, ``agent``, ``kind``, ``status``, ``rating``, ``matches``,
+    ``win_rate``, ``percentile`` and method column keys (see :attr:`LeaderboardRow.method_columns`)."""
+    headers: list[str]
+    left: list[bool]
+    """Whether each column is text (left-aligned) rather than a figure."""
+    cells: list[list[str]]
+    """One line per row of the board, in its order."""
+    same: list[str]
+    """The columns left out for showing one value, where that value says something: e.g.
+    ``"Kind scripted for every agent"``."""
+    short_names: bool
+    """Some names are shown without their ``@<game id>`` suffix."""
+
+
+def leaderboard_table(board: Leaderboard, *, wide: bool = True, short_names: bool = False) -> LeaderboardTable:
+    """The board's table as a view shows it: every column (``wide``) or the default few (rank,
+    agent, kind or status, rating with its interval, matches), less those that carry no
+    information. A column whose cells all show one value (blank where it does not apply) is left
+    out, but for rank, agent and rating. ``short_names`` drops the ``@<game id>`` suffix of names."""
+    columns = _columns(board, short_names)
+    if not wide:
+        columns = [column for column in columns if column.key in _DEFAULT_COLUMNS[board.basis]]
+    shown: list[tuple[_Column, list[str]]] = []
+    same: list[str] = []
+    for column in columns:
+        cells = [column.cell(row) for row in board.rows]
+        values = {cell for cell in cells if cell}
+        if column.essential or len(values) > 1:
+            shown.append((column, cells))
+        elif values and all(cells):
+            same.append(f"{column.header} {values.pop()} for every agent")
+        elif values and all(bool(cell) == row.rated for cell, row in zip(cells, board.rows)):
+            same.append(f"{column.header} {values.pop()} for every rated agent")
+    return LeaderboardTable(
+        keys=[column.key for column, _ in shown], headers=[column.header for column, _ in shown],
+        left=[column.left for column, _ in shown], cells=[list(line) for line in zip(*(c for _, c in shown))],
+        same=same, short_names=short_names and any(short_name(row.agent, board.game_id) != row.agent
+                                                   for row in board.rows))
+
+
+def leaderboard_cells(board: Leaderboard, *, wide: bool = True, short_names: bool = False
+                      ) -> tuple[list[str], list[list[str]]]:
+    """The leaderboard as text: headers and one list of cells per row (see :func:`leaderboard_table`)."""
+    view = leaderboard_table(board, wide=wide, short_names=short_names)
+    return view.headers, view.cells
+
+
+def board_title(board: Leaderboard) -> str:
+    """One line naming the game, the population or method, and what the board holds."""
+    if board.basis == "population":
+        counts = ", ".join(f"{board.params.get(key, 0)} {word}" for key, word in
+                           (("members", "members"), ("placed", "placed"), ("pending", "pending")))
+        return f"{board.game_id} · {board.population} · {counts} · {board.n_matches} matches"
     title = f"{board.game_id} · {board.method} · {board.n_matches} matches"
+    if board.population is not None:
+        title += f" · members of {board.population}"
     if board.intransitivity is not None:
         title += f" · intransitivity {board.intransitivity:.2f}"
-    table = Table(title=title, caption=board.rating_label)
-    headers, cells = leaderboard_cells(board)
-    for i, header in enumerate(headers):
-        table.add_column(header, justify="left" if i in (1, 2) else "right", no_wrap=i == 1)
-    for line, row in zip(cells, board.rows):
+    return title
+
+
+def render_terminal(board: Leaderboard, *, wide: bool = False) -> Table:
+    """The leaderboard as a :class:`rich.table.Table` (print it with a rich console).
+
+    The default table holds rank, agent, kind (status on a population board), the rating with its
+    interval and the matches, and fits 100 terminal columns; ``wide=True`` shows every column.
+    Both leave out columns that carry no information (see :func:`leaderboard_table`) and show
+    names without their ``@<game id>`` suffix; the caption says what was left out.
+    """
+    from rich.table import Table
+
+    view = leaderboard_table(board, wide=wide, short_names=True)
+    notes = [board.rating_label]
+    if view.short_names:
+        notes.append(f"names without @{board.game_id}")
+    notes += view.same
+    table = Table(title=board_title(board), caption="; ".join(notes))
+    for key, header, left in zip(view.keys, view.headers, view.left):
+        if key == "agent":
+            table.add_column(header, justify="left", overflow="fold")  # a name too long folds, never cut
+        else:
+            table.add_column(header, justify="left" if left else "right", no_wrap=True)
+    for line, row in zip(view.cells, board.rows):
         table.add_row(*line, style=None if row.rated else "dim")
     return table

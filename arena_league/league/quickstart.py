@@ -5,7 +5,9 @@
 3. for Crossroads, the example ONNX submission under ``submissions/``, validated and registered;
 4. a round robin among the scripted agents;
 5. the example ranked against the base population (or, without one, against the league's agents);
-6. the Bradley-Terry leaderboard.
+6. the Bradley-Terry leaderboard of the same base: its members at their frozen ratings, the example
+   where its ranking placed it, the scripted agents pending (or, without a base, every agent
+   re-rated from the league's matches).
 """
 
 from __future__ import annotations
@@ -16,15 +18,15 @@ from pathlib import Path
 from typing import Any
 
 from arena_league.league.leaderboards import Leaderboard
+from arena_league.league.populations import ensure_population, shipped_population
 from arena_league.league.service import (
+    LEAGUE_WIDE,
     EvaluationReport,
     RankReport,
-    ensure_population,
     ensure_scripted_agents,
     evaluate,
     leaderboard,
     rank,
-    shipped_population,
     submit,
 )
 from arena_league.registry import League
@@ -81,9 +83,10 @@ def quickstart(league: League, game_id: str = "Crossroads-2T2P-v1", *, matches_p
     report = evaluate(league, game_id, names, matches_per_pair=matches_per_pair, seed=seed,
                       progress=progress(f"round robin on {game_id}", 1))
     say(f"scripted round robin: {report.played} matches in {report.seconds:.1f} s")
+    against = population or LEAGUE_WIDE  # the ranking and the board use one base
     ranked = None
     if entrant:
-        ranked = rank(league, entrant, budget=budget, population=population, seed=seed,
+        ranked = rank(league, entrant, budget=budget, population=against, seed=seed,
                       progress=progress(f"ranking {entrant}", budget))
-    board = leaderboard(league, game_id, "bt", seed=seed)
+    board = leaderboard(league, game_id, "bt", population=against, seed=seed)
     return QuickstartReport(str(league.home), population, report, ranked, board)

@@ -6,6 +6,10 @@ win-rate matrix as a heatmap in leaderboard order, and the mass each agent gets 
 equilibrium of the logit win-rate meta-game (Balduzzi et al. 2018) and under alpha-Rank
 (Omidshafiei et al. 2019). The report is a view of :class:`~arena_league.league.leaderboards.
 Leaderboard` and of its JSON twin (:func:`leaderboard_json`); it computes nothing the board lacks.
+The board of a base population tells Arena's ranking among it: the members at their frozen
+ratings, the placed entrants (highlighted) with their intervals on the same scale, and the entrants
+still pending; the win-rate, Nash and alpha-Rank figures belong to boards re-rated from matches.
+Like the terminal table, the report's table leaves out the columns that hold one value on every row.
 
 Figures are drawn with matplotlib's Agg canvas (no display, no pyplot state) and embedded as base64
 PNG data URIs; the style sheet is inline. Nothing is fetched from anywhere when the file is opened.
@@ -24,7 +28,13 @@ import numpy as np
 from matplotlib.colors import LinearSegmentedColormap
 from matplotlib.figure import Figure
 
-from arena_league.league.leaderboards import SCORE_RESOLUTION, Leaderboard, leaderboard_cells
+from arena_league.league.leaderboards import (
+    SCORE_RESOLUTION,
+    Leaderboard,
+    LeaderboardRow,
+    leaderboard_table,
+    short_name,
+)
 
 __all__ = ["ANNOTATE_LIMIT", "MASS_BARS_LIMIT", "leaderboard_json", "report_figures", "write_html_report"]
 
@@ -69,7 +79,8 @@ def write_html_report(board: Leaderboard, path: str | Path, *, title: str | None
 
 def report_figures(board: Leaderboard) -> dict[str, bytes]:
     """The report's figures as PNG bytes, by name: ``ratings``, ``win_rate``, ``nash``,
-    ``alpharank`` (the last three only when the league reduces to pairwise results)."""
+    ``alpharank`` (the last three only on a board re-rated from matches that reduce to pairwise
+    results)."""
     figures = {"ratings": _png(_rating_figure(board))}
     if board.win_rate is not None:
         figures["win_rate"] = _png(_win_rate_figure(board))
@@ -87,7 +98,8 @@ def report_figures(board: Leaderboard) -> dict[str, bytes]:
 
 # --- figures ---------------------------------------------------------------------------------------
 
-def _label(name: str) -> str:
+def _label(name: str, game_id: str) -> str:
+    name = short_name(name, game_id)
     return name if len(name) <= _LABEL_CHARS else name[: _LABEL_CHARS - 1] + "…"
 
 
@@ -102,7 +114,10 @@ def _label_size(n: int) -> float:
 
 
 def _rating_figure(board: Leaderboard) -> Figure:
-    """Each rated agent's rating (point) and interval (bar), best at the top."""
+    """Each rated agent's rating (point) and interval (bar), best at the top; on a population
+    board, the placed entrants stand out from the members."""
+    if board.basis == "population":
+        return _population_figure(board)
     rows = board.rated_rows
     n = len(rows)
     figure = Figure(figsize=(8.0, max(2.2, 0.16 * n + 1.2)), layout="constrained")
@@ -124,13 +139,49 @@ def _rating_figure(board: Leaderboard) -> Figure:
                   label=f"Bradley-Terry {board.level:.0%} interval")
         ax.plot(bt_rating, y, "|", color="#6baed6", markersize=8, label="Bradley-Terry rating")
     ax.plot(rating, y, "o", color="#08306b", markersize=3.5 if n > 40 else 5, label=board.rating_label)
-    ax.set_yticks(y, [_label(r.agent) for r in rows], fontsize=_label_size(n))
+    ax.set_yticks(y, [_label(r.agent, board.game_id) for r in rows], fontsize=_label_size(n))
     ax.set_ylim(-0.7, n - 0.3)
     ax.set_xlabel(board.rating_label)
     ax.grid(axis="x", color="#dddddd", linewidth=0.6)
     ax.set_axisbelow(True)
     ax.legend(loc="lower right", fontsize=8, frameon=False)
     ax.set_title("Ratings and intervals, best first", fontsize=11)
+    return figure
+
+
+def _population_figure(board: Leaderboard) -> Figure:
+    """Members at their frozen ratings and intervals, placed entrants highlighted on the same scale."""
+    rows = board.rated_rows
+    n = len(rows)
+    figure = Figure(figsize=(8.0, max(2.2, 0.16 * n + 1.2)), layout="constrained")
+    ax = figure.subplots()
+    y = np.arange(n)[::-1]
+    size = 3.5 if n > 40 else 5
+    for status, bar, point, label in (("member", "#c6dbef", "#08306b", f"member of {board.population}"),
+                                      ("placed", "#fdae6b", "#d94801", "entrant, as placed")):
+        chosen = [i for i, row in enumerate(rows) if row.status == status]
+        if not chosen:
+            continue
+        rating = np.array([rows[i].rating for i in chosen])
+        ends = [(i, r) for i, r in zip(chosen, rating) if rows[i].lower is not None and rows[i].upper is not None]
+        if ends:
+            at = np.array([i for i, _ in ends])
+            ax.hlines(y[at], [min(rows[i].lower, r) for i, r in ends], [max(rows[i].upper, r) for i, r in ends],
+                      color=bar, linewidth=3)
+        ax.plot(rating, y[chosen], "o", color=point, markersize=size if status == "member" else size + 2,
+                label=label)
+    ax.set_yticks(y, [_label(r.agent, board.game_id) for r in rows], fontsize=_label_size(n))
+    for tick, row in zip(ax.get_yticklabels(), rows):
+        if row.status == "placed":
+            tick.set_color("#d94801")
+            tick.set_fontweight("bold")
+    ax.set_ylim(-0.7, n - 0.3)
+    ax.set_xlabel("Bradley-Terry rating (Elo scale)")
+    ax.grid(axis="x", color="#dddddd", linewidth=0.6)
+    ax.set_axisbelow(True)
+    ax.legend(loc="lower right", fontsize=8, frameon=False)
+    ax.set_title(f"Ratings on the scale of {board.population}, {board.level:.0%} intervals, best first",
+                 fontsize=11)
     return figure
 
 
@@ -145,7 +196,7 @@ def _win_rate_figure(board: Leaderboard) -> Figure:
     np.fill_diagonal(rate, np.nan)
     image = ax.imshow(np.ma.masked_invalid(rate), cmap=cmap, vmin=0.0, vmax=1.0, interpolation="nearest",
                       aspect="equal")
-    labels = [_label(name) for name in board.agents]
+    labels = [_label(name, board.game_id) for name in board.agents]
     size = _label_size(n)
     ax.set_xticks(np.arange(n), labels, rotation=90, fontsize=size)
     ax.set_yticks(np.arange(n), labels, fontsize=size)
@@ -184,7 +235,7 @@ def _mass_figure(board: Leaderboard, mass: np.ndarray, title: str, subtitle: str
                                                                      "linewidth": 0.8})
     else:
         ax.barh(y, mass[shown], color="#4292c6")
-    ax.set_yticks(y, [_label(board.agents[i]) for i in shown], fontsize=_label_size(k))
+    ax.set_yticks(y, [_label(board.agents[i], board.game_id) for i in shown], fontsize=_label_size(k))
     ax.set_xlim(0, 1.0 if interval is not None else max(0.05, float(mass.max()) * 1.15))
     ax.set_ylim(-0.7, k - 0.3)
     for yi, i in zip(y, shown):
@@ -210,8 +261,8 @@ padding-bottom:.2rem}
 table{border-collapse:collapse;font-size:.85rem;width:100%}
 th,td{padding:.25rem .5rem;border-bottom:1px solid #eee;text-align:right;white-space:nowrap}
 th{background:#f4f6f8;position:sticky;top:0}
-td.name,th.name,td.kind,th.kind{text-align:left}td.name{font-weight:600}
-tr.unrated td{color:#999}
+td.name,th.name,td.kind,th.kind,td.status,th.status{text-align:left}td.name{font-weight:600}
+tr.unrated td{color:#999}tr.placed td{background:#fff5eb}
 .scroll{overflow-x:auto}
 img{max-width:100%;height:auto}
 .pair{display:flex;flex-wrap:wrap;gap:1rem}.pair figure{margin:0;flex:1 1 420px}
@@ -221,6 +272,8 @@ footer{margin-top:2rem;color:#777;font-size:.8rem}
 
 
 def _default_title(board: Leaderboard) -> str:
+    if board.basis == "population":
+        return f"{board.game_id} leaderboard against {board.population}"
     return f"{board.game_id} leaderboard"
 
 
@@ -229,33 +282,65 @@ def _img(png: bytes, alt: str) -> str:
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{data}">'
 
 
+_CELL_CLASSES = {"rank": "rank", "agent": "name", "kind": "kind", "status": "status"}
+
+
+def _row_class(row: LeaderboardRow) -> str:
+    rated = "rated" if row.rated else "unrated"
+    return f"{rated} {row.status}" if row.status in ("member", "placed", "pending") else rated
+
+
 def _table(board: Leaderboard) -> str:
-    headers, cells = leaderboard_cells(board)
-    classes = ["rank", "name", "kind"] + [""] * (len(headers) - 3)
-    head = "".join(f'<th class="{c}">{html.escape(h)}</th>' for c, h in zip(classes, headers))
+    view = leaderboard_table(board, wide=True)
+    classes = [_CELL_CLASSES.get(key, "") for key in view.keys]
+    head = "".join(f'<th class="{c}">{html.escape(h)}</th>' for c, h in zip(classes, view.headers))
     body = []
-    for row, line in zip(board.rows, cells):
+    for row, line in zip(board.rows, view.cells):
         tds = "".join(f'<td class="{c}">{html.escape(text)}</td>' for c, text in zip(classes, line))
-        body.append(f'<tr class="{"rated" if row.rated else "unrated"}">{tds}</tr>')
-    return f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table></div>'
+        body.append(f'<tr class="{_row_class(row)}">{tds}</tr>')
+    table = f'<div class="scroll"><table><thead><tr>{head}</tr></thead><tbody>{"".join(body)}</tbody></table></div>'
+    if view.same:
+        table += f'<p class="note">Not shown as columns: {html.escape("; ".join(view.same))}.</p>'
+    return table
+
+
+def _population_header(board: Leaderboard) -> tuple[list[str], list[str], str]:
+    """(meta items as HTML, details, the note on ranks) of a population board."""
+    e = html.escape
+    counts = {key: board.params.get(key, 0) for key in ("members", "placed", "pending")}
+    meta = [f"Game <b>{e(board.game_id)}</b>", f"population <b>{e(str(board.population))}</b>: "
+            f"{e(board.rating_label)}", f"<b>{counts['members']}</b> members, <b>{counts['placed']}</b> entrants "
+            f"placed, <b>{counts['pending']}</b> pending", f"<b>{board.n_matches}</b> matches in this league"]
+    details = [f"members' intervals: as frozen with {board.population} (the bootstrap of its build); an "
+               f"entrant's: the {board.level:.0%} likelihood-ratio interval of its latest placement"]
+    ranks = (f"Rank p (a..b): p is 1 + the number of agents rated higher; a..b are the places the agent's "
+             f"interval spans among the others' ratings, as a placement counts them. Pending: agents of the game "
+             f"not placed against {board.population} yet (`arena-league rank AGENT --population "
+             f"{board.population}`).")
+    return meta, details, ranks
 
 
 def _page(board: Leaderboard, title: str, when: datetime, figures: dict[str, bytes]) -> str:
     e = html.escape
     rated = len(board.agents)
-    meta = [f"Game <b>{e(board.game_id)}</b>", f"method <b>{e(board.method)}</b>: {e(board.rating_label)}",
-            f"<b>{board.n_matches}</b> matches", f"<b>{rated}</b> rated of {len(board.rows)} agents"]
-    details = []
-    if board.method != "openskill" or board.win_rate is not None:
-        details.append(f"intervals: {board.level:.0%} percentile bootstrap, {board.rounds} rounds, "
-                       f"seed {board.seed}")
-    if board.intransitivity is not None:
-        details.append(f"intransitivity (cyclic share of logit win rates): {board.intransitivity:.2f}")
-    if board.alpharank_alpha is not None:
-        swept = " (automatic sweep)" if board.params.get("alpha_from_sweep") else ""
-        details.append(f"alpha-Rank alpha = {board.alpharank_alpha:.3g}{swept}")
-    ranks = ("Rank a-b: a is 1 + the number of agents better beyond doubt (interval entirely above), "
-             "b is n minus the number worse beyond doubt.")
+    if board.basis == "population":
+        meta, details, ranks = _population_header(board)
+    else:
+        meta = [f"Game <b>{e(board.game_id)}</b>", f"method <b>{e(board.method)}</b>: {e(board.rating_label)}",
+                f"<b>{board.n_matches}</b> matches", f"<b>{rated}</b> rated of {len(board.rows)} agents"]
+        if board.population is not None:
+            meta.append(f"members of <b>{e(board.population)}</b>")
+        details = []
+        if board.method != "openskill" or board.win_rate is not None:
+            details.append(f"intervals: {board.level:.0%} percentile bootstrap, {board.rounds} rounds, "
+                           f"seed {board.seed}")
+        if board.intransitivity is not None:
+            details.append(f"intransitivity (cyclic share of logit win rates): {board.intransitivity:.2f}")
+        if board.alpharank_alpha is not None:
+            swept = " (automatic sweep)" if board.params.get("alpha_from_sweep") else ""
+            details.append(f"alpha-Rank alpha = {board.alpharank_alpha:.3g}{swept}")
+        ranks = ("Rank a-b: a is 1 + the number of agents better beyond doubt (interval entirely above), "
+                 "b is n minus the number worse beyond doubt.")
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
@@ -281,6 +366,12 @@ def _page(board: Leaderboard, title: str, when: datetime, figures: dict[str, byt
              "others.</figcaption></figure>"),
             "</div></section>",
         ]
+    elif board.basis == "population":
+        parts.append(f'<section><h2>Win rates, Nash and alpha-Rank</h2><p class="note">Not shown: this board '
+                     f"keeps the frozen scale of {e(str(board.population))}, whose members' matches among "
+                     "themselves were played when it was built, not in this league. The board of every agent "
+                     "re-rated from this league's matches shows them: `arena-league leaderboard "
+                     f"{e(board.game_id)} --population league`.</p></section>")
     else:
         parts.append('<section><h2>Win rates, Nash and alpha-Rank</h2><p class="note">Not shown: teams in '
                      "these matches hold several different agents, so the matches do not reduce to one agent "

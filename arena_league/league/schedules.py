@@ -13,7 +13,8 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from arena_league import registry as reg
-from arena_league.league.service import evaluation_payload, job_handlers, register_game
+from arena_league.league.home import register_game
+from arena_league.league.jobs import evaluation_payload
 from arena_league.registry import League
 
 __all__ = ["WorkerSummary", "add_evaluation_schedule", "list_schedules", "remove_schedule", "run_scheduler",
@@ -87,6 +88,8 @@ def run_worker(league: League, *, worker_id: str | None = None, lease_seconds: f
                stop_event: threading.Event | None = None) -> WorkerSummary:
     """Claim and run queued jobs (evaluations, rankings) with the league's handlers until stopped,
     ``max_jobs`` ran or, with ``until_idle``, the queue is empty."""
+    from arena_league.league.service import job_handlers  # the match engine: loaded only to run jobs
+
     report = reg.run_worker(league, job_handlers(), worker_id=worker_id, lease_seconds=lease_seconds,
                             poll_seconds=poll_seconds, max_jobs=max_jobs, stop_event=stop_event,
                             until_idle=until_idle)

@@ -11,8 +11,6 @@ seeds (derived from the match id and the league seed) never repeat within a leag
 
 from __future__ import annotations
 
-import json
-import shutil
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -24,6 +22,17 @@ import numpy as np
 
 from arena_league import registry as reg
 from arena_league.envs import game_spec
+from arena_league.league.agents import latest_placements
+from arena_league.league.home import did_you_mean, register_game
+from arena_league.league.jobs import evaluation_payload
+from arena_league.league.leaderboards import (
+    EntrantPlacement,
+    FrozenRating,
+    Leaderboard,
+    compute_leaderboard,
+    population_leaderboard,
+)
+from arena_league.league.populations import game_population, require_population
 from arena_league.matchmaking import (
     AgentRef,
     MatchResult,
@@ -36,6 +45,10 @@ from arena_league.registry import League
 from arena_league.replay import ReplayRecording
 
 MATCH_IDS_PER_JOB = 2**20
+#: Matches per pair of the round robin that rates a league-wide base before a placement.
+BASE_ROUND_ROBIN_PER_PAIR = 4
+#: ``rank(population=LEAGUE_WIDE)`` ranks against every other active agent of the game.
+LEAGUE_WIDE = "league"
 SCRIPTED_AGENTS = ("random", "heuristic")
 _RECORD_EVERY = 256  # matches per registry write while a job plays
 
@@ -43,19 +56,6 @@ Progress = Callable[[int, int], None]
 
 
 # --- league and games ------------------------------------------------------------------------------
-
-def open_home(home: str | Path | None = None, url: str | None = None) -> League:
-    """Open (and create if needed) the league at ``home`` / ``url`` (``ARENA_LEAGUE_HOME``,
-    ``ARENA_LEAGUE_DB``, default ``~/.arena-league``)."""
-    return reg.open_league(url, home)
-
-
-def register_game(league: League, game_id: str) -> None:
-    """Make ``game_id`` known to the league (an unknown id raises, listing the valid ones)."""
-    spec = game_spec(game_id)
-    with league.transaction() as session:
-        reg.ensure_game(session, game_id, spec.n_teams, spec.players_per_team)
-
 
 def scripted_agent_name(game_id: str, scripted: str) -> str:
     return f"{scripted}@{game_id}"
@@ -106,7 +106,9 @@ def _active_agents(session, game_id: str, names: Sequence[str] | None) -> list[r
 
 @dataclass
 class SubmitResult:
-    """What became of a submission."""
+    """What became of a submission. ``agent`` is the agent the bytes belong to: the name asked
+    for when ``created``, else the agent that was already registered with the same bytes (which
+    may have another name than ``requested``)."""
 
     agent: str
     game_id: str
@@ -116,9 +118,20 @@ class SubmitResult:
     reason: str | None = None
     log: str = ""
     seconds: float = 0.0
+    requested: str = ""
 
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        return {**asdict(self), "note": self.note}
+
+    @property
+    def note(self) -> str:
+        """One line on what happened to the name asked for."""
+        if self.created:
+            return "registered"
+        if self.requested and self.requested != self.agent:
+            return (f"these bytes are already agent {self.agent}; nothing was registered as {self.requested} "
+                    f"(rank or rename {self.agent} instead)")
+        return "already registered (same bytes)"
 
 
 def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: str | None = None,
@@ -145,7 +158,8 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     with league.reading() as session:
         for existing in reg.find_agents_by_artifact(session, artifact.digest, game_id=game_id):
             return SubmitResult(existing.name, game_id, existing.status, False, artifact.digest,
-                                existing.reject_reason, existing.validation_log or "", time.perf_counter() - start)
+                                existing.reject_reason, existing.validation_log or "", time.perf_counter() - start,
+                                requested=name)
         reg.refuse_taken_name(session, name)  # before anything is stored
     try:
         load_agent(artifact, game_id)
@@ -167,7 +181,7 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
                                  status="pending", metadata=meta)
         reg.set_agent_status(session, agent, status, reason=verdict.reason, log=verdict.log)
     return SubmitResult(name, game_id, status, True, artifact.digest, verdict.reason, verdict.log,
-                        time.perf_counter() - start)
+                        time.perf_counter() - start, requested=name)
 
 
 # --- evaluation jobs -------------------------------------------------------------------------------
@@ -189,42 +203,91 @@ class EvaluationReport:
         return asdict(self)
 
 
+@dataclass(frozen=True)
+class EvaluationPlan:
+    """What an evaluation will play: each pair of ``agents`` topped up to ``matches_per_pair``
+    matches (``already`` were played before), ``to_play`` matches in all, at most ``max_matches``."""
+
+    game_id: str
+    agents: list[str]
+    matches_per_pair: int
+    already: int
+    to_play: int
+    max_matches: int | None = None
+
+    def describe(self) -> str:
+        """One line saying what will be played and why."""
+        n = len(self.agents)
+        pairs = n * (n - 1) // 2
+        why = (f"{pairs} pairs of {n} agents topped up to {self.matches_per_pair} matches per pair "
+               f"({self.already} played before)")
+        if self.to_play == 0:
+            return (f"nothing to play on {self.game_id}: {why}; raise --matches-per-pair to play more (only the "
+                    "matches played now are recorded)")
+        capped = f", capped at {self.max_matches} by --max-matches" if self.max_matches is not None else ""
+        return f"{self.to_play} matches to play on {self.game_id}: {why}{capped}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _seatings_to_play(names: list[str], matches_per_pair: int, rows: list[dict[str, Any]],
+                      max_matches: int | None) -> list[tuple[str, ...]]:
+    seatings = round_robin(names, matches_per_pair, _played_seatings(rows))
+    return seatings if max_matches is None else seatings[:max_matches]
+
+
+def _evaluation_agents(session: Any, game_id: str, agents: Sequence[str] | None) -> list[str]:
+    names = [a.name for a in _active_agents(session, game_id, agents)]
+    if len(names) < 2:
+        raise ValueError(f"{game_id} has {len(names)} active agent(s); an evaluation needs two. Submit agents "
+                         f"with `arena-league submit PATH --game {game_id} --name NAME`")
+    return names
+
+
+def evaluation_plan(league: League, game_id: str, agents: Sequence[str] | None = None, *,
+                    matches_per_pair: int = 10, max_matches: int | None = None) -> EvaluationPlan:
+    """What :func:`evaluate` with these options would play now."""
+    evaluation_payload(game_id, agents, matches_per_pair=matches_per_pair, max_matches=max_matches)
+    register_game(league, game_id)
+    with league.reading() as session:
+        names = _evaluation_agents(session, game_id, agents)
+        rows = reg.match_seat_rows(session, game_id, agents=names)
+    to_play = len(_seatings_to_play(names, matches_per_pair, rows, max_matches))
+    return EvaluationPlan(game_id, names, int(matches_per_pair), sum(_played_seatings(rows).values()), to_play,
+                          max_matches)
+
+
 def queue_evaluation(league: League, game_id: str, agents: Sequence[str] | None = None, *,
                      matches_per_pair: int = 10, seed: int = 0, backend: str = "inprocess",
-                     workers: int | None = None, record: bool = False, priority: int = 0) -> int:
+                     workers: int | None = None, record: bool = False, max_matches: int | None = None,
+                     priority: int = 0) -> int:
     """Queue a round robin among ``agents`` (default: every active agent of the game) that brings
-    each pair to ``matches_per_pair`` matches; returns the job id."""
-    evaluation_payload(game_id, agents, matches_per_pair=matches_per_pair)  # bad options fail before any write
+    each pair to ``matches_per_pair`` matches (at most ``max_matches`` of them); returns the job id."""
+    evaluation_payload(game_id, agents, matches_per_pair=matches_per_pair,
+                       max_matches=max_matches)  # bad options fail before any write
     register_game(league, game_id)
     with league.transaction() as session:
-        names = [a.name for a in _active_agents(session, game_id, agents)]
-        if len(names) < 2:
-            raise ValueError(f"{game_id} has {len(names)} active agent(s); an evaluation needs two. Submit agents "
-                             f"with `arena-league submit PATH --game {game_id} --name NAME`")
+        names = _evaluation_agents(session, game_id, agents)
         job = reg.enqueue(session, "evaluate", evaluation_payload(game_id, names, matches_per_pair=matches_per_pair,
                                                                   seed=seed, backend=backend, workers=workers,
-                                                                  record=record), priority=priority)
+                                                                  record=record, max_matches=max_matches),
+                          priority=priority)
         return job.id
-
-
-def evaluation_payload(game_id: str, agents: Sequence[str] | None, *, matches_per_pair: int = 10, seed: int = 0,
-                       backend: str = "inprocess", workers: int | None = None, record: bool = False
-                       ) -> dict[str, Any]:
-    """The payload of an ``evaluate`` job, queued now or by a schedule (``agents`` None: every agent
-    active when the job runs). :func:`handle_evaluate` reads it."""
-    if matches_per_pair < 1:
-        raise ValueError(f"matches_per_pair must be at least 1, not {matches_per_pair}")
-    return {"game_id": game_id, "agents": None if agents is None else list(agents),
-            "matches_per_pair": int(matches_per_pair), "seed": int(seed), "backend": backend, "workers": workers,
-            "record": bool(record)}
 
 
 def evaluate(league: League, game_id: str, agents: Sequence[str] | None = None, *, matches_per_pair: int = 10,
              seed: int = 0, backend: str = "inprocess", workers: int | None = None, record: bool = False,
-             progress: Progress | None = None) -> EvaluationReport:
-    """Queue an evaluation and run it here and now (see :func:`queue_evaluation`)."""
+             max_matches: int | None = None, progress: Progress | None = None,
+             log: Callable[[str], None] | None = None) -> EvaluationReport:
+    """Queue an evaluation and run it here and now (see :func:`queue_evaluation`); ``log`` first
+    gets what will be played and why (:class:`EvaluationPlan`)."""
+    if log is not None:
+        log(evaluation_plan(league, game_id, agents, matches_per_pair=matches_per_pair,
+                            max_matches=max_matches).describe())
     job_id = queue_evaluation(league, game_id, agents, matches_per_pair=matches_per_pair, seed=seed,
-                              backend=backend, workers=workers, record=record, priority=100)
+                              backend=backend, workers=workers, record=record, max_matches=max_matches,
+                              priority=100)
     result = reg.run_job_now(league, job_id, job_handlers(progress))
     return EvaluationReport(**result)
 
@@ -309,7 +372,7 @@ def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> di
         refs = {a.name: agent_ref(ctx.league, a) for a in agents}
         rows = reg.match_seat_rows(session, game_id, agents=names, exclude_job_id=ctx.job.id)
         done_keys = reg.match_keys_of_job(session, ctx.job.id)
-    seatings = round_robin(names, int(payload["matches_per_pair"]), _played_seatings(rows))
+    seatings = _seatings_to_play(names, int(payload["matches_per_pair"]), rows, payload.get("max_matches"))
     specs = specs_for_seatings(game_id, seatings, int(payload["seed"]), ctx.job.id * MATCH_IDS_PER_JOB)
     specs = [s for s in specs if match_key(ctx.job.id, s.match_id) not in done_keys]
     recorder = _Recorder(ctx, game_id, len(specs), progress)
@@ -354,28 +417,37 @@ class RankReport:
 
 def base_population(league: League, game_id: str, entrant: str, population: str | None = None
                     ) -> tuple[str, list[str], np.ndarray | None]:
-    """The base an entrant is ranked against: the named population (``name`` or ``name:version``;
-    its members' stored ratings when it is frozen with ratings), else every other active agent of the
-    game. Returns (label, names, ratings or None)."""
+    """The base an entrant is ranked against: the population ``name`` or ``name:version`` of the
+    game (its members' stored ratings when it is frozen with ratings), by default the game's own
+    (:func:`~arena_league.league.populations.game_population`). ``population="league"`` takes
+    every other active agent of the game instead. Returns (label, names, ratings or None)."""
+    if population is None:
+        population = game_population(league, game_id)
+        if population is None:
+            raise ValueError(f"{game_id} has no base population in this league and none is shipped; import or "
+                             f"build one (`arena-league population import FOLDER`, `arena-league population "
+                             f"build {game_id}`), or rank against every agent of the league with --league-wide")
+    if population == LEAGUE_WIDE:
+        with league.reading() as session:
+            names = [a.name for a in reg.list_agents(session, game_id=game_id, status="active") if a.name != entrant]
+        return "all active agents", names, None
     with league.reading() as session:
-        if population is not None:
-            found = _population_of(session, game_id, population)
-            if found is None:
-                known = ", ".join(f"{p.name}:{p.version}" for p in reg.list_populations(session, game_id=game_id))
-                raise ValueError(f"no population {population!r} for {game_id}; known: {known or 'none'}. Import "
-                                 f"one with `arena-league population import FOLDER` (shipped ones lie under "
-                                 f"checkpoints/{game_id}/)")
-            if found.game_id != game_id:
-                raise ValueError(f"population {population} is of {found.game_id}, not {game_id}")
-            members = [(m.agent.name, (m.meta or {}).get("rating")) for m in found.members]
-            names = [n for n, _ in members if n != entrant]
-            ratings = [r for n, r in members if n != entrant]
-            label = f"{found.name}:{found.version}"
-            if found.frozen and all(r is not None for r in ratings):
-                return label, names, np.asarray(ratings, dtype=float)
-            return label, names, None
-        names = [a.name for a in reg.list_agents(session, game_id=game_id, status="active") if a.name != entrant]
-    return "all active agents", names, None
+        found = require_population(session, game_id, population)
+        members = [(m.agent.name, (m.meta or {}).get("rating")) for m in found.members]
+        names = [n for n, _ in members if n != entrant]
+        ratings = [r for n, r in members if n != entrant]
+        label = f"{found.name}:{found.version}"
+        if found.frozen and all(r is not None for r in ratings):
+            return label, names, np.asarray(ratings, dtype=float)
+        return label, names, None
+
+
+def _unmet_pairs(league: League, game_id: str, names: list[str]) -> int:
+    """How many pairs of ``names`` have never met in a stored match."""
+    with league.reading() as session:
+        rows = reg.match_seat_rows(session, game_id, agents=names)
+    met = {frozenset(k) for k in _played_seatings(rows)}
+    return sum(frozenset((a, b)) not in met for i, a in enumerate(names) for b in names[i + 1:])
 
 
 def _base_ratings(league: League, game_id: str, names: list[str], seed: int, progress: Progress | None
@@ -384,36 +456,56 @@ def _base_ratings(league: League, game_id: str, names: list[str], seed: int, pro
     playing a short round robin first where pairs have never met."""
     from arena_league.rating import OutcomeTable, bradley_terry
 
+    if _unmet_pairs(league, game_id, names):
+        evaluate(league, game_id, names, matches_per_pair=BASE_ROUND_ROBIN_PER_PAIR, seed=seed, progress=progress)
     with league.reading() as session:
         rows = reg.match_seat_rows(session, game_id, agents=names)
-    played = _played_seatings(rows)
-    met = {frozenset(k) for k in played}
-    if any(frozenset((a, b)) not in met for i, a in enumerate(names) for b in names[i + 1:]):
-        evaluate(league, game_id, names, matches_per_pair=4, seed=seed, progress=progress)
-        with league.reading() as session:
-            rows = reg.match_seat_rows(session, game_id, agents=names)
     table = OutcomeTable.from_rows(rows, agents=names)
     counts = table.pair_counts()
     return np.asarray(bradley_terry(counts.wins, counts.draws), dtype=float)
 
 
 def rank(league: League, agent: str, *, budget: int = 200, population: str | None = None, seed: int = 0,
-         target_half_width: float = 3.0, backend: str = "inprocess", progress: Progress | None = None
-         ) -> RankReport:
+         target_half_width: float = 3.0, backend: str = "inprocess", progress: Progress | None = None,
+         log: Callable[[str], None] | None = None) -> RankReport:
     """Place ``agent`` against its game's base population with adaptive opponent choice, storing
-    every match; the rating has a 95% interval, the rank and percentile their intervals."""
+    every match; the rating has a 95% interval, the rank and percentile their intervals.
+
+    The base is the game's own population by default (the shipped ``base-v1``, imported on first
+    use, or the newest frozen one), or ``population`` (``name[:version]``), or, with
+    ``population="league"``, every other active agent of the game: those are first rated by a
+    round robin of :data:`BASE_ROUND_ROBIN_PER_PAIR` matches for each pair that never met, which
+    counts against ``budget`` and is announced through ``log`` before it starts."""
+    say = log or (lambda line: None)
     with league.reading() as session:
-        entrant = _active_agents(session, reg.require_agent(session, agent).game_id, [agent])[0]
+        found = reg.get_agent(session, agent)
+        if found is None:
+            every = [a.name for a in reg.list_agents(session)]
+            raise ValueError(f"there is no agent {agent!r}.{did_you_mean(agent, every)} See `arena-league agents`")
+        entrant = _active_agents(session, found.game_id, [agent])[0]
         game_id = entrant.game_id
     if game_spec(game_id).n_teams != 2:
         raise ValueError(f"{game_id} has more than two teams; placement is for two-team games. Use "
                          f"`arena-league evaluate {game_id}` and an openskill leaderboard")
     label, names, ratings = base_population(league, game_id, agent, population)
     if not names:
-        raise ValueError(f"{game_id} has no base agents to rank {agent} against; register scripted agents "
-                         "(`arena-league quickstart`) or import a base population")
+        raise ValueError(f"{game_id} has no base agents to rank {agent} against; import a base population "
+                         "(`arena-league population import FOLDER`) or submit more agents")
+    say(f"ranking {agent} against {label} ({len(names)} agents), at most {budget} matches")
     if ratings is None:
-        ratings = _base_ratings(league, game_id, names, seed, None)
+        unmet = _unmet_pairs(league, game_id, names)
+        round_robin = unmet * BASE_ROUND_ROBIN_PER_PAIR
+        if round_robin >= budget:
+            raise ValueError(f"ranking against {label} first needs a round robin of {round_robin} matches "
+                             f"({unmet} pairs of its {len(names)} agents never met, {BASE_ROUND_ROBIN_PER_PAIR} "
+                             f"matches each) before any placement match, over the budget of {budget}. Rank "
+                             f"against the game's base population (leave out --league-wide), or raise --budget "
+                             f"above {round_robin}")
+        if round_robin:
+            say(f"first a round robin of {round_robin} matches among {len(names)} agents ({unmet} pairs never "
+                f"met), then up to {budget - round_robin} placement matches")
+            budget -= round_robin
+        ratings = _base_ratings(league, game_id, names, seed, progress)
     with league.transaction() as session:
         job = reg.enqueue(session, "rank", {
             "game_id": game_id, "agent": agent, "base": names, "base_label": label,
@@ -475,164 +567,95 @@ def _nash_of(rows: list[dict[str, Any]], agents: list[str], nash_averaging) -> t
 # --- leaderboards ----------------------------------------------------------------------------------
 
 def leaderboard(league: League, game_id: str, method: str = "bt", *, population: str | None = None,
-                rounds: int = 100, seed: int = 0, save: bool = True):
-    """The leaderboard of ``game_id`` from its stored matches (all agents, or one population's
-    members), by ``method``: bt, elo, openskill, nash or alpharank. The ratings are kept as a
-    snapshot in the registry."""
-    from arena_league.league.leaderboards import compute_leaderboard
+                rounds: int = 100, seed: int = 0, save: bool = True) -> Leaderboard:
+    """The leaderboard of ``game_id`` by ``method`` (bt, elo, openskill, nash or alpharank); its
+    ratings are kept as a snapshot in the registry.
 
+    ``population`` says whose board it is:
+
+    - None: with ``method="bt"``, the game's base population
+      (:func:`~arena_league.league.populations.game_population`, which imports the shipped
+      ``base-v1`` on first use); with another method, or for a game without a base, every agent;
+    - ``"league"`` (:data:`LEAGUE_WIDE`): every agent of the game, re-rated from the stored matches;
+    - ``name`` or ``name:version``: that population of the game.
+
+    The board of a population frozen with its members' ratings, by ``"bt"``, is Arena's ranking
+    against it (:func:`~arena_league.league.leaderboards.population_leaderboard`): the members at
+    their frozen ratings and intervals, every other active or retired agent of the game at its
+    latest placement against that population (the result of its newest finished ``rank`` job
+    against it), or pending until it has one. Any other board re-rates its agents (the
+    population's members, or every agent) from the matches stored among them.
+    """
     game_spec(game_id)
     with league.reading() as session:
         if reg.get_game(session, game_id) is None:
             raise ValueError(f"no matches of {game_id} in this league yet; play some with "
                              f"`arena-league evaluate {game_id}`")
-        if population is not None:
-            _, names, _ = base_population(league, game_id, "", population)
-            agents = [reg.require_agent(session, n) for n in names]
+    if population is None and method == "bt":
+        population = game_population(league, game_id)
+    scope = None if population in (None, LEAGUE_WIDE) else population
+    with league.reading() as session:
+        found = require_population(session, game_id, scope) if scope is not None else None
+        frozen = _frozen_ratings(found) if found is not None and method == "bt" else None
+        if found is not None:
+            scope = f"{found.name}:{found.version}"
+        if found is not None and frozen is None:
+            agents = [m.agent for m in found.members]
         else:
             agents = [a for a in reg.list_agents(session, game_id=game_id) if a.status in ("active", "retired")]
+            if frozen is not None:
+                listed = {a.name for a in agents}
+                agents += [m.agent for m in found.members if m.agent.name not in listed]
         info = {a.name: {"kind": a.kind, "owner": a.owner, "status": a.status} for a in agents}
         ids = {a.name: a.id for a in agents}
         rows = reg.match_seat_rows(session, game_id, agents=list(info))
-    board = compute_leaderboard(rows, info, game_id, method, rounds=rounds, seed=seed)
+        placements = _placements(session, game_id, scope, set(info)) if frozen is not None else {}
+        population_id = found.id if found is not None else None
+    if frozen is not None:
+        board = population_leaderboard(rows, info, game_id, scope, frozen, placements)
+    else:
+        board = compute_leaderboard(rows, info, game_id, method, rounds=rounds, seed=seed, population=scope)
     if save:
         with league.transaction() as session:
+            snapshot_population = (session.get(reg.Population, population_id)
+                                   if board.basis == "population" else None)
             reg.write_rating_snapshot(session, game_id, method, [
-                reg.RatingRow(ids[r.agent], r.rating, r.lower, r.upper, r.rank, r.rank_worst, r.matches)
+                reg.RatingRow(ids[r.agent], r.rating, r.lower, r.upper, r.rank, r.rank_worst, r.matches,
+                              extra={"status": r.status, "position": r.position})
                 for r in board.rows if r.rating is not None and np.isfinite(r.rating)],
-                scope=population or "all", params={"rounds": rounds, "seed": seed})
+                population=snapshot_population, scope="placements" if snapshot_population else scope or "all",
+                params={"rounds": rounds, "seed": seed, "basis": board.basis})
     return board
 
 
+def _frozen_ratings(population: reg.Population) -> dict[str, FrozenRating] | None:
+    """The members' ratings (and intervals, where stored) of a frozen population whose every member
+    carries a rating in its membership metadata; None otherwise."""
+    if not population.frozen:
+        return None
+    ratings = {}
+    for member in population.members:
+        meta = member.meta or {}
+        if meta.get("rating") is None:
+            return None
+        lower, upper = meta.get("rating_lower"), meta.get("rating_upper")
+        ratings[member.agent.name] = FrozenRating(float(meta["rating"]), None if lower is None else float(lower),
+                                                  None if upper is None else float(upper))
+    return ratings
+
+
+def _placements(session: Any, game_id: str, population: str, agents: set[str]) -> dict[str, EntrantPlacement]:
+    """Agent -> the result of its newest finished ``rank`` job against ``population`` of ``game_id``."""
+    from arena_league.rating import Placement
+
+    fields = ("rating", "lower", "upper", "rank", "rank_best", "rank_worst", "percentile", "percentile_lower",
+              "percentile_upper", "matches", "level")
+    return {agent: EntrantPlacement(Placement(**{k: result[k] for k in fields}), job_id)
+            for agent, (result, job_id) in latest_placements(session, game_id, base=population).items()
+            if agent in agents and all(k in result for k in fields)}
+
+
 # --- matches -------------------------------------------------------------------------------------
-
-def recent_matches(league: League, game_id: str, *, agent: str | None = None, limit: int = 20) -> list[dict[str, Any]]:
-    """The last ``limit`` matches of a game (optionally those of one agent), newest first."""
-    with league.reading() as session:
-        agent_id = reg.require_agent(session, agent).id if agent else None
-        matches = reg.list_matches(session, game_id, agent_id=agent_id)[-limit:]
-        return [{"match_key": m.match_key, "seed": m.seed, "replay": m.replay_path,
-                 "created_at": m.created_at.isoformat(timespec="seconds"),
-                 "seats": [{"seat": s.seat, "agent": s.agent.name, "team": s.team, "score": s.score,
-                            "outcome": s.outcome, "position": s.position} for s in m.seats]}
-                for m in reversed(matches)]
-
-
-# --- populations -----------------------------------------------------------------------------------
-
-POPULATION_MANIFEST = "population.json"
-
-
-def list_populations(league: League, game_id: str | None = None) -> list[dict[str, Any]]:
-    """Every population of the league (or of ``game_id``): name, version, game, frozen, member count."""
-    with league.reading() as session:
-        return [{"name": p.name, "version": p.version, "game_id": p.game_id, "frozen": p.frozen,
-                 "members": len(p.members)} for p in reg.list_populations(session, game_id=game_id)]
-
-
-def export_population(league: League, population: str, destination: str | Path) -> Path:
-    """Write a population to a folder: ``population.json`` (name, version, game, provenance, members
-    with their metadata) and each member's artifact under ``agents/``."""
-    name, _, version = population.partition(":")
-    dest = Path(destination)
-    with league.reading() as session:
-        found = reg.get_population(session, name, int(version) if version else None)
-        if found is None:
-            raise ValueError(f"no population {population!r}; see `arena-league population list`")
-        if dest.exists() and any(dest.iterdir()):
-            raise ValueError(f"{dest} exists and is not empty; export into a new folder")
-        (dest / "agents").mkdir(parents=True, exist_ok=True)
-        members = []
-        for member in found.members:
-            agent = member.agent
-            entry = {"name": agent.name, "kind": agent.kind, "metadata": member.meta or {},
-                     "agent_metadata": agent.meta or {}}
-            if agent.artifact is not None:
-                source = reg.artifact_path(league.home, agent.artifact)
-                target = dest / "agents" / (agent.name + (".onnx" if agent.artifact.format == "onnx" else ""))
-                if source.is_dir():
-                    shutil.copytree(source, target)
-                else:
-                    shutil.copy2(source, target)
-                entry["artifact"] = str(target.relative_to(dest))
-                entry["format"] = agent.artifact.format
-            members.append(entry)
-        manifest = {"name": found.name, "version": found.version, "game_id": found.game_id, "frozen": found.frozen,
-                    "provenance": found.provenance or {}, "members": members}
-    (dest / POPULATION_MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
-    return dest
-
-
-#: Where the base populations shipped with the package lie: ``checkpoints/<game>/<name>/``.
-SHIPPED_POPULATIONS = Path(__file__).resolve().parents[2] / "checkpoints"
-
-
-def shipped_population(game_id: str, name: str = "base-v1") -> Path | None:
-    """The folder of the population ``name`` shipped for ``game_id``, or None."""
-    folder = SHIPPED_POPULATIONS / game_id / name
-    return folder if (folder / POPULATION_MANIFEST).is_file() else None
-
-
-def _population_of(session: Any, game_id: str, population: str) -> reg.Population | None:
-    """``name:version`` (whatever its game), or, for a bare ``name``, this game's latest version of it:
-    every game's import of ``base-v1`` takes the same name with a new version."""
-    name, _, version = population.partition(":")
-    if version:
-        if not version.isdigit():
-            raise ValueError(f"population {population!r}: the version after ':' must be a number, e.g. {name}:1")
-        return reg.get_population(session, name, int(version))
-    return next((p for p in reversed(reg.list_populations(session, game_id=game_id)) if p.name == name), None)
-
-
-def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
-    """``population`` (``name`` or ``name:version``) of ``game_id`` in ``league``; a shipped one
-    (:func:`shipped_population`) is imported when the league lacks it. Returns (``name:version``,
-    whether it was imported now); a population neither registered nor shipped raises, naming the fix."""
-    name, _, version = population.partition(":")
-    with league.reading() as session:
-        found = _population_of(session, game_id, population)
-        known = ", ".join(f"{p.name}:{p.version}" for p in reg.list_populations(session, game_id=game_id))
-    if found is not None:
-        if found.game_id != game_id:
-            raise ValueError(f"population {population} is of {found.game_id}, not {game_id}")
-        return f"{found.name}:{found.version}", False
-    folder = shipped_population(game_id, name) if not version else None
-    if folder is None:
-        raise ValueError(f"no population {population!r} for {game_id}; known: {known or 'none'}. Import one with "
-                         f"`arena-league population import FOLDER` or build it with `arena-league population build "
-                         f"{game_id}`")
-    return import_population(league, folder), True
-
-
-def import_population(league: League, source: str | Path, *, name: str | None = None) -> str:
-    """Register a population folder written by :func:`export_population` (or shipped under
-    ``checkpoints/<game>/<name>/``): its members become agents of kind ``base`` and the population is
-    frozen. Members already registered with the same bytes are reused. Returns ``name:version``."""
-    src = Path(source)
-    manifest_path = src / POPULATION_MANIFEST
-    if not manifest_path.is_file():
-        raise ValueError(f"{src} has no {POPULATION_MANIFEST}; point at a folder made by `population export`")
-    manifest = json.loads(manifest_path.read_text())
-    game_id = manifest["game_id"]
-    register_game(league, game_id)
-    label = name or manifest["name"]
-    with league.transaction() as session:
-        population = reg.create_population(session, label, game_id, provenance=manifest.get("provenance") or {})
-        for member in manifest["members"]:
-            agent = reg.get_agent(session, member["name"])
-            if agent is None:
-                sha = None
-                if member.get("artifact"):
-                    stored = reg.store_artifact(session, league.home, src / member["artifact"], member["format"])
-                    sha = stored.sha256
-                kind = "scripted" if member["kind"] == "scripted" else "base"
-                agent = reg.create_agent(session, member["name"], game_id, kind, owner=manifest.get("name"),
-                                         artifact_sha256=sha, status="active",
-                                         metadata=member.get("agent_metadata") or {})
-            reg.add_population_member(session, population, agent, member.get("metadata") or {})
-        reg.freeze_population(session, population)
-        return f"{population.name}:{population.version}"
-
 
 # --- worker ----------------------------------------------------------------------------------------
 

@@ -20,7 +20,7 @@ as the base population new agents are ranked against. :func:`build_population` m
    (``verify_matches`` extra matches), the random agent's rank, the schemes present, the
    effective diversity, each checked against the issue's criteria (:data:`CRITERIA`);
 7. **freeze**: ``out_dir`` (default ``checkpoints/<game>/<name>/``) gets ``population.json``
-   (readable by :func:`arena_league.league.service.import_population`), one arena-policy
+   (readable by :func:`arena_league.league.populations.import_population`), one arena-policy
    folder per member under ``agents/``, one stacked safetensors bundle per architecture (every
    member's weights as ``[P, ...]`` tensors, :func:`load_bundles`) and a ``README.md``;
 8. **register** (when a league is given): the population is imported, frozen, with its members'
@@ -824,7 +824,7 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
 def _register(league: Any, out: Path, name: str, member_names: list[str]) -> str:
     """Import the frozen population unless the league already holds it with these members."""
     from arena_league import registry as reg
-    from arena_league.league.service import import_population
+    from arena_league.league.populations import import_population
 
     with league.reading() as session:
         for population in reg.list_populations(session):
@@ -951,7 +951,7 @@ Built by `arena_league.league.population.build.build_population` (code {build['c
     arena-league population import checkpoints/{game}/{name}
     arena-league rank my-agent --population {name}
 
-or, in Python, `arena_league.league.service.import_population(league, "checkpoints/{game}/{name}")`
+or, in Python, `arena_league.league.import_population(league, "checkpoints/{game}/{name}")`
 and `arena_league.league.population.build.load_bundles("checkpoints/{game}/{name}")` for the stacked weights.
 """
 

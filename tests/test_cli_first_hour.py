@@ -1,0 +1,207 @@
+"""A new user's first hour through the command: ranking against the shipped base population by
+default, populations per game, jobs that can be listed and cancelled, agents that can be found,
+a command that forgives typos and says what it will do, and errors that are one line on stderr."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from arena_league.cli import main
+from arena_league.policies import Architecture, init_parameters
+from arena_league.policies.artifacts import save_arena_policy
+
+GAME = "GoBang-2T1P-v1"
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture
+def home(tmp_path, monkeypatch):
+    monkeypatch.delenv("ARENA_LEAGUE_DB", raising=False)
+    monkeypatch.setenv("ARENA_LEAGUE_HOME", str(tmp_path / "home"))
+    return tmp_path / "home"
+
+
+def run(capsys, *argv) -> tuple[int, dict, str]:
+    code = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    return code, json.loads(captured.out) if captured.out.startswith("{") else {}, captured.err
+
+
+def gobang_agent(folder: Path, seed: int = 7) -> Path:
+    arch = Architecture("mlp", obs_dim=455, action_type="discrete", n_actions=225, hidden=(16,))
+    return save_arena_policy(folder, arch, init_parameters(arch, seed), GAME, name=f"mlp-{seed}")
+
+
+def test_rank_with_no_options_places_against_the_shipped_base_population(capsys, home, tmp_path):
+    code, submitted, _ = run(capsys, "submit", gobang_agent(tmp_path / "a"), "--game", GAME, "--name", "alice",
+                             "--json")
+    assert code == 0 and submitted["status"] == "active"
+    code, placed, err = run(capsys, "rank", "alice", "--budget", "40", "--json")
+    assert code == 0 and placed["base"] == "base-v1:1" and placed["base_size"] == 100
+    assert placed["matches"] <= 40 and placed["lower"] <= placed["rating"] <= placed["upper"]
+    assert "against base-v1:1 (100 agents), at most 40 matches" in err
+    # the import happened once: a second ranking uses the same population, no new version
+    code, again, _ = run(capsys, "rank", "alice", "--budget", "20", "--json")
+    code, listed, _ = run(capsys, "population", "list", "--json")
+    assert again["base"] == "base-v1:1" and [p["version"] for p in listed["populations"]] == [1]
+
+
+def test_population_versions_count_per_game_and_imports_are_idempotent(capsys, home, tmp_path):
+    labels = []
+    for game in ("Snake-2T2P-v1", "GoBang-2T1P-v1"):
+        code, doc, _ = run(capsys, "population", "import", ROOT / "checkpoints" / game / "base-v1", "--json")
+        labels.append(doc["imported"])
+    assert labels == ["base-v1:1", "base-v1:1"]
+    code, doc, _ = run(capsys, "population", "import", ROOT / "checkpoints" / GAME / "base-v1", "--json")
+    assert doc["imported"] == "base-v1:1"  # same files: the same population, not a new version
+    code, doc, err = run(capsys, "population", "export", "--population", "base-v1", "--destination",
+                         tmp_path / "out", "--json")
+    assert code == 2 and "several games" in err and "--game" in err and not (tmp_path / "out").exists()
+    code, doc, _ = run(capsys, "population", "export", "--population", "base-v1", "--game", GAME,
+                       "--destination", tmp_path / "out", "--json")
+    assert code == 0 and json.loads((tmp_path / "out" / "population.json").read_text())["game_id"] == GAME
+    code, doc, err = run(capsys, "rank", "nobody", "--population", "base-v2")
+    assert code == 2 and "no agent 'nobody'" in err
+
+
+def test_league_wide_ranking_is_explicit_announced_and_within_budget(capsys, home, tmp_path):
+    for seed, name in ((1, "a"), (2, "b"), (3, "c")):
+        run(capsys, "submit", gobang_agent(tmp_path / name, seed), "--game", GAME, "--name", name)
+    code, doc, err = run(capsys, "rank", "a", "--league-wide", "--budget", "4")
+    assert code == 2 and "round robin of 4 matches" in err and "--budget" in err
+    code, doc, err = run(capsys, "rank", "a", "--league-wide", "--budget", "12", "--json")
+    assert code == 0 and doc["base"] == "all active agents"
+    assert "first a round robin of 4 matches among 2 agents" in err
+    assert doc["matches"] <= 12 - 4
+
+
+def test_evaluate_says_what_it_will_play_and_caps_it(capsys, home, tmp_path):
+    for seed, name in ((1, "a"), (2, "b"), (3, "c")):
+        run(capsys, "submit", gobang_agent(tmp_path / name, seed), "--game", GAME, "--name", name)
+    code, doc, err = run(capsys, "evaluate", GAME, "--matches-per-pair", "4", "--max-matches", "5", "--json")
+    assert code == 0 and doc["played"] == 5
+    assert "5 matches to play" in err and "topped up to 4 matches per pair" in err and "--max-matches" in err
+    code, doc, err = run(capsys, "evaluate", GAME, "--matches-per-pair", "2", "--record", "--json")
+    assert code == 0 and doc["played"] == 1 and "1 matches to play" in err
+    code, doc, err = run(capsys, "evaluate", GAME, "--matches-per-pair", "2", "--record", "--json")
+    assert doc["played"] == 0 and "nothing to play" in err and "raise --matches-per-pair" in err
+
+
+def test_jobs_can_be_listed_shown_and_cancelled(capsys, home, tmp_path):
+    for seed, name in ((1, "a"), (2, "b")):
+        run(capsys, "submit", gobang_agent(tmp_path / name, seed), "--game", GAME, "--name", name)
+    code, doc, _ = run(capsys, "evaluate", GAME, "--queue", "--json")
+    job = doc["queued"]
+    code, doc, _ = run(capsys, "jobs", "--json")
+    assert [(j["id"], j["status"]) for j in doc["jobs"]] == [(job, "queued")]
+    code, doc, _ = run(capsys, "jobs", "show", job, "--json")
+    assert doc["payload"]["game_id"] == GAME and doc["matches_stored"] == 0
+    code, doc, _ = run(capsys, "jobs", "cancel", job, "--json")
+    assert doc["status"] == "cancelled"
+    code, doc, _ = run(capsys, "worker", "--until-idle", "--poll", "0.1", "--json")
+    assert doc["completed"] == 0 and doc["jobs"] == []  # a cancelled job is not run
+    code, doc, err = run(capsys, "jobs", "cancel", job)
+    assert code == 0
+    code, doc, err = run(capsys, "jobs", "cancel", 999)
+    assert code == 2 and "no job 999" in err
+
+
+def test_ctrl_c_cancels_the_running_job_without_a_traceback(home, tmp_path):
+    env = {**os.environ, "ARENA_LEAGUE_HOME": str(home)}
+    env.pop("ARENA_LEAGUE_DB", None)
+    for seed, name in ((1, "a"), (2, "b")):
+        main(["submit", str(gobang_agent(tmp_path / name, seed)), "--game", GAME, "--name", name])
+    command = [sys.executable, "-m", "arena_league.cli", "evaluate", GAME, "--matches-per-pair", "20000"]
+    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:  # wait until the job runs
+        listed = subprocess.run([sys.executable, "-m", "arena_league.cli", "jobs", "--json"], env=env,
+                                capture_output=True, text=True, check=True)
+        if any(j["status"] == "running" for j in json.loads(listed.stdout)["jobs"]):
+            break
+        time.sleep(0.3)
+    process.send_signal(signal.SIGINT)
+    _out, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "Traceback" not in err and "interrupted" in err
+    listed = subprocess.run([sys.executable, "-m", "arena_league.cli", "jobs", "--json"], env=env,
+                            capture_output=True, text=True, check=True)
+    assert [j["status"] for j in json.loads(listed.stdout)["jobs"]] == ["cancelled"]
+
+
+def test_agents_and_one_agent_show_status_reason_and_log(capsys, home, tmp_path):
+    run(capsys, "submit", gobang_agent(tmp_path / "a"), "--game", GAME, "--name", "alice")
+    wrong = tmp_path / "wrong"
+    arch = Architecture("mlp", obs_dim=455, action_type="discrete", n_actions=224, hidden=(4,))
+    save_arena_policy(wrong, arch, init_parameters(arch, 0), GAME, name="wrong")
+    code, doc, err = run(capsys, "submit", wrong, "--game", GAME, "--name", "bob")
+    assert code == 1 and "rejected:" in err and "224" in err  # the reason goes to stderr
+    code, doc, _ = run(capsys, "agents", GAME, "--json")
+    by_name = {a["name"]: a for a in doc["agents"]}
+    assert by_name["bob"]["status"] == "rejected" and "224" in by_name["bob"]["reason"]
+    code, detail, _ = run(capsys, "agent", "bob", "--json")
+    assert "rejected" in detail["validation_log"] and detail["reason"] == by_name["bob"]["reason"]
+    assert by_name["alice"]["status"] == "active"
+    code, detail, _ = run(capsys, "agent", "alice", "--json")
+    assert "accepted" in detail["validation_log"] and detail["matches_played"] == 0
+    code, doc, err = run(capsys, "agent", "alcie")
+    assert code == 2 and "Did you mean 'alice'" in err
+
+
+def test_same_bytes_under_another_name_names_the_existing_agent(capsys, home, tmp_path):
+    folder = gobang_agent(tmp_path / "a")
+    run(capsys, "submit", folder, "--game", GAME, "--name", "alice")
+    code, doc, _ = run(capsys, "submit", folder, "--game", GAME, "--name", "alice2", "--json")
+    assert code == 0 and doc["agent"] == "alice" and not doc["created"]
+    assert "already agent alice" in doc["note"] and "alice2" in doc["note"]
+
+
+def test_a_mistyped_option_is_refused_by_its_subcommand_with_suggestions(capsys, home):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["evaluate", GAME, "--matches", "3"])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2 and "usage: arena-league evaluate" in err
+    assert "--matches-per-pair" in err.split("error:")[1] and "--max-matches" in err.split("error:")[1]
+    with pytest.raises(SystemExit):
+        main(["evaluate", GAME, "--matches-per", "3"])  # no abbreviations
+    assert "unrecognized arguments" in capsys.readouterr().err
+
+
+def test_every_option_has_help_and_every_league_command_takes_home_and_db():
+    from arena_league.cli import build_parser
+
+    parser = build_parser()
+    commands = parser.get_default("commands")
+    reads_no_league = {"games", "verify", "replay", "train"}
+    for name, command in commands.items():
+        options = {o for action in command._actions for o in action.option_strings}
+        for action in command._actions:
+            assert action.help, f"{name} {action.option_strings or action.dest} has no help"
+        if name not in reads_no_league:
+            assert {"--home", "--db", "--json"} <= options, name
+
+
+def test_errors_are_one_line_on_stderr_and_debug_shows_the_traceback(capsys, home):
+    code, doc, err = run(capsys, "rank", "nobody", "--json")
+    assert code == 2 and doc["kind"] == "ValueError" and "Traceback" not in err
+    with pytest.raises(ValueError, match="no agent"):
+        main(["rank", "nobody", "--debug"])
+
+
+def test_commands_that_only_read_the_league_load_no_engine(home):
+    probe = ("import sys; from arena_league.cli import main; main(['agents', '--json']); main(['jobs', '--json']); "
+             "heavy = [m for m in ('torch', 'onnxruntime', 'pymunk', 'mujoco') if m in sys.modules]; "
+             "print(json.dumps(heavy))")
+    env = {**os.environ, "ARENA_LEAGUE_HOME": str(home)}
+    env.pop("ARENA_LEAGUE_DB", None)
+    out = subprocess.run([sys.executable, "-c", "import json; " + probe], env=env, capture_output=True,
+                         text=True, check=True).stdout
+    assert json.loads(out.strip().splitlines()[-1]) == []
