@@ -64,14 +64,10 @@ def cmd_games(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"games": rows})
         return 0
-    table = Table(title="arena-league games")
-    for column in ("game id", "teams x players", "actions", "obs", "default social tree"):
-        table.add_column(column)
-    for row in rows:
-        table.add_row(row["game_id"], f"{row['teams']} x {row['players_per_team']}",
-                      "/".join(row["action_types"]) + (" (turns)" if row["turn_based"] else ""),
-                      str(row["obs_dim"]), escape(tree_outline(row["default_tree"])))
-    stdout.print(table)
+    _print_table("arena-league games", ("game id", "teams x players", "actions", "obs", "default social tree"),
+                 [(row["game_id"], f"{row['teams']} x {row['players_per_team']}",
+                   "/".join(row["action_types"]) + (" (turns)" if row["turn_based"] else ""),
+                   str(row["obs_dim"]), escape(tree_outline(row["default_tree"]))) for row in rows])
     return 0
 
 
@@ -126,6 +122,16 @@ def _league(args: argparse.Namespace):
     from arena_league.league import open_home
 
     return open_home(args.home, args.db)
+
+
+def _print_table(title: str, columns: tuple[str, ...], rows: list[tuple[str, ...]]) -> None:
+    """A table of text cells on stdout; long cells fold rather than being cut."""
+    table = Table(title=title)
+    for column in columns:
+        table.add_column(column, overflow="fold")
+    for row in rows:
+        table.add_row(*row)
+    stdout.print(table)
 
 
 def _print_record(title: str, record: dict[str, Any], keys: list[str] | None = None) -> None:
@@ -285,14 +291,10 @@ def cmd_schedule(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"schedules": rows})
     else:
-        table = Table(title="schedules")
-        for column in ("name", "kind", "game", "every / cron", "next run", "enabled"):
-            table.add_column(column)
-        for r in rows:
-            table.add_row(r["name"], r["kind"], str(r["payload"].get("game_id")),
-                          f"{r['interval_seconds']} s" if r["interval_seconds"] else str(r["cron"]),
-                          r["next_run_at"], str(r["enabled"]))
-        stdout.print(table)
+        _print_table("schedules", ("name", "kind", "game", "every / cron", "next run", "enabled"),
+                     [(r["name"], r["kind"], str(r["payload"].get("game_id")),
+                       f"{r['interval_seconds']} s" if r["interval_seconds"] else str(r["cron"]), r["next_run_at"],
+                       str(r["enabled"])) for r in rows])
     return 0
 
 
@@ -351,17 +353,13 @@ def cmd_population(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"populations": rows})
     else:
-        table = Table(title="populations")
-        for column in ("population", "game", "members", "frozen"):
-            table.add_column(column)
-        for r in rows:
-            table.add_row(f"{r['name']}:{r['version']}", r["game_id"], str(r["members"]), str(r["frozen"]))
-        stdout.print(table)
+        _print_table("populations", ("population", "game", "members", "frozen"),
+                     [(f"{r['name']}:{r['version']}", r["game_id"], str(r["members"]), str(r["frozen"])) for r in rows])
     return 0
 
 
 def cmd_agents(args: argparse.Namespace) -> int:
-    from arena_league.league import agent_rows
+    from arena_league.league import agent_rows, short_name
 
     with _league(args) as league:
         rows = agent_rows(league, args.game)
@@ -372,21 +370,15 @@ def cmd_agents(args: argparse.Namespace) -> int:
         stderr.print(f"no agents{' of ' + args.game if args.game else ''} in this league yet; submit one with "
                      "`arena-league submit PATH --game GAME --name NAME`, or run `arena-league quickstart`")
         return 0
-    table = Table(title=f"agents of {args.game}" if args.game else "agents")
-    for column in ("agent", "game", "kind", "status", "owner", "rating", "note"):
-        table.add_column(column, overflow="fold")
+    cells = []
     for r in rows:
         rating = "" if r["rating"] is None else f"{r['rating']:.0f}"
         note = r["reason"] if r["status"] == "rejected" else (r["rated_by"] or "")
-        table.add_row(_short(r["name"], args.game), r["game_id"], r["kind"], r["status"], r["owner"] or "", rating,
-                      escape(note or ""))
-    stdout.print(table)
+        name = short_name(r["name"], args.game) if args.game else r["name"]
+        cells.append((name, r["game_id"], r["kind"], r["status"], r["owner"] or "", rating, escape(note or "")))
+    _print_table(f"agents of {args.game}" if args.game else "agents",
+                 ("agent", "game", "kind", "status", "owner", "rating", "note"), cells)
     return 0
-
-
-def _short(name: str, game_id: str | None) -> str:
-    """A name without the ``@<game>`` suffix a listing of that game makes redundant."""
-    return name.removesuffix(f"@{game_id}") if game_id else name
 
 
 def cmd_agent(args: argparse.Namespace) -> int:
@@ -418,13 +410,9 @@ def cmd_jobs(args: argparse.Namespace) -> int:
             if args.json:
                 emit_json({"jobs": rows})
                 return 0
-            table = Table(title="jobs, newest first")
-            for column in ("id", "kind", "status", "game", "what", "created"):
-                table.add_column(column, overflow="fold")
-            for r in rows:
-                table.add_row(str(r["id"]), r["kind"], r["status"], r["game_id"] or "", escape(r["what"]),
-                              r["created_at"] or "")
-            stdout.print(table)
+            _print_table("jobs, newest first", ("id", "kind", "status", "game", "what", "created"),
+                         [(str(r["id"]), r["kind"], r["status"], r["game_id"] or "", escape(r["what"]),
+                           r["created_at"] or "") for r in rows])
             return 0
         job_id = _required(args.job, "a job id, e.g. `arena-league jobs " + args.action + " 12`")
         document = job_detail(league, job_id) if args.action == "show" else cancel_job(league, job_id)

@@ -19,8 +19,7 @@ does not load torch, onnxruntime or the physics engines.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from arena_league import lazy_exports
 
 #: Submodule -> the names this package offers from it.
 _EXPORTS: dict[str, tuple[str, ...]] = {
@@ -30,7 +29,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "home": ("did_you_mean", "open_home", "register_game"),
     "human": ("play_human",),
     "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),
-    "leaderboards": ("Leaderboard", "render_terminal"),
+    "leaderboards": ("Leaderboard", "render_terminal", "short_name"),
     "populations": (
         "ensure_population", "export_population", "game_population", "import_population", "list_populations",
         "shipped_population",
@@ -49,19 +48,4 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     ),
     "train": ("train_entrant",),
 }
-_MODULE_OF = {name: module for module, names in _EXPORTS.items() for name in names}
-
-__all__ = sorted(_MODULE_OF)  # noqa: PLE0605 - built from _EXPORTS
-
-
-def __getattr__(name: str) -> Any:
-    module = _MODULE_OF.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)
