@@ -229,8 +229,9 @@ def test_native_aec_env_plays_a_whole_game():
         if terminated or truncated:
             env.step(None)
             continue
-        obs = env.observe(agent)
-        env.step(int(GoBangRules.heuristic(obs[None], "discrete")[0]))
+        obs = env.observe(agent)  # PettingZoo's dict: the vector and the legal moves
+        assert obs["action_mask"].dtype == np.int8 and obs["action_mask"].sum() == 225 - moves
+        env.step(int(GoBangRules.heuristic(obs["observation"][None], "discrete")[0]))
         moves += 1
     assert env.team_result().tolist() == [1.0, 0.0]  # the heuristic mirror match: black wins
     assert moves == int(env._par.rules.engine.n_stones[0])

@@ -1,5 +1,8 @@
 """The game suite: ``make(game_id, ...)`` gives a PettingZoo ParallelEnv whose rewards come from a
-configurable social tree; ``make_aec`` gives turn-based games their native AEC env.
+configurable social tree; ``make_aec`` gives turn-based games their native AEC env. Both work with
+the PettingZoo ecosystem's tools: they pickle and copy (SuperSuit's vector envs), observations lie
+in finite spaces, games with illegal actions observe PettingZoo's ``{"observation", "action_mask"}``
+dicts, and ``render_mode="human"`` opens a window (see :mod:`arena_league.envs.env`).
 
 Ids follow Arena's ``<Game>-<x>T<y>P-v<N>`` (x teams of y players): see :func:`list_games`.
 """
@@ -66,7 +69,9 @@ def make(game_id: str, tree: Any = None, action_type: str | None = None, render_
         game_id: an id from :func:`list_games`, e.g. ``"Crossroads-2T2P-v1"``.
         tree: a social tree spec (dict, YAML/JSON file path, or JSON string); ``None`` for the default.
         action_type: ``"discrete"`` or ``"continuous"`` where the game offers it (default: its first).
-        render_mode: ``None`` or ``"rgb_array"`` (a top-down picture from ``render()``, headless).
+        render_mode: ``None``, ``"rgb_array"`` (a top-down picture from ``render()``, headless) or
+            ``"human"`` (that picture in a pygame window, drawn on every reset and step; it needs a
+            display, or ``SDL_VIDEODRIVER`` set, and fails here with the alternatives otherwise).
         max_cycles: episode length cap (default: the game's own).
         state_in_obs: append the global state ``env.state()`` to every observation.
         **game_kwargs: options of the game's rules (see its module docstring).

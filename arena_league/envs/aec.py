@@ -1,7 +1,8 @@
 """The native PettingZoo ``AECEnv`` of turn-based games: one seat acts per step.
 
 The seat to move is ``rules.current_player()``; the others' actions are never asked for. Rewards,
-boards and termination follow the same rules and social tree as the parallel env.
+boards, termination, observations (PettingZoo's ``{"observation", "action_mask"}`` dicts in games
+with illegal actions), rendering and copies follow the parallel env it wraps.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from arena_league.envs.env import ArenaParallelEnv
 class ArenaAECEnv(AECEnv):
     """Turn-based play over an :class:`ArenaParallelEnv` (which holds the rules and the tree)."""
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "is_parallelizable": True, "render_fps": 4}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "is_parallelizable": True,
+                                          "render_fps": 4}
 
     def __init__(self, parallel: ArenaParallelEnv) -> None:
         super().__init__()
@@ -44,11 +46,13 @@ class ArenaAECEnv(AECEnv):
         self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
         self.terminations = dict.fromkeys(self.agents, False)
         self.truncations = dict.fromkeys(self.agents, False)
-        self.infos = {a: self._par._info(i) for i, a in enumerate(self.agents)}
+        self.infos = {a: {} for a in self.agents}
         self.agent_selection = self.possible_agents[self._par.rules.current_player()]
+        if self.render_mode == "human":
+            self.render()
 
-    def observe(self, agent: str) -> np.ndarray:
-        return self._obs[self.possible_agents.index(agent)].copy()
+    def observe(self, agent: str) -> Any:
+        return self._par._seat_observation(self.possible_agents.index(agent), self._obs)
 
     def state(self) -> np.ndarray:
         return self._par.state()
@@ -76,13 +80,17 @@ class ArenaAECEnv(AECEnv):
             self.rewards[a] = float(rewards[i])
             self.terminations[a] = terminated
             self.truncations[a] = truncated
-            self.infos[a] = self._par._info(i)
+            self.infos[a] = {}
         if not (terminated or truncated):
             self.agent_selection = self.possible_agents[rules.current_player()]
         self._accumulate_rewards()
+        if self.render_mode == "human":
+            self.render()
 
     def render(self) -> np.ndarray | None:
-        return self._par.render()
+        """The top-down picture (``rgb_array``); with ``human``, shows it in the window (paced at this
+        env's ``metadata["render_fps"]``) and returns None."""
+        return self._par._render(self.metadata["render_fps"])
 
     def close(self) -> None:
         self._par.close()

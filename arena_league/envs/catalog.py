@@ -8,6 +8,7 @@ so adding a game means adding its module here and touches no other package.
 
 from __future__ import annotations
 
+import difflib
 import importlib
 import re
 from dataclasses import dataclass
@@ -70,6 +71,12 @@ def game_spec(game_id: str) -> GameSpec:
         raise TypeError(f"a game id is a string such as 'Crossroads-2T2P-v1', not {type(game_id).__name__}")
     if game_id in specs:
         return specs[game_id]
+    by_lower = {g.lower(): g for g in specs}
+    if game_id.lower() in by_lower:
+        raise ValueError(f"unknown game id {game_id!r}: did you mean {by_lower[game_id.lower()]!r}? (ids are "
+                         "case-sensitive)")
+    close = difflib.get_close_matches(game_id.lower(), list(by_lower), n=3, cutoff=0.6)
+    suggestion = f" Did you mean {' or '.join(repr(by_lower[c]) for c in close)}?" if close else ""
     match = _ID_RE.match(game_id)
     same_game = [g for g in specs if match and g.split("-")[0].lower() == match["name"].lower()]
     if not match:
@@ -78,4 +85,4 @@ def game_spec(game_id: str) -> GameSpec:
         hint = f"{match['name']} is offered as: {', '.join(same_game)}"
     else:
         hint = f"there is no game named {match['name']!r}"
-    raise ValueError(f"unknown game id {game_id!r}: {hint}. Valid ids: {', '.join(sorted(specs))}")
+    raise ValueError(f"unknown game id {game_id!r}: {hint}.{suggestion} Valid ids: {', '.join(sorted(specs))}")

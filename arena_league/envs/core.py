@@ -16,7 +16,13 @@ Conventions every game follows:
   actions are ignored and its observation says so), so team rewards reach every member;
 * every random draw comes from ``self.rng``, created in :meth:`GameRules.reset` from the seed;
 * discrete actions arrive as ``int64[n_agents]``; continuous ones as ``float32[n_agents, act_dim]``
-  already checked to lie in [-1, 1].
+  already checked to lie in [-1, 1];
+* every observation cell and every state cell has bounds, given by
+  :meth:`GameRules.observation_bounds` and :meth:`GameRules.state_bounds` from the limits the game's
+  manual documents (finite in every game of the catalog); ``observe()`` and ``state()`` keep every
+  cell inside them;
+* rules pickle and copy (``pickle``, ``copy.deepcopy``) into rules that go on exactly as the
+  original would, at any point of a match.
 
 Besides the match itself, a game declares, on its rules, everything the layers above need of it,
 so that adding a game touches no other package:
@@ -207,9 +213,31 @@ class GameRules(ABC):
         (``int64[N]`` or ``float32[N, act_dim]``). Used as the built-in heuristic agent and by
         social-tree verification as the 'skilled' end of its policy space."""
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.masks_actions = cls.action_mask is not GameRules.action_mask
+
+    # --- bounds --------------------------------------------------------------------------------
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(low, high)``, each ``float32[obs_dim]``: the lowest and highest value of every
+        observation cell, as the game's manual documents them (the env's observation space).
+        :meth:`observe` keeps every cell inside, clipping what the physics can carry past a limit.
+        Default: unbounded (every game of the catalog gives finite bounds)."""
+        return _unbounded(self.obs_dim)
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(low, high)``, each ``float32[state_dim]``: the bounds of every global state cell (the
+        env's state space), kept by :meth:`state`. Default: unbounded."""
+        return _unbounded(self.state_dim)
+
     # --- optional ------------------------------------------------------------------------------
+    #: Whether the game has illegal actions: true for rules that override :meth:`action_mask`
+    #: (set for every subclass). Their env observations are PettingZoo's dicts with the mask.
+    masks_actions: ClassVar[bool] = False
+
     def action_mask(self) -> np.ndarray | None:
-        """``bool[n_agents, n_actions]`` of legal actions, for games that have illegal moves."""
+        """``bool[n_agents, n_actions]`` of legal actions, for games that have illegal moves
+        (overriding it makes :attr:`masks_actions` true)."""
         return None
 
     def current_player(self) -> int | None:
@@ -244,3 +272,50 @@ class GameRules(ABC):
         raise ValueError(f"{self.name} has no replay scene: give {type(self).__name__} a "
                          "scene_entities(timestamp_ns) method returning foxglove.SceneEntity dicts built "
                          "with arena_league.envs.scene")
+
+
+def cell_bounds(*runs: tuple[float, float, int]) -> tuple[np.ndarray, np.ndarray]:
+    """``(low, high)`` ``float32`` arrays from runs of ``(low, high, cells)``, in cell order."""
+    low = np.concatenate([np.full(cells, lo, dtype=np.float64) for lo, _, cells in runs])
+    high = np.concatenate([np.full(cells, hi, dtype=np.float64) for _, hi, cells in runs])
+    if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low <= high)):
+        raise ValueError("cell bounds must be finite with low <= high in every run (low, high, cells)")
+    return low.astype(np.float32), high.astype(np.float32)
+
+
+def _unbounded(cells: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.full(cells, -np.inf, dtype=np.float32), np.full(cells, np.inf, dtype=np.float32)
+
+
+class ReplayedMatch:
+    """Pickling and copying by playing the match again, for rules whose state no API can copy.
+
+    Chipmunk (pymunk) keeps the contacts of the last steps, whose accumulated impulses start the
+    next step's solver, and a collision tree shaped by the bodies' history; neither can be read or
+    written, so a space rebuilt from the bodies' positions and velocities goes on differently.
+    Rules that mix this class in (before :class:`GameRules`) set ``_arguments`` (their constructor's
+    positional and keyword arguments) in ``__init__`` and note every call that changes the match:
+    :meth:`_record_reset` in ``reset`` and :meth:`_record` in ``step``, ``finish`` and any tool that
+    moves bodies. They pickle as those arguments and calls; unpickling builds new rules and makes
+    the same calls, so a copy goes on exactly as the original does (a copy costs one replay of the
+    match so far).
+    """
+
+    _arguments: tuple[tuple[Any, ...], dict[str, Any]]
+    _calls: list[tuple[str, tuple[Any, ...]]]
+
+    def _record_reset(self, seed: int) -> None:
+        self._calls = [("reset", (seed,))]
+
+    def _record(self, method: str, *args: Any) -> None:
+        """Note a call of ``method`` with ``args`` (which the caller no longer changes)."""
+        self._calls.append((method, args))
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {"arguments": self._arguments, "calls": list(self._calls)}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        args, kwargs = state["arguments"]
+        self.__init__(*args, **kwargs)  # type: ignore[misc]
+        for method, call_args in state["calls"]:
+            getattr(self, method)(*call_args)

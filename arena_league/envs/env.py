@@ -4,6 +4,27 @@ The env validates actions, counts steps, truncates at ``max_cycles``, turns the 
 into rewards through the social tree, routes broadcast-board messages, and builds the PettingZoo
 dicts. Besides the dict API it offers an array API (:meth:`ArenaParallelEnv.reset_arrays`,
 :meth:`ArenaParallelEnv.step_arrays`) used by the batched match engine.
+
+Observations
+    A seat's observation is one ``float32`` vector (:meth:`ArenaParallelEnv.vector_observation_space`):
+    the game's cells (its manual), then the seat's broadcast boards, then the global state when
+    ``state_in_obs``; each cell within finite bounds (the game's limits; boards in [-1, 1]). In
+    games with illegal actions (the rules' ``masks_actions``, e.g. GoBang) the dict API follows
+    PettingZoo's classic convention instead: each observation is
+    ``{"observation": <that vector>, "action_mask": int8[n_actions]}`` (1 for a legal action) under a
+    ``Dict`` observation space, so that PettingZoo's tests, samplers and RLlib's masking play legal
+    moves. The array API always returns the vectors.
+
+Rendering
+    ``render_mode="rgb_array"``: ``render()`` returns the game's top-down picture; ``"human"``: the
+    same picture in a pygame window (``envs.rendering``), drawn on every ``reset`` and ``step`` of the
+    dict API and on ``render()``, at ``metadata["render_fps"]`` frames per second.
+
+Copies
+    Envs pickle and copy (``pickle``, ``copy.deepcopy``, cloudpickle, as SuperSuit's vector envs
+    make them) at any point: a copy is an env that goes on exactly as the original would, and a
+    copy of a fresh env plays as a fresh one (same seeds, same trajectories). A human window stays
+    with its env; a copy opens its own when it draws.
 """
 
 from __future__ import annotations
@@ -15,6 +36,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from arena_league.envs.core import GameRules
+from arena_league.envs.rendering import HumanWindow, check_human_rendering
 from arena_league.envs.social.rewards import RewardContext
 from arena_league.envs.social.tree import SocialTree
 
@@ -28,15 +50,18 @@ class ArenaParallelEnv(ParallelEnv):
     then all are terminated (the rules ended the match) or truncated (``max_cycles``) together.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "is_parallelizable": True, "render_fps": 20}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "is_parallelizable": True,
+                                          "render_fps": 20}
 
     def __init__(self, game_id: str, rules: GameRules, tree: SocialTree, max_cycles: int,
                  render_mode: str | None = None, state_in_obs: bool = False) -> None:
-        if render_mode not in (None, "rgb_array"):
+        if render_mode not in (None, "human", "rgb_array"):
             raise ValueError(f"render_mode {render_mode!r} is not offered; valid: None, 'rgb_array' "
-                             "(a top-down picture, drawn without a display)")
+                             "(a top-down picture, drawn without a display) or 'human' (that picture in a window)")
         if not isinstance(max_cycles, int) or isinstance(max_cycles, bool) or max_cycles < 1:
             raise ValueError(f"max_cycles must be a positive integer, not {max_cycles!r}")
+        if render_mode == "human":
+            check_human_rendering()
         self.game_id = game_id
         self.rules = rules
         self.tree = tree
@@ -52,6 +77,7 @@ class ArenaParallelEnv(ParallelEnv):
         }
         self._index = {a: i for i, a in enumerate(self.possible_agents)}
         self._discrete = rules.action_type == "discrete"
+        self._masked = self._discrete and rules.masks_actions
         self._board_width = [tree.board_width(i) for i in range(n)]
         self._has_boards = any(self._board_width)
         self._board_content = [np.zeros(b.board, dtype=np.float32) for b in tree.boards]
@@ -63,25 +89,45 @@ class ArenaParallelEnv(ParallelEnv):
         self._ctx: RewardContext | None = None
         self._per_node: np.ndarray | None = None
         self.last_obs: np.ndarray | None = None
+        self._window = HumanWindow(game_id) if render_mode == "human" else None
 
     # --- spaces ------------------------------------------------------------------------------------
     def _build_spaces(self) -> None:
         r = self.rules
         base_action = (spaces.Discrete(r.n_actions) if self._discrete
                        else spaces.Box(-1.0, 1.0, (r.act_dim,), dtype=np.float32))
+        obs_low, obs_high = _checked_bounds(r.observation_bounds(), r.obs_dim, "observation", r)
+        state_low, state_high = _checked_bounds(r.state_bounds(), r.state_dim, "state", r)
         self._action_spaces: dict[str, spaces.Space] = {}
+        self._vector_spaces: dict[str, spaces.Box] = {}
         self._observation_spaces: dict[str, spaces.Space] = {}
         for i, agent in enumerate(self.possible_agents):
-            self._observation_spaces[agent] = spaces.Box(-np.inf, np.inf, (self._obs_dim[i],), dtype=np.float32)
+            board = np.ones(self._board_width[i], dtype=np.float32)  # board content: mean of messages in [-1, 1]
+            parts = [(obs_low, obs_high), (-board, board)]
+            if self.state_in_obs:
+                parts.append((state_low, state_high))
+            vector = spaces.Box(np.concatenate([low for low, _ in parts]), np.concatenate([high for _, high in parts]),
+                                dtype=np.float32)
+            self._vector_spaces[agent] = vector
+            self._observation_spaces[agent] = (spaces.Dict({
+                "observation": vector,
+                "action_mask": spaces.Box(0, 1, (r.n_actions,), dtype=np.int8)}) if self._masked else vector)
             if self._board_width[i]:
                 message = spaces.Box(-1.0, 1.0, (self._board_width[i],), dtype=np.float32)
                 self._action_spaces[agent] = spaces.Dict({"action": base_action, "message": message})
             else:
                 self._action_spaces[agent] = base_action
-        self.state_space = spaces.Box(-np.inf, np.inf, (r.state_dim,), dtype=np.float32)
+        self.state_space = spaces.Box(state_low, state_high, dtype=np.float32)
 
     def observation_space(self, agent: str) -> spaces.Space:
+        """The seat's observation space: the ``Box`` of its vector, or, in games with illegal
+        actions, the ``Dict`` of ``observation`` (that ``Box``) and ``action_mask``."""
         return self._observation_spaces[self._agent_check(agent)]
+
+    def vector_observation_space(self, agent: str) -> spaces.Box:
+        """The ``Box`` of the seat's observation vector: what the array API returns for it (its
+        row, up to its width), and the ``observation`` entry of the dict in masked games."""
+        return self._vector_spaces[self._agent_check(agent)]
 
     def action_space(self, agent: str) -> spaces.Space:
         return self._action_spaces[self._agent_check(agent)]
@@ -153,7 +199,8 @@ class ArenaParallelEnv(ParallelEnv):
                 else:
                     raise ValueError(f"{self.game_id}: discrete actions are one integer per seat, shape ({n},); "
                                      f"got shape {arr.shape} dtype {arr.dtype}")
-            if arr.min() < 0 or arr.max() >= self.rules.n_actions:
+            values = arr.tolist()  # a few seats: Python's min and max beat two numpy reductions
+            if min(values) < 0 or max(values) >= self.rules.n_actions:
                 seat = int(np.flatnonzero((arr < 0) | (arr >= self.rules.n_actions))[0])
                 raise ValueError(f"{self.game_id}: action {int(arr[seat])} of player_{seat} is out of range; "
                                  f"valid actions: {self._action_help()}")
@@ -162,7 +209,7 @@ class ArenaParallelEnv(ParallelEnv):
         if arr.shape != (n, self.rules.act_dim):
             raise ValueError(f"{self.game_id}: continuous actions have shape ({n}, {self.rules.act_dim}) "
                              f"(one vector of {self.rules.act_dim} floats in [-1, 1] per seat); got {arr.shape}")
-        if not (arr.min() >= -1.0 and arr.max() <= 1.0):  # NaN fails both comparisons
+        if not all(-1.0 <= value <= 1.0 for value in arr.ravel().tolist()):  # NaN fails the comparisons
             seat = int(np.flatnonzero(~(np.isfinite(arr) & (np.abs(arr) <= 1.0)).all(axis=1))[0])
             raise ValueError(f"{self.game_id}: action {arr[seat].tolist()} of player_{seat} is out of range; "
                              f"every component must be finite and within [-1, 1]")
@@ -212,6 +259,8 @@ class ArenaParallelEnv(ParallelEnv):
     # --- PettingZoo API ----------------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
         obs = self.reset_arrays(seed)
+        if self._window is not None:
+            self.render()
         return self._obs_dict(obs), self._infos()
 
     def step(self, actions: dict[str, Any]):
@@ -246,6 +295,8 @@ class ArenaParallelEnv(ParallelEnv):
                 raise ValueError(f"{self.game_id}: action of player_{bad} has shape {np.shape(flat[bad])}; "
                                  f"continuous actions are {self.rules.act_dim} floats in [-1, 1]")
         obs, rewards, terminated, truncated = self.step_arrays(array, messages)
+        if self._window is not None:
+            self.render()
         return (self._obs_dict(obs), dict(zip(names, rewards.tolist())), dict.fromkeys(names, terminated),
                 dict.fromkeys(names, truncated), self._infos())
 
@@ -279,32 +330,59 @@ class ArenaParallelEnv(ParallelEnv):
             flat.append(act["action"])
         return flat, messages
 
-    def _obs_dict(self, obs: np.ndarray) -> dict[str, np.ndarray]:
+    def _obs_dict(self, obs: np.ndarray) -> dict[str, Any]:
+        if self._masked:
+            mask = self.rules.action_mask().astype(np.int8)
+            return {a: {"observation": obs[i, : self._obs_dim[i]], "action_mask": mask[i]}
+                    for i, a in enumerate(self.possible_agents)}
         if self._has_boards:
             return {a: obs[i, : self._obs_dim[i]] for i, a in enumerate(self.possible_agents)}
         return {a: obs[i] for i, a in enumerate(self.possible_agents)}
 
-    def _info(self, seat: int) -> dict[str, Any]:
-        mask = self.rules.action_mask()
-        return {} if mask is None else {"action_mask": mask[seat].astype(np.int8)}
+    def _seat_observation(self, seat: int, obs: np.ndarray) -> Any:
+        """What the dict API gives ``seat`` (a copy) for the observations ``obs``."""
+        vector = obs[seat, : self._obs_dim[seat]].copy()
+        if not self._masked:
+            return vector
+        return {"observation": vector, "action_mask": self.rules.action_mask()[seat].astype(np.int8)}
 
     def _infos(self) -> dict[str, dict[str, Any]]:
-        mask = self.rules.action_mask()
-        if mask is None:
-            return {a: {} for a in self.possible_agents}
-        mask = mask.astype(np.int8)
-        return {a: {"action_mask": mask[i]} for i, a in enumerate(self.possible_agents)}
+        return {a: {} for a in self.possible_agents}
 
     def state(self) -> np.ndarray:
         return self.rules.state()
 
     def render(self) -> np.ndarray | None:
+        """The top-down picture (``rgb_array``); with ``human``, shows it in the window and returns None."""
+        return self._render(self.metadata["render_fps"])
+
+    def _render(self, fps: float) -> np.ndarray | None:
         if self.render_mode is None:
             return None
-        return self.rules.render_topdown()
+        picture = self.rules.render_topdown()
+        if self._window is None:
+            return picture
+        self._window.show(picture, fps)
+        return None
 
     def close(self) -> None:
-        pass
+        if self._window is not None:
+            self._window.close()
+
+    # --- copies ------------------------------------------------------------------------------------
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        # the reward context points at the rules' measures, which the rules' own copy may rebuild
+        ctx = state.pop("_ctx")
+        state["_ctx"] = None if ctx is None else (ctx.previous, ctx.step, ctx.ending)
+        if self._window is not None:
+            state["_window"] = HumanWindow(self.game_id)  # a window stays with its env
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        ctx = state.pop("_ctx")
+        self.__dict__.update(state)
+        self._ctx = None if ctx is None else RewardContext(self.rules.measures, ctx[0], self.tree.team_of, *ctx[1:])
 
     # --- league helpers ----------------------------------------------------------------------------
     def team_result(self) -> np.ndarray:
@@ -325,3 +403,12 @@ def _integer_array(values: list) -> np.ndarray | None:
     if array.ndim != 1 or array.dtype.kind not in "iu":
         return None
     return array
+
+
+def _checked_bounds(bounds: tuple[np.ndarray, np.ndarray], cells: int, what: str,
+                    rules: GameRules) -> tuple[np.ndarray, np.ndarray]:
+    low, high = (np.asarray(bound, dtype=np.float32) for bound in bounds)
+    if low.shape != (cells,) or high.shape != (cells,) or not np.all(low <= high):
+        raise ValueError(f"{type(rules).__name__}.{what}_bounds() must give float32 low and high arrays of "
+                         f"{cells} cells with low <= high, not shapes {low.shape} and {high.shape}")
+    return low, high

@@ -53,24 +53,31 @@ Observation (``float32[10 + 5 * (n_agents - 1)]`` per seat)
     every seat sees its start at x ~ -0.8 and its target at x ~ +0.8, and one policy can play any
     seat. ``L`` = ``ARM_LENGTH`` = 10, ``V`` = ``TOP_SPEED`` ~ 2.8.
 
-    ====  ==============================================================
-    cell  meaning
-    ====  ==============================================================
-    0, 1  own position (x, y) / L
-    2, 3  own velocity (vx, vy) / V
-    4, 5  own heading (cos, sin)
-    6, 7  target position minus own position (dx, dy) / (2 L)
-    8     distance to target / (2 L)
-    9     own active flag (1 playing, 0 arrived)
-    ====  ==============================================================
+    ====  ============  ==============================================================
+    cell  bounds        meaning
+    ====  ============  ==============================================================
+    0, 1  [-1, 1]       own position (x, y) / L
+    2, 3  [-2, 2]       own velocity (vx, vy) / V
+    4, 5  [-1, 1]       own heading (cos, sin)
+    6, 7  [-1, 1]       target position minus own position (dx, dy) / (2 L)
+    8     [0, sqrt 2]   distance to target / (2 L)
+    9     [0, 1]        own active flag (1 playing, 0 arrived)
+    ====  ============  ==============================================================
 
     then, for every other seat (teammates first, then opponents, each group in seat order), 5
-    cells at ``10 + 5 * k``: its position minus own position (dx, dy) / (2 L), its velocity minus
-    own velocity (dvx, dvy) / (2 V), its active flag.
+    cells at ``10 + 5 * k``: its position minus own position (dx, dy) / (2 L), in [-1, 1], its
+    velocity minus own velocity (dvx, dvy) / (2 V), in [-2, 2], its active flag, in [0, 1].
+
+    Bounds: the walls keep every agent and target inside the world box [-L, L]^2, so positions,
+    their differences and headings lie in [-1, 1] and distances in [0, sqrt 2]. Thrust alone never
+    takes an agent past ``V``, and contacts only a little beyond; a velocity cell beyond
+    ``VELOCITY_BOUND`` = 2 (twice the top speed, or twice the widest difference of two agents at
+    top speed) is clipped to it. These bounds are the env's observation space.
 
 State (``float32[9 * n_agents]``, world frame)
     Per seat in seat order: position / L (2), velocity / V (2), heading (cos, sin), target
-    position / L (2), active flag.
+    position / L (2), active flag; bounds [-1, 1], except velocities in [-2, 2] (clipped) and
+    the flag in [0, 1].
 
 Default social tree (the paper's table)
     CP ``ranking`` (``order="depart"``, scale 100) at the root over the teams; IS ``target``
@@ -90,6 +97,17 @@ Playing it (``arena-league play``)
     action's number or name (``forward``, ``turn_left``, ...); Enter repeats the last. Discrete
     actions only.
 
+Rendering
+    A top-down picture of the crossing (400 pixels square): the roads and their walls, each target
+    as a ring of the arrival radius, each agent in its team's colour (faded once arrived) with a
+    white tick along its heading. ``render_mode="rgb_array"`` returns it; ``"human"`` shows it in a
+    window.
+
+Copies
+    The rules pickle and copy (``pickle``, ``copy.deepcopy``) by playing the match again from its
+    seed and the actions since (pymunk's contact caches cannot be copied), so a copy goes on bit
+    for bit as the original does.
+
 Replay scene
     The two roads (flat cubes), every agent (a sphere, or a cube with ``agent_shape="box"``, faded
     once arrived) with a heading arrow, and each target (a flat disc of the arrival radius):
@@ -106,7 +124,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.core import GameRules
+from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, body_cells, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
@@ -144,6 +162,9 @@ LANE_SPACING = 1.2
 HEADING_JITTER = 0.25
 #: The heuristic swerves around active agents ahead closer than this (centre to centre).
 AVOID_RANGE = 2.0
+#: Bound of the velocity cells of observations and state, in their units (V, 2 V): thrust alone
+#: never takes an agent past ``TOP_SPEED`` and contacts only a little beyond; faster is clipped.
+VELOCITY_BOUND = 2.0
 
 #: Direction of travel of each team: west->east, south->north, east->west, north->south.
 _TRAVEL = np.array([(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)])
@@ -208,7 +229,7 @@ CASE_STUDY_TREES: dict[str, dict] = {
 }
 
 
-class CrossroadsRules(GameRules):
+class CrossroadsRules(ReplayedMatch, GameRules):
     """Crossroads rules: pymunk bodies driven to targets across a crossing (see the module)."""
 
     name: ClassVar[str] = "Crossroads"
@@ -245,6 +266,8 @@ class CrossroadsRules(GameRules):
         if agent_shape not in _AGENT_SHAPES:
             raise ValueError(f"agent_shape must be one of {_AGENT_SHAPES}, got {agent_shape!r}")
         super().__init__(n_teams, players_per_team, action_type)
+        self._arguments = ((n_teams, players_per_team, action_type), dict(game_kwargs))
+        self._calls = []
         self.arrival_radius = float(arrival_radius)
         self.agent_shape = agent_shape
         n = self.n_agents
@@ -276,6 +299,9 @@ class CrossroadsRules(GameRules):
         self._link = space_link(_READ_FIELDS, z[:read_len], _WRITE_FIELDS, controls, contacts=True)
         self._obs_index, self._obs_scale = self._observation_gather()
         self._state_index, self._state_scale = self._state_gather()
+        obs_low, obs_high = self.observation_bounds()
+        self._obs_low, self._obs_high = np.tile(obs_low, n), np.tile(obs_high, n)  # the flat seat-major vector
+        self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
 
         # Per-seat gates, changed only when a seat arrives.
         self._inactive_offset = np.zeros(n, dtype=np.int64)  # + n_actions: the all-zero control row
@@ -420,6 +446,7 @@ class CrossroadsRules(GameRules):
 
     # --- the match ---------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
+        self._record_reset(seed)
         self.rng = rng = np.random.default_rng(seed)
         n, p = self.n_agents, self.players_per_team
         lanes = (np.arange(p) - (p - 1) / 2) * LANE_SPACING
@@ -479,6 +506,7 @@ class CrossroadsRules(GameRules):
         np.hypot(v.velocity_x, v.velocity_y, out=v.speed)
 
     def step(self, actions: np.ndarray) -> None:
+        self._record("step", actions.copy())
         self._step_count += 1
         v = self._views
         if self.action_type == "discrete":
@@ -574,13 +602,27 @@ class CrossroadsRules(GameRules):
         self._z.take(self._obs_index, out=self._gathered_flat)
         np.subtract(self._plus, self._minus, out=difference)
         obs = np.empty((self.n_agents, self.obs_dim), dtype=np.float32)
-        np.multiply(difference, self._obs_scale, out=obs.reshape(-1), casting="same_kind")
+        flat = obs.reshape(-1)
+        np.multiply(difference, self._obs_scale, out=flat, casting="same_kind")
+        flat.clip(self._obs_low, self._obs_high, out=flat)
         return obs
 
     def state(self) -> np.ndarray:
-        return (self._z[self._state_index] * self._state_scale).astype(np.float32)
+        state = self._z[self._state_index] * self._state_scale
+        return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        v = VELOCITY_BOUND
+        return cell_bounds((-1, 1, 2), (-v, v, 2), (-1, 1, 4), (0, math.sqrt(2), 1), (0, 1, 1),
+                           *[run for _ in range(self.n_agents - 1) for run in ((-1, 1, 2), (-v, v, 2), (0, 1, 1))])
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        v = VELOCITY_BOUND
+        return cell_bounds(*[run for _ in range(self.n_agents) for run in ((-1, 1, 2), (-v, v, 2), (-1, 1, 4),
+                                                                           (0, 1, 1))])
 
     def finish(self) -> None:
+        self._record("finish")
         self.measures.outcome[:] = self._seat_outcome()
 
     # --- results -----------------------------------------------------------------------------

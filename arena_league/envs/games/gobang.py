@@ -27,6 +27,15 @@ Discrete ``size * size`` (225): ``row * size + col``, row 0 at the top.
 cells, so a masked sampler never meets an empty row; its action is ignored anyway). The mask is
 all False only once the board is full.
 
+Observation in the PettingZoo API: GoBang has illegal moves, so, in PettingZoo's classic
+convention, each seat's observation from ``reset``, ``step`` (and the AEC env's ``observe``) is a
+dict ``{"observation": float32[455], "action_mask": int8[225]}`` under a ``Dict`` observation
+space: ``observation`` is the vector below (boards and the global state appended as ``make``
+asks) and ``action_mask`` is the seat's row of ``action_mask()`` (1 an empty cell). PettingZoo's
+tests and samplers (``action_space(agent).sample(mask)``) and RLlib's action masking read it and
+play legal moves; ``infos`` are empty. The array API (``reset_arrays``, ``step_arrays``) and an
+exported agent see the vector alone.
+
 Observation (``float32[2 * size * size + 5]`` = 455 per seat, from the seat's own perspective)
 ---------------------------------------------------------------------------------------------
 ====================  ===========================================================================
@@ -41,8 +50,12 @@ index                 content
 ``454``               active: 1.0 (both seats play until the game ends)
 ====================  ===========================================================================
 
+Bounds: every cell lies in [0, 1] (flags, and a fraction of the cells); these are the
+``observation`` space's bounds.
+
 Global state (``float32[size * size + 2]``): the board from black's side (+1 black, -1 white,
-0 empty), then the colour to move (+1 black, -1 white) and stones / cells.
+0 empty), then the colour to move (+1 black, -1 white) and stones / cells; bounds [-1, 1], and
+[0, 1] for the last cell.
 
 Measures: ``active`` (True throughout) and ``outcome`` (+1 / -1 for the winning / losing team's
 seats, 0 for a draw; set when the game ends). ``team_result()``: 1 / 0 for a win / loss, 0.5 each
@@ -93,6 +106,11 @@ lettered ``A`` onward and rows numbered from 1 at the top. A move is a cell: a c
 a row number such as ``H8``, or two numbers (row, column) such as ``8 8``. An occupied cell, a
 cell off the board or something that is not a cell is refused with the reason, and asked again.
 
+Rendering
+---------
+A top-down picture of the board (20 pixels a cell): the grid on wood, black and white stones, a red
+dot on the last stone. ``render_mode="rgb_array"`` returns it; ``"human"`` shows it in a window.
+
 Replay scene
 ------------
 The board (a wooden slab with its grid lines), the stones (flat spheres, black and white) and a
@@ -109,7 +127,7 @@ import numpy as np
 
 from arena_league.envs import scene
 from arena_league.envs.controls import Controls
-from arena_league.envs.core import GameRules
+from arena_league.envs.core import GameRules, cell_bounds
 from arena_league.envs.rendering import Canvas
 
 EMPTY, BLACK, WHITE = 0, 1, 2
@@ -174,6 +192,16 @@ class GoBangBoards:
         self.winner = np.full(self.n_boards, -1, dtype=np.int64)
         self.illegal = np.zeros(self.n_boards, dtype=bool)
         self.last_action = np.full(self.n_boards, -1, dtype=np.int64)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # the flat view of the boards is made again on unpickling, so that it shares their memory
+        state = self.__dict__.copy()
+        del state["_flat"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._flat = self._padded.reshape(-1)
 
     @property
     def cells(self) -> np.ndarray:
@@ -530,6 +558,12 @@ class GoBangRules(GameRules):
 
     def action_mask(self) -> np.ndarray:
         return np.repeat(self.engine.legal_mask(), self.n_agents, axis=0)
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return cell_bounds((0, 1, self.obs_dim))
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return cell_bounds((-1, 1, self.n_cells + 1), (0, 1, 1))
 
     def state(self) -> np.ndarray:
         cells = self.engine.cells[0]

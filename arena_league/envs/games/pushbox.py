@@ -24,26 +24,29 @@ Actions
 
 Observation (``float32``, seat frame: team 1 sees the world turned by 180 degrees, so every seat
 starts on the ``-x`` side facing the target)
-    ====== =====================================================================
-    cell   meaning
-    ====== =====================================================================
-    0-42   the robot block (``envs.robots.observation``); the target (cells 39-40) is the team's
-           own box: its centre relative to the seat
-    43     target radius / 4
-    44-45  the target's centre relative to the seat / 4
-    46-47  own box velocity / 3
-    48-49  own box to the target: target centre minus box centre / 4
-    50-51  the other team's box relative to the seat / 4
-    52-58  the teammate: position relative to the seat / 4 (2), velocity / 3 (2), forward axis
-           (2), vertical part of its up axis (1)
-    59-72  the two opponents, in seat order, the same seven cells each
-    ====== =====================================================================
+    ====== ========== ==========================================================================
+    cell   bounds     meaning
+    ====== ========== ==========================================================================
+    0-42              the robot block (``envs.robots.observation``, with its bounds); the target
+                      (cells 39-40) is the team's own box: its centre relative to the seat
+    43     [0, 1]     target radius / 4
+    44-45  [-10, 10]  the target's centre relative to the seat / 4
+    46-47  [-4, 4]    own box velocity / 3
+    48-49  [-10, 10]  own box to the target: target centre minus box centre / 4
+    50-51  [-20, 20]  the other team's box relative to the seat / 4
+    52-58             the teammate: position relative to the seat / 4 (2, [-20, 20]), velocity / 3
+                      (2, [-4, 4]), forward axis (2, [-1, 1]), vertical part of its up axis (1,
+                      [-1, 1])
+    59-72             the two opponents, in seat order, the same seven cells each
+    ====== ========== ==========================================================================
 
-    ``obs_dim = 73``.
+    ``obs_dim = 73``. Every cell is clipped to its bounds, the observation space (the robot block's
+    manual says where they come from; a box, like an ant, is taken as within 40 m of the target).
 
 Global state (``float32``, world frame)
     per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``, then per box ``x/4, y/4,
-    vx/3, vy/3``: ``state_dim = 40``.
+    vx/3, vy/3``: ``state_dim = 40``; bounds [-10, 10] for positions, [0, 4] m for the height,
+    [-1, 1] for the axes and [-4, 4] for velocities, clipped.
 
 Measures
     ``active`` and ``arrived`` (a team's two seats arrive together, when its box does),
@@ -80,6 +83,11 @@ Playing it (``arena-league play``)
     left, ``s`` down, ``d`` right, two letters for a diagonal (``wd``), ``x`` to stand, optionally
     followed by the steps to hold it (``d 10``; default 5); Enter repeats. The scripted trot walks
     that way; push your team's box onto the target.
+
+Rendering
+    A top-down picture of the arena (``envs.robots.render``): the target disc, both boxes in their
+    teams' colours, and each ant's torso in its team's colour (darker once fallen) with its legs.
+    ``render_mode="rgb_array"`` returns it; ``"human"`` shows it in a window.
 
 Replay scene
     The floor, the target disc, both boxes (``box/<b>``, in their poses) and each ant in 3D
@@ -155,6 +163,11 @@ class PushBoxRules(RobotGameRules):
 
     def target_term(self, seat: int) -> Affine:
         return self.terms.box(self.box_of(seat), "pos")[0:2]
+
+    def game_cell_bounds(self) -> tuple[tuple[float, float, int], ...]:
+        field, velocity = cells.FIELD_LIMIT, cells.VELOCITY_LIMIT
+        return ((0.0, 1.0, 1), (-field, field, 2), (-velocity, velocity, 2), (-field, field, 2),
+                (-2 * field, 2 * field, 2), *cells.OTHER_ROBOT_BOUNDS * (self.n_agents - 1))
 
     def game_cells(self, seat: int) -> Affine:
         t = self.terms

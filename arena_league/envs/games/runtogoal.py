@@ -18,22 +18,25 @@ Actions
 
 Observation (``float32``, seat frame: team 1 sees the world turned by 180 degrees, so each seat
 runs toward ``+x``)
-    ====== =====================================================================
-    cell   meaning
-    ====== =====================================================================
-    0-42   the robot block (``envs.robots.observation``); the target (cells 39-40) is the nearest
-           point of the seat's goal line: ``(goal - x, 0)``
-    43     half the field length / 4 (the goal line's ``x`` in the seat frame)
-    44-45  opponent position relative to the seat / 4
-    46-47  opponent velocity / 3
-    48-49  opponent forward axis (horizontal part)
-    50     vertical part of the opponent's up axis (negative once it fell)
-    ====== =====================================================================
+    ====== ========== ==========================================================================
+    cell   bounds     meaning
+    ====== ========== ==========================================================================
+    0-42              the robot block (``envs.robots.observation``, with its bounds); the target
+                      (cells 39-40) is the nearest point of the seat's goal line: ``(goal - x, 0)``
+    43     [0, 1.25]  half the field length / 4 (the goal line's ``x`` in the seat frame)
+    44-45  [-20, 20]  opponent position relative to the seat / 4
+    46-47  [-4, 4]    opponent velocity / 3
+    48-49  [-1, 1]    opponent forward axis (horizontal part)
+    50     [-1, 1]    vertical part of the opponent's up axis (negative once it fell)
+    ====== ========== ==========================================================================
 
-    ``obs_dim = 51``.
+    ``obs_dim = 51``. Every cell is clipped to its bounds, the observation space (the robot block's
+    manual says where they come from).
 
 Global state (``float32``, world frame)
-    per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``: ``state_dim = 16``.
+    per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``: ``state_dim = 16``; bounds
+    [-10, 10] for positions, [0, 4] m for the height, [-1, 1] for the axes and [-4, 4] for
+    velocities, clipped.
 
 Measures
     ``active`` (false once the seat arrived), ``arrived`` (its torso crossed its goal line),
@@ -64,6 +67,11 @@ Playing it (``arena-league play``)
     left, ``s`` down, ``d`` right, two letters for a diagonal (``wd``), ``x`` to stand, optionally
     followed by the steps to hold it (``d 10``; default 5); Enter repeats. The scripted trot walks
     that way.
+
+Rendering
+    A top-down picture of the arena (``envs.robots.render``): the goal lines, and each ant's torso
+    in its team's colour (darker once fallen) with its legs. ``render_mode="rgb_array"`` returns
+    it; ``"human"`` shows it in a window.
 
 Replay scene
     The floor, the two goal lines and each ant in 3D (``envs.robots.render.replay_scene``).
@@ -135,6 +143,9 @@ class RunToGoalRules(RobotGameRules):
         # the nearest point of the goal line: the goal's x, the seat's own y
         y = self.terms.robot(seat, "pos")[1]
         return Affine.stack([self.terms.const([self.goal_x(seat)]), y])
+
+    def game_cell_bounds(self) -> tuple[tuple[float, float, int], ...]:
+        return ((0.0, 1.25, 1), *cells.OTHER_ROBOT_BOUNDS)
 
     def game_cells(self, seat: int) -> Affine:
         return Affine.stack([self.terms.const([self.half_length / cells.POSITION_UNIT]),

@@ -70,8 +70,14 @@ both in seat order), 4 values
 
 Size: ``23 + 6 W^2 + 4 (snakes - 1)``: 321 for two snakes, 329 for four (W = 7).
 
+Bounds (the observation space): every cell lies in [0, 1] but the positions (cells 1, 2, 8, 9 and
+each other snake's relative head), in [-1, 1], and the lengths / size (cell 7 and each other
+snake's length), in [0, size]: a snake is at most ``size * size`` cells long. The board bounds all
+of them; nothing is clipped.
+
 Global state: per snake a plane of ``size * size`` (1.0 head, 0.5 body), a food plane, then per
-snake alive, length / size, heading one-hot, head row and column scaled to [-1, 1] (board frame).
+snake alive, length / size, heading one-hot, head row and column scaled to [-1, 1] (board frame);
+bounds [0, 1], length / size in [0, size] and head row and column in [-1, 1].
 
 Measures: ``active`` and ``alive`` (the snake lives), ``resource_gain`` (food eaten this step,
 0 or 1), ``target_distance`` (Manhattan distance from the head to the nearest food after the
@@ -139,6 +145,12 @@ others ``A``/``a``, ``B``/``b``, ... with every snake's length. A move is ``w``,
 ``d`` (or ``up``, ``left``, ``down``, ``right``) on the board *as drawn*, turned into the seat's own
 frame for you; Enter keeps going straight. Once your snake is dead you watch the others finish.
 
+Rendering
+---------
+A top-down picture of the board (``320 // size`` pixels a cell, at least 4) in a dark frame: every
+snake's body in its team's colour, a living snake's head darker, the food in magenta.
+``render_mode="rgb_array"`` returns it; ``"human"`` shows it in a window.
+
 Replay scene
 ------------
 The walled grid, every snake's body cells (cubes in its team's colour, the head taller) and the
@@ -155,7 +167,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from arena_league.envs import scene
 from arena_league.envs.controls import Controls
-from arena_league.envs.core import GameRules
+from arena_league.envs.core import GameRules, cell_bounds
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 
 #: Action meanings, in each seat's own frame; the board direction is (action + quarter turns) % 4.
@@ -267,12 +279,7 @@ class SnakeBoards:
         self._snake_offset = self._boards * s
         self.owner = np.empty((b, cells), dtype=np.int8)  # -2 wall, -1 empty, else the snake
         self.stamp = np.zeros((b, cells), dtype=np.int32)  # the step a head entered the cell
-        self._owner_flat = self.owner.reshape(-1)
-        self._stamp_flat = self.stamp.reshape(-1)
-        # every W x W block of the grids, as views (the grids are only ever updated in place)
-        w, side = self.window, self._side
-        self._owner_windows = sliding_window_view(self.owner.reshape(b, side, side), (w, w), axis=(1, 2))
-        self._stamp_windows = sliding_window_view(self.stamp.reshape(b, side, side), (w, w), axis=(1, 2))
+        self._bind_grid_views()
         self._head = np.zeros((b, s), dtype=np.int64)  # padded cells
         self._food = np.full((b, f), -1, dtype=np.int64)  # padded cells, -1 for none
         self.direction = np.zeros((b, s), dtype=np.int64)
@@ -291,6 +298,27 @@ class SnakeBoards:
         self.food_distance = np.zeros((b, s), dtype=np.int64)
         self.final_scores = np.full((b, self.n_teams), np.nan)
         self.reset()
+
+    #: Views of ``owner`` and ``stamp``: made again on unpickling, so that they share the grids' memory.
+    _GRID_VIEWS = ("_owner_flat", "_stamp_flat", "_owner_windows", "_stamp_windows")
+
+    def _bind_grid_views(self) -> None:
+        b, w, side = self.n_boards, self.window, self._side
+        self._owner_flat = self.owner.reshape(-1)
+        self._stamp_flat = self.stamp.reshape(-1)
+        # every W x W block of the grids, as views (the grids are only ever updated in place)
+        self._owner_windows = sliding_window_view(self.owner.reshape(b, side, side), (w, w), axis=(1, 2))
+        self._stamp_windows = sliding_window_view(self.stamp.reshape(b, side, side), (w, w), axis=(1, 2))
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        for name in self._GRID_VIEWS:
+            del state[name]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind_grid_views()
 
     def _build_tables(self) -> None:
         n, s, q, pad, side = self.size, self.n_snakes, self.rotations, self._pad, self._side
@@ -966,6 +994,18 @@ class SnakeRules(GameRules):
 
     def state(self) -> np.ndarray:
         return self.engine.state()[0]
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        size, window = self.size, self.engine.window
+        return cell_bounds((0, 1, 1), (-1, 1, 2), (0, 1, 4), (0, size, 1), (-1, 1, 2), (0, 1, 13),
+                           (0, 1, N_CHANNELS * window * window),
+                           *[run for _ in range(self.n_agents - 1) for run in ((-1, 1, 2), (0, size, 1), (0, 1, 1))])
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        cells = self.size * self.size
+        return cell_bounds((0, 1, (self.n_agents + 1) * cells),
+                           *[run for _ in range(self.n_agents) for run in ((0, 1, 1), (0, self.size, 1), (0, 1, 4),
+                                                                           (-1, 1, 2))])
 
     def render_topdown(self) -> np.ndarray:
         engine = self.engine

@@ -36,29 +36,38 @@ Actions
     Continuous: ``[fx, fy]`` in [-1, 1], the thrust in the seat frame as a fraction of full
     strength; a vector longer than 1 is scaled back to length 1 (diagonals are no stronger).
 
-Observation (``float32``, seat frame; positions divided by 4, velocities by 3: absolute positions
-lie within about [-1.2, 1.2], relative ones within about [-2.3, 2.3], velocities within [-1, 1])
-    ====== =====================================================================
-    cell   meaning
-    ====== =====================================================================
-    0      own active flag (always 1 in Soccer)
-    1-2    own position ``x, y``
-    3-4    own velocity ``vx, vy``
-    5-6    ball position relative to the seat (ball - own)
-    7-8    ball position (absolute)
-    9-10   ball velocity
-    11-12  the attacked goal relative to the seat: the centre of its mouth on the goal
-           line, ``(4, 0)`` in the seat frame, minus the seat's position
-    13-14  the defended goal relative to the seat: ``(-4, 0)`` minus the seat's position
-    15+    every other seat, teammates first then opponents, each in seat order:
-           position relative to the seat (2 cells) then its velocity (2 cells)
-    ====== =====================================================================
+Observation (``float32``, seat frame; positions divided by 4, velocities by 3)
+    ====== ===================================== =================================================
+    cell   bounds (x cell, y cell)               meaning
+    ====== ===================================== =================================================
+    0      [0, 1]                                own active flag (always 1 in Soccer)
+    1-2    [-1.15, 1.15], [-0.625, 0.625]        own position ``x, y``
+    3-4    [-2, 2]                               own velocity ``vx, vy``
+    5-6    [-2.3, 2.3], [-1.25, 1.25]            ball position relative to the seat (ball - own)
+    7-8    [-1.15, 1.15], [-0.625, 0.625]        ball position (absolute)
+    9-10   [-2, 2]                               ball velocity
+    11-12  [-0.15, 2.15], [-0.625, 0.625]        the attacked goal relative to the seat: the centre
+                                                 of its mouth on the goal line, ``(4, 0)`` in the
+                                                 seat frame, minus the seat's position
+    13-14  [-2.15, 0.15], [-0.625, 0.625]        the defended goal relative to the seat:
+                                                 ``(-4, 0)`` minus the seat's position
+    15+    [-2.3, 2.3], [-1.25, 1.25]; [-2, 2]   every other seat, teammates first then opponents,
+                                                 each in seat order: position relative to the seat
+                                                 (2 cells) then its velocity (2 cells)
+    ====== ===================================== =================================================
 
     ``obs_dim = 15 + 4 * (n_agents - 1)``: 19 for 2T1P, 27 for 2T2P, 35 for 2T3P.
 
+    Bounds: the walls' inner faces keep every body within ``x`` in [-4.6, 4.6] (the goal boxes
+    included) and ``y`` in [-2.5, 2.5], which bounds positions and their differences. Velocities
+    are bounded by ``VELOCITY_BOUND`` = 2 (6 m/s, four times an agent's top speed; only a pile-up
+    pushes a body that fast): a cell beyond its bounds is clipped to them. These bounds are the
+    env's observation space.
+
 Global state (``float32``, world frame, same scales)
     every seat's ``x, y, vx, vy`` in seat order, then the ball's ``x, y, vx, vy``, then the goals
-    scored by team 0 and by team 1: ``state_dim = 4 * n_agents + 6``.
+    scored by team 0 and by team 1: ``state_dim = 4 * n_agents + 6``. Bounds as for the
+    observation's absolute cells; each score in [0, 1] (the first goal ends the match).
 
 Measures
     ``active`` (always true), ``target_distance`` (distance from the seat's centre to the ball's:
@@ -97,6 +106,17 @@ Playing it (``arena-league play``)
     (``E`` = right, whichever side you play: team 1's moves are mirrored into its seat frame for
     you); Enter repeats the last move. Discrete actions only.
 
+Rendering
+    A top-down picture of the field (400 pixels wide): the walls, the pitch with its centre line
+    and circle, each goal box in the colour of the team defending it, the agents in their teams'
+    colours and the ball in white. ``render_mode="rgb_array"`` returns it; ``"human"`` shows it in
+    a window.
+
+Copies
+    The rules pickle and copy (``pickle``, ``copy.deepcopy``) by playing the match again from its
+    seed and the actions (and ``place`` calls) since, as pymunk's contact caches cannot be copied;
+    a copy goes on bit for bit as the original does.
+
 Replay scene
     The field and both goal boxes (in the colour of the team defending each), every agent and the
     ball (spheres) and the score (text): entities ``field``, ``agent/<seat>``, ``ball``, ``score``.
@@ -111,7 +131,7 @@ import pymunk
 
 from arena_league.envs import scene
 from arena_league.envs.controls import ActionControls
-from arena_league.envs.core import GameRules
+from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.physics2d import BodyFields, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
@@ -142,6 +162,9 @@ FRICTION = 0.3
 #: Observation scales: positions are divided by HALF_LENGTH, velocities by VELOCITY_UNIT.
 POSITION_SCALE = 1.0 / HALF_LENGTH
 VELOCITY_UNIT = 3.0
+#: Bound of the velocity cells, in units of VELOCITY_UNIT (6 m/s, four times an agent's top speed;
+#: only a pile-up can push a body faster, and that is clipped).
+VELOCITY_BOUND = 2.0
 
 #: Discrete moves in the seat frame (noop, then counter-clockwise from +x).
 _MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
@@ -200,7 +223,7 @@ _STATE_FIELDS = BodyFields.POSITION | BodyFields.VELOCITY
 _FORCE_FIELDS = BodyFields.FORCE
 
 
-class SoccerRules(GameRules):
+class SoccerRules(ReplayedMatch, GameRules):
     """Soccer on a walled pymunk field; see the module docstring for the manual."""
 
     name: ClassVar[str] = "Soccer"
@@ -232,6 +255,8 @@ class SoccerRules(GameRules):
                 raise ValueError(f"Soccer {key} must be a number in [{lo}, {hi}] (default {default}), not {value!r}")
             settings[key] = float(value)
         super().__init__(n_teams, players_per_team, action_type)
+        self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
+        self._calls = []
         self.goal_half_width = settings["goal_width"] / 2
         self.kickoff_jitter = settings["kickoff_jitter"]
         n = self.n_agents
@@ -254,6 +279,8 @@ class SoccerRules(GameRules):
         self._goal_line = HALF_LENGTH + BALL_RADIUS
         self._tiny = np.full(n, 1e-9)
         self._layout_work_vector()
+        self._obs_low, self._obs_high = (np.tile(bound.astype(np.float64), n) for bound in self.observation_bounds())
+        self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
         self.space: pymunk.Space | None = None
         self._events: list[dict] = []
 
@@ -403,6 +430,7 @@ class SoccerRules(GameRules):
 
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
+        self._record_reset(seed)
         self.rng = np.random.default_rng(seed)
         p = self.players_per_team
         jitter = self.kickoff_jitter
@@ -444,6 +472,7 @@ class SoccerRules(GameRules):
         m.energy = energy
 
     def step(self, actions: np.ndarray) -> None:
+        self._record("step", actions.copy())
         work = self._work
         thrust = self._thrust_c
         if self.action_type == "discrete":
@@ -477,15 +506,32 @@ class SoccerRules(GameRules):
             self._events = []
 
     def observe(self) -> np.ndarray:
-        return (self._obs_matrix @ self._work).astype(np.float32).reshape(self.n_agents, self.obs_dim)
+        obs = self._obs_matrix @ self._work
+        obs.clip(self._obs_low, self._obs_high, out=obs)
+        return obs.astype(np.float32).reshape(self.n_agents, self.obs_dim)
 
     def state(self) -> np.ndarray:
         n = self.n_agents
         table = self._work[: 4 * (n + 1)].reshape(n + 1, 4)
         scaled = table * np.array([POSITION_SCALE, POSITION_SCALE, 1 / VELOCITY_UNIT, 1 / VELOCITY_UNIT])
-        return np.concatenate([scaled.reshape(-1), self.score.astype(np.float64)]).astype(np.float32)
+        state = np.concatenate([scaled.reshape(-1), self.score.astype(np.float64)])
+        return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        x, y, v = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE, HALF_WIDTH * POSITION_SCALE, VELOCITY_BOUND
+        goal = HALF_LENGTH * POSITION_SCALE  # a goal's x in the seat frame, the attacked one positive
+        position, relative, velocity = ((-x, x, 1), (-y, y, 1)), ((-2 * x, 2 * x, 1), (-2 * y, 2 * y, 1)), (-v, v, 2)
+        return cell_bounds((0, 1, 1), *position, velocity, *relative, *position, velocity,
+                           (goal - x, goal + x, 1), (-y, y, 1), (-goal - x, -goal + x, 1), (-y, y, 1),
+                           *[run for _ in range(self.n_agents - 1) for run in (*relative, velocity)])
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        x, y, v = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE, HALF_WIDTH * POSITION_SCALE, VELOCITY_BOUND
+        return cell_bounds(*[run for _ in range(self.n_agents + 1) for run in ((-x, x, 1), (-y, y, 1), (-v, v, 2))],
+                           (0, 1, 2))
 
     def finish(self) -> None:
+        self._record("finish")
         # a match cut at max_cycles without a goal is a draw
         self.measures.outcome = np.zeros(self.n_agents)
 
@@ -507,6 +553,8 @@ class SoccerRules(GameRules):
                           else np.asarray(agent_velocity, dtype=np.float64).reshape(self.n_agents, 2))
         if self.space is None:
             raise RuntimeError("call reset(seed) before place()")
+        self._record("place", agent_xy.copy(), np.array(ball_xy, dtype=np.float64), agent_velocity.copy(),
+                     None if ball_velocity is None else np.array(ball_velocity, dtype=np.float64))
         for body, xy, v in zip(self._agents, agent_xy, agent_velocity):
             body.position = float(xy[0]), float(xy[1])
             body.velocity = float(v[0]), float(v[1])

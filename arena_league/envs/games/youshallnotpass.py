@@ -19,23 +19,27 @@ Actions
     ``mj_step(nstep=frame_skip)`` per step (0.05 s).
 
 Observation (``float32``, seat frame: the blocker sees the world turned by 180 degrees)
-    ====== =====================================================================
-    cell   meaning
-    ====== =====================================================================
-    0-42   the robot block (``envs.robots.observation``); the target (cells 39-40) is, for the
-           runner, the nearest point of its goal line, for the blocker, the runner's torso
-    43     role: +1 runner, -1 blocker
-    44     the goal line's ``x`` relative to the seat (seat frame) / 4
-    45-46  opponent position relative to the seat / 4
-    47-48  opponent velocity / 3
-    49-50  opponent forward axis (horizontal part)
-    51     vertical part of the opponent's up axis (negative once it fell)
-    ====== =====================================================================
+    ====== ========== ==========================================================================
+    cell   bounds     meaning
+    ====== ========== ==========================================================================
+    0-42              the robot block (``envs.robots.observation``, with its bounds); the target
+                      (cells 39-40) is, for the runner, the nearest point of its goal line, for
+                      the blocker, the runner's torso
+    43     [-1, 1]    role: +1 runner, -1 blocker
+    44     [-20, 20]  the goal line's ``x`` relative to the seat (seat frame) / 4
+    45-46  [-20, 20]  opponent position relative to the seat / 4
+    47-48  [-4, 4]    opponent velocity / 3
+    49-50  [-1, 1]    opponent forward axis (horizontal part)
+    51     [-1, 1]    vertical part of the opponent's up axis (negative once it fell)
+    ====== ========== ==========================================================================
 
-    ``obs_dim = 52``.
+    ``obs_dim = 52``. Every cell is clipped to its bounds, the observation space (the robot block's
+    manual says where they come from).
 
 Global state (``float32``, world frame)
-    per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``: ``state_dim = 16``.
+    per ant ``x/4, y/4, z, forward x, forward y, up z, vx/3, vy/3``: ``state_dim = 16``; bounds
+    [-10, 10] for positions, [0, 4] m for the height, [-1, 1] for the axes and [-4, 4] for
+    velocities, clipped.
 
 Measures
     ``active`` (false once the runner arrived), ``arrived`` (the runner's torso crossed the goal
@@ -67,6 +71,11 @@ Playing it (``arena-league play``)
     left, ``s`` down, ``d`` right, two letters for a diagonal (``wd``), ``x`` to stand, optionally
     followed by the steps to hold it (``d 10``; default 5); Enter repeats. The scripted trot walks
     that way.
+
+Rendering
+    A top-down picture of the arena (``envs.robots.render``): the start and goal lines, and each
+    ant's torso in its team's colour (darker once fallen) with its legs. ``render_mode="rgb_array"``
+    returns it; ``"human"`` shows it in a window.
 
 Replay scene
     The floor, the start and goal lines and each ant in 3D (``envs.robots.render.replay_scene``).
@@ -131,6 +140,9 @@ class YouShallNotPassRules(RobotGameRules):
         if seat == RUNNER:
             return Affine.stack([t.const([self.half_length]), t.robot(RUNNER, "pos")[1]])
         return t.robot(RUNNER, "pos")[0:2]
+
+    def game_cell_bounds(self) -> tuple[tuple[float, float, int], ...]:
+        return ((-1.0, 1.0, 1), (-2 * cells.FIELD_LIMIT, 2 * cells.FIELD_LIMIT, 1), *cells.OTHER_ROBOT_BOUNDS)
 
     def game_cells(self, seat: int) -> Affine:
         t = self.terms

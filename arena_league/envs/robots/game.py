@@ -13,8 +13,9 @@ this module does the rest:
   sub-steps whose sensors nobody reads run on a copy of the model with sensors switched off.
 * **Observation**: the robot block of ``envs.robots.observation`` (43 cells) then the game's cells;
   observations and the linear parts of the measures are one matrix product of MuJoCo's sensor
-  vector per step (its ``clock`` and constant ``unit`` sensors carry time and constants), contact
-  cells clipped.
+  vector per step (its ``clock`` and constant ``unit`` sensors carry time and constants), every
+  cell then clipped to its bounds (``observation_bounds``: the robot block's are in
+  ``envs.robots.observation``, each game's manual gives its own cells').
 * **Measures** (each game's manual names the seat's target): ``target_distance`` (m, horizontal),
   ``velocity_to_target`` (m/s along the horizontal way to the target), ``facing_target`` (the
   torso's forward axis along that way: the cosine of the angle between them while the torso is
@@ -23,6 +24,11 @@ this module does the rest:
   (the torso's up axis points below the horizon: ``FALLEN_UP_Z``) and ``outcome``; games add
   more. ``measures.block`` holds the float ones as rows of one array (``envs.robots.rewards``).
 * **Annealing** of the dense motor reward: ``set_anneal(alpha)``, see ``envs.robots.rewards``.
+
+Copies: the rules pickle and copy (``pickle``, ``copy.deepcopy``) as their game kwargs plus a
+snapshot of the match (MuJoCo's whole ``MjData``, the match arrays, the generator and the annealing
+weight); a copy builds new rules and loads the snapshot into them, so it goes on bit for bit as the
+original does.
 
 Many matches: the game logic is written over arrays of ``B`` matches (:class:`MatchState`); the
 rules play one (``B = 1``), and :class:`RobotMatches` (the match engine's batched path) plays many,
@@ -46,7 +52,7 @@ from typing import Any, ClassVar
 import mujoco
 import numpy as np
 
-from arena_league.envs.core import GameRules
+from arena_league.envs.core import GameRules, cell_bounds
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.ant import ROBOTS
 from arena_league.envs.robots.controls import RobotControls
@@ -121,13 +127,11 @@ class MatchState:
         self.memory: dict[str, np.ndarray] = {}
         self.events: list[list[dict]] = [[] for _ in range(B)]
 
-    def bind(self, obs_rows: int, obs_dim: int, contact: slice, complex_rows: slice, groups: int,
-             up_z: slice) -> None:
+    def bind(self, obs_rows: int, obs_dim: int, complex_rows: slice, groups: int, up_z: slice) -> None:
         """Make the views of ``lin`` and the storage the step writes (called once)."""
         B, n = self.active.shape
         lin = self.lin
         self.obs = lin[:, :obs_rows].reshape(B, n, obs_dim)
-        self.obs_contact = self.obs[:, :, contact]
         self.obs_active = self.obs[:, :, cells.ACTIVE]
         self.obs_time = self.obs[:, :, cells.TIME]
         self.obs_clock = self.obs[:, :, cells.CLOCK]
@@ -159,6 +163,24 @@ class MatchState:
         self.up_z = lin[:, up_z]
         self.ctrl_squared = np.zeros_like(self.ctrl)
         self.flags = np.zeros((B, n), dtype=bool)  # scratch for the games' judgement
+
+    def load(self, other: MatchState) -> None:
+        """Take the values of ``other`` (a match state of the same game and size, e.g. unpickled)
+        into this one's own arrays, in place, so that every view made by :meth:`bind` (and any
+        array its owner shares with it) shows them. Arrays that are views of something else, such
+        as the torques in MuJoCo's control buffer, are left to their owner."""
+        for name, value in vars(other).items():
+            mine = getattr(self, name)
+            if isinstance(mine, np.ndarray):
+                if mine.base is None:
+                    np.copyto(mine, value)
+            elif name == "memory":
+                for key, array in value.items():
+                    np.copyto(mine[key], array)
+            elif name == "events":
+                self.events = [list(events) for events in value]
+            else:
+                setattr(self, name, value)
 
     def restart(self, slot: int) -> None:
         """Fresh per-match values for a new match in ``slot`` (the game resets its memory)."""
@@ -208,6 +230,10 @@ class RobotGameRules(GameRules):
         self.seat_angle = np.pi * self.team_of.astype(np.float64) if n_teams == 2 else \
             2 * np.pi * self.team_of.astype(np.float64) / n_teams
         self._build_readouts()
+        # bounds of the observation [seat, cell] (every match alike) and of the state, for clipping
+        self._obs_low, self._obs_high = (np.tile(bound.astype(np.float64), (self.n_agents, 1))
+                                         for bound in self.observation_bounds())
+        self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
         self.data = mujoco.MjData(self.model)
         self.match = self.new_match_state(1)
         # the match's torques are MuJoCo's own control buffer: one multiply writes them
@@ -236,6 +262,11 @@ class RobotGameRules(GameRules):
     @abstractmethod
     def game_cells(self, seat: int) -> Affine:
         """The game's own observation cells of ``seat`` (after the robot block), seat frame."""
+
+    @abstractmethod
+    def game_cell_bounds(self) -> tuple[tuple[float, float, int], ...]:
+        """Bounds of the game's own cells (every seat alike), as runs ``(low, high, cells)`` in
+        cell order; ``observation.OTHER_ROBOT_BOUNDS`` covers :meth:`other_robot_cells`."""
 
     def game_readout(self, readout: Readout) -> None:
         """Add the rows the game's judgement reads (world frame) to ``readout``."""
@@ -361,7 +392,7 @@ class RobotGameRules(GameRules):
         s = readout.slices
         self._obs_rows = s["obs"].stop
         self._slices = s
-        self._bind = (self._obs_rows, self.obs_dim, cells.CONTACT, complex_rows, len(groups), s["up_z"])
+        self._bind = (self._obs_rows, self.obs_dim, complex_rows, len(groups), s["up_z"])
         self._energy_weights = np.full(self.act_dim, 1.0 / self.act_dim)
         self.state_dim = 8 * n + 4 * len(self.scene.layout.box_teams)
         self._state_matrix = self._state_readout().build()
@@ -450,12 +481,12 @@ class RobotGameRules(GameRules):
         """The measures of every match from its readout and torques, in place (pure: no game
         memory changes). Few numpy calls on purpose: with two ants this runs beside about 80 us
         of physics per step."""
-        contact = st.obs_contact
-        np.minimum(contact, 1.0, out=contact)
         np.multiply(st.obs_time, _CLOCK_RATE, out=st.phase)
         np.cos(st.phase, out=st.obs_clock[:, :, 0])
         np.sin(st.phase, out=st.obs_clock[:, :, 1])
-        np.maximum(contact, -1.0, out=contact)
+        obs = st.obs
+        np.minimum(obs, self._obs_high, out=obs)  # every cell within its bounds (the clock from the bare time)
+        np.maximum(obs, self._obs_low, out=obs)
         if st.any_inactive:
             st.obs_active[...] = st.active
         np.abs(st.complex, out=st.absolute)
@@ -511,7 +542,30 @@ class RobotGameRules(GameRules):
         return self.match.obs[0].astype(np.float32)
 
     def state(self) -> np.ndarray:
-        return (self._state_matrix @ self._sensor_vector).astype(np.float32)
+        state = self._state_matrix @ self._sensor_vector
+        return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return cell_bounds(*cells.ROBOT_BLOCK_BOUNDS, *self.game_cell_bounds())
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        n_boxes = len(self.scene.layout.box_teams)
+        return cell_bounds(*cells.ROBOT_STATE_BOUNDS * self.n_agents, *cells.BOX_STATE_BOUNDS * n_boxes)
+
+    # --- copies ----------------------------------------------------------------------------------
+    def __getstate__(self) -> dict[str, Any]:
+        return {"arguments": ((self.n_teams, self.players_per_team, self.action_type), dict(self.settings)),
+                "data": self.data, "match": self.match, "rng": self.rng, "game_over": self.game_over,
+                "anneal": self.measures.anneal}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        args, kwargs = state["arguments"]
+        self.__init__(*args, **kwargs)
+        mujoco.mj_copyData(self.data, self.model, state["data"])
+        self.match.load(state["match"])
+        self.rng = state["rng"]
+        self.game_over = state["game_over"]
+        self.measures.anneal = state["anneal"]
 
     def finish(self) -> None:
         if not self.match.done[0]:
