@@ -464,7 +464,7 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 
 def cmd_quickstart(args: argparse.Namespace) -> int:
-    """A whole league on the embedded default (see :mod:`arena_league.league.quickstart`)."""
+    """A whole league on the embedded default (see :mod:`arena_league.league.first_league`)."""
     from arena_league.league import quickstart, render_terminal
 
     def log(line: str) -> None:

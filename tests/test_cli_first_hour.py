@@ -52,6 +52,10 @@ def test_rank_with_no_options_places_against_the_shipped_base_population(capsys,
     code, again, _ = run(capsys, "rank", "alice", "--budget", "20", "--json")
     code, listed, _ = run(capsys, "population", "list", "--json")
     assert again["base"] == "base-v1:1" and [p["version"] for p in listed["populations"]] == [1]
+    code, board, _ = run(capsys, "leaderboard", GAME, "--json")
+    rows = {row["agent"]: row for row in board["rows"]}
+    assert code == 0 and len(rows) == 101 and rows["alice"]["status"] == "placed"
+    assert rows["alice"]["rating"] == pytest.approx(again["rating"])  # the board repeats the placement
 
 
 def test_population_versions_count_per_game_and_imports_are_idempotent(capsys, home, tmp_path):

@@ -7,7 +7,7 @@
 * :mod:`.agents` / :mod:`.jobs`: agents and jobs as a person looks them up; cancelling a job;
 * :mod:`.leaderboards` / :mod:`.report`: ratings tables with intervals, for a terminal, JSON and HTML;
 * :mod:`.schedules`: recurring evaluations, the scheduler and the worker;
-* :mod:`.quickstart`: the whole workflow on the embedded default;
+* :mod:`.first_league`: the whole workflow on the embedded default;
 * :mod:`.catalog`: the game set and social-tree verification; :mod:`.replays`: replay summaries;
 * :mod:`.train`: training an entrant; :mod:`.human`: a person playing against a base population;
 * :mod:`.home`: opening a league, registering games, suggestions for mistyped names;
@@ -26,6 +26,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches"),
     "catalog": ("game_rows", "verify_social_tree"),
     "errors": ("USER_ERRORS",),
+    "first_league": ("QuickstartReport", "quickstart"),
     "home": ("did_you_mean", "open_home", "register_game"),
     "human": ("play_human",),
     "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),
@@ -34,7 +35,6 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
         "ensure_population", "export_population", "game_population", "import_population", "list_populations",
         "shipped_population",
     ),
-    "quickstart": ("QuickstartReport", "quickstart"),
     "replays": ("replay_summary",),
     "report": ("write_html_report",),
     "schedules": (
