@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
+from arena_league.league.first_league import quickstart
 from arena_league.league.home import open_home
 from arena_league.league.leaderboards import METHODS, render_terminal
 from arena_league.league.populations import import_population, shipped_population
-from arena_league.league.first_league import quickstart
 from arena_league.league.service import LEAGUE_WIDE, ensure_scripted_agents, evaluate, leaderboard, rank
 from arena_league.policies import init_parameters, save_arena_policy
 from arena_league.policies.architecture import Architecture
