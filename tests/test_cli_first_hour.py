@@ -202,8 +202,9 @@ def test_errors_are_one_line_on_stderr_and_debug_shows_the_traceback(capsys, hom
 
 def test_commands_that_only_read_the_league_load_no_engine(home):
     probe = ("import sys; from arena_league.cli import main; main(['agents', '--json']); main(['jobs', '--json']); "
-             "heavy = [m for m in ('torch', 'onnxruntime', 'pymunk', 'mujoco') if m in sys.modules]; "
-             "print(json.dumps(heavy))")
+             "main(['population', 'list', '--json']); "
+             "heavy = [m for m in ('torch', 'onnxruntime', 'pymunk', 'mujoco', 'scipy', 'matplotlib', 'alembic') "
+             "if m in sys.modules]; print(json.dumps(heavy))")
     env = {**os.environ, "ARENA_LEAGUE_HOME": str(home)}
     env.pop("ARENA_LEAGUE_DB", None)
     out = subprocess.run([sys.executable, "-c", "import json; " + probe], env=env, capture_output=True,

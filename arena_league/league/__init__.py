@@ -27,10 +27,10 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "catalog": ("game_rows", "verify_social_tree"),
     "errors": ("USER_ERRORS",),
     "first_league": ("QuickstartReport", "quickstart"),
-    "home": ("did_you_mean", "open_home", "register_game"),
+    "home": ("did_you_mean", "open_home", "register_game", "short_name"),
     "human": ("play_human",),
     "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),
-    "leaderboards": ("Leaderboard", "render_terminal", "short_name"),
+    "leaderboards": ("Leaderboard", "render_terminal"),
     "populations": (
         "ensure_population", "export_population", "game_population", "import_population", "list_populations",
         "shipped_population",

@@ -10,7 +10,7 @@ from arena_league import registry as reg
 from arena_league.envs import game_spec
 from arena_league.registry import League
 
-__all__ = ["did_you_mean", "open_home", "register_game"]
+__all__ = ["did_you_mean", "open_home", "register_game", "short_name"]
 
 
 def open_home(home: str | Path | None = None, url: str | None = None) -> League:
@@ -35,3 +35,9 @@ def did_you_mean(word: str, choices: Iterable[str]) -> str:
     if not close:
         return ""
     return " Did you mean " + " or ".join(repr(by_lower[c]) for c in close) + "?"
+
+
+def short_name(name: str, game_id: str) -> str:
+    """``name`` without the ``@<game id>`` suffix that scripted and base agents carry."""
+    suffix = f"@{game_id}"
+    return name[: -len(suffix)] if name.endswith(suffix) and len(name) > len(suffix) else name

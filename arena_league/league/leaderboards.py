@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from arena_league.league.home import short_name
 from arena_league.rating import (
     DEFAULT_PRIOR_SD,
     PSEUDO_COUNT,
@@ -741,12 +742,6 @@ def _plain(value: Any) -> Any:
 
 
 # --- views: the terminal table and the cells the HTML report shares -------------------------------
-
-def short_name(name: str, game_id: str) -> str:
-    """``name`` without the ``@<game id>`` suffix that scripted and base agents carry."""
-    suffix = f"@{game_id}"
-    return name[: -len(suffix)] if name.endswith(suffix) and len(name) > len(suffix) else name
-
 
 def _number(value: float | None, decimals: int) -> str:
     if value is None:

@@ -426,8 +426,13 @@ def get_population(
 
 
 def list_populations(session: Session, *, game_id: str | None = None) -> list[Population]:
-    """Every population (optionally of one game), by name then version."""
-    query = select(Population).order_by(Population.name, Population.version)
+    """Every population (optionally of one game), by name then version, members and their agents
+    loaded (listings read them all)."""
+    query = (
+        select(Population)
+        .order_by(Population.name, Population.version)
+        .options(selectinload(Population.members).selectinload(PopulationMember.agent))
+    )
     if game_id is not None:
         query = query.where(Population.game_id == game_id)
     return list(session.scalars(query))
