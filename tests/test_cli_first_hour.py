@@ -201,6 +201,7 @@ def test_errors_are_one_line_on_stderr_and_debug_shows_the_traceback(capsys, hom
 
 
 def test_commands_that_only_read_the_league_load_no_engine(home):
+    main(["jobs", "--json"])  # creating the league migrates it (Alembic); reading it later needs none
     probe = ("import sys; from arena_league.cli import main; main(['agents', '--json']); main(['jobs', '--json']); "
              "main(['population', 'list', '--json']); "
              "heavy = [m for m in ('torch', 'onnxruntime', 'pymunk', 'mujoco', 'scipy', 'matplotlib', 'alembic') "
