@@ -48,6 +48,34 @@ export writes with ``external_data=False``: both are one agent. The TorchScript 
 (``dynamo=False``) builds a different graph, so its file is another agent. A file without
 external data is kept byte for byte as given, never re-serialized.
 
+Limits (:class:`ArtifactLimits`, each with its default). Each is checked before the thing it
+bounds is read, parsed or allocated, and a refusal is an :class:`ArtifactTooLargeError` naming the
+limit, the artifact's figure and the fix:
+
+* file sizes, with ``stat`` before a byte is read: an ONNX file with its external data
+  (``max_onnx_bytes``, 256 MiB), ``weights.safetensors`` (``max_weights_bytes``, 256 MiB),
+  ``manifest.json`` and a JSON agent descriptor (``max_manifest_bytes``, 64 KiB), ``README.md``
+  (``max_readme_bytes``, 256 KiB);
+* every JSON document an artifact carries (``manifest.json``, a scripted descriptor, the
+  safetensors header): nesting depth (``max_json_depth``, 32), counted by a scan of the text
+  without recursion before the document is parsed;
+* the policy a manifest declares, computed from the manifest alone
+  (:meth:`~arena_league.policies.architecture.Architecture.parameter_shapes` allocates nothing):
+  hidden layers and convolutions (``max_layers``, 16 of each), each hidden layer's width
+  (``max_width``, 4096), ``gru_size`` (``max_gru_size``, 4096), each convolution's output channels
+  (``max_conv_channels``, 1024), ``kernel_size`` (``max_kernel_size``, 15), and the parameter count
+  (``max_parameters``, 16,777,216: 64 MiB as float32). The largest shipped base-population member
+  has 59,268 parameters (an MLP with hidden [128, 128]);
+* the safetensors header's length (``max_safetensors_header_bytes``, 1 MiB), read from its first 8
+  bytes.
+
+The safetensors header is checked before ``safetensors`` loads any tensor. When the folder is
+read: every tensor's ``data_offsets`` lie inside the file, span the bytes its dtype and shape
+need, and tile the data without gaps or overlaps (:class:`CorruptArtifactError` otherwise). When
+the agent is loaded, after the manifest's spaces are compared with the game's: the tensors' names
+and shapes are the architecture's :meth:`parameter_shapes` and their dtypes floating point (F32,
+F16, BF16, F64), or :class:`~arena_league.policies.errors.WeightsMismatchError`.
+
 Content address (the registry's): :mod:`arena_league.policies.address`.
 """
 
@@ -57,8 +85,10 @@ import errno
 import hashlib
 import io
 import json
+import math
 import os
 import pickletools
+import re
 import stat
 import zipfile
 from collections.abc import Mapping
@@ -83,6 +113,7 @@ from arena_league.policies.errors import (
     ManifestError,
     SpaceMismatchError,
     UnsafeArtifactError,
+    WeightsMismatchError,
 )
 from arena_league.policies.families import TorchPolicy
 from arena_league.policies.onnx_policy import (
@@ -130,14 +161,45 @@ _SUBMIT_INSTEAD = ("submit an ONNX file (torch.onnx.export with input 'obs' and 
                    "arena-policy folder (manifest.json + weights.safetensors)")
 
 
+#: Bytes per element of every safetensors dtype.
+_SAFETENSORS_ITEM_BYTES = {"BOOL": 1, "U8": 1, "I8": 1, "F8_E5M2": 1, "F8_E4M3": 1, "I16": 2, "U16": 2, "F16": 2,
+                           "BF16": 2, "I32": 4, "U32": 4, "F32": 4, "I64": 8, "U64": 8, "F64": 8}
+#: The safetensors dtypes a policy's weights may have (floating point).
+_WEIGHT_DTYPES = ("F32", "F16", "BF16", "F64")
+#: Dimensions of one tensor in a safetensors header.
+_MAX_TENSOR_RANK = 8
+#: A JSON string (its closing quote optional, so an unterminated one ends the scan) or a bracket.
+_JSON_TOKEN = re.compile(r'"(?:[^"\\]+|\\.)*"?|[\[\]{}]', re.DOTALL)
+_LIMITS_FIX = ("Submit a smaller policy (fewer or narrower layers) or, in a league of your own, raise "
+               "ArtifactLimits.{field}")
+
+
 @dataclass(frozen=True)
 class ArtifactLimits:
-    """Size limits, checked with ``stat`` before anything is read."""
+    """Limits on an artifact, each checked before what it bounds is read, parsed or allocated
+    (see the module docstring): file sizes (with ``stat``), JSON nesting depth, the safetensors
+    header's length, and the size of the policy a manifest declares."""
 
     max_onnx_bytes: int = 256 * MiB
     max_weights_bytes: int = 256 * MiB
     max_manifest_bytes: int = 64 * 1024
     max_readme_bytes: int = 256 * 1024
+    #: Nesting depth of any JSON document an artifact carries.
+    max_json_depth: int = 32
+    #: Length of a safetensors file's JSON header.
+    max_safetensors_header_bytes: int = 1 * MiB
+    #: Parameters of the policy a manifest declares (1 << 24: 64 MiB as float32).
+    max_parameters: int = 1 << 24
+    #: Hidden layers, and separately convolutions.
+    max_layers: int = 16
+    #: Width of each hidden layer.
+    max_width: int = 4096
+    #: ``gru_size`` of a ``gru`` policy.
+    max_gru_size: int = 4096
+    #: Output channels of each convolution of a ``cnn`` policy.
+    max_conv_channels: int = 1024
+    #: ``kernel_size`` of a ``cnn`` policy.
+    max_kernel_size: int = 15
 
 
 DEFAULT_LIMITS = ArtifactLimits()
@@ -178,11 +240,12 @@ class AgentArtifact:
     def size_bytes(self) -> int:
         return sum(len(b) for b in self.files.values())
 
-    def manifest(self) -> dict[str, Any]:
-        """The parsed and checked ``manifest.json`` of an arena-policy folder."""
+    def manifest(self, limits: ArtifactLimits = DEFAULT_LIMITS) -> dict[str, Any]:
+        """The parsed and checked ``manifest.json`` of an arena-policy folder (its size, depth and
+        the policy it declares within ``limits``)."""
         if self.kind != "arena-policy":
             raise ValueError(f"a {self.kind} artifact has no manifest")
-        return parse_manifest(self.files[MANIFEST_FILE], self.source)
+        return parse_manifest(self.files[MANIFEST_FILE], self.source, limits)
 
 
 # --- recognising formats ---------------------------------------------------------------------------
@@ -260,6 +323,176 @@ def human_size(n_bytes: int) -> str:
         if n_bytes >= size:
             return f"{n_bytes / size:.3g} {unit}"
     return f"{n_bytes} bytes"
+
+
+# --- limits ---------------------------------------------------------------------------------------
+
+def load_json(data: bytes, what: str, source: str, max_bytes: int, limits: ArtifactLimits = DEFAULT_LIMITS,
+              invalid: type[ArtifactError] = CorruptArtifactError) -> Any:
+    """Parse a JSON document an artifact carries, its size (``max_bytes``) and nesting depth
+    (``limits.max_json_depth``) checked first; the depth is counted by a scan of the text, without
+    recursion, so a deeply nested document never reaches the parser.
+
+    Raises:
+        ArtifactTooLargeError: over a limit (naming it).
+        ``invalid``: not valid JSON (by default :class:`CorruptArtifactError`).
+    """
+    if len(data) > max_bytes:
+        raise ArtifactTooLargeError(f"{source}: {what} is {len(data)} bytes ({human_size(len(data))}), over the limit "
+                                    f"of {human_size(max_bytes)}; it was not parsed. Write it without padding or "
+                                    "bulky fields")
+    try:
+        text = data.decode(json.detect_encoding(data))
+    except (UnicodeDecodeError, LookupError) as error:
+        raise invalid(f"{source}: {what} is not valid JSON text ({error}); write it as UTF-8") from None
+    depth = 0
+    for match in _JSON_TOKEN.finditer(text):
+        bracket = text[match.start()]
+        if bracket in "[{":
+            depth += 1
+            if depth > limits.max_json_depth:
+                raise ArtifactTooLargeError(f"{source}: {what} nests arrays and objects more than "
+                                            f"{limits.max_json_depth} deep (ArtifactLimits.max_json_depth); it was "
+                                            "not parsed. Write it with flat fields (no deep nesting)")
+        elif bracket in "]}":
+            depth -= 1
+    try:
+        return json.loads(text)
+    except (ValueError, RecursionError) as error:
+        raise invalid(f"{source}: {what} is not valid JSON ({error})") from None
+
+
+def check_architecture_limits(arch: Architecture, limits: ArtifactLimits = DEFAULT_LIMITS,
+                              source: str = MANIFEST_FILE) -> int:
+    """Refuse a declared policy over ``limits`` (layers, widths, ``gru_size``, convolutions, the
+    parameter count), computed from its shapes alone: no tensor is allocated. Returns the
+    parameter count.
+
+    Raises:
+        ArtifactTooLargeError: naming the limit, the manifest's figure and the fix.
+    """
+    def refuse(what: str, figure: int, name: str) -> ArtifactTooLargeError:
+        return ArtifactTooLargeError(f"{source}: the manifest declares {what} {figure:,}, over the limit of "
+                                     f"{getattr(limits, name):,} (ArtifactLimits.{name}); nothing was allocated. "
+                                     + _LIMITS_FIX.format(field=name))
+
+    for what, figure, name in (("a number of hidden layers of", len(arch.hidden), "max_layers"),
+                               ("a number of convolutions of", len(arch.conv_channels), "max_layers"),
+                               ("a hidden layer of width", max(arch.hidden, default=0), "max_width"),
+                               ("a gru_size of", arch.gru_size, "max_gru_size"),
+                               ("a convolution with output channels", max(arch.conv_channels, default=0),
+                                "max_conv_channels"),
+                               ("a kernel_size of", arch.kernel_size if arch.family == "cnn" else 0,
+                                "max_kernel_size")):
+        if figure > getattr(limits, name):
+            raise refuse(what, figure, name)
+    n_parameters = arch.n_parameters()
+    if n_parameters > limits.max_parameters:
+        raise ArtifactTooLargeError(f"{source}: the {arch.family} policy the manifest declares has {n_parameters:,} "
+                                    f"parameters ({human_size(4 * n_parameters)} as float32), over the limit of "
+                                    f"{limits.max_parameters:,} (ArtifactLimits.max_parameters); nothing was "
+                                    "allocated. " + _LIMITS_FIX.format(field="max_parameters"))
+    return n_parameters
+
+
+def weights_header(data: bytes, source: str = "<weights>", limits: ArtifactLimits = DEFAULT_LIMITS
+                   ) -> dict[str, tuple[str, tuple[int, ...]]]:
+    """The tensors a safetensors file lists (name -> dtype, shape), from its header alone: the
+    header's length within ``limits.max_safetensors_header_bytes``, its JSON within
+    ``limits.max_json_depth``, and every tensor's ``data_offsets`` inside the file, matching its
+    dtype and shape and tiling the data without gaps or overlaps. No tensor is loaded.
+
+    Raises:
+        ArtifactTooLargeError: the header is over its limit.
+        CorruptArtifactError: the file is truncated or its header is malformed.
+    """
+    where = f"{source}: {WEIGHTS_FILE}"
+    fix = "save it again with safetensors.torch.save_file"
+    if len(data) < 8:
+        raise CorruptArtifactError(f"{where} is truncated or not a safetensors file ({len(data)} bytes, short of the "
+                                   f"8 that give its header's length); {fix}")
+    length = int.from_bytes(data[:8], "little")
+    if length > limits.max_safetensors_header_bytes:
+        raise ArtifactTooLargeError(f"{where} declares a header of {length:,} bytes, over the limit of "
+                                    f"{human_size(limits.max_safetensors_header_bytes)} "
+                                    "(ArtifactLimits.max_safetensors_header_bytes); it was not read. A policy's "
+                                    f"header lists a few dozen tensors: {fix}")
+    if 8 + length > len(data):
+        raise CorruptArtifactError(f"{where} is truncated or not a safetensors file: its header claims {length:,} "
+                                   f"bytes, but the file holds {len(data) - 8:,} after the length; {fix}")
+    header = load_json(data[8: 8 + length], f"{WEIGHTS_FILE}'s header", source, limits.max_safetensors_header_bytes,
+                       limits)
+    if not isinstance(header, dict) or not isinstance(header.pop("__metadata__", {}), dict):
+        raise CorruptArtifactError(f"{where} has a malformed header (not an object of tensors); {fix}")
+    data_bytes = len(data) - 8 - length
+    tensors: dict[str, tuple[str, tuple[int, ...]]] = {}
+    spans: list[tuple[int, int, str]] = []
+    for name, entry in header.items():
+        if not isinstance(entry, dict) or set(entry) != {"dtype", "shape", "data_offsets"}:
+            raise CorruptArtifactError(f"{where}: the header entry of tensor {name!r} is not {{dtype, shape, "
+                                       f"data_offsets}}; {fix}")
+        dtype, shape, offsets = entry["dtype"], entry["shape"], entry["data_offsets"]
+        if dtype not in _SAFETENSORS_ITEM_BYTES:
+            raise CorruptArtifactError(f"{where}: tensor {name!r} has the unknown dtype {dtype!r}; {fix}")
+        if not isinstance(shape, list) or len(shape) > _MAX_TENSOR_RANK or \
+                not all(type(d) is int and d >= 0 for d in shape):
+            raise CorruptArtifactError(f"{where}: tensor {name!r} has the malformed shape {shape!r} (at most "
+                                       f"{_MAX_TENSOR_RANK} non-negative integers); {fix}")
+        if not isinstance(offsets, list) or len(offsets) != 2 or not all(type(o) is int for o in offsets) or \
+                not 0 <= offsets[0] <= offsets[1]:
+            raise CorruptArtifactError(f"{where}: tensor {name!r} has the malformed data_offsets {offsets!r}; {fix}")
+        begin, end = offsets
+        if end > data_bytes:
+            raise CorruptArtifactError(f"{where} is truncated or damaged: tensor {name!r} lies at bytes {begin:,} to "
+                                       f"{end:,} of its data, past the end of the file ({data_bytes:,} bytes of "
+                                       f"data); {fix}")
+        size = _SAFETENSORS_ITEM_BYTES[dtype] * math.prod(shape)
+        if end - begin != size:
+            raise CorruptArtifactError(f"{where}: tensor {name!r} is {dtype}{shape} ({size:,} bytes), but its "
+                                       f"data_offsets span {end - begin:,} bytes; {fix}")
+        tensors[name] = (dtype, tuple(shape))
+        spans.append((begin, end, name))
+    position = 0
+    for begin, end, name in sorted(spans):
+        if begin != position:
+            raise CorruptArtifactError(f"{where}: tensor {name!r} starts at byte {begin:,} of the data, not at "
+                                       f"{position:,} (a gap or an overlap); {fix}")
+        position = end
+    if position != data_bytes:
+        raise CorruptArtifactError(f"{where} holds {data_bytes - position:,} bytes past its last tensor; {fix}")
+    return tensors
+
+
+def check_weights_header(data: bytes, arch: Architecture, source: str = "<weights>",
+                         limits: ArtifactLimits = DEFAULT_LIMITS) -> None:
+    """Compare a safetensors file's header (see :func:`weights_header`) with ``arch``: every name
+    of :meth:`Architecture.parameter_shapes` present with its shape and a floating-point dtype,
+    nothing extra. Nothing is loaded.
+
+    Raises:
+        WeightsMismatchError: naming the first difference and the tensors expected.
+        ArtifactTooLargeError, CorruptArtifactError: as :func:`weights_header`.
+    """
+    listed = weights_header(data, source, limits)
+    expected = arch.parameter_shapes()
+    missing = [n for n in expected if n not in listed]
+    extra = sorted(set(listed) - set(expected))
+    described = f"the {arch.family} family with sizes {arch.sizes()} and obs_dim {arch.obs_dim}"
+    if missing or extra:
+        parts = ([f"missing {', '.join(missing)}"] if missing else []) + \
+            ([f"unexpected {', '.join(extra[:8])}{' ...' if len(extra) > 8 else ''}"] if extra else [])
+        raise WeightsMismatchError(f"{source}: {WEIGHTS_FILE} does not hold the tensors of {described} that "
+                                   f"{MANIFEST_FILE} declares: {'; '.join(parts)}. Expected tensors: "
+                                   + ", ".join(f"{n} {list(s)}" for n, s in expected.items()))
+    for name, shape in expected.items():
+        dtype, found = listed[name]
+        if dtype not in _WEIGHT_DTYPES:
+            raise WeightsMismatchError(f"{source}: weight {name} has dtype {dtype}; weights are floating point "
+                                       f"({', '.join(_WEIGHT_DTYPES)}): save float32 tensors")
+        if found != shape:
+            raise WeightsMismatchError(f"{source}: weight {name} has shape {list(found)}, but {described} needs "
+                                       f"{list(shape)}; save the weights of the policy {MANIFEST_FILE} declares, or "
+                                       "fix its sizes")
 
 
 def _read_exact(path: Path, size: int) -> bytes:
@@ -483,9 +716,9 @@ def _read_json_agent(path: Path, size: int, limits: ArtifactLimits) -> AgentArti
                                     f"{limits.max_manifest_bytes} bytes")
     data = _read_exact(path, size)
     try:
-        document = json.loads(data)
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise CorruptArtifactError(f"{path} is neither ONNX nor valid JSON ({error})") from None
+        document = load_json(data, "the JSON agent description", str(path), limits.max_manifest_bytes, limits)
+    except CorruptArtifactError as error:
+        raise CorruptArtifactError(f"{error}; an agent file is ONNX, or JSON naming a scripted agent") from None
     if isinstance(document, dict) and document.get("format") == SCRIPTED_FORMAT:
         name = document.get("name")
         if name not in SCRIPTED_NAMES:
@@ -523,16 +756,16 @@ def _read_policy_folder(folder: Path, limits: ArtifactLimits) -> AgentArtifact:
         raise _refuse(refused, str(weights_path))
     files = {name: _read_exact(folder / name, size) for name, size in sorted(sizes.items())}
     artifact = AgentArtifact("arena-policy", files, str(folder))
-    artifact.manifest()  # checked now, so a bad folder is refused when read
+    artifact.manifest(limits)  # checked now, so a bad folder is refused when read
+    weights_header(files[WEIGHTS_FILE], str(folder), limits)
     return artifact
 
 
-def parse_manifest(data: bytes, source: str = MANIFEST_FILE) -> dict[str, Any]:
-    """Parse ``manifest.json`` and check its fields (not yet against a game)."""
-    try:
-        manifest = json.loads(data)
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise ManifestError(f"{source}: {MANIFEST_FILE} is not valid JSON ({error})") from None
+def parse_manifest(data: bytes, source: str = MANIFEST_FILE, limits: ArtifactLimits = DEFAULT_LIMITS
+                   ) -> dict[str, Any]:
+    """Parse ``manifest.json`` and check its fields (not yet against a game): its size and depth,
+    and the size of the policy it declares, within ``limits`` (see the module docstring)."""
+    manifest = load_json(data, MANIFEST_FILE, source, limits.max_manifest_bytes, limits, ManifestError)
     if not isinstance(manifest, dict):
         raise ManifestError(f"{source}: {MANIFEST_FILE} must be a JSON object")
     if manifest.get("format", MANIFEST_FORMAT) != MANIFEST_FORMAT or \
@@ -554,9 +787,10 @@ def parse_manifest(data: bytes, source: str = MANIFEST_FILE) -> dict[str, Any]:
         raise ManifestError(f"{source}: manifest 'spaces' must be an object such as "
                             "{\"obs_dim\": 25, \"action_type\": \"discrete\", \"n_actions\": 5}")
     try:
-        manifest_architecture(manifest)
+        arch = manifest_architecture(manifest)
     except ManifestError as error:
         raise ManifestError(f"{source}: {error}") from None
+    check_architecture_limits(arch, limits, source)
     return manifest
 
 
@@ -661,7 +895,8 @@ def unpack_artifact(blob: bytes, limits: ArtifactLimits = DEFAULT_LIMITS, source
         if refused:
             raise _refuse(refused, f"{source} ({WEIGHTS_FILE})")
         artifact = AgentArtifact("arena-policy", files, source)
-        artifact.manifest()
+        artifact.manifest(limits)
+        weights_header(files[WEIGHTS_FILE], source, limits)
         return artifact
     if len(blob) > limits.max_onnx_bytes:
         raise ArtifactTooLargeError(f"{source} is {len(blob)} bytes, over the limit of {limits.max_onnx_bytes}")
@@ -670,8 +905,8 @@ def unpack_artifact(blob: bytes, limits: ArtifactLimits = DEFAULT_LIMITS, source
         raise _refuse(refused, source)
     if blob.lstrip()[:1] == b"{":
         try:
-            document = json.loads(blob)
-        except (UnicodeDecodeError, json.JSONDecodeError):
+            document = load_json(blob, "the JSON agent description", source, limits.max_manifest_bytes, limits)
+        except CorruptArtifactError:
             document = None
         if isinstance(document, dict) and document.get("format") == SCRIPTED_FORMAT and \
                 document.get("name") in SCRIPTED_NAMES:
@@ -742,13 +977,14 @@ def load_agent(source: str | os.PathLike[str] | AgentArtifact, game_id: str, *, 
         policy = scripted_policy(name, game_id, action_type)
         return LoadedAgent(policy, artifact, _info(artifact, game_id, policy.spec, False, (), name, None, name))
     if artifact.kind == "arena-policy":
-        manifest = artifact.manifest()
+        manifest = artifact.manifest(limits)  # the declared policy's size checked before anything is allocated
         arch = manifest_architecture(manifest)
         if manifest["game"] != game_id:
             raise SpaceMismatchError(f"{label} was made for {manifest['game']}, not {game_id}; submit it for "
                                      f"{manifest['game']} or train an agent on {game_id}")
         spec = _game_spec(game_id, action_type or arch.action_type, offered, label)
         _check_spaces(arch.spec, spec, game_id, label)
+        check_weights_header(artifact.files[WEIGHTS_FILE], arch, label, limits)
         try:
             weights = load_safetensors(artifact.files[WEIGHTS_FILE])
         except (SafetensorError, ValueError, RuntimeError) as error:

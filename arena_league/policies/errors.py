@@ -20,7 +20,9 @@ class UnsafeArtifactError(ArtifactError):
 
 
 class ArtifactTooLargeError(ArtifactError):
-    """The artifact is over the size limit; it was refused before its content was read."""
+    """The artifact is over one of the limits of ``ArtifactLimits``: a file's size (checked with
+    ``stat`` before it is read), a JSON document's nesting depth, a safetensors header's length, or
+    the size of the policy a manifest declares (checked before any tensor is allocated)."""
 
 
 class CorruptArtifactError(ArtifactError):
@@ -33,3 +35,9 @@ class ManifestError(ArtifactError):
 
 class SpaceMismatchError(ArtifactError):
     """The agent's inputs or outputs do not match the game's observation and action spaces."""
+
+
+class WeightsMismatchError(ManifestError, CorruptArtifactError):
+    """An ``arena-policy`` folder's ``weights.safetensors`` header does not list the tensors its
+    ``manifest.json`` describes (a name, dtype or shape differs): the two files contradict each
+    other, so the artifact is refused as unreadable, before any tensor is loaded."""
