@@ -174,7 +174,8 @@ def test_an_agent_name_already_taken_is_refused_and_nothing_changes(league: Leag
         ensure_game(session, GAME_ID)
         first = store_artifact(session, league.home, b"alice weights v3", "onnx")
         create_agent(session, "alice-v3", GAME_ID, "submission", owner="alice", artifact_sha256=first.sha256)
-        create_agent(session, "alice-v4", GAME_ID, "submission", owner="alice", artifact_sha256=first.sha256)
+        fourth = store_artifact(session, league.home, b"alice weights v4", "onnx")
+        create_agent(session, "alice-v4", GAME_ID, "submission", owner="alice", artifact_sha256=fourth.sha256)
         second = store_artifact(session, league.home, b"mallory weights", "onnx")
     agents_before = _agent_rows(league)
 

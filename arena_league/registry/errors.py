@@ -16,8 +16,30 @@ class RegistryError(Exception):
     """Base class of every error the registry raises on purpose."""
 
 
-class DatabaseUnreachableError(RegistryError):
+class DatabaseStateError(RegistryError):
+    """The database cannot be used as it is now (unreachable, read-only, full, corrupt); the
+    message says which, and what to do about it."""
+
+
+class DatabaseUnreachableError(DatabaseStateError):
     """The database URL could not be connected to."""
+
+
+class ReadOnlyDatabaseError(DatabaseStateError):
+    """The league database (or the folder holding it) cannot be written: file permissions, an
+    immutable file, a read-only mount, or a PostgreSQL read-only transaction or replica."""
+
+
+class DatabaseFullError(DatabaseStateError):
+    """The disk holding the database is full (or the database reached its size limit)."""
+
+
+class CorruptDatabaseError(DatabaseStateError):
+    """The SQLite file fails its integrity check: a page is damaged. Nothing is written to it."""
+
+
+class WorkerGaveUpError(DatabaseStateError):
+    """A worker stopped after repeated database errors instead of retrying for ever."""
 
 
 class NotADatabaseError(RegistryError):
@@ -70,6 +92,27 @@ class NameTakenError(RegistryError):
         super().__init__(
             f"{what} name {name!r} is already taken by {existing}; "
             f"choose another name, for example {suggestion!r}"
+        )
+
+
+class ArtifactTakenError(RegistryError):
+    """The artifact is already the agent of another name in that game: one agent per (game, bytes).
+
+    Attributes:
+        agent: the name of the agent that holds the bytes.
+        requested: the name that was asked for (nothing was registered under it).
+        game_id: the game.
+        sha256: the artifact's digest.
+    """
+
+    def __init__(self, agent: str, requested: str, game_id: str, sha256: str) -> None:
+        self.agent = agent
+        self.requested = requested
+        self.game_id = game_id
+        self.sha256 = sha256
+        super().__init__(
+            f"these bytes (artifact {sha256[:12]}) are already agent {agent!r} of {game_id}; nothing "
+            f"was registered as {requested!r}. Rank or rename {agent!r} instead, or submit different bytes"
         )
 
 

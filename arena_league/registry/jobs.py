@@ -16,6 +16,15 @@ Claims never hand one job to two workers:
 - PostgreSQL: the same UPDATE with `FOR UPDATE SKIP LOCKED` on the inner SELECT, so concurrent
   workers skip each other's rows instead of waiting on them.
 
+A worker rides out database trouble, but not for ever. A failed claim is retried after a pause
+that doubles each time (from `poll_seconds` up to `MAX_BACKOFF_SECONDS`); after `max_db_failures`
+failures in a row (default `DB_FAILURES_UNTIL_IDLE` = 5 for `until_idle`, so a one-off run ends
+within seconds, and `DB_FAILURES_LONG_RUNNING` = 10 for a long-running worker, about four minutes
+of outage at the default poll of 1 s: a database restart) it stops with `WorkerGaveUpError`,
+naming the last cause, for its supervisor to restart it and a person to see why. A database that
+cannot be written or is damaged (`ReadOnlyDatabaseError`, `CorruptDatabaseError`) stops it at
+once: waiting does not fix those. Each failure is logged as one line, not a traceback.
+
 Handlers must make their results idempotent (the registry's `record_match` with a match key
 derived from the job does this), since a job retried after a crash runs again from the start.
 Times come from the workers' clocks (keep them in sync with NTP) and are stored as UTC.
@@ -41,10 +50,26 @@ from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session
 
 from arena_league.registry.db import League
-from arena_league.registry.errors import InvalidRecordError, LeaseLostError
-from arena_league.registry.models import Job, JobStatus, utcnow
+from arena_league.registry.errors import (
+    CorruptDatabaseError,
+    DatabaseStateError,
+    InvalidRecordError,
+    LeaseLostError,
+    ReadOnlyDatabaseError,
+    WorkerGaveUpError,
+)
+from arena_league.registry.models import Game, Job, JobStatus, utcnow
 
 logger = logging.getLogger(__name__)
+
+#: Failed claims in a row after which `run_worker(until_idle=True)` stops.
+DB_FAILURES_UNTIL_IDLE = 5
+#: Failed claims in a row after which a long-running `run_worker` stops.
+DB_FAILURES_LONG_RUNNING = 10
+#: The longest pause between two claims that failed on a database error.
+MAX_BACKOFF_SECONDS = 60.0
+_PERMANENT_ERRORS = (ReadOnlyDatabaseError, CorruptDatabaseError)
+_DATABASE_ERRORS = (SQLAlchemyError, DatabaseStateError)
 
 _EXHAUSTED_LEASE_ERROR = (
     "the lease expired on the last allowed attempt (the worker crashed or stalled); not retried"
@@ -297,6 +322,34 @@ def _cancel_held(league: League, job: ClaimedJob) -> None:
                        lease_owner=None, lease_expires_at=None)
 
 
+def set_job_payload(session: Session, job: ClaimedJob, payload: Mapping[str, Any]) -> None:
+    """Replace a held job's payload in the caller's transaction (e.g. with the plan its handler made,
+    so a retry replays the same plan); raises LeaseLostError if the lease is no longer held."""
+    body = dict(payload)
+    _require_json(body, f"payload of job {job.id}")
+    _fenced_update(session, job, "update the payload of", payload=body)
+
+
+def live_jobs(session: Session, kind: str, *, exclude_job_id: int | None = None) -> list[Job]:
+    """The queued and running jobs of a kind (those that may still store results), oldest first."""
+    query = (
+        select(Job)
+        .where(Job.kind == kind, Job.status.in_((JobStatus.QUEUED.value, JobStatus.RUNNING.value)))
+        .order_by(Job.id)
+    )
+    if exclude_job_id is not None:
+        query = query.where(Job.id != exclude_job_id)
+    return list(session.scalars(query))
+
+
+def lock_game(session: Session, game_id: str) -> None:
+    """Hold the game's lock until the caller's transaction ends, so that jobs planning work on one
+    game plan one at a time, each seeing the plans committed before it. PostgreSQL: a row lock on
+    the game (SELECT ... FOR UPDATE); SQLite: the write transaction's BEGIN IMMEDIATE already holds
+    the database's single write lock. Call it inside `League.transaction()`."""
+    session.execute(select(Game.id).where(Game.id == game_id).with_for_update()).all()
+
+
 def get_job(session: Session, job_id: int) -> Job | None:
     """The job with this id, or None."""
     return session.get(Job, job_id)
@@ -342,6 +395,7 @@ def run_worker(
     *,
     until_idle: bool = False,
     retry_delay_seconds: float = 0.0,
+    max_db_failures: int | None = None,
 ) -> WorkerReport:
     """Claim and run jobs until stopped; returns what was done.
 
@@ -361,6 +415,13 @@ def run_worker(
         stop_event: set it to stop after the current job.
         until_idle: stop as soon as no job can be claimed.
         retry_delay_seconds: how long a failed attempt waits before it can be claimed again.
+        max_db_failures: stop after this many claims in a row failed on a database error (see the
+            module docstring); default `DB_FAILURES_UNTIL_IDLE` with `until_idle`, else
+            `DB_FAILURES_LONG_RUNNING`.
+
+    Raises:
+        WorkerGaveUpError: `max_db_failures` claims in a row failed; it names the last cause.
+        ReadOnlyDatabaseError, CorruptDatabaseError: at the first failure of that cause.
 
     Ctrl-C (KeyboardInterrupt) hands the current job back to the queue and re-raises.
     """
@@ -368,13 +429,30 @@ def run_worker(
     stop = stop_event or threading.Event()
     report = WorkerReport()
     kinds = sorted(handlers)
+    limit = max_db_failures or (DB_FAILURES_UNTIL_IDLE if until_idle else DB_FAILURES_LONG_RUNNING)
+    if limit < 1:
+        raise InvalidRecordError(f"max_db_failures must be at least 1, not {limit}")
+    failures = 0
     while not stop.is_set() and (max_jobs is None or len(report.job_ids) < max_jobs):
         try:
             job = claim_job(league, worker, lease_seconds=lease_seconds, kinds=kinds)
-        except SQLAlchemyError:  # the database is briefly unreachable or locked: wait and retry
-            logger.exception("worker %s could not claim a job; retrying in %s s", worker, poll_seconds)
-            stop.wait(poll_seconds)
+        except _DATABASE_ERRORS as error:  # locked, unreachable, full...: wait longer each time
+            failures += 1
+            if isinstance(error, _PERMANENT_ERRORS):
+                raise
+            if failures >= limit:
+                raise WorkerGaveUpError(
+                    f"worker {worker} stopped after {failures} failed attempts in a row to claim a job; "
+                    f"the last: {_one_line(error)}. Jobs it held are retried by other workers once "
+                    "their lease expires; start it again once the database is back"
+                ) from error
+            pause = min(max(poll_seconds, 0.001) * 2 ** (failures - 1), MAX_BACKOFF_SECONDS)
+            logger.warning("worker %s could not claim a job (%s); attempt %d of %d, next in %.1f s",
+                           worker, _one_line(error), failures, limit, pause)
+            logger.debug("the failed claim's traceback", exc_info=True)
+            stop.wait(pause)
             continue
+        failures = 0
         if job is None:
             if until_idle:
                 break
@@ -384,12 +462,23 @@ def run_worker(
         logger.info("worker %s claimed job %d (%s), attempt %d", worker, job.id, job.kind, job.attempt)
         try:
             _run_one(league, handlers[job.kind], job, lease_seconds, retry_delay_seconds, report)
-        except SQLAlchemyError:  # could not record the outcome: the lease runs out and it is retried
+        except _DATABASE_ERRORS as error:  # could not record the outcome: retried after its lease
+            if isinstance(error, _PERMANENT_ERRORS):
+                raise
             report.lost += 1
-            logger.exception(
-                "job %d: could not record its outcome; it is retried once its lease expires", job.id
+            logger.warning(
+                "job %d: could not record its outcome (%s); it is retried once its lease expires",
+                job.id, _one_line(error),
             )
     return report
+
+
+def _one_line(error: BaseException) -> str:
+    """An error as one line: a translated registry error's message, or a driver error's first line
+    (without the SQL statement SQLAlchemy appends)."""
+    cause = getattr(error, "orig", None) or error
+    text = str(cause).strip().splitlines()
+    return f"{type(error).__name__}: {text[0] if text else ''}"
 
 
 def run_job_now(

@@ -163,7 +163,12 @@ class Artifact(Base):
 
 
 class Agent(Base):
-    """A player of one game: its kind, owner, status and the artifact holding its policy."""
+    """A player of one game: its kind, owner, status and the artifact holding its policy.
+
+    One agent per (game, artifact): the same bytes are one player of a game, whatever names they
+    are submitted under (a unique index; agents without an artifact, such as scripted ones, are
+    exempt, since SQLite and PostgreSQL both count NULLs as distinct in a unique index).
+    """
 
     __tablename__ = "agents"
 
@@ -187,6 +192,7 @@ class Agent(Base):
         CheckConstraint(_one_of("status", AgentStatus), name="status"),
         Index(None, "game_id", "status"),
         Index(None, "artifact_sha256"),
+        Index(None, "game_id", "artifact_sha256", unique=True),
     )
 
 

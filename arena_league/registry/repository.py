@@ -28,6 +28,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, selectinload
 
 from arena_league.registry.errors import (
+    ArtifactTakenError,
     GameMismatchError,
     InvalidRecordError,
     MatchKeyConflictError,
@@ -246,6 +247,9 @@ def create_agent(
 
     Raises:
         NameTakenError: another agent has this name (the error names it and suggests a free name).
+        ArtifactTakenError: another agent of the game holds this artifact (one agent per game and
+            bytes; a unique index enforces it, so of two concurrent registrations of the same
+            bytes the second gets this error, naming the first).
         UnknownGameError: the game is not registered.
         InvalidRecordError: a malformed name, an unknown kind or status, or a base / submission /
             trained agent without an artifact.
@@ -268,6 +272,7 @@ def create_agent(
         raise InvalidRecordError(
             f"artifact {artifact_sha256[:12]} is not in the store; store it with store_artifact first"
         )
+    _refuse_taken_artifact(session, name, game_id, artifact_sha256)
     agent = Agent(
         name=name,
         game_id=game_id,
@@ -282,8 +287,23 @@ def create_agent(
             session.add(agent)
     except IntegrityError:
         refuse_taken_name(session, name)  # another writer took the name meanwhile
+        _refuse_taken_artifact(session, name, game_id, artifact_sha256)  # or the bytes
         raise
     return agent
+
+
+def _refuse_taken_artifact(session: Session, name: str, game_id: str, artifact_sha256: str | None) -> None:
+    """Raise `ArtifactTakenError` if an agent of `game_id` already holds `artifact_sha256`."""
+    if artifact_sha256 is None:
+        return
+    holder = session.scalars(
+        select(Agent.name)
+        .where(Agent.game_id == game_id, Agent.artifact_sha256 == artifact_sha256)
+        .order_by(Agent.id)
+        .limit(1)
+    ).first()
+    if holder is not None:
+        raise ArtifactTakenError(holder, name, game_id, artifact_sha256)
 
 
 def get_agent(session: Session, name: str) -> Agent | None:
