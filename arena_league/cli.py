@@ -517,6 +517,26 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_gc(args: argparse.Namespace) -> int:
+    from arena_league.league import collect_garbage
+
+    with _league(args) as league:
+        report = collect_garbage(league, dry_run=args.dry_run, min_age_s=args.min_age)
+    if args.json:
+        emit_json(report)
+        return 0
+    verb = "would remove" if args.dry_run else "removed"
+    for entry in report["artifacts"]:
+        stdout.print(f"{verb} artifact {entry['sha256'][:12]} ({entry['path']}, {entry['bytes']} bytes)",
+                     highlight=False)
+    for entry in report["incoming"]:
+        stdout.print(f"{verb} leftover {entry['path']} ({entry['bytes']} bytes)", highlight=False)
+    count = len(report["artifacts"]) + len(report["incoming"])
+    stdout.print(f"{verb} {count} entries, {report['bytes']} bytes" if count else "nothing to remove",
+                 highlight=False)
+    return 0
+
+
 # --- parser --------------------------------------------------------------------------------------
 
 _BACKENDS = ("inprocess", "process", "ray")
@@ -702,6 +722,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--destination", default=None, help="export: a new folder")
     _league_options(p)
     p.set_defaults(func=cmd_population)
+
+    p = command("gc", "remove artifact files no agent references and leftovers of interrupted writes")
+    p.add_argument("--dry-run", action="store_true", help="only list what would be removed")
+    p.add_argument("--min-age", type=float, default=3600.0, metavar="SECONDS",
+                   help="leave files modified in the last SECONDS, which a running submission may be storing "
+                        "(default 3600; 0 removes everything unreferenced now)")
+    _league_options(p)
+    p.set_defaults(func=cmd_gc)
 
     p = command("play", "play against a base population in the terminal (human ranking)")
     p.add_argument("game", help="the game id")

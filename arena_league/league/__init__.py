@@ -8,6 +8,7 @@
 * :mod:`.leaderboards` / :mod:`.report`: ratings tables with intervals, for a terminal, JSON and HTML;
 * :mod:`.schedules`: recurring evaluations, the scheduler and the worker;
 * :mod:`.first_league`: the whole workflow on the embedded default;
+* :mod:`.gc`: removing artifact files no agent references;
 * :mod:`.catalog`: the game set and social-tree verification; :mod:`.replays`: replay summaries;
 * :mod:`.train`: training an entrant; :mod:`.human`: a person playing against a base population;
 * :mod:`.home`: opening a league, registering games, suggestions for mistyped names;
@@ -27,6 +28,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "catalog": ("game_rows", "verify_social_tree"),
     "errors": ("USER_ERRORS",),
     "first_league": ("QuickstartReport", "quickstart"),
+    "gc": ("collect_garbage",),
     "home": ("did_you_mean", "open_home", "register_game", "short_name"),
     "human": ("play_human",),
     "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),

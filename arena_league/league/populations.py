@@ -9,12 +9,32 @@ league has none, the one shipped with the package under ``checkpoints/<game>/bas
 on first use. Imports are idempotent by content: importing a folder whose files are byte for byte
 those of a population already imported for that game returns that population (the address of the
 folder, as the artifact store computes it, is kept in its provenance under ``imported_from``).
+
+An import goes through the same gate as a submission, and is refused whole (nothing stored,
+nothing registered) when any member fails it:
+
+* a member's artifact path is relative to the folder and, resolved (links followed), stays inside
+  it: no absolute paths, no ``..`` leading out, no link pointing out;
+* each member is read with ``read_artifact`` (code-carrying formats such as pickle and over-size
+  files are refused before their content is read) and checked with ``validate_submission`` with
+  few probe rows and a validation match of :data:`IMPORT_MATCH_CYCLES` steps (read, load against
+  the game's spaces, probe forwards, a few steps of play): enough to refuse an artifact that cannot
+  play, affordable for the hundred members of a shipped population on first use. The stored bytes
+  are those that were read and validated, not the file as it may be by then;
+* a member whose name an agent already holds is reused only when that agent plays the same game
+  with the same bytes (same artifact digest; for a scripted member, the same built-in agent);
+  any other holder is a conflict that refuses the import, naming the agent.
+
+The members' frozen ratings (their ``metadata``) are kept as shipped.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import shutil
+import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +54,7 @@ __all__ = [
     "list_populations",
     "population_folder_address",
     "require_population",
+    "shipped_member_names",
     "shipped_population",
 ]
 
@@ -41,6 +62,10 @@ POPULATION_MANIFEST = "population.json"
 
 #: Where the base populations shipped with the package lie: ``checkpoints/<game>/<name>/``.
 SHIPPED_POPULATIONS = Path(__file__).resolve().parents[2] / "checkpoints"
+#: Steps of the validation match each imported member plays (a submission plays a whole one).
+IMPORT_MATCH_CYCLES = 8
+#: Probe rows per probe set when an imported member is validated.
+IMPORT_PROBE_ROWS = 4
 
 
 def list_populations(league: League, game_id: str | None = None) -> list[dict[str, Any]]:
@@ -129,43 +154,180 @@ def population_folder_address(folder: str | Path) -> str:
     return folder_address((p.relative_to(root).as_posix(), file_address(p.read_bytes())) for p in files)
 
 
-def import_population(league: League, source: str | Path, *, name: str | None = None) -> str:
-    """Register a population folder written by :func:`export_population` (or shipped under
-    ``checkpoints/<game>/<name>/``): its members become agents of kind ``base`` and the population is
-    frozen. Members already registered with the same bytes are reused; a folder already imported
-    for its game (same files, same name) returns that population. Returns ``name:version``."""
-    src = Path(source)
+@functools.cache
+def shipped_member_names() -> frozenset[str]:
+    """The member names of every population shipped under ``checkpoints/<game>/<name>/``: names
+    only the league may register (by importing the population), read once per process."""
+    names: set[str] = set()
+    for manifest in sorted(SHIPPED_POPULATIONS.glob(f"*/*/{POPULATION_MANIFEST}")):
+        try:
+            members = json.loads(manifest.read_text()).get("members") or []
+        except (OSError, ValueError, AttributeError):
+            continue
+        names.update(m["name"] for m in members if isinstance(m, dict) and isinstance(m.get("name"), str))
+    return frozenset(names)
+
+
+@dataclass(frozen=True)
+class _Member:
+    """A member that passed the gate: its entry, and the artifact read (None for a scripted member)."""
+
+    entry: dict[str, Any]
+    artifact: Any
+    digest: str | None
+
+
+def _read_manifest(src: Path) -> dict[str, Any]:
     manifest_path = src / POPULATION_MANIFEST
     if not manifest_path.is_file():
         raise ValueError(f"{src} has no {POPULATION_MANIFEST}; point at a folder made by `population export` "
                          "or shipped under checkpoints/<game>/<name>/")
-    manifest = json.loads(manifest_path.read_text())
+    try:
+        manifest = json.loads(manifest_path.read_text())
+    except (ValueError, UnicodeDecodeError) as error:
+        raise ValueError(f"{manifest_path} is not JSON ({error}); export the population again") from None
+    fix = f"; {manifest_path} must be written by `population export`"
+    malformed = not isinstance(manifest, dict) or not isinstance(manifest.get("game_id"), str) \
+        or not isinstance(manifest.get("name"), str) or not isinstance(manifest.get("members"), list)
+    if malformed:
+        raise ValueError(f"{manifest_path} lacks a game_id, a name or a list of members{fix}")
+    seen: set[str] = set()
+    for member in manifest["members"]:
+        nameless = not isinstance(member, dict) or not isinstance(member.get("name"), str)
+        if nameless:
+            raise ValueError(f"{manifest_path} has a member without a name{fix}")
+        if member["name"] in seen:
+            raise ValueError(f"{manifest_path} lists member {member['name']} twice{fix}")
+        seen.add(member["name"])
+        for key in ("metadata", "agent_metadata"):
+            malformed = not isinstance(member.get(key) or {}, dict)
+            if malformed:
+                raise ValueError(f"member {member['name']} of {manifest_path}: {key} must be an object{fix}")
+    return manifest
+
+
+def _member_path(src: Path, member: dict[str, Any]) -> Path:
+    """The member's artifact inside ``src``; refuses paths that are absolute or lead out of it."""
+    name, raw = member["name"], member.get("artifact")
+    fix = f"member artifacts must lie inside the population folder {src}, written as relative paths"
+    if not isinstance(raw, str) or not raw or "\x00" in raw:
+        raise ValueError(f"member {name} of {src}: artifact {raw!r} is not a path; {fix}")
+    relative = Path(raw)
+    if relative.is_absolute() or raw.startswith(("/", "\\")) or relative.drive:
+        raise ValueError(f"member {name} of {src}: artifact {raw!r} is an absolute path; {fix}")
+    root = src.resolve()
+    path = src / relative
+    resolved = path.resolve()
+    if not resolved.is_relative_to(root) or resolved == root:
+        raise ValueError(f"member {name} of {src}: artifact {raw!r} leads out of the folder (to {resolved}); {fix}")
+    return path
+
+
+def _check_member(src: Path, game_id: str, member: dict[str, Any]) -> _Member:
+    """Read and validate one member as a submission is (see the module docstring)."""
+    from arena_league.policies import ArtifactError, read_artifact, validate_submission
+
+    name = member["name"]
+    if not member.get("artifact"):
+        scripted = (member.get("agent_metadata") or {}).get("scripted")
+        if member.get("kind") != "scripted" or not isinstance(scripted, str):
+            raise ValueError(f"member {name} of {src} has no artifact and is not a built-in scripted agent; "
+                             "export the population again so every learned member carries its artifact")
+        try:
+            verdict = validate_submission(f"scripted:{scripted}", game_id, n_probes=IMPORT_PROBE_ROWS,
+                                          match_cycles=IMPORT_MATCH_CYCLES)
+        except ArtifactError as error:
+            raise ValueError(f"member {name} of {src}: {error}") from None
+        if not verdict.ok:
+            raise ValueError(f"member {name} of {src}: {verdict.reason}")
+        return _Member(member, None, None)
+    path = _member_path(src, member)
+    try:
+        artifact = read_artifact(path)
+    except (ArtifactError, OSError) as error:
+        raise ValueError(f"member {name} of {src} was refused: {error}. Nothing was imported; replace the "
+                         "member's artifact with an ONNX file or an arena-policy folder") from None
+    if artifact.kind not in ("onnx", "arena-policy"):
+        raise ValueError(f"member {name} of {src}: {member['artifact']} is a {artifact.kind} description, not "
+                         "an ONNX file or an arena-policy folder; list built-in agents without an artifact")
+    declared = member.get("format")
+    if declared is not None and declared != artifact.kind:
+        raise ValueError(f"member {name} of {src}: {member['artifact']} is {artifact.kind}, not {declared!r} as "
+                         f"{POPULATION_MANIFEST} says; correct its format")
+    verdict = validate_submission(artifact, game_id, n_probes=IMPORT_PROBE_ROWS, match_cycles=IMPORT_MATCH_CYCLES)
+    if not verdict.ok:
+        raise ValueError(f"member {name} of {src} failed validation: {verdict.reason}. Nothing was imported; "
+                         f"replace {path} with an artifact that plays {game_id}")
+    return _Member(member, artifact, artifact.digest)
+
+
+def _conflict(session: Any, src: Path, game_id: str, member: _Member) -> reg.Agent | None:
+    """The agent already holding the member's name, when it is the same agent; raises when it is not."""
+    name = member.entry["name"]
+    agent = reg.get_agent(session, name)
+    if agent is None:
+        return None
+    if member.artifact is None:
+        same = agent.kind == "scripted" and (agent.meta or {}).get("scripted") == \
+            (member.entry.get("agent_metadata") or {}).get("scripted")
+    else:
+        same = agent.artifact_sha256 == member.digest
+    if agent.game_id == game_id and same:
+        return agent
+    what = f"an agent of {agent.game_id}" if agent.game_id != game_id else "another agent (different bytes)"
+    owner = f", owned by {agent.owner}" if agent.owner else ""
+    raise ValueError(f"member {name} of {src} is already {what} in this league ({agent.kind} agent #{agent.id}"
+                     f"{owner}, {agent.status}); the import would adopt it, so nothing was imported. Rename the "
+                     f"member in {POPULATION_MANIFEST}, or import into a league where {name} is free")
+
+
+def import_population(league: League, source: str | Path, *, name: str | None = None) -> str:
+    """Register a population folder written by :func:`export_population` (or shipped under
+    ``checkpoints/<game>/<name>/``): its members become agents of kind ``base`` and the population is
+    frozen, with the members' ratings as written. Every member passes the gate of the module
+    docstring first; one that does not refuses the whole import (nothing is stored). Members already
+    registered under their name with the same bytes are reused; a folder already imported for its
+    game (same files, same name) returns that population. Returns ``name:version``."""
+    from arena_league.policies import write_artifact
+
+    src = Path(source)
+    manifest = _read_manifest(src)
     game_id = manifest["game_id"]
     register_game(league, game_id)
     label = name or manifest["name"]
     address = population_folder_address(src)
-    with league.transaction() as session:
+    with league.reading() as session:
+        for existing in reg.list_populations(session, game_id=game_id):
+            imported = (existing.provenance or {}).get("imported_from") or {}
+            if existing.name == label and imported.get("address") == address:
+                return f"{existing.name}:{existing.version}"
+    members = [_check_member(src, game_id, member) for member in manifest["members"]]
+    with league.reading() as session:
+        for member in members:
+            _conflict(session, src, game_id, member)
+    with tempfile.TemporaryDirectory() as scratch, league.transaction() as session:
         for existing in reg.list_populations(session, game_id=game_id):
             imported = (existing.provenance or {}).get("imported_from") or {}
             if existing.name == label and imported.get("address") == address:
                 return f"{existing.name}:{existing.version}"
         provenance = {**(manifest.get("provenance") or {}), "imported_from": {"address": address, "path": str(src)}}
         population = reg.create_population(session, label, game_id, provenance=provenance)
-        for member in manifest["members"]:
-            agent = reg.get_agent(session, member["name"])
-            if agent is not None and agent.game_id != game_id:
-                raise ValueError(f"member {member['name']} of {src} is already an agent of {agent.game_id}, not "
-                                 f"{game_id}; rename the member in {POPULATION_MANIFEST}")
+        for index, member in enumerate(members):
+            entry = member.entry
+            agent = _conflict(session, src, game_id, member)  # again, under the write lock
             if agent is None:
                 sha = None
-                if member.get("artifact"):
-                    stored = reg.store_artifact(session, league.home, src / member["artifact"], member["format"])
-                    sha = stored.sha256
-                kind = "scripted" if member["kind"] == "scripted" else "base"
-                agent = reg.create_agent(session, member["name"], game_id, kind, owner=manifest.get("name"),
+                if member.artifact is not None:
+                    # store the bytes that were validated, not the file as it may be by now
+                    fmt = member.artifact.kind
+                    content = member.artifact.content if fmt == "onnx" else \
+                        write_artifact(member.artifact, Path(scratch) / str(index))
+                    sha = reg.store_artifact(session, league.home, content, fmt).sha256
+                kind = "scripted" if member.artifact is None else "base"
+                agent = reg.create_agent(session, entry["name"], game_id, kind, owner=manifest.get("name"),
                                          artifact_sha256=sha, status="active",
-                                         metadata=member.get("agent_metadata") or {})
-            reg.add_population_member(session, population, agent, member.get("metadata") or {})
+                                         metadata=entry.get("agent_metadata") or {})
+            reg.add_population_member(session, population, agent, entry.get("metadata") or {})
         reg.freeze_population(session, population)
         return f"{population.name}:{population.version}"
 

@@ -42,6 +42,9 @@ from arena_league.matchmaking import (
     specs_for_seatings,
 )
 from arena_league.registry import League
+from arena_league.registry.errors import ArtifactTakenError
+from arena_league.registry.jobs import live_jobs, lock_game, set_job_payload
+from arena_league.registry.repository import AGENT_NAME_PATTERN
 from arena_league.replay import ReplayRecording
 
 MATCH_IDS_PER_JOB = 2**20
@@ -134,15 +137,48 @@ class SubmitResult:
         return "already registered (same bytes)"
 
 
+def reserved_name_reason(name: str) -> str | None:
+    """Why ``name`` is kept for the league, or None when anyone may submit under it.
+
+    Reserved: the built-in scripted agents of every game (``random@<game>``, ``heuristic@<game>``,
+    see :func:`scripted_agent_name`) and the members of the populations shipped under
+    ``checkpoints/`` (registered when the league imports them). The league itself still creates
+    them (:func:`ensure_scripted_agents`, importing a shipped population); :func:`submit` refuses them.
+    """
+    from arena_league.envs import list_games
+    from arena_league.league.populations import shipped_member_names
+
+    scripted, at, game = name.partition("@")
+    if at and scripted in SCRIPTED_AGENTS and game in list_games():
+        return f"{name} is the league's built-in {scripted} agent of {game}"
+    if name in shipped_member_names():
+        return f"{name} is a member of a base population shipped with arena-league"
+    return None
+
+
+def _agent_with_bytes(league: League, game_id: str, digest: str, requested: str, start: float
+                      ) -> SubmitResult | None:
+    """The result of a submission whose bytes already are an agent of the game, or None."""
+    with league.reading() as session:
+        for existing in reg.find_agents_by_artifact(session, digest, game_id=game_id):
+            return SubmitResult(existing.name, game_id, existing.status, False, digest, existing.reject_reason,
+                                existing.validation_log or "", time.perf_counter() - start, requested=requested)
+    return None
+
+
 def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: str | None = None,
            kind: str = "submission", metadata: Mapping[str, Any] | None = None) -> SubmitResult:
     """Validate an agent artifact and register it under ``name``.
 
-    An artifact that cannot be read safely (pickle, TorchScript, .pt2, over the size limit) or at
-    all (truncated, corrupt) is refused with an error and nothing is stored. One that reads but fails validation
-    (wrong spaces, non-finite outputs, a crash in its validation match) is stored and registered as
-    *rejected*, with the reason and the validation log. The same bytes submitted again return the
-    agent already registered for them (idempotent by content hash).
+    The game and the name are checked before anything is read or stored: the name must be well
+    formed, not reserved (:func:`reserved_name_reason`) and, unless these bytes are registered
+    already, free. An artifact that cannot be read safely (pickle, TorchScript, .pt2, over the size
+    limit) or at all (truncated, corrupt) is refused with an error and nothing is stored. One that
+    reads but fails validation (wrong spaces, non-finite outputs, a crash in its validation match)
+    is stored and registered as *rejected*, with the reason and the validation log. The same bytes
+    submitted again return the agent already registered for them (idempotent by content hash).
+    Storing and registering are one transaction: when it fails (the name taken meanwhile, a
+    database error, a full disk) the file it stored is removed again.
     """
     from arena_league.policies import (
         CorruptArtifactError,
@@ -154,12 +190,18 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
 
     start = time.perf_counter()
     register_game(league, game_id)
+    if not AGENT_NAME_PATTERN.match(name):
+        raise reg.InvalidRecordError(f"agent name {name!r} is not allowed: use 1 to 128 letters, digits and "
+                                     ". _ : @ + -, starting with a letter or digit")
+    reserved = reserved_name_reason(name)
+    if reserved is not None:
+        raise ValueError(f"{reserved}; the name is reserved for the league. Submit under a name of your own, "
+                         f"e.g. --name my-{name}")
     artifact = read_artifact(path)  # refuses unsafe, over-size and unreadable files before storing
+    existing = _agent_with_bytes(league, game_id, artifact.digest, name, start)
+    if existing is not None:
+        return existing
     with league.reading() as session:
-        for existing in reg.find_agents_by_artifact(session, artifact.digest, game_id=game_id):
-            return SubmitResult(existing.name, game_id, existing.status, False, artifact.digest,
-                                existing.reject_reason, existing.validation_log or "", time.perf_counter() - start,
-                                requested=name)
         reg.refuse_taken_name(session, name)  # before anything is stored
     try:
         load_agent(artifact, game_id)
@@ -173,13 +215,22 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     meta = {**dict(metadata or {}), "artifact_kind": artifact.kind,
             **({"action_type": info["action_type"]} if info.get("action_type") else {})}
     fmt = "onnx" if artifact.kind == "onnx" else "arena-policy"
-    with tempfile.TemporaryDirectory() as scratch, league.transaction() as session:
-        # store the bytes that were validated, not the file as it may be by now
-        source = artifact.content if fmt == "onnx" else write_artifact(artifact, Path(scratch) / "agent")
-        stored = reg.store_artifact(session, league.home, source, fmt)
-        agent = reg.create_agent(session, name, game_id, kind, owner=owner, artifact_sha256=stored.sha256,
-                                 status="pending", metadata=meta)
-        reg.set_agent_status(session, agent, status, reason=verdict.reason, log=verdict.log)
+    try:
+        with tempfile.TemporaryDirectory() as scratch, league.transaction() as session:
+            reg.refuse_taken_name(session, name)  # again under the write lock, before storing
+            # store the bytes that were validated, not the file as it may be by now; a failure below
+            # rolls the transaction back, and the store removes the file it placed in it
+            source = artifact.content if fmt == "onnx" else write_artifact(artifact, Path(scratch) / "agent")
+            stored = reg.store_artifact(session, league.home, source, fmt)
+            agent = reg.create_agent(session, name, game_id, kind, owner=owner, artifact_sha256=stored.sha256,
+                                     status="pending", metadata=meta)
+            reg.set_agent_status(session, agent, status, reason=verdict.reason, log=verdict.log)
+    except ArtifactTakenError:
+        # the same bytes were registered under another name meanwhile: answer as for a resubmission
+        raced = _agent_with_bytes(league, game_id, artifact.digest, name, start)
+        if raced is None:
+            raise
+        return raced
     return SubmitResult(name, game_id, status, True, artifact.digest, verdict.reason, verdict.log,
                         time.perf_counter() - start, requested=name)
 
@@ -206,7 +257,8 @@ class EvaluationReport:
 @dataclass(frozen=True)
 class EvaluationPlan:
     """What an evaluation will play: each pair of ``agents`` topped up to ``matches_per_pair``
-    matches (``already`` were played before), ``to_play`` matches in all, at most ``max_matches``."""
+    matches (``already`` were played before, ``reserved`` more are planned by unfinished evaluation
+    jobs), ``to_play`` matches in all, at most ``max_matches``."""
 
     game_id: str
     agents: list[str]
@@ -214,13 +266,15 @@ class EvaluationPlan:
     already: int
     to_play: int
     max_matches: int | None = None
+    reserved: int = 0
 
     def describe(self) -> str:
         """One line saying what will be played and why."""
         n = len(self.agents)
         pairs = n * (n - 1) // 2
+        others = f", {self.reserved} more planned by unfinished jobs" if self.reserved else ""
         why = (f"{pairs} pairs of {n} agents topped up to {self.matches_per_pair} matches per pair "
-               f"({self.already} played before)")
+               f"({self.already} played before{others})")
         if self.to_play == 0:
             return (f"nothing to play on {self.game_id}: {why}; raise --matches-per-pair to play more (only the "
                     "matches played now are recorded)")
@@ -232,9 +286,48 @@ class EvaluationPlan:
 
 
 def _seatings_to_play(names: list[str], matches_per_pair: int, rows: list[dict[str, Any]],
-                      max_matches: int | None) -> list[tuple[str, ...]]:
-    seatings = round_robin(names, matches_per_pair, _played_seatings(rows))
+                      max_matches: int | None, reserved: Mapping[tuple[str, ...], int] | None = None
+                      ) -> list[tuple[str, ...]]:
+    """The seatings that bring each pair of ``names`` to ``matches_per_pair``, counting the matches
+    stored (``rows``) and those other jobs have planned and not stored yet (``reserved``)."""
+    counts = _played_seatings(rows)
+    for seating, n in (reserved or {}).items():
+        counts[seating] = counts.get(seating, 0) + n
+    seatings = round_robin(names, matches_per_pair, counts)
     return seatings if max_matches is None else seatings[:max_matches]
+
+
+def _reserved_seatings(session: Any, game_id: str, names: list[str], rows: list[dict[str, Any]],
+                       exclude_job_id: int | None = None) -> dict[tuple[str, ...], int]:
+    """Matches per seating among ``names`` that the unfinished (queued or running) evaluation jobs
+    of ``game_id`` have planned and not stored yet: their plan less what they stored (``rows``
+    holds every stored match among ``names``, with its job)."""
+    by_job: dict[int, list[dict[str, Any]]] = {}
+    for row in rows:
+        if row["job_id"] is not None:
+            by_job.setdefault(row["job_id"], []).append(row)
+    wanted = set(names)
+    reserved: dict[tuple[str, ...], int] = {}
+    for job in live_jobs(session, "evaluate", exclude_job_id=exclude_job_id):
+        planned = _plan_of(job.payload or {}) if (job.payload or {}).get("game_id") == game_id else []
+        counts: dict[tuple[str, ...], int] = {}
+        for seating in planned:
+            counts[seating] = counts.get(seating, 0) + 1
+        stored = _played_seatings(by_job.get(job.id, []))
+        for seating, n in counts.items():
+            left = n - stored.get(seating, 0)
+            if left > 0 and wanted.issuperset(seating):
+                reserved[seating] = reserved.get(seating, 0) + left
+    return reserved
+
+
+def _plan_of(payload: Mapping[str, Any]) -> list[tuple[str, ...]]:
+    """The seatings an evaluation job planned when it first ran (none before it ran)."""
+    plan = payload.get("plan")
+    if not plan:
+        return []
+    agents = plan["agents"]
+    return [tuple(agents[i] for i in seating) for seating in plan["seatings"]]
 
 
 def _evaluation_agents(session: Any, game_id: str, agents: Sequence[str] | None) -> list[str]:
@@ -253,9 +346,10 @@ def evaluation_plan(league: League, game_id: str, agents: Sequence[str] | None =
     with league.reading() as session:
         names = _evaluation_agents(session, game_id, agents)
         rows = reg.match_seat_rows(session, game_id, agents=names)
-    to_play = len(_seatings_to_play(names, matches_per_pair, rows, max_matches))
+        reserved = _reserved_seatings(session, game_id, names, rows)
+    to_play = len(_seatings_to_play(names, matches_per_pair, rows, max_matches, reserved))
     return EvaluationPlan(game_id, names, int(matches_per_pair), sum(_played_seatings(rows).values()), to_play,
-                          max_matches)
+                          max_matches, sum(reserved.values()))
 
 
 def queue_evaluation(league: League, game_id: str, agents: Sequence[str] | None = None, *,
@@ -263,7 +357,10 @@ def queue_evaluation(league: League, game_id: str, agents: Sequence[str] | None 
                      workers: int | None = None, record: bool = False, max_matches: int | None = None,
                      priority: int = 0) -> int:
     """Queue a round robin among ``agents`` (default: every active agent of the game) that brings
-    each pair to ``matches_per_pair`` matches (at most ``max_matches`` of them); returns the job id."""
+    each pair to ``matches_per_pair`` matches (at most ``max_matches`` of them); returns the job id.
+
+    The job plans its matches when it first runs (see :func:`handle_evaluate`), not here, so that
+    jobs queued together and run one after the other each top up what the ones before played."""
     evaluation_payload(game_id, agents, matches_per_pair=matches_per_pair,
                        max_matches=max_matches)  # bad options fail before any write
     register_game(league, game_id)
@@ -359,20 +456,27 @@ def _recording(league: League, payload: Mapping[str, Any]) -> ReplayRecording | 
 
 
 def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> dict[str, Any]:
-    """Job handler: play the round robin of the job's payload and store its matches."""
+    """Job handler: play the round robin of the job's payload and store its matches.
+
+    Overlapping evaluations agree: the first run of a job plans its seatings under the game's lock
+    (:func:`_plan_seatings`), counting the matches stored and those other unfinished evaluation
+    jobs planned and have not stored yet, and keeps the plan in its payload. So two jobs over the
+    same pairs, run at once by two workers or one after the other, never give a pair more than it
+    was asked; a retry replays its plan, the same matches under the same match ids and seeds.
+    """
     start = time.perf_counter()
     payload = ctx.job.payload
     game_id = payload["game_id"]
+    planned = payload.get("plan")
     with ctx.league.reading() as session:
-        # a scheduled evaluation names no agents: every agent active when it runs
-        agents = _active_agents(session, game_id, payload.get("agents"))
+        # a scheduled evaluation names no agents: every agent active when it first runs
+        agents = _active_agents(session, game_id, planned["agents"] if planned else payload.get("agents"))
         if len(agents) < 2:
             raise ValueError(f"{game_id} has {len(agents)} active agent(s); an evaluation needs two")
         names = [a.name for a in agents]
         refs = {a.name: agent_ref(ctx.league, a) for a in agents}
-        rows = reg.match_seat_rows(session, game_id, agents=names, exclude_job_id=ctx.job.id)
         done_keys = reg.match_keys_of_job(session, ctx.job.id)
-    seatings = _seatings_to_play(names, int(payload["matches_per_pair"]), rows, payload.get("max_matches"))
+    seatings = _plan_of(payload) if planned else _plan_seatings(ctx, game_id, names)
     specs = specs_for_seatings(game_id, seatings, int(payload["seed"]), ctx.job.id * MATCH_IDS_PER_JOB)
     specs = [s for s in specs if match_key(ctx.job.id, s.match_id) not in done_keys]
     recorder = _Recorder(ctx, game_id, len(specs), progress)
@@ -382,6 +486,21 @@ def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> di
     return {"job_id": ctx.job.id, "game_id": game_id, "agents": names,
             "matches_per_pair": int(payload["matches_per_pair"]), "played": recorder.played,
             "stored": recorder.stored, "steps": recorder.steps, "seconds": round(time.perf_counter() - start, 3)}
+
+
+def _plan_seatings(ctx: reg.JobContext, game_id: str, names: list[str]) -> list[tuple[str, ...]]:
+    """Plan the job's seatings once, under the game's lock, and keep the plan in its payload."""
+    payload = ctx.job.payload
+    with ctx.league.transaction() as session:
+        lock_game(session, game_id)  # planners of one game take turns, each seeing the plans before it
+        rows = reg.match_seat_rows(session, game_id, agents=names, exclude_job_id=ctx.job.id)
+        reserved = _reserved_seatings(session, game_id, names, rows, exclude_job_id=ctx.job.id)
+        seatings = _seatings_to_play(names, int(payload["matches_per_pair"]), rows, payload.get("max_matches"),
+                                     reserved)
+        index = {name: i for i, name in enumerate(names)}
+        set_job_payload(session, ctx.job, {**payload, "plan": {
+            "agents": names, "seatings": [[index[a] for a in seating] for seating in seatings]}})
+    return seatings
 
 
 # --- ranking an entrant ----------------------------------------------------------------------------

@@ -11,9 +11,12 @@ the SHA-256 of its `sha256sum` listing); folders may hold only regular files and
 links), since a link could reach outside the store.
 
 Writes are atomic: content is copied (and hashed on the way) into `artifacts/.incoming/`, flushed
-to disk, then renamed into place, so a crash leaves either nothing or a complete artifact. This
-module stores and finds bytes; what they mean (ONNX graphs, manifests) is
-`arena_league.policies`'s business.
+to disk, then renamed into place, so a crash leaves either nothing or a complete artifact. A write
+that fails removes what it staged, and a file a session moved into place is removed again when that
+session's transaction does not commit (unless a committed row of another writer now names it), so a
+refused submission leaves no file behind. What a crash can still leave (a `.part` file, a file whose
+row was never committed) is removed by :func:`collect_artifact_garbage`. This module stores and
+finds bytes; what they mean (ONNX graphs, manifests) is `arena_league.policies`'s business.
 """
 
 from __future__ import annotations
@@ -21,21 +24,25 @@ from __future__ import annotations
 import hashlib
 import os
 import shutil
+import time
 import uuid
 from pathlib import Path
+from typing import Any
 
-from sqlalchemy import select
-from sqlalchemy.orm import Session
+from sqlalchemy import delete, event, select
+from sqlalchemy.orm import Session, SessionTransaction
 
 from arena_league.policies.address import folder_address
 from arena_league.registry.db import ARTIFACTS_DIRNAME
 from arena_league.registry.errors import ArtifactError, ArtifactTooLargeError, InvalidRecordError
-from arena_league.registry.models import Artifact, ArtifactFormat
+from arena_league.registry.models import Agent, Artifact, ArtifactFormat
 from arena_league.registry.repository import insert_ignoring_conflict
 
 _INCOMING_DIRNAME = ".incoming"
 _CHUNK_BYTES = 1 << 20
 _SUFFIXES = {ArtifactFormat.ONNX: ".onnx", ArtifactFormat.SCRIPTED: ".json", ArtifactFormat.ARENA_POLICY: ""}
+#: `Session.info` key: (sha256, path) of the files this session's open transaction moved into place.
+_PLACED_KEY = "arena_league.placed_artifacts"
 
 
 def store_artifact(
@@ -70,10 +77,14 @@ def store_artifact(
         sha256 = hashlib.sha256(content).hexdigest()
         size = len(content)
         staged = incoming / f"{uuid.uuid4().hex}.part"
-        with staged.open("wb") as handle:
-            handle.write(content)
-            handle.flush()
-            os.fsync(handle.fileno())
+        try:
+            with staged.open("wb") as handle:
+                handle.write(content)
+                handle.flush()
+                os.fsync(handle.fileno())
+        except BaseException:
+            staged.unlink(missing_ok=True)
+            raise
     else:
         source_path = Path(source).expanduser()
         if source_path.is_dir():
@@ -86,9 +97,20 @@ def store_artifact(
             raise ArtifactError(f"artifact path {source_path} does not exist or is not a file or folder")
 
     relative = Path(ARTIFACTS_DIRNAME) / sha256[:2] / f"{sha256}{_SUFFIXES[artifact_format]}"
-    _move_into_place(staged, home_path / relative)
+    try:
+        existing = session.get(Artifact, sha256)
+        if existing is not None and existing.format != artifact_format.value:
+            raise InvalidRecordError(
+                f"artifact {sha256[:12]} is already stored as format {existing.format!r}, not "
+                f"{artifact_format.value!r}; submit it with format {existing.format!r}"
+            )
+        placed = _move_into_place(staged, home_path / relative)
+    except BaseException:
+        _remove(staged)
+        raise
+    if placed:
+        _track_placed(session, sha256, home_path / relative)
 
-    existing = session.get(Artifact, sha256)
     if existing is None:
         row = {
             "sha256": sha256,
@@ -99,7 +121,7 @@ def store_artifact(
         insert_ignoring_conflict(session, Artifact, [row], conflict_columns=["sha256"])
         existing = session.get(Artifact, sha256)
         assert existing is not None
-    if existing.format != artifact_format.value:
+    if existing.format != artifact_format.value:  # a concurrent writer stored it as another format
         raise InvalidRecordError(
             f"artifact {sha256[:12]} is already stored as format {existing.format!r}, not "
             f"{artifact_format.value!r}; submit it with format {existing.format!r}"
@@ -227,20 +249,143 @@ def _stage_folder(folder: Path, incoming: Path, max_bytes: int | None) -> tuple[
     return staged, folder_address(listing), total
 
 
-def _move_into_place(staged: Path, final: Path) -> None:
-    """Rename a staged file or folder to its address; if the address is taken, keep what is there."""
+def _move_into_place(staged: Path, final: Path) -> bool:
+    """Rename a staged file or folder to its address; if the address is taken, keep what is there.
+    Returns whether this call put the content there."""
     final.parent.mkdir(parents=True, exist_ok=True)
     if staged.is_dir():
         if final.exists():
             shutil.rmtree(staged)
-            return
+            return False
         try:
             staged.rename(final)
         except OSError:
             if not final.is_dir():  # a concurrent store of the same folder won the rename
                 raise
             shutil.rmtree(staged)
-    elif final.exists():
+            return False
+        return True
+    if final.exists():
         staged.unlink()
+        return False
+    os.replace(staged, final)
+    return True
+
+
+def _remove(path: Path) -> None:
+    """Remove a file or folder if it is there."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
     else:
-        os.replace(staged, final)
+        path.unlink(missing_ok=True)
+
+
+def _track_placed(session: Session, sha256: str, path: Path) -> None:
+    """Remember a file this session's transaction put in the store, to remove it if it does not commit."""
+    placed = session.info.get(_PLACED_KEY)
+    if placed is None:
+        placed = session.info[_PLACED_KEY] = []
+        event.listen(session, "after_commit", _forget_placed)
+        event.listen(session, "after_transaction_end", _remove_uncommitted)
+    placed.append((sha256, path))
+
+
+def _forget_placed(session: Session) -> None:
+    session.info.get(_PLACED_KEY, []).clear()
+
+
+def _remove_uncommitted(session: Session, transaction: SessionTransaction) -> None:
+    """After the outermost transaction ends without a commit, remove the files it placed, keeping
+    any whose row another writer has committed meanwhile (it now owns the file)."""
+    if transaction.parent is not None:
+        return
+    placed = session.info.get(_PLACED_KEY) or []
+    if not placed:
+        return
+    pending, placed[:] = list(placed), []
+    shas = sorted({sha for sha, _ in pending})
+    try:
+        with session.get_bind().connect() as connection:
+            kept = set(connection.scalars(select(Artifact.sha256).where(Artifact.sha256.in_(shas))))
+    except Exception:  # cannot tell: keep the files; `arena-league gc` removes them later
+        return
+    for sha, path in pending:
+        if sha not in kept:
+            _remove(path)
+
+
+def collect_artifact_garbage(
+    session: Session,
+    home: str | os.PathLike[str],
+    *,
+    dry_run: bool = False,
+    min_age_s: float = 3600.0,
+) -> dict[str, list[dict[str, Any]]]:
+    """Remove what no agent needs from the artifact store; returns what was (or would be) removed.
+
+    Removed: stored files and folders whose content no agent references (with their artifact rows),
+    and leftovers of interrupted writes in `artifacts/.incoming/`. Only entries last modified at
+    least `min_age_s` seconds ago are touched, so a write under way in another process (its file
+    placed, its row not yet committed) is left alone; pass 0 to collect everything now. Run it
+    inside a write transaction so no writer commits a new reference meanwhile.
+
+    Returns:
+        {"artifacts": [{"sha256", "path", "bytes", "row"}...], "incoming": [{"path", "bytes"}...]},
+        paths relative to the league home; `row` says whether an artifact row was deleted too.
+    """
+    home_path = Path(home)
+    store = home_path / ARTIFACTS_DIRNAME
+    cutoff = time.time() - min_age_s
+    referenced = set(session.scalars(select(Agent.artifact_sha256).where(Agent.artifact_sha256.is_not(None))))
+    rows = {row.sha256: row for row in session.scalars(select(Artifact))}
+    removed: dict[str, list[dict[str, Any]]] = {"artifacts": [], "incoming": []}
+    incoming = store / _INCOMING_DIRNAME
+    if incoming.is_dir():
+        for entry in sorted(incoming.iterdir()):
+            if _modified(entry) <= cutoff:
+                removed["incoming"].append({"path": entry.relative_to(home_path).as_posix(), "bytes": _size(entry)})
+                if not dry_run:
+                    _remove(entry)
+    unreferenced_rows = []
+    if store.is_dir():
+        for prefix in sorted(store.iterdir()):
+            if prefix.name == _INCOMING_DIRNAME or not prefix.is_dir() or prefix.is_symlink():
+                continue
+            for entry in sorted(prefix.iterdir()):
+                sha = entry.name.split(".", 1)[0]
+                if sha in referenced or _modified(entry) > cutoff:
+                    continue
+                row = rows.get(sha)
+                if row is not None and Path(row.path) != entry.relative_to(home_path):
+                    row = None  # the same bytes stored under another format's name: that file stays
+                removed["artifacts"].append({"sha256": sha, "path": entry.relative_to(home_path).as_posix(),
+                                             "bytes": _size(entry), "row": row is not None})
+                if row is not None:
+                    unreferenced_rows.append(sha)
+                if not dry_run:
+                    _remove(entry)
+    listed = {entry["sha256"] for entry in removed["artifacts"]}
+    for sha, row in rows.items():  # rows whose file is gone already and no agent needs
+        if sha not in referenced and sha not in listed and not (home_path / row.path).exists():
+            removed["artifacts"].append({"sha256": sha, "path": row.path, "bytes": 0, "row": True})
+            unreferenced_rows.append(sha)
+    if unreferenced_rows and not dry_run:
+        session.execute(delete(Artifact).where(Artifact.sha256.in_(unreferenced_rows)))
+        session.flush()
+    return removed
+
+
+def _modified(path: Path) -> float:
+    try:
+        return path.lstat().st_mtime
+    except FileNotFoundError:
+        return time.time()
+
+
+def _size(path: Path) -> int:
+    if path.is_dir() and not path.is_symlink():
+        return sum(p.lstat().st_size for p in path.rglob("*") if p.is_file() and not p.is_symlink())
+    try:
+        return path.lstat().st_size
+    except FileNotFoundError:
+        return 0

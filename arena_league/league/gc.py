@@ -1,0 +1,41 @@
+"""Collecting the artifact store's garbage: files no agent needs.
+
+Agents keep their artifacts for good, so a file in the store that no agent references is left
+over: by a write that crashed between placing the file and committing its row, or by an older
+version that did not clean up after a refused submission. :func:`collect_garbage` removes those
+files and folders (and their rows), and the leftovers of interrupted writes in
+``artifacts/.incoming/``. It runs in one write transaction, so no submission commits a reference
+to a file while it decides, and it leaves alone anything modified in the last ``min_age_s``
+seconds, which another process may be storing right now.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from arena_league.registry import League
+from arena_league.registry.artifacts import collect_artifact_garbage
+
+__all__ = ["collect_garbage"]
+
+
+def collect_garbage(league: League, dry_run: bool = False, *, min_age_s: float = 3600.0) -> dict[str, Any]:
+    """Remove unreferenced artifacts and stale ``.incoming`` leftovers from the league's store.
+
+    Args:
+        league: the league whose home holds the store.
+        dry_run: only list what would be removed.
+        min_age_s: leave entries modified more recently than this (a write may be under way); 0
+            collects everything.
+
+    Returns:
+        ``{"dry_run", "artifacts": [{"sha256", "path", "bytes", "row"}...], "incoming": [{"path",
+        "bytes"}...], "bytes"}``: what was (or, with ``dry_run``, would be) removed, paths relative to
+        the league home, and the bytes freed.
+    """
+    if min_age_s < 0:
+        raise ValueError(f"min_age_s must be 0 or more, not {min_age_s}")
+    with league.transaction() as session:
+        removed = collect_artifact_garbage(session, league.home, dry_run=dry_run, min_age_s=min_age_s)
+    freed = sum(entry["bytes"] for entries in removed.values() for entry in entries)
+    return {"dry_run": dry_run, **removed, "bytes": freed}
