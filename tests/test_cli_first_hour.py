@@ -13,31 +13,17 @@ import time
 from pathlib import Path
 
 import pytest
+from cli_helpers import gobang_agent, run
 
 from arena_league.cli import main
 from arena_league.policies import Architecture, init_parameters
 from arena_league.policies.artifacts import save_arena_policy
 
+pytest_plugins = ["cli_helpers"]  # the home fixture
 GAME = "GoBang-2T1P-v1"
 ROOT = Path(__file__).resolve().parent.parent
 
 
-@pytest.fixture
-def home(tmp_path, monkeypatch):
-    monkeypatch.delenv("ARENA_LEAGUE_DB", raising=False)
-    monkeypatch.setenv("ARENA_LEAGUE_HOME", str(tmp_path / "home"))
-    return tmp_path / "home"
-
-
-def run(capsys, *argv) -> tuple[int, dict, str]:
-    code = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    return code, json.loads(captured.out) if captured.out.startswith("{") else {}, captured.err
-
-
-def gobang_agent(folder: Path, seed: int = 7) -> Path:
-    arch = Architecture("mlp", obs_dim=455, action_type="discrete", n_actions=225, hidden=(16,))
-    return save_arena_policy(folder, arch, init_parameters(arch, seed), GAME, name=f"mlp-{seed}")
 
 
 def test_rank_with_no_options_places_against_the_shipped_base_population(capsys, home, tmp_path):

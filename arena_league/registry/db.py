@@ -157,22 +157,21 @@ class League:
         A database error of known cause (read-only, disk full, corrupt, unreachable) comes out as
         the `DatabaseStateError` that names it (see `database_error`); any other goes on as is.
         """
-        try:
-            with self._write_sessions() as session, session.begin():
-                yield session
-        except DBAPIError as error:
-            translated = database_error(error, self.engine)
-            if translated is None:
-                raise
-            raise translated from error
+        with self._translated_errors(), self._write_sessions() as session, session.begin():
+            yield session
 
     @contextmanager
     def reading(self) -> Iterator[Session]:
         """A Session for reading; on SQLite its transaction takes no write lock. Database errors
         are translated as in `transaction()`."""
+        with self._translated_errors(), self._read_sessions() as session:
+            yield session
+
+    @contextmanager
+    def _translated_errors(self) -> Iterator[None]:
+        """Raise a database error of known cause as the `DatabaseStateError` that names it."""
         try:
-            with self._read_sessions() as session:
-                yield session
+            yield
         except DBAPIError as error:
             translated = database_error(error, self.engine)
             if translated is None:
