@@ -93,11 +93,10 @@ def find_population(session: Any, game_id: str, population: str) -> reg.Populati
 
 
 def _missing(session: Any, game_id: str, population: str) -> ValueError:
-    known = [f"{p.name}:{p.version}" for p in reg.list_populations(session, game_id=game_id)]
-    names = {p.name for p in reg.list_populations(session, game_id=game_id)} | set(known)
-    hint = did_you_mean(population, names)
-    elsewhere = sorted({p.game_id for p in reg.list_populations(session)
-                        if p.name == population.partition(":")[0] and p.game_id != game_id})
+    every = reg.list_populations(session)
+    known = [f"{p.name}:{p.version}" for p in every if p.game_id == game_id]
+    hint = did_you_mean(population, {p.name for p in every if p.game_id == game_id} | set(known))
+    elsewhere = sorted({p.game_id for p in every if p.name == population.partition(":")[0] and p.game_id != game_id})
     also = f" ({population.partition(':')[0]} exists for {', '.join(elsewhere)})" if elsewhere else ""
     return ValueError(f"no population {population!r} of {game_id}{also}.{hint} Known for {game_id}: "
                       f"{', '.join(known) or 'none'}. Import one with `arena-league population import FOLDER` "

@@ -569,13 +569,13 @@ def _unmet_pairs(league: League, game_id: str, names: list[str]) -> int:
     return sum(frozenset((a, b)) not in met for i, a in enumerate(names) for b in names[i + 1:])
 
 
-def _base_ratings(league: League, game_id: str, names: list[str], seed: int, progress: Progress | None
-                  ) -> np.ndarray:
+def _base_ratings(league: League, game_id: str, names: list[str], seed: int, progress: Progress | None,
+                  unmet: int) -> np.ndarray:
     """Bradley-Terry ratings of the base agents from their stored matches among themselves,
-    playing a short round robin first where pairs have never met."""
+    playing a short round robin first when ``unmet`` pairs have never met."""
     from arena_league.rating import OutcomeTable, bradley_terry
 
-    if _unmet_pairs(league, game_id, names):
+    if unmet:
         evaluate(league, game_id, names, matches_per_pair=BASE_ROUND_ROBIN_PER_PAIR, seed=seed, progress=progress)
     with league.reading() as session:
         rows = reg.match_seat_rows(session, game_id, agents=names)
@@ -624,7 +624,7 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
             say(f"first a round robin of {round_robin} matches among {len(names)} agents ({unmet} pairs never "
                 f"met), then up to {budget - round_robin} placement matches")
             budget -= round_robin
-        ratings = _base_ratings(league, game_id, names, seed, progress)
+        ratings = _base_ratings(league, game_id, names, seed, progress, unmet)
     with league.transaction() as session:
         job = reg.enqueue(session, "rank", {
             "game_id": game_id, "agent": agent, "base": names, "base_label": label,
