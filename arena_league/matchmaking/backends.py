@@ -14,7 +14,9 @@ match specs and return the same results: a match's outcome depends only on its s
   workers. Every node needs ``arena_league`` importable and the agents' artifacts at the same paths
   (a shared league home).
 
-Results come back in the order of the specs.
+Results come back in the order of the specs. Sandboxed agent references (submitted agents) load
+into each worker process's own inference sandbox (:mod:`arena_league.policies.sandbox`): one child
+process per worker, with the memory and time budgets of ``sandbox_limits``.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import multiprocessing
 import os
 import sys
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
@@ -32,31 +34,59 @@ from arena_league.matchmaking.agents import AgentRef, load_agents
 from arena_league.matchmaking.runner import LockstepRunner, MatchRecording
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import Policy
+from arena_league.policies.sandbox import FORKSERVER_PRELOAD, SandboxLimits
 
 __all__ = ["BACKENDS", "play_chunk", "play_matches"]
 
 BACKENDS = ("inprocess", "process", "ray")
+#: How often the process-pool backend looks at its workers' step counter while it waits.
+_HEARTBEAT_SECONDS = 1.0
 
 #: Policies loaded in this worker process, by their references (reused across chunks).
 _WORKER_POLICIES: dict[tuple[AgentRef, ...], dict[str, Policy]] = {}
 
 
 def play_chunk(game_id: str, agents: Mapping[str, AgentRef], specs: Sequence[MatchSpec], batch_size: int,
-               env_kwargs: Mapping[str, Any] | None, recording: MatchRecording | None) -> list[MatchResult]:
+               env_kwargs: Mapping[str, Any] | None, recording: MatchRecording | None,
+               sandbox_limits: SandboxLimits | None = None, forfeit_limit: int | Mapping[str, int] | None = None
+               ) -> list[MatchResult]:
     """Plays one chunk of specs of one game in this process (the unit of work of the process-pool
-    and Ray backends); policies are loaded once per process and kept."""
-    cache_key = tuple(sorted(set(agents.values()), key=lambda ref: (ref.key, ref.game_id, str(ref.action_type))))
+    and Ray backends); in-process policies are loaded once per process and kept, sandboxed ones
+    live in the process's sandbox (which keeps the same set loaded from chunk to chunk)."""
+    local = {ref for ref in agents.values() if not ref.sandboxed}
+    cache_key = tuple(sorted(local, key=lambda ref: (ref.key, ref.game_id, str(ref.action_type))))
     policies = _WORKER_POLICIES.get(cache_key)
     if policies is None:
-        policies = load_agents({ref.key: ref for ref in agents.values()})
+        policies = load_agents({ref.key: ref for ref in local})
         _WORKER_POLICIES[cache_key] = policies
+    sandboxed = {ref.key: ref for ref in agents.values() if ref.sandboxed}
+    if sandboxed:
+        policies = {**policies, **load_agents(sandboxed, sandbox_limits)}
     seat_policies = {key: policies[ref.key] for key, ref in agents.items()}
     runner = LockstepRunner(game_id, seat_policies, batch_size=batch_size, env_kwargs=env_kwargs,
                             recording=recording)
-    return runner.play(specs)
+    heartbeat = None
+    if _WORKER_HEARTBEAT:
+        counter = _WORKER_HEARTBEAT[0]
+
+        def heartbeat() -> None:
+            counter.value += 1
+    return runner.play(specs, forfeit_limit=_keyed(forfeit_limit, agents), heartbeat=heartbeat)
 
 
-def _worker_init() -> None:
+def _keyed(forfeit_limit: int | Mapping[str, int] | None, agents: Mapping[str, AgentRef]
+           ) -> int | Mapping[str, int] | None:
+    return forfeit_limit if not isinstance(forfeit_limit, Mapping) else {
+        key: forfeit_limit[key] for key in agents if key in forfeit_limit}
+
+
+#: A process-pool worker's step counter, shared with the parent (a sign of progress for its lease).
+_WORKER_HEARTBEAT: list[Any] = []
+
+
+def _worker_init(counter: Any = None) -> None:
+    if counter is not None:
+        _WORKER_HEARTBEAT[:] = [counter]
     # one compute thread per worker: the pool already uses every core
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     os.environ.setdefault("MKL_NUM_THREADS", "1")
@@ -65,8 +95,9 @@ def _worker_init() -> None:
         torch.set_num_threads(1)
 
 
-#: Modules the fork server imports once, so that every pool's workers start without importing them.
-_PRELOAD = ["arena_league.matchmaking", "arena_league.policies.artifacts"]
+#: Modules the fork server imports once, so that every pool's workers (and every sandbox child)
+#: start without importing them.
+_PRELOAD = [*FORKSERVER_PRELOAD, "arena_league.matchmaking"]
 
 
 def _process_context() -> multiprocessing.context.BaseContext:
@@ -81,7 +112,9 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
                  backend: str = "inprocess", batch_size: int = 64, workers: int | None = None,
                  chunk_size: int | None = None, ray_address: str | None = None,
                  env_kwargs: Mapping[str, Any] | None = None, recording: MatchRecording | None = None,
-                 on_result: Callable[[MatchResult], None] | None = None) -> list[MatchResult]:
+                 on_result: Callable[[MatchResult], None] | None = None,
+                 sandbox_limits: SandboxLimits | None = None, forfeit_limit: int | Mapping[str, int] | None = None,
+                 heartbeat: Callable[[], None] | None = None) -> list[MatchResult]:
     """Plays ``specs`` and returns their results in the same order.
 
     Args:
@@ -100,6 +133,13 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
             writes one MCAP replay per match there); see :class:`MatchRecording`.
         on_result: called with each result as it arrives (in-process: as each match ends; other
             backends: as each chunk returns).
+        sandbox_limits: the budgets of the inference sandbox that sandboxed references load into
+            (one per process; see :mod:`arena_league.policies.sandbox`).
+        forfeit_limit: matches an agent (by key, or every agent) may forfeit before the specs that
+            name it are skipped (see :meth:`LockstepRunner.play`); with several workers each counts
+            its own. Skipped specs have no result, so fewer results than specs may come back.
+        heartbeat: called whenever play makes progress (in-process: every step; the process pool:
+            when its workers stepped since the last look; Ray: as each chunk returns).
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")
@@ -114,12 +154,13 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
     results: list[MatchResult | None] = [None] * len(specs)
 
     if backend == "inprocess":
-        policies = load_agents(agents)
+        policies = load_agents(agents, sandbox_limits)
         for game_id, indices in by_game.items():
             runner = LockstepRunner(game_id, {k: policies[k] for k in _keys_of(specs, indices)},
                                     batch_size=batch_size, env_kwargs=env_kwargs, recording=recording)
-            for index, result in zip(indices, runner.play([specs[i] for i in indices], on_result)):
-                results[index] = result
+            played = runner.play([specs[i] for i in indices], on_result, forfeit_limit=forfeit_limit,
+                                 heartbeat=heartbeat)
+            _place(results, played, specs, indices)
         return [r for r in results if r is not None]
 
     not_refs = sorted(k for k, a in agents.items() if not isinstance(a, AgentRef))
@@ -133,20 +174,31 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
         for start in range(0, len(indices), size):
             part = indices[start: start + size]
             refs = {k: agents[k] for k in _keys_of(specs, part)}
-            tasks.append((part, (game_id, refs, [specs[i] for i in part], batch_size, env_kwargs, recording)))
+            tasks.append((part, (game_id, refs, [specs[i] for i in part], batch_size, env_kwargs, recording,
+                                 sandbox_limits, _keyed(forfeit_limit, refs))))
 
     def collect(part: list[int], chunk_results: list[MatchResult]) -> None:
-        for index, result in zip(part, chunk_results):
-            results[index] = result
+        _place(results, chunk_results, specs, part)
+        for result in chunk_results:
             if on_result is not None:
                 on_result(result)
+        if heartbeat is not None:
+            heartbeat()
 
     if backend == "process":
-        with ProcessPoolExecutor(max_workers=n_workers, mp_context=_process_context(),
-                                 initializer=_worker_init) as pool:
-            futures = [(part, pool.submit(play_chunk, *args)) for part, args in tasks]
-            for part, future in futures:
-                collect(part, future.result())
+        context = _process_context()
+        counter = context.RawValue("Q", 0)
+        with ProcessPoolExecutor(max_workers=n_workers, mp_context=context, initializer=_worker_init,
+                                 initargs=(counter,)) as pool:
+            futures = {pool.submit(play_chunk, *args): part for part, args in tasks}
+            seen = 0
+            while futures:
+                done, _ = wait(list(futures), timeout=_HEARTBEAT_SECONDS, return_when=FIRST_COMPLETED)
+                for future in done:
+                    collect(futures.pop(future), future.result())
+                if heartbeat is not None and counter.value != seen:
+                    seen = counter.value
+                    heartbeat()
     else:
         remote = _ray_remote(ray_address, workers)
         import ray
@@ -157,6 +209,17 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
             for ref in ready:
                 collect(pending.pop(ref), ray.get(ref))
     return [r for r in results if r is not None]
+
+
+def _place(results: list[MatchResult | None], played: list[MatchResult], specs: Sequence[MatchSpec],
+           indices: Sequence[int]) -> None:
+    """Put the results of ``specs[indices]`` (in that order, skipped specs left out) in their places."""
+    remaining = iter(played)
+    result = next(remaining, None)
+    for index in indices:
+        if result is not None and result.spec == specs[index]:
+            results[index] = result
+            result = next(remaining, None)
 
 
 def _keys_of(specs: Sequence[MatchSpec], indices: Sequence[int]) -> list[str]:

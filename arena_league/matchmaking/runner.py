@@ -23,6 +23,16 @@ Acting seats: in turn-based games only the seat to move is asked for an action; 
 active seats (not arrived, not eliminated). The others get a fixed legal filler (action 0, or
 zeros) that the rules ignore; recurrent states advance only when a seat acts.
 
+Sandboxed agents: policies loaded in an :class:`~arena_league.policies.sandbox.InferenceSandbox`
+(submitted agents, see :func:`~arena_league.matchmaking.agents.load_agents`) compute in the
+sandbox's child process; the runner sends the calls of all of them for one step in one message.
+When an agent's call fails there (over its time or memory budget, a crash, an error, an invalid
+action), the agent *forfeits* every match it has in flight: each ends at once, its team losing
+(:meth:`MatchResult.forfeited`, the reason recorded), and the slot takes the next spec. With
+``forfeit_limit``, an agent that has forfeited that many matches is not seated again: the specs
+that name it are skipped (no result). In-process agents (scripted, the frozen base population)
+that fail raise, as a bug would.
+
 Stepping paths: a result needs the rules' outcome, not the social-tree rewards, so unless a replay
 is recorded (or observations carry broadcast boards or the global state) the runner steps each
 match's game rules directly, or, for games whose rules declare a whole-array engine
@@ -41,7 +51,7 @@ import numpy as np
 
 from arena_league.envs import make
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
-from arena_league.policies.policy import ActionSpec, Policy
+from arena_league.policies.policy import ActionSpec, Policy, invalid_actions, valid_actions_text
 
 __all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "action_spec_of", "policy_units"]
 
@@ -82,6 +92,11 @@ class PolicyUnit:
     policy: Policy
     members: tuple[int, ...]
     stacked: bool
+    #: For agents in an inference sandbox: the sandbox, the group they form in it, and each
+    #: member's position in that group (the runner batches every sandboxed unit of a step).
+    sandbox: Any = None
+    group: int = -1
+    positions: np.ndarray | None = None
 
     def act(self, obs: np.ndarray, uniforms: np.ndarray, owners: np.ndarray, mask: np.ndarray | None,
             state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
@@ -93,12 +108,30 @@ class PolicyUnit:
 def policy_units(policies: Sequence[Policy]) -> list[PolicyUnit]:
     """Groups distinct policies into units: torch agents of one architecture stack into a single
     :class:`~arena_league.policies.families.StackedPolicy` (one forward for all of them, with
-    each row's owner index); every other policy is a unit of its own."""
+    each row's owner index); sandboxed agents form the units their sandbox grouped them in; every
+    other policy is a unit of its own."""
+    sandbox_module = sys.modules.get("arena_league.policies.sandbox")
+    proxy_type = sandbox_module.SandboxedPolicy if sandbox_module is not None else ()
+    sandboxed: dict[tuple[int, int], list[int]] = {}
+    local = []
+    for i, policy in enumerate(policies):
+        if isinstance(policy, proxy_type):
+            sandboxed.setdefault((id(policy.sandbox), policy.group), []).append(i)
+        else:
+            local.append(i)
+    units = []
     families = sys.modules.get("arena_league.policies.families")
     if families is None:  # no torch agent can exist unless the families module was imported
-        return [PolicyUnit(p, (i,), False) for i, p in enumerate(policies)]
-    return [PolicyUnit(g.policy, tuple(g.members), isinstance(g.policy, families.StackedPolicy))
-            for g in families.stack_policies(list(policies))]
+        units = [PolicyUnit(policies[i], (i,), False) for i in local]
+    else:
+        units = [PolicyUnit(g.policy, tuple(local[m] for m in g.members),
+                            isinstance(g.policy, families.StackedPolicy))
+                 for g in families.stack_policies([policies[i] for i in local])]
+    for members in sandboxed.values():
+        first = policies[members[0]]
+        units.append(PolicyUnit(first, tuple(members), len(members) > 1, first.sandbox, first.group,
+                                np.asarray([policies[i].position for i in members], dtype=np.int64)))
+    return units
 
 
 @dataclass
@@ -181,10 +214,17 @@ class _EnvMatches:
                 ended.append(position)
         return ended
 
-    def result(self, position: int, spec: MatchSpec) -> MatchResult:
+    def steps_of(self, position: int) -> int:
+        return self.steps[position] if self.direct else self.envs[position].step_count
+
+    def result(self, position: int, spec: MatchSpec, forfeits: Mapping[str, str] | None = None,
+               steps: int | None = None) -> MatchResult:
         env = self.envs[position]
-        steps = self.steps[position] if self.direct else env.step_count
-        result = MatchResult.from_team_result(spec, self.runner.team_of, env.rules.team_result(), steps)
+        steps = self.steps_of(position) if steps is None else steps
+        if forfeits:
+            result = MatchResult.forfeited(spec, self.runner.team_of, forfeits, steps)
+        else:
+            result = MatchResult.from_team_result(spec, self.runner.team_of, env.rules.team_result(), steps)
         recorder = self.recorders[position]
         if recorder is not None:  # held until closed: a close that fails is aborted with the others
             result = replace(result, replay_path=str(recorder.close(result)))
@@ -220,7 +260,14 @@ class _EngineMatches:
         # discrete actions are one integer per seat; continuous ones keep their action dimension
         return np.flatnonzero(self.engine.step(actions.reshape(-1, n, *actions.shape[1:]))).tolist()
 
-    def result(self, position: int, spec: MatchSpec) -> MatchResult:
+    def steps_of(self, position: int) -> int:
+        return int(self.engine.steps(position))
+
+    def result(self, position: int, spec: MatchSpec, forfeits: Mapping[str, str] | None = None,
+               steps: int | None = None) -> MatchResult:
+        if forfeits:
+            return MatchResult.forfeited(spec, self.runner.team_of, forfeits,
+                                         self.steps_of(position) if steps is None else steps)
         return MatchResult.from_team_result(spec, self.runner.team_of, self.engine.team_result(position),
                                             self.engine.steps(position))
 
@@ -296,6 +343,9 @@ class LockstepRunner:
                 position[id(policy)] = len(distinct)
                 distinct.append(policy)
         self._units = policy_units(distinct)
+        self._keys_of_member: dict[int, list[str]] = {}
+        for key, policy in self.policies.items():
+            self._keys_of_member.setdefault(position[id(policy)], []).append(key)
         unit_of: dict[int, tuple[int, int]] = {}
         for u, unit in enumerate(self._units):
             for owner, member in enumerate(unit.members):
@@ -304,13 +354,21 @@ class LockstepRunner:
         self._owner_of_key = {key: unit_of[position[id(p)]][1] for key, p in self.policies.items()}
 
     # --- public ---------------------------------------------------------------------------------
-    def play(self, specs: Iterable[MatchSpec],
-             on_result: Callable[[MatchResult], None] | None = None) -> list[MatchResult]:
+    def play(self, specs: Iterable[MatchSpec], on_result: Callable[[MatchResult], None] | None = None, *,
+             forfeit_limit: int | Mapping[str, int] | None = None,
+             heartbeat: Callable[[], None] | None = None) -> list[MatchResult]:
         """Plays every spec; returns the results in the order of ``specs``. ``on_result`` is called
-        as each match ends (in the order they end)."""
+        as each match ends (in the order they end); ``heartbeat`` once per step (a sign of progress).
+
+        ``forfeit_limit``: how many matches an agent (by key, or every agent) may forfeit before its
+        remaining specs are skipped (see the module docstring); None never skips. Skipped specs have
+        no result, so the list may be shorter than ``specs``; :attr:`skipped` lists them."""
         specs = list(specs)
         for spec in specs:
             self._check_spec(spec)
+        self.skipped: list[MatchSpec] = []
+        self.forfeit_counts: dict[str, int] = {}
+        allowance = self._allowance(forfeit_limit)
         width = min(self.batch_size, len(specs))
         if width == 0:
             return []
@@ -329,9 +387,13 @@ class LockstepRunner:
         slots: list[_Slot | None] = [None] * width
         queue = iter(enumerate(specs))
         matches = self._matches(width)
+        stopped: set[str] = set()  # agents past their forfeit allowance
 
         def start(position: int) -> None:
             nxt = next(queue, None)
+            while nxt is not None and stopped.intersection(nxt[1].seats):
+                self.skipped.append(nxt[1])
+                nxt = next(queue, None)
             base = position * n
             if nxt is None:
                 slots[position] = None
@@ -346,6 +408,14 @@ class LockstepRunner:
                 row_owner[base + seat] = self._owner_of_key[key]
                 row_key[base + seat] = key
 
+        def finish(position: int, forfeits: Mapping[str, str] | None = None, steps: int | None = None) -> None:
+            slot = slots[position]
+            result = matches.result(position, slot.spec, forfeits, steps)
+            results[slot.order] = result
+            if on_result is not None:
+                on_result(result)
+            start(position)
+
         try:
             for position in range(width):
                 start(position)
@@ -355,29 +425,42 @@ class LockstepRunner:
                 matches.gather(live, obs, mask, acting)
                 for position in live:
                     slots[position].rng.random(out=uniforms[position * n: (position + 1) * n])
-                # act: one call per policy unit over all its acting rows
+                # act: one call per policy unit over all its acting rows (sandboxed units in one message)
                 acting &= row_unit >= 0
                 actions[...] = 0
-                acting_rows = np.flatnonzero(acting)
-                units = row_unit[acting_rows]
-                order = np.argsort(units, kind="stable")
-                acting_rows, units = acting_rows[order], units[order]
-                for group in np.split(acting_rows, np.flatnonzero(np.diff(units)) + 1):
-                    if group.size:
-                        self._act(int(row_unit[group[0]]), group, obs, uniforms, mask, actions, row_owner,
-                                  row_key, slots)
-                # step every live match; ended ones report and their slots take the next spec
-                for position in matches.step(live, actions, acting):
-                    slot = slots[position]
-                    result = matches.result(position, slot.spec)
-                    results[slot.order] = result
-                    if on_result is not None:
-                        on_result(result)
-                    start(position)
+                failures = self._act_all(acting, obs, uniforms, mask, actions, row_unit, row_owner, row_key, slots)
+                # matches in flight of an agent whose call failed end as forfeits; the others step
+                forfeited = {}
+                if failures:
+                    forfeited = {p: {key: failures[key] for key in slots[p].spec.seats if key in failures}
+                                 for p in live if failures.keys() & set(slots[p].spec.seats)}
+                    for forfeits in forfeited.values():
+                        for key in forfeits:
+                            self.forfeit_counts[key] = self.forfeit_counts.get(key, 0) + 1
+                            if self.forfeit_counts[key] >= allowance.get(key, allowance.get("", np.inf)):
+                                stopped.add(key)
+                stepping = [p for p in live if p not in forfeited]
+                steps_before = {p: matches.steps_of(p) for p in forfeited}  # the engine steps every slot
+                for position in matches.step(stepping, actions, acting):
+                    if position not in forfeited:
+                        finish(position)
+                for position, forfeits in forfeited.items():
+                    finish(position, forfeits, steps_before[position])
+                if heartbeat is not None:
+                    heartbeat()
                 live = [p for p, slot in enumerate(slots) if slot is not None]
         finally:
             matches.abort()
         return [r for r in results if r is not None]
+
+    @staticmethod
+    def _allowance(forfeit_limit: int | Mapping[str, int] | None) -> dict[str, float]:
+        """Agent key -> forfeits allowed ("" for every agent not named)."""
+        if forfeit_limit is None:
+            return {}
+        if isinstance(forfeit_limit, Mapping):
+            return {str(key): float(value) for key, value in forfeit_limit.items()}
+        return {"": float(forfeit_limit)}
 
     # --- internals ------------------------------------------------------------------------------
     def _matches(self, width: int) -> _EnvMatches | _EngineMatches:
@@ -428,6 +511,57 @@ class LockstepRunner:
         state = policy.initial_state(1)
         return None if state is None else np.asarray(state)[0]
 
+    def _act_all(self, acting: np.ndarray, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None,
+                 actions: np.ndarray, row_unit: np.ndarray, row_owner: np.ndarray, row_key: list,
+                 slots: list) -> dict[str, str]:
+        """Every unit's actions for the acting rows; returns the sandboxed agents whose call failed
+        (key -> reason). Their rows get a legal filler action, which no match uses."""
+        acting_rows = np.flatnonzero(acting)
+        units = row_unit[acting_rows]
+        order = np.argsort(units, kind="stable")
+        acting_rows, units = acting_rows[order], units[order]
+        sandboxed: dict[int, list[tuple[int, np.ndarray, Any]]] = {}
+        for group in np.split(acting_rows, np.flatnonzero(np.diff(units)) + 1):
+            if not group.size:
+                continue
+            unit_index = int(row_unit[group[0]])
+            unit = self._units[unit_index]
+            if unit.sandbox is None:
+                self._act(unit_index, group, obs, uniforms, mask, actions, row_owner, row_key, slots)
+                continue
+            call = self._group_call(unit, group, obs, uniforms, mask, row_owner, slots)
+            sandboxed.setdefault(id(unit.sandbox), []).append((unit_index, group, call))
+        failures: dict[str, str] = {}
+        for calls in sandboxed.values():
+            sandbox = self._units[calls[0][0]].sandbox
+            for (unit_index, group, _), outcome in zip(calls, sandbox.act_many([c for _, _, c in calls])):
+                unit = self._units[unit_index]
+                bad = np.zeros(group.size, dtype=bool)
+                for position, reason in outcome.failures.items():
+                    bad |= unit.positions[row_owner[group]] == position
+                    member = unit.members[int(np.flatnonzero(unit.positions == position)[0])]
+                    for key in self._keys_of_member[member]:
+                        failures.setdefault(key, reason)
+                actions[group] = outcome.actions
+                if bad.any() and mask is not None:
+                    actions[group[bad]] = mask[group[bad]].argmax(axis=1)
+                if unit.policy.recurrent and outcome.next_state is not None:
+                    for i, r in enumerate(group):
+                        if not bad[i]:
+                            slots[r // self.n_agents].states[r % self.n_agents] = outcome.next_state[i]
+        return failures
+
+    def _group_call(self, unit: PolicyUnit, rows: np.ndarray, obs: np.ndarray, uniforms: np.ndarray,
+                    mask: np.ndarray | None, row_owner: np.ndarray, slots: list) -> Any:
+        from arena_league.policies.sandbox import GroupCall
+
+        n = self.n_agents
+        state = np.stack([slots[r // n].states[r % n] for r in rows]) if unit.policy.recurrent else None
+        width = unit.policy.spec.obs_dim
+        unit_obs = obs[rows] if width == obs.shape[1] else obs[rows, :width]
+        return GroupCall(unit.group, unit_obs, uniforms[rows], unit.positions[row_owner[rows]],
+                         None if mask is None else mask[rows], state)
+
     def _act(self, unit_index: int, rows: np.ndarray, obs: np.ndarray, uniforms: np.ndarray,
              mask: np.ndarray | None, actions: np.ndarray, row_owner: np.ndarray, row_key: list,
              slots: list) -> None:
@@ -451,21 +585,10 @@ class LockstepRunner:
                 slots[r // n].states[r % n] = next_state[i]
 
     def _check_actions(self, out: np.ndarray, rows: np.ndarray, row_key: list) -> None:
-        spec = self.spec
-        if self.discrete:
-            if out.shape != (rows.size,) or out.dtype.kind not in "iu":
-                raise PolicyError(f"agent {row_key[rows[0]]!r} returned actions of shape {out.shape} dtype "
-                                  f"{out.dtype}; discrete policies return int64[N], one action per row")
-            bad = np.flatnonzero((out < 0) | (out >= spec.n_actions))
-        else:
-            if out.shape != (rows.size, spec.act_dim):
-                raise PolicyError(f"agent {row_key[rows[0]]!r} returned actions of shape {out.shape}; continuous "
-                                  f"policies return float32[N, {spec.act_dim}]")
-            bad = np.flatnonzero(~(np.isfinite(out) & (np.abs(out) <= 1.0)).all(axis=1))
+        problem, bad = invalid_actions(self.spec, out, rows.size)
+        if problem is not None:
+            raise PolicyError(f"agent {row_key[rows[0]]!r} {problem}")
         if bad.size:
             row = int(rows[bad[0]])
             raise PolicyError(f"agent {row_key[row]!r} returned the invalid action {out[bad[0]].tolist()} for "
-                              f"{self.game_id} (seat {row % self.n_agents}); valid: "
-                              + (f"integers 0..{spec.n_actions - 1}" if self.discrete
-                                 else f"{spec.act_dim} finite floats in [-1, 1]"))
-
+                              f"{self.game_id} (seat {row % self.n_agents}); valid: {valid_actions_text(self.spec)}")

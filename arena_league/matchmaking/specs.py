@@ -125,6 +125,8 @@ class MatchResult:
     """Finishing position of the seat's team (1 = first) with more than two teams, else None."""
     steps: int
     replay_path: str | None = None
+    forfeits: tuple[tuple[str, str], ...] = ()
+    """``(agent key, reason)`` for each agent that forfeited the match (see :meth:`forfeited`)."""
 
     @classmethod
     def from_team_result(cls, spec: MatchSpec, team_of: Sequence[int] | np.ndarray,
@@ -147,6 +149,25 @@ class MatchResult:
             outcomes=tuple(str(words[t]) for t in team_of), positions=positions, steps=int(steps),
             replay_path=replay_path)
 
+    @classmethod
+    def forfeited(cls, spec: MatchSpec, team_of: Sequence[int] | np.ndarray, forfeits: Mapping[str, str], steps: int,
+                  replay_path: str | None = None) -> MatchResult:
+        """A match cut short because agents of ``forfeits`` (key -> reason) failed: as in Kaggle's
+        strict mode, a team with a forfeiting seat loses (score 0) and every other team wins (1);
+        a match every team forfeits is a draw."""
+        team_of = np.asarray(team_of, dtype=np.int64)
+        failing = {int(team_of[i]) for i, key in enumerate(spec.seats) if key in forfeits}
+        n_teams = int(team_of.max()) + 1
+        scores = [0.0 if team in failing else 1.0 for team in range(n_teams)]
+        result = cls.from_team_result(spec, team_of, scores, steps, replay_path)
+        seated = [(key, forfeits[key]) for key in dict.fromkeys(spec.seats) if key in forfeits]
+        return replace(result, forfeits=tuple(seated))
+
+    @property
+    def forfeit_of(self) -> dict[str, str]:
+        """Agent key -> why it forfeited this match (empty when nobody did)."""
+        return dict(self.forfeits)
+
     @property
     def spec(self) -> MatchSpec:
         return MatchSpec(self.match_id, self.game_id, self.seats, self.league_seed)
@@ -166,6 +187,7 @@ class MatchResult:
         data = asdict(self)
         for key in ("seats", "teams", "scores", "outcomes"):
             data[key] = list(data[key])
+        data["forfeits"] = [list(pair) for pair in self.forfeits]
         if self.positions is not None:
             data["positions"] = list(self.positions)
         return data
@@ -178,7 +200,8 @@ class MatchResult:
             seed=int(data["seed"]), seats=tuple(data["seats"]), teams=tuple(int(t) for t in data["teams"]),
             scores=tuple(float(s) for s in data["scores"]), outcomes=tuple(data["outcomes"]),
             positions=None if positions is None else tuple(int(p) for p in positions),
-            steps=int(data["steps"]), replay_path=data.get("replay_path"))
+            steps=int(data["steps"]), replay_path=data.get("replay_path"),
+            forfeits=tuple((str(key), str(reason)) for key, reason in data.get("forfeits", ())))
 
     def without_replay(self) -> MatchResult:
         """The same result with no replay path (to compare results played with and without one)."""

@@ -282,7 +282,7 @@ def session_options(intra_op_threads: int = 1) -> ort.SessionOptions:
     options.intra_op_num_threads = intra_op_threads
     options.inter_op_num_threads = 1
     options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-    options.log_severity_level = 3
+    options.log_severity_level = 4  # fatal only: a failed run comes back as an exception with its status
     return options
 
 

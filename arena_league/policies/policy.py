@@ -83,3 +83,25 @@ def legal_mask(mask: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray | 
         mask = mask.copy()
         mask[empty] = True
     return mask
+
+
+def invalid_actions(spec: ActionSpec, actions: np.ndarray, rows: int) -> tuple[str | None, np.ndarray]:
+    """What is wrong with a policy's ``actions`` for ``rows`` rows: a message when their shape or dtype
+    is wrong (every row is then at fault), else None and the rows whose action is out of range
+    (discrete: not an integer in ``0..n_actions-1``; continuous: not finite or outside [-1, 1])."""
+    if spec.action_type == "discrete":
+        if actions.shape != (rows,) or actions.dtype.kind not in "iu":
+            return (f"returned actions of shape {actions.shape} dtype {actions.dtype}; discrete policies return "
+                    "int64[N], one action per row"), np.arange(rows)
+        return None, np.flatnonzero((actions < 0) | (actions >= spec.n_actions))
+    if actions.shape != (rows, spec.act_dim):
+        return (f"returned actions of shape {actions.shape}; continuous policies return "
+                f"float32[N, {spec.act_dim}]"), np.arange(rows)
+    return None, np.flatnonzero(~(np.isfinite(actions) & (np.abs(actions) <= 1.0)).all(axis=1))
+
+
+def valid_actions_text(spec: ActionSpec) -> str:
+    """What a valid action of ``spec`` is, for messages."""
+    if spec.action_type == "discrete":
+        return f"integers 0..{spec.n_actions - 1}"
+    return f"{spec.act_dim} finite floats in [-1, 1]"

@@ -6,14 +6,23 @@ competitions do, the last check is a *validation match* in which every seat is p
 of the candidate; it must finish without error. The stages, each written to the log:
 
 1. ``read``: size limits (by ``stat``, before reading) and format (no pickle, TorchScript, .pt2);
-2. ``load``: the agent's inputs and outputs match the game's spaces;
-3. ``probe``: on probe observations (random normal, random uniform in [-1, 1], zeros, and real
-   observations from a few steps of random play) the outputs are finite, continuous actions lie
-   in [-1, 1], the same input gives the same output, and a row's output does not depend on the
-   other rows of the batch (the league batches seats of many matches together);
-4. ``match``: a short match (``match_cycles`` steps at most) through ``make(game_id)`` and the
+2. ``load``: in an inference sandbox (:mod:`arena_league.policies.sandbox`: a child process
+   with a memory limit and a time budget), the agent's inputs and outputs match the game's spaces;
+3. ``probe``: on probe observations (random normal, random uniform in [-1, 1], zeros, real
+   observations from a few steps of random play, and real observations at the largest batch the
+   engine hands a policy, :func:`~arena_league.policies.sandbox.largest_batch`) the outputs are
+   finite, continuous actions lie in [-1, 1], the same input gives the same output, and a row's
+   output does not depend on the other rows of the batch (the league batches seats of many
+   matches together);
+4. ``size``: at that largest batch, the time of a forward (the median of three) must stay within
+   half the sandbox's budget per call (headroom for a busy machine), and the memory the agent adds
+   (loaded, plus the forward's peak) within :attr:`~arena_league.policies.sandbox.SandboxLimits.agent_memory_mib`;
+   the figures are logged, and named in the reason when over;
+5. ``match``: a short match (``match_cycles`` steps at most) through ``make(game_id)`` and the
    env's array API, all seats played by the candidate, within ``max_seconds``.
 
+Every forward runs in the sandbox, each call within the budget: a graph that loops for ever, or
+allocates past the limit, is rejected with that reason instead of hanging or killing the caller.
 A failure stops at its stage; :class:`ValidationResult` carries the reason (one line, for the
 agent's ``rejected`` status) and the whole log (kept by the registry).
 """
@@ -33,18 +42,27 @@ from arena_league.policies.artifacts import (
     AgentArtifact,
     AgentInfo,
     ArtifactLimits,
-    load_agent,
     read_artifact,
 )
 from arena_league.policies.errors import ArtifactError
 from arena_league.policies.onnx_policy import PolicyOutputError
 from arena_league.policies.policy import ActionSpec, Policy
+from arena_league.policies.sandbox import (
+    AgentSource,
+    ForfeitError,
+    InferenceSandbox,
+    SandboxedPolicy,
+    SandboxLimits,
+    largest_batch,
+)
 from arena_league.policies.scripted import RandomPolicy
 from arena_league.policies.spaces import action_types
 from arena_league.policies.threads import torch_threads
 
 #: Relative tolerance when comparing a row computed alone with the same row in a batch.
 BATCH_TOLERANCE = 1e-4
+#: Share of the sandbox's budget per call a forward at the largest batch may take in validation.
+TIME_HEADROOM = 0.5
 
 
 @dataclass(frozen=True)
@@ -63,19 +81,32 @@ class ValidationResult:
     seconds: float = 0.0
     #: The validation match: steps played and each team's result.
     match: dict[str, Any] = field(default_factory=dict)
+    #: At the largest batch: ``rows``, ``seconds`` (median forward), ``memory_mib`` (load + peak).
+    size: dict[str, Any] = field(default_factory=dict)
+    #: The artifact error class that stopped validation at reading or loading (e.g.
+    #: ``"CorruptArtifactError"``), None otherwise.
+    error: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
         return {"ok": self.ok, "reason": self.reason, "log": self.log, "game_id": self.game_id, "digest": self.digest,
-                "spec": self.spec.as_dict() if self.spec else None, "seconds": self.seconds, "match": self.match}
+                "spec": self.spec.as_dict() if self.spec else None, "seconds": self.seconds, "match": self.match,
+                "size": self.size, "error": self.error}
 
 
 class _Rejected(Exception):
-    """Raised inside validation to stop at the failing stage with its reason."""
+    """Raised inside validation to stop at the failing stage with its reason (and, for an artifact
+    error, its class name)."""
+
+    def __init__(self, reason: str, error: str | None = None) -> None:
+        super().__init__(reason)
+        self.error = error
 
 
 def validate_submission(source: str | os.PathLike[str] | AgentArtifact, game_id: str, *,
                         action_type: str | None = None, limits: ArtifactLimits = DEFAULT_LIMITS, n_probes: int = 32,
-                        match_cycles: int = 200, seed: int = 0, max_seconds: float = 120.0) -> ValidationResult:
+                        match_cycles: int = 200, seed: int = 0, max_seconds: float = 120.0,
+                        sandbox_limits: SandboxLimits | None = None,
+                        sandbox: InferenceSandbox | None = None) -> ValidationResult:
     """Validate an agent for ``game_id`` (see the module docstring for the stages).
 
     Args:
@@ -88,51 +119,65 @@ def validate_submission(source: str | os.PathLike[str] | AgentArtifact, game_id:
         match_cycles: length cap of the validation match.
         seed: seed of the probes and of the validation match.
         max_seconds: time allowed for the validation match.
+        sandbox_limits: the budgets the agent runs within (memory, time per call, time to load,
+            memory an agent may add); default :class:`SandboxLimits`.
+        sandbox: a sandbox to load the agent into (it then holds only this agent); default a new
+            one, stopped at the end.
     """
     action_types(game_id)  # unknown game: ValueError listing the valid ids
     lines: list[str] = []
     start = time.perf_counter()
-    state: dict[str, Any] = {"digest": None, "spec": None, "match": {}}
+    state: dict[str, Any] = {"digest": None, "spec": None, "match": {}, "size": {}}
+    own = sandbox is None
+    sandbox = InferenceSandbox(sandbox_limits) if sandbox is None else sandbox
 
     def log(stage: str, message: str) -> None:
         lines.append(f"[{stage}] {message}")
 
+    def verdict(reason: str | None, error: str | None = None) -> ValidationResult:
+        return ValidationResult(reason is None, reason, "\n".join(lines) + "\n", game_id, state["digest"],
+                                state["spec"], time.perf_counter() - start, state["match"], state["size"], error)
+
     # Tiny forwards run far faster on one thread than with OpenMP's hand-offs on a busy machine.
-    with torch_threads(1):
-        try:
+    try:
+        with torch_threads(1):
             artifact = _stage_read(source, limits, log)
             state["digest"] = artifact.digest
-            loaded = _stage_load(artifact, game_id, action_type, limits, log)
-            state["spec"] = loaded.info
-            _stage_probe(loaded.policy, game_id, loaded.info, n_probes, seed, log)
-            state["match"] = _stage_match(loaded.policy, game_id, loaded.info, match_cycles, seed, max_seconds, log)
-        except _Rejected as rejection:
-            reason = str(rejection)
-            log("result", f"rejected: {reason}")
-            return ValidationResult(False, reason, "\n".join(lines) + "\n", game_id, state["digest"], state["spec"],
-                                    time.perf_counter() - start, state["match"])
-    seconds = time.perf_counter() - start
-    log("result", f"accepted in {seconds:.2f} s")
-    return ValidationResult(True, None, "\n".join(lines) + "\n", game_id, state["digest"], state["spec"], seconds,
-                            state["match"])
+            policy = _stage_load(sandbox, artifact, game_id, action_type, limits, log)
+            info = state["spec"] = policy.info
+            big = _stage_probe(policy, game_id, info, n_probes, seed, log)
+            state["size"] = _stage_size(sandbox, policy, big, log)
+            state["match"] = _stage_match(policy, game_id, info, match_cycles, seed, max_seconds, log)
+    except _Rejected as rejection:
+        reason = str(rejection)
+        log("result", f"rejected: {reason}")
+        return verdict(reason, rejection.error)
+    finally:
+        if own:
+            sandbox.close()
+    log("result", f"accepted in {time.perf_counter() - start:.2f} s")
+    return verdict(None)
 
 
 def _stage_read(source: Any, limits: ArtifactLimits, log: Any) -> AgentArtifact:
     try:
         artifact = source if isinstance(source, AgentArtifact) else read_artifact(source, limits)
     except (ArtifactError, OSError) as error:
-        raise _Rejected(str(error)) from None
+        raise _Rejected(str(error), type(error).__name__) from None
     log("read", f"{artifact.kind} artifact from {artifact.source}: {artifact.size_bytes} bytes, "
                 f"sha256 {artifact.digest}")
     return artifact
 
 
-def _stage_load(artifact: AgentArtifact, game_id: str, action_type: str | None, limits: ArtifactLimits, log: Any):
+def _stage_load(sandbox: InferenceSandbox, artifact: AgentArtifact, game_id: str, action_type: str | None,
+                limits: ArtifactLimits, log: Any) -> SandboxedPolicy:
     try:
-        loaded = load_agent(artifact, game_id, action_type=action_type, limits=limits)
+        policy = sandbox.load_one(AgentSource(artifact, game_id, action_type, limits))
     except ArtifactError as error:
-        raise _Rejected(str(error)) from None
-    info = loaded.info
+        raise _Rejected(str(error), type(error).__name__) from None
+    except ForfeitError as error:
+        raise _Rejected(error.reason) from None
+    info = policy.info
     out = f"{info.n_actions} actions" if info.action_type == "discrete" else f"{info.act_dim} action components"
     extra = []
     if info.family:
@@ -142,9 +187,10 @@ def _stage_load(artifact: AgentArtifact, game_id: str, action_type: str | None, 
     if info.fixed_batch is not None:
         extra.append(f"fixed batch {info.fixed_batch} (run in chunks of {info.fixed_batch} rows; export with a "
                      "dynamic batch dimension to be faster)")
-    log("load", f"{loaded.policy.name} plays {game_id}: obs float32[N, {info.obs_dim}] -> {info.action_type}, {out}"
-                + (f"; {', '.join(extra)}" if extra else ""))
-    return loaded
+    log("load", f"{policy.name} plays {game_id}: obs float32[N, {info.obs_dim}] -> {info.action_type}, {out}"
+                + (f"; {', '.join(extra)}" if extra else "")
+                + f"; loaded in a sandbox, adding {sandbox.memory_of(policy.key):.1f} MiB")
+    return policy
 
 
 def _real_observations(game_id: str, action_type: str, obs_dim: int, seed: int, steps: int = 16) -> np.ndarray:
@@ -182,14 +228,20 @@ def _forward(policy: Policy, obs: np.ndarray, state: np.ndarray | None) -> tuple
     return np.asarray(actions, dtype=np.float64).reshape(obs.shape[0], -1), next_state
 
 
-def _stage_probe(policy: Policy, game_id: str, info: AgentInfo, n_probes: int, seed: int, log: Any) -> None:
+def _stage_probe(policy: Policy, game_id: str, info: AgentInfo, n_probes: int, seed: int, log: Any) -> np.ndarray:
+    """The probe checks; returns the largest-batch observations (for the size stage)."""
     rng = np.random.default_rng(seed)
     obs_dim = info.obs_dim
+    real = _real_observations(game_id, info.action_type, obs_dim, seed)
+    rows = largest_batch(game_id)
+    noise = rng.normal(0.0, 0.05, (rows, obs_dim)).astype(np.float32)
+    big = (real[np.arange(rows) % len(real)] + noise).astype(np.float32)  # real play, every row its own
     probes = {
         "random normal": rng.standard_normal((n_probes, obs_dim)).astype(np.float32),
         "random uniform [-1, 1]": rng.uniform(-1.0, 1.0, (n_probes, obs_dim)).astype(np.float32),
         "zeros": np.zeros((1, obs_dim), np.float32),
-        "real (random play)": _real_observations(game_id, info.action_type, obs_dim, seed),
+        "real (random play)": real,
+        f"largest batch ({rows} rows of real play)": big,
     }
     if getattr(policy, "forward", None) is None:
         output = "actions"
@@ -205,6 +257,8 @@ def _stage_probe(policy: Policy, game_id: str, info: AgentInfo, n_probes: int, s
             again, _ = _forward(policy, obs, state)
             alone = [_forward(policy, obs[i: i + 1], state[i: i + 1] if state is not None else None)[0]
                      for i in range(min(n, 4))]
+        except ForfeitError as error:
+            raise _Rejected(f"on probe observations ({label}) it {error.reason}") from None
         except (ArtifactError, ValueError, RuntimeError) as error:
             raise _Rejected(f"fails on probe observations ({label}): {error}") from None
         bad = ~np.isfinite(out).all(axis=1)
@@ -227,6 +281,34 @@ def _stage_probe(policy: Policy, game_id: str, info: AgentInfo, n_probes: int, s
                                 "processed on its own (no batch statistics)")
         log("probe", f"{label}: {n} rows, {output} finite, deterministic, batch-independent "
                      f"(range {out.min():.3g} .. {out.max():.3g})")
+    return big
+
+
+def _stage_size(sandbox: InferenceSandbox, policy: SandboxedPolicy, obs: np.ndarray, log: Any) -> dict[str, Any]:
+    """Time and memory of a forward at the largest batch, against the sandbox's budgets."""
+    limits = sandbox.limits
+    rows = len(obs)
+    try:
+        figures = policy.measure(obs, policy.initial_state(rows), repeats=3)
+    except ForfeitError as error:
+        raise _Rejected(f"at the largest batch ({rows} rows) it {error.reason}") from None
+    seconds = float(np.median(figures["seconds"]))
+    load_mib = sandbox.memory_of(policy.key)
+    memory = load_mib + figures["peak_mib"]
+    size = {"rows": rows, "seconds": seconds, "memory_mib": memory, "load_mib": load_mib,
+            "forward_mib": figures["peak_mib"]}
+    budget = limits.call_seconds * TIME_HEADROOM
+    if seconds > budget:
+        raise _Rejected(f"too slow: a forward of {rows} rows (the largest batch the league plays) takes "
+                        f"{1e3 * seconds:.0f} ms, over {1e3 * budget:.0f} ms (half the {limits.call_seconds:g} s "
+                        "budget per call); submit a smaller or faster network")
+    if memory > limits.agent_memory_mib:
+        raise _Rejected(f"uses too much memory: {memory:.0f} MiB ({load_mib:.0f} MiB loaded, a forward of {rows} rows "
+                        f"peaks at {figures['peak_mib']:.0f} MiB more), over the {limits.agent_memory_mib} MiB an agent "
+                        "may use; submit a smaller network")
+    log("size", f"a forward of {rows} rows (the largest batch) takes {1e3 * seconds:.2f} ms (budget "
+                f"{1e3 * budget:.0f} ms) and the agent uses {memory:.1f} MiB (budget {limits.agent_memory_mib} MiB)")
+    return size
 
 
 def _stage_match(policy: Policy, game_id: str, info: AgentInfo, match_cycles: int, seed: int, max_seconds: float,
@@ -246,6 +328,8 @@ def _stage_match(policy: Policy, game_id: str, info: AgentInfo, match_cycles: in
         try:
             actions, state = policy.act(obs[:, : info.obs_dim], rng.random((n_seats, k)), env.rules.action_mask(),
                                         state)
+        except ForfeitError as error:
+            raise _Rejected(f"failed in the validation match at step {steps}: it {error.reason}") from None
         except (PolicyOutputError, ArtifactError, ValueError, RuntimeError) as error:
             raise _Rejected(f"failed in the validation match at step {steps}: {error}") from None
         act_seconds += time.perf_counter() - tick
