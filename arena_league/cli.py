@@ -184,6 +184,11 @@ def cmd_rank(args: argparse.Namespace) -> int:
     stdout.print(f"  percentile  {report.percentile:.1f}  ({report.percentile_lower:.1f} .. "
                  f"{report.percentile_upper:.1f})")
     stdout.print(f"  Nash score  {report.nash_score:+.3f}  (mass {report.nash_mass:.3f})")
+    if report.forfeits:
+        stdout.print(f"  forfeits    {report.forfeits} (losses: its calls failed in the inference sandbox)")
+    if report.suspended:
+        stderr.print(f"[bold red]suspended:[/] {escape(report.suspended)}; see `arena-league agent {report.agent}`",
+                     highlight=False)
     return 0
 
 
@@ -227,7 +232,18 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         stdout.print(f"{report.game_id}: played {report.played} matches ({report.stored} new) among "
                      f"{len(report.agents)} agents in {report.seconds:.1f} s ({rate:.0f} matches/s, "
                      f"{report.steps} env steps)")
+        _print_forfeits(report.forfeits, report.suspended, report.skipped)
     return 0
+
+
+def _print_forfeits(forfeits: dict[str, int], suspended: dict[str, str], skipped: int) -> None:
+    """What a job's hostile or broken agents cost it, on stderr."""
+    for name, count in forfeits.items():
+        stderr.print(f"[bold yellow]forfeits:[/] {escape(name)} forfeited {count} match(es)", highlight=False)
+    for name, reason in suspended.items():
+        stderr.print(f"[bold red]suspended:[/] {escape(name)}: {escape(reason)}", highlight=False)
+    if skipped:
+        stderr.print(f"{skipped} match(es) were skipped: an agent in them was suspended", highlight=False)
 
 
 def cmd_matches(args: argparse.Namespace) -> int:
@@ -373,7 +389,7 @@ def cmd_agents(args: argparse.Namespace) -> int:
     cells = []
     for r in rows:
         rating = "" if r["rating"] is None else f"{r['rating']:.0f}"
-        note = r["reason"] if r["status"] == "rejected" else (r["rated_by"] or "")
+        note = r["reason"] if r["status"] in ("rejected", "suspended") else (r["rated_by"] or "")
         name = short_name(r["name"], args.game) if args.game else r["name"]
         cells.append((name, r["game_id"], r["kind"], r["status"], r["owner"] or "", rating, escape(note or "")))
     _print_table(f"agents of {args.game}" if args.game else "agents",
@@ -391,6 +407,9 @@ def cmd_agent(args: argparse.Namespace) -> int:
         return 0
     _print_record(f"agent {detail['name']}", {k: v for k, v in detail.items()
                                              if not isinstance(v, (dict, list)) and k != "validation_log"})
+    for forfeit in detail["forfeits"][:5]:
+        stdout.print(f"forfeited {forfeit['match_key']} (job {forfeit['job_id']}): it {escape(forfeit['reason'])}",
+                     highlight=False)
     for placed in detail["placements"][:5]:
         stdout.print(f"placed against {placed.get('base')}: rating {placed.get('rating', float('nan')):.0f} "
                      f"({placed.get('lower', float('nan')):.0f} .. {placed.get('upper', float('nan')):.0f}), rank "
@@ -422,6 +441,45 @@ def cmd_jobs(args: argparse.Namespace) -> int:
         stdout.print(f"job {document['id']} ({document['kind']}): {document['status']}")
     else:
         _print_record(f"job {document['id']}", {k: v for k, v in document.items() if not isinstance(v, (dict, list))})
+    return 0
+
+
+def cmd_settings(args: argparse.Namespace) -> int:
+    from arena_league.league import league_settings, reset_setting, set_setting
+
+    with _league(args) as league:
+        if args.action == "set":
+            value = set_setting(league, _required(args.key, "a setting's key"),
+                                _required(args.value, "the value, e.g. `arena-league settings set KEY VALUE`"))
+            document: dict[str, Any] = {"key": args.key, "value": value}
+        elif args.action == "reset":
+            document = {"key": args.key, "value": reset_setting(league, _required(args.key, "a setting's key"))}
+        else:
+            settings = league_settings(league)
+            if args.json:
+                emit_json({"settings": settings})
+            else:
+                _print_table("league settings", ("key", "value", "default", "what it bounds"),
+                             [(key, f"{row['value']}{' *' if row['changed'] else ''}", str(row["default"]),
+                               row["help"]) for key, row in settings.items()])
+            return 0
+    if args.json:
+        emit_json(document)
+    else:
+        stdout.print(f"{document['key']} = {document['value']}")
+    return 0
+
+
+def cmd_reinstate(args: argparse.Namespace) -> int:
+    from arena_league.league import reinstate_agent
+
+    with _league(args) as league:
+        document = reinstate_agent(league, args.name)
+    if args.json:
+        emit_json(document)
+    else:
+        stdout.print(f"{document['name']} is active again; it has forfeited {document['matches_forfeited']} "
+                     "match(es), and its next forfeit suspends it again")
     return 0
 
 
@@ -655,6 +713,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("name", help="the agent's name")
     _league_options(p)
     p.set_defaults(func=cmd_agent)
+
+    p = command("reinstate", "make a suspended agent active again (its next forfeit suspends it again)")
+    p.add_argument("name", help="the suspended agent's name")
+    _league_options(p)
+    p.set_defaults(func=cmd_reinstate)
+
+    p = command("settings", "the league's settings (sandbox budgets, suspension): list, set KEY VALUE, reset KEY")
+    p.add_argument("action", choices=("list", "set", "reset"), nargs="?", default="list",
+                   help="list (default), set a value, or reset one to its default")
+    p.add_argument("key", nargs="?", default=None, help="the setting, e.g. sandbox.call_seconds")
+    p.add_argument("value", nargs="?", default=None, help="set: the new value")
+    _league_options(p)
+    p.set_defaults(func=cmd_settings)
 
     p = command("jobs", "queued, running and finished jobs: list, show ID, cancel ID")
     p.add_argument("action", choices=("list", "show", "cancel"), nargs="?", default="list",

@@ -22,15 +22,17 @@ def _const(name: str, value, dtype=None) -> onnx.NodeProto:
     return helper.make_node("Constant", [], [name], value=numpy_helper.from_array(array, name + "_value"))
 
 
-def _triggered(above: int | None) -> list[onnx.NodeProto]:
-    """Nodes computing ``on`` (int64 scalar): 1 when the batch has more than ``above`` rows (always 1
-    for None)."""
+def _triggered(above: int | None, exactly: int | None = None) -> list[onnx.NodeProto]:
+    """Nodes computing ``over`` (bool) and ``on`` (int64 scalar, 0 or 1): on when the batch has more
+    than ``above`` rows, or exactly ``exactly`` rows (always, when both are None)."""
+    test = "Greater" if exactly is None else "Equal"
+    threshold = exactly if exactly is not None else -1 if above is None else above
     return [
         helper.make_node("Shape", ["obs"], ["obs_shape"]),
         _const("zero_index", 0, np.int64),
         helper.make_node("Gather", ["obs_shape", "zero_index"], ["rows"], axis=0),
-        _const("threshold", -1 if above is None else above, np.int64),
-        helper.make_node("Greater", ["rows", "threshold"], ["over"]),
+        _const("threshold", threshold, np.int64),
+        helper.make_node(test, ["rows", "threshold"], ["over"]),
         helper.make_node("Cast", ["over"], ["on"], to=TensorProto.INT64),
     ]
 
@@ -59,8 +61,9 @@ def _model(game_id: str, nodes: list[onnx.NodeProto], extra: str, seed: int) -> 
     return model
 
 
-def hanging(game_id: str, above: int | None = None, seed: int = 0) -> onnx.ModelProto:
-    """Loops :data:`FOREVER` times when the batch has more than ``above`` rows (always for None)."""
+def hanging(game_id: str, above: int | None = None, seed: int = 0, exactly: int | None = None) -> onnx.ModelProto:
+    """Loops :data:`FOREVER` times when the batch has more than ``above`` rows, or exactly ``exactly``
+    rows (always, when both are None)."""
     body = helper.make_graph(
         [helper.make_node("Identity", ["cond_in"], ["cond_out"]),
          _const("one", 1.0, np.float32),
@@ -71,7 +74,7 @@ def hanging(game_id: str, above: int | None = None, seed: int = 0) -> onnx.Model
          helper.make_tensor_value_info("v_in", TensorProto.FLOAT, [])],
         [helper.make_tensor_value_info("cond_out", TensorProto.BOOL, []),
          helper.make_tensor_value_info("v_out", TensorProto.FLOAT, [])])
-    nodes = [*_triggered(above),
+    nodes = [*_triggered(above, exactly),
              _const("forever", FOREVER, np.int64),
              helper.make_node("Mul", ["on", "forever"], ["trips"]),
              _const("keep_going", True, np.bool_),

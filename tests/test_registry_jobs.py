@@ -150,8 +150,9 @@ def test_the_lease_is_renewed_while_a_long_handler_runs(league: League) -> None:
     stolen: list[object] = []
 
     def slow(context: JobContext) -> str:
-        for _ in range(12):  # 1.2 s, twice the lease
+        for _ in range(12):  # 1.2 s, twice the lease, progressing all along
             time.sleep(0.1)
+            context.heartbeat()
             stolen.append(claim_job(league, "thief", lease_seconds=5))
         return "finished"
 
@@ -159,6 +160,27 @@ def test_the_lease_is_renewed_while_a_long_handler_runs(league: League) -> None:
     assert report.completed == 1 and set(stolen) == {None}
     job = _job(league, job_id)
     assert (job.status, job.result, job.attempts) == ("done", "finished", 1)
+
+
+def test_a_handler_that_makes_no_progress_is_not_kept_and_another_worker_takes_its_job(league: League) -> None:
+    job_id = _enqueue(league, "stuck")
+    taken: list[object] = []
+
+    def stuck(context: JobContext) -> str:
+        # no heartbeat: a hung agent or a deadlock; the lease runs out and another worker claims the job
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and not taken:
+            time.sleep(0.05)
+            claim = claim_job(league, "rescuer", lease_seconds=60)
+            if claim is not None:
+                taken.append(claim)
+        return "too late"
+
+    report = run_worker(league, {"stuck": stuck}, "w", lease_seconds=0.6, poll_seconds=0.01, max_jobs=1)
+    assert taken and taken[0].id == job_id and taken[0].attempt == 2
+    assert (report.completed, report.lost) == (0, 1)
+    job = _job(league, job_id)
+    assert (job.status, job.lease_owner, job.result) == ("running", "rescuer", None)
 
 
 def test_a_worker_that_lost_its_lease_does_not_complete_the_job(league: League) -> None:

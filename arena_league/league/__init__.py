@@ -5,6 +5,8 @@
   recent matches, the job handlers;
 * :mod:`.populations`: populations per game, the game's default base, import and export;
 * :mod:`.agents` / :mod:`.jobs`: agents and jobs as a person looks them up; cancelling a job;
+  reinstating a suspended agent;
+* :mod:`.settings`: the league's settings (the inference sandbox's budgets, suspension after forfeits);
 * :mod:`.leaderboards` / :mod:`.report`: ratings tables with intervals, for a terminal, JSON and HTML;
 * :mod:`.schedules`: recurring evaluations, the scheduler and the worker;
 * :mod:`.first_league`: the whole workflow on the embedded default;
@@ -24,7 +26,7 @@ from arena_league import lazy_exports
 
 #: Submodule -> the names this package offers from it.
 _EXPORTS: dict[str, tuple[str, ...]] = {
-    "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches"),
+    "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent"),
     "catalog": ("game_rows", "verify_social_tree"),
     "errors": ("USER_ERRORS",),
     "first_league": ("QuickstartReport", "quickstart"),
@@ -45,9 +47,10 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     ),
     "service": (
         "LEAGUE_WIDE", "MATCH_IDS_PER_JOB", "EvaluationPlan", "EvaluationReport", "RankReport", "SubmitResult",
-        "agent_ref", "base_population", "ensure_scripted_agents", "evaluate", "evaluation_plan",
+        "agent_ref", "agent_refs", "base_population", "ensure_scripted_agents", "evaluate", "evaluation_plan",
         "job_handlers", "leaderboard", "queue_evaluation", "rank", "scripted_agent_name", "submit",
     ),
+    "settings": ("SETTINGS", "league_settings", "reset_setting", "sandbox_limits", "set_setting"),
     "train": ("train_entrant",),
 }
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

@@ -2,7 +2,8 @@
 
 An agent's rating here is where it stands on its game's base scale: a base member's frozen
 rating from its population, or an entrant's latest placement (the result of its newest finished
-``rank`` job). A rejected agent keeps its reason and validation log.
+``rank`` job). A rejected agent keeps its reason and validation log; a suspended one (it forfeited
+too many matches in the inference sandbox) its reason and the forfeits themselves.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from arena_league import registry as reg
 from arena_league.league.home import did_you_mean
 from arena_league.registry import League
 
-__all__ = ["agent_detail", "agent_rows", "latest_placements", "recent_matches", "require_agent"]
+__all__ = ["agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent", "require_agent"]
 
 
 def latest_placements(session: Any, game_id: str | None = None, *, base: str | None = None
@@ -91,16 +92,32 @@ def agent_detail(league: League, name: str, *, matches: int = 10) -> dict[str, A
                        if any(m.agent_id == agent.id for m in p.members)]
         recent = reg.list_matches(session, agent.game_id, agent_id=agent.id)[-matches:]
         played = reg.count_matches(session, agent_id=agent.id)
+        forfeited = reg.forfeit_counts(session, [agent.id]).get(agent.id, 0)
+        forfeits = reg.agent_forfeits(session, agent, limit=matches)
         return {
             "name": agent.name, "game_id": agent.game_id, "kind": agent.kind, "status": agent.status,
             "owner": agent.owner, "created_at": agent.created_at.isoformat(timespec="seconds"),
             "artifact": agent.artifact_sha256, "metadata": agent.meta or {}, "reason": agent.reject_reason,
             "validation_log": agent.validation_log or "", "populations": populations, "placements": placements,
-            "matches_played": played,
+            "matches_played": played, "matches_forfeited": forfeited,
+            "forfeits": [{**f, "at": f["at"].isoformat(timespec="seconds")} for f in forfeits],
             "recent_matches": [{"match_key": m.match_key, "created_at": m.created_at.isoformat(timespec="seconds"),
-                                "seats": [{"agent": s.agent.name, "team": s.team, "outcome": s.outcome}
+                                "seats": [{"agent": s.agent.name, "team": s.team, "outcome": s.outcome,
+                                           **({"forfeit": s.forfeit} if s.forfeit else {})}
                                           for s in m.seats]} for m in reversed(recent)],
         }
+
+
+def reinstate_agent(league: League, name: str) -> dict[str, Any]:
+    """Make a suspended agent active again (its forfeits stay counted: the next one suspends it
+    again); returns its name, status and the forfeits it carries."""
+    with league.transaction() as session:
+        agent = require_agent(session, name)
+        if agent.status != "suspended":
+            raise ValueError(f"agent {name} is {agent.status}, not suspended; only a suspended agent is reinstated")
+        reg.set_agent_status(session, agent, "active")
+        forfeited = reg.forfeit_counts(session, [agent.id]).get(agent.id, 0)
+        return {"name": agent.name, "status": agent.status, "matches_forfeited": forfeited}
 
 
 def recent_matches(league: League, game_id: str, *, agent: str | None = None, limit: int = 20) -> list[dict[str, Any]]:

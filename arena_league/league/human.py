@@ -111,7 +111,7 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
     """
     from arena_league.league.home import open_home, register_game
     from arena_league.league.populations import ensure_population
-    from arena_league.league.service import agent_ref, base_population
+    from arena_league.league.service import agent_refs, base_population
 
     out = output if output is not None else sys.stdout
     spec = game_spec(game_id)
@@ -136,7 +136,7 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
     human_id = _human_agent(league, agent_name, game_id, player)
     order = np.argsort(ratings, kind="stable")  # weakest first
     with league.reading() as session:
-        refs = {name: agent_ref(league, reg.require_agent(session, name)) for name in names}
+        refs = agent_refs(session, league, [reg.require_agent(session, name) for name in names])
     step = climb if climb is not None else max(1, len(names) // 10)
     report = HumanSession(agent_name, game_id, label, len(names))
     rung = 0

@@ -16,11 +16,13 @@ nothing registered) when any member fails it:
 * a member's artifact path is relative to the folder and, resolved (links followed), stays inside
   it: no absolute paths, no ``..`` leading out, no link pointing out;
 * each member is read with ``read_artifact`` (code-carrying formats such as pickle and over-size
-  files are refused before their content is read) and checked with ``validate_submission`` with
-  few probe rows and a validation match of :data:`IMPORT_MATCH_CYCLES` steps (read, load against
-  the game's spaces, probe forwards, a few steps of play): enough to refuse an artifact that cannot
-  play, affordable for the hundred members of a shipped population on first use. The stored bytes
-  are those that were read and validated, not the file as it may be by then;
+  files are refused before their content is read) and checked with ``validate_submission`` in an
+  inference sandbox with few probe rows and a validation match of :data:`IMPORT_MATCH_CYCLES` steps
+  (read, load against the game's spaces, probe forwards including one at the largest batch the
+  engine plays, its time and memory against the league's budgets, a few steps of play): enough to
+  refuse an artifact that cannot play or that hangs or swells at full size (frozen members then
+  play in the worker itself), affordable for the hundred members of a shipped population on first
+  use. The stored bytes are those that were read and validated, not the file as it may be by then;
 * a member whose name an agent already holds is reused only when that agent plays the same game
   with the same bytes (same artifact digest; for a scripted member, the same built-in agent);
   any other holder is a conflict that refuses the import, naming the agent.
@@ -222,8 +224,8 @@ def _member_path(src: Path, member: dict[str, Any]) -> Path:
     return path
 
 
-def _check_member(src: Path, game_id: str, member: dict[str, Any]) -> _Member:
-    """Read and validate one member as a submission is (see the module docstring)."""
+def _check_member(src: Path, game_id: str, member: dict[str, Any], sandbox: Any) -> _Member:
+    """Read and validate one member as a submission is (see the module docstring), in ``sandbox``."""
     from arena_league.policies import ArtifactError, read_artifact, validate_submission
 
     name = member["name"]
@@ -234,7 +236,7 @@ def _check_member(src: Path, game_id: str, member: dict[str, Any]) -> _Member:
                              "export the population again so every learned member carries its artifact")
         try:
             verdict = validate_submission(f"scripted:{scripted}", game_id, n_probes=IMPORT_PROBE_ROWS,
-                                          match_cycles=IMPORT_MATCH_CYCLES)
+                                          match_cycles=IMPORT_MATCH_CYCLES, sandbox=sandbox)
         except ArtifactError as error:
             raise ValueError(f"member {name} of {src}: {error}") from None
         if not verdict.ok:
@@ -253,7 +255,8 @@ def _check_member(src: Path, game_id: str, member: dict[str, Any]) -> _Member:
     if declared is not None and declared != artifact.kind:
         raise ValueError(f"member {name} of {src}: {member['artifact']} is {artifact.kind}, not {declared!r} as "
                          f"{POPULATION_MANIFEST} says; correct its format")
-    verdict = validate_submission(artifact, game_id, n_probes=IMPORT_PROBE_ROWS, match_cycles=IMPORT_MATCH_CYCLES)
+    verdict = validate_submission(artifact, game_id, n_probes=IMPORT_PROBE_ROWS, match_cycles=IMPORT_MATCH_CYCLES,
+                                  sandbox=sandbox)
     if not verdict.ok:
         raise ValueError(f"member {name} of {src} failed validation: {verdict.reason}. Nothing was imported; "
                          f"replace {path} with an artifact that plays {game_id}")
@@ -300,7 +303,11 @@ def import_population(league: League, source: str | Path, *, name: str | None = 
             imported = (existing.provenance or {}).get("imported_from") or {}
             if existing.name == label and imported.get("address") == address:
                 return f"{existing.name}:{existing.version}"
-    members = [_check_member(src, game_id, member) for member in manifest["members"]]
+    from arena_league.league.settings import sandbox_limits
+    from arena_league.policies.sandbox import InferenceSandbox
+
+    with InferenceSandbox(sandbox_limits(league)) as sandbox:  # one child validates every member in turn
+        members = [_check_member(src, game_id, member, sandbox) for member in manifest["members"]]
     with league.reading() as session:
         for member in members:
             _conflict(session, src, game_id, member)

@@ -7,6 +7,13 @@ Every match is played by a job (kind ``evaluate`` or ``rank``), queued for worke
 once in the caller's process. A job's matches get ids ``job_id * MATCH_IDS_PER_JOB + k``, so match
 seeds (derived from the match id and the league seed) never repeat within a league, and keys
 ``job:<job id>:<match id>``, so a retried job stores each match once.
+
+Submitted agents play inside the worker's inference sandbox (:mod:`arena_league.policies.sandbox`),
+within the league's budgets (:mod:`arena_league.league.settings`); built-in scripted agents and
+the members of frozen base populations play in the worker itself. A sandboxed agent whose call
+fails forfeits the matches it has in flight (each stored as a loss, with the reason on its seat);
+once it has forfeited ``forfeits.suspend_after`` matches in all, it is *suspended*, with the
+reason its owner sees, and the job goes on without it (its remaining matches are skipped).
 """
 
 from __future__ import annotations
@@ -36,6 +43,7 @@ from arena_league.league.populations import game_population, require_population
 from arena_league.matchmaking import (
     AgentRef,
     MatchResult,
+    MatchSpec,
     play_adaptive,
     play_matches,
     round_robin,
@@ -78,8 +86,9 @@ def ensure_scripted_agents(league: League, game_id: str) -> list[str]:
     return names
 
 
-def agent_ref(league: League, agent: reg.Agent) -> AgentRef:
-    """A reference the match engine can load in any process."""
+def agent_ref(league: League, agent: reg.Agent, *, trusted: bool = False) -> AgentRef:
+    """A reference the match engine can load in any process: sandboxed unless the agent is a
+    built-in scripted one or ``trusted`` (a member of a frozen base population, see :func:`agent_refs`)."""
     action_type = (agent.meta or {}).get("action_type")
     if agent.kind == "scripted":
         return AgentRef("scripted", agent.meta["scripted"], agent.game_id, action_type)
@@ -87,7 +96,17 @@ def agent_ref(league: League, agent: reg.Agent) -> AgentRef:
         raise ValueError(f"agent {agent.name} ({agent.kind}) has no artifact to play with")
     path = reg.artifact_path(league.home, agent.artifact)
     kind = "onnx" if agent.artifact.format == "onnx" else "arena-policy"
-    return AgentRef(kind, str(path), agent.game_id, action_type)
+    return AgentRef(kind, str(path), agent.game_id, action_type, sandboxed=not trusted)
+
+
+def agent_refs(session: Any, league: League, agents: Sequence[reg.Agent]) -> dict[str, AgentRef]:
+    """Name -> :func:`agent_ref` of each agent; members of the game's frozen populations (which
+    passed the import gate at full size) are trusted to run in the worker, every other artifact
+    runs in the sandbox."""
+    games = {a.game_id for a in agents}
+    frozen = {m.agent_id for game_id in games for population in reg.list_populations(session, game_id=game_id)
+              if population.frozen for m in population.members}
+    return {a.name: agent_ref(league, a, trusted=a.id in frozen and a.kind == "base") for a in agents}
 
 
 def _active_agents(session, game_id: str, names: Sequence[str] | None) -> list[reg.Agent]:
@@ -180,9 +199,10 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     Storing and registering are one transaction: when it fails (the name taken meanwhile, a
     database error, a full disk) the file it stored is removed again.
     """
+    from arena_league.league.settings import sandbox_limits
     from arena_league.policies import (
         CorruptArtifactError,
-        load_agent,
+        errors,
         read_artifact,
         validate_submission,
         write_artifact,
@@ -203,13 +223,10 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
         return existing
     with league.reading() as session:
         reg.refuse_taken_name(session, name)  # before anything is stored
-    try:
-        load_agent(artifact, game_id)
-    except CorruptArtifactError:
-        raise  # unreadable (truncated, corrupt): refused, nothing stored
-    except Exception:  # noqa: S110 - readable but unfit (spaces...): validation rejects it with the log
-        pass
-    verdict = validate_submission(artifact, game_id)
+    verdict = validate_submission(artifact, game_id, sandbox_limits=sandbox_limits(league))
+    refusal = getattr(errors, verdict.error or "", None)
+    if isinstance(refusal, type) and issubclass(refusal, CorruptArtifactError):
+        raise refusal(verdict.reason)  # unreadable (truncated, corrupt): refused, nothing stored
     status = "active" if verdict.ok else "rejected"
     info = verdict.spec.as_dict() if verdict.spec else {}
     meta = {**dict(metadata or {}), "artifact_kind": artifact.kind,
@@ -249,6 +266,12 @@ class EvaluationReport:
     stored: int
     steps: int
     seconds: float
+    #: Matches not played because an agent in them was past its forfeits.
+    skipped: int = 0
+    #: Agent -> matches it forfeited in this evaluation.
+    forfeits: dict[str, int] = field(default_factory=dict)
+    #: Agent -> why this evaluation suspended it.
+    suspended: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -417,6 +440,7 @@ class _Recorder:
         self.played = 0
         self.stored = 0
         self.steps = 0
+        self.forfeits: dict[str, int] = {}
         with ctx.league.reading() as session:
             self.ids = {a.name: a.id for a in reg.list_agents(session, game_id=game_id)}
 
@@ -424,8 +448,11 @@ class _Recorder:
         self.pending.append(result)
         self.played += 1
         self.steps += result.steps
-        if len(self.pending) >= _RECORD_EVERY:
-            self.flush()
+        for agent in result.forfeit_of:
+            self.forfeits[agent] = self.forfeits.get(agent, 0) + 1
+        if len(self.pending) >= _RECORD_EVERY or result.forfeits:
+            self.flush()  # a forfeit is stored at once: it may suspend its agent
+        self.ctx.heartbeat()
         if self.progress is not None:
             self.progress(self.played, self.total)
 
@@ -434,13 +461,60 @@ class _Recorder:
             return
         self.ctx.raise_if_lease_lost()
         records = [reg.MatchRecord(match_key(self.ctx.job.id, r.match_id), r.seed, [
-            reg.SeatResult(self.ids[agent], team, score, outcome, None if r.positions is None else r.positions[i])
+            reg.SeatResult(self.ids[agent], team, score, outcome, None if r.positions is None else r.positions[i],
+                           r.forfeit_of.get(agent))
             for i, (agent, team, score, outcome) in enumerate(zip(r.seats, r.teams, r.scores, r.outcomes))],
             r.replay_path) for r in self.pending]
         with self.ctx.league.transaction() as session:
             stored = reg.record_matches(session, self.game_id, records, job_id=self.ctx.job.id)
         self.stored += sum(1 for s in stored if s.created)
         self.pending = []
+
+
+@dataclass
+class _Sandboxing:
+    """How one job's agents play: the league's sandbox budgets, and how many more matches each
+    sandboxed agent may forfeit before it is suspended."""
+
+    limits: Any
+    suspend_after: int
+    allowance: dict[str, int]
+
+    @classmethod
+    def of(cls, league: League, refs: Mapping[str, AgentRef]) -> _Sandboxing:
+        from arena_league.league.settings import sandbox_limits, suspend_after
+
+        limit = suspend_after(league)
+        sandboxed = [name for name, ref in refs.items() if ref.sandboxed]
+        with league.reading() as session:
+            ids = {a.name: a.id for a in reg.list_agents(session) if a.name in set(sandboxed)}
+            counts = reg.forfeit_counts(session, list(ids.values()))
+        return cls(sandbox_limits(league), limit,
+                   {name: max(0, limit - counts.get(ids[name], 0)) for name in sandboxed})
+
+    def play(self, specs: Sequence[MatchSpec], refs: Mapping[str, AgentRef], ctx: reg.JobContext,
+             recorder: _Recorder, **options: Any) -> list[MatchResult]:
+        """``play_matches`` under the budgets, storing through ``recorder``, beating the job's heart."""
+        return play_matches(specs, refs, sandbox_limits=self.limits, forfeit_limit=self.allowance,
+                            heartbeat=ctx.heartbeat, on_result=recorder, **options)
+
+    def suspend(self, league: League, forfeits: Mapping[str, int]) -> dict[str, str]:
+        """Suspend each agent of ``forfeits`` that reached the limit; returns name -> reason."""
+        suspended: dict[str, str] = {}
+        if not forfeits:
+            return suspended
+        with league.transaction() as session:
+            for name in forfeits:
+                agent = reg.require_agent(session, name)
+                count = reg.forfeit_counts(session, [agent.id]).get(agent.id, 0)
+                if count < self.suspend_after or agent.status != "active":
+                    continue
+                last = reg.agent_forfeits(session, agent, limit=1)
+                reason = (f"suspended after forfeiting {count} matches (the league suspends at "
+                          f"{self.suspend_after}); the last: it {last[0]['reason'] if last else 'failed'}")
+                reg.set_agent_status(session, agent, "suspended", reason=reason)
+                suspended[name] = reason
+        return suspended
 
 
 def match_key(job_id: int, match_id: int) -> str:
@@ -474,18 +548,21 @@ def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> di
         if len(agents) < 2:
             raise ValueError(f"{game_id} has {len(agents)} active agent(s); an evaluation needs two")
         names = [a.name for a in agents]
-        refs = {a.name: agent_ref(ctx.league, a) for a in agents}
+        refs = agent_refs(session, ctx.league, agents)
         done_keys = reg.match_keys_of_job(session, ctx.job.id)
     seatings = _plan_of(payload) if planned else _plan_seatings(ctx, game_id, names)
     specs = specs_for_seatings(game_id, seatings, int(payload["seed"]), ctx.job.id * MATCH_IDS_PER_JOB)
     specs = [s for s in specs if match_key(ctx.job.id, s.match_id) not in done_keys]
     recorder = _Recorder(ctx, game_id, len(specs), progress)
-    play_matches(specs, refs, backend=payload.get("backend", "inprocess"), workers=payload.get("workers"),
-                 recording=_recording(ctx.league, payload), on_result=recorder)
+    sandboxing = _Sandboxing.of(ctx.league, refs)
+    sandboxing.play(specs, refs, ctx, recorder, backend=payload.get("backend", "inprocess"),
+                    workers=payload.get("workers"), recording=_recording(ctx.league, payload))
     recorder.flush()
+    suspended = sandboxing.suspend(ctx.league, recorder.forfeits)
     return {"job_id": ctx.job.id, "game_id": game_id, "agents": names,
             "matches_per_pair": int(payload["matches_per_pair"]), "played": recorder.played,
-            "stored": recorder.stored, "steps": recorder.steps, "seconds": round(time.perf_counter() - start, 3)}
+            "stored": recorder.stored, "steps": recorder.steps, "seconds": round(time.perf_counter() - start, 3),
+            "skipped": len(specs) - recorder.played, "forfeits": recorder.forfeits, "suspended": suspended}
 
 
 def _plan_seatings(ctx: reg.JobContext, game_id: str, names: list[str]) -> list[tuple[str, ...]]:
@@ -529,6 +606,10 @@ class RankReport:
     job_id: int
     seconds: float
     opponents: dict[str, dict[str, float]] = field(default_factory=dict)
+    #: Matches the entrant forfeited in this placement (its calls failed in the sandbox).
+    forfeits: int = 0
+    #: Why the entrant was suspended by this placement, or None.
+    suspended: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -643,17 +724,19 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
     p = ctx.job.payload
     game_id, agent, names = p["game_id"], p["agent"], list(p["base"])
     with ctx.league.reading() as session:
-        refs = {a.name: agent_ref(ctx.league, a) for a in _active_agents(session, game_id, [agent, *names])}
+        refs = agent_refs(session, ctx.league, _active_agents(session, game_id, [agent, *names]))
     chooser = AdaptivePlacement(np.asarray(p["base_ratings"]), budget=int(p["budget"]),
                                 target_half_width=float(p["target_half_width"]))
     recorder = _Recorder(ctx, game_id, int(p["budget"]), progress)
+    sandboxing = _Sandboxing.of(ctx.league, refs)
 
     def play(specs):
-        return play_matches(specs, refs, backend=p.get("backend", "inprocess"), on_result=recorder)
+        return sandboxing.play(specs, refs, ctx, recorder, backend=p.get("backend", "inprocess"))
 
     results = play_adaptive(agent, names, chooser, play, game_id, league_seed=int(p["seed"]),
                             first_match_id=ctx.job.id * MATCH_IDS_PER_JOB, max_matches=int(p["budget"]) + 1)
     recorder.flush()
+    suspended = sandboxing.suspend(ctx.league, recorder.forfeits)
     placement = chooser.placement
     # Nash score of the entrant in the meta-game of base + entrant (logit win rates, smoothed by PSEUDO_COUNT)
     everyone = [*names, agent]
@@ -673,7 +756,8 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
             "rank_worst": placement.rank_worst, "percentile": placement.percentile,
             "percentile_lower": placement.percentile_lower, "percentile_upper": placement.percentile_upper,
             "nash_score": float(nash_scores[-1]), "nash_mass": float(nash_p[-1]), "level": placement.level,
-            "job_id": ctx.job.id, "seconds": round(time.perf_counter() - start, 3), "opponents": opponents}
+            "job_id": ctx.job.id, "seconds": round(time.perf_counter() - start, 3), "opponents": opponents,
+            "forfeits": recorder.forfeits.get(agent, 0), "suspended": suspended.get(agent)}
 
 
 def _nash_of(rows: list[dict[str, Any]], agents: list[str], nash_averaging) -> tuple[np.ndarray, np.ndarray]:

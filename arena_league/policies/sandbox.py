@@ -36,12 +36,14 @@ from __future__ import annotations
 import atexit
 import contextlib
 import functools
+import gc
 import multiprocessing
 import os
 import re
 import signal
 import sys
 import time
+import types
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -242,15 +244,15 @@ class InferenceSandbox:
     def load(self, agents: Mapping[str, AgentSource]) -> dict[str, SandboxedPolicy]:
         """Make the child hold exactly ``agents`` (key -> source) and return a handle per key.
 
-        Loading the same set again returns the same handles at once; another set starts a fresh
-        child. An agent that fails to load (an error, its memory or time budget) gets a handle with
-        ``broken`` set; the others load as usual."""
+        Loading the same set again returns the same handles at once; another set replaces the
+        child's agents (handles of the previous set must not be used again). An agent that fails to
+        load (an error, its memory or time budget) gets a handle with ``broken`` set; the others
+        load as usual."""
         agents = dict(agents)
         if agents == self._sources and self._proxies:
             return dict(self._proxies)
-        self._stop_child()
         self._sources, self._split, self._broken, self._proxies = agents, set(), {}, {}
-        infos = self._start_child()
+        infos = self._load_sources()
         self._groups = [list(unit) for unit in self._units] + [[key] for key in agents if key in self._broken]
         self._route()
         for g, members in enumerate(self._groups):
@@ -269,10 +271,9 @@ class InferenceSandbox:
     def load_one(self, source: AgentSource, key: str = "candidate") -> SandboxedPolicy:
         """Load a single agent (validation); raises the artifact's own error (``ArtifactError``) when
         it cannot be read, and :class:`ForfeitError` when loading runs out of time or memory."""
-        self._stop_child()
         self._sources, self._split, self._broken, self._proxies = {key: source}, set(), {}, {}
         try:
-            infos = self._start_child(raise_errors=True)
+            infos = self._load_sources(raise_errors=True)
         except BaseException:
             self._sources = {}
             raise
@@ -416,23 +417,32 @@ class InferenceSandbox:
             failed.setdefault(unit_members[0], death.reason)
 
     def _ensure_child(self) -> None:
+        """After a death: a new child with the same agents."""
         if self._process is None and self._sources:
-            self._start_child()
+            self._load_sources()
 
-    def _start_child(self, raise_errors: bool = False) -> dict[str, dict[str, Any]]:
-        """Start a child and load every source not known to be broken into it; returns what was
-        loaded. With ``raise_errors``, an agent's own artifact error is raised (validation)."""
+    def _spawn(self) -> None:
         context = _process_context()
-        while True:
-            self._stop_child()
-            parent_end, child_end = context.Pipe()
-            self._progress = context.RawArray("d", 2)
-            self._process = context.Process(target=_child_main, args=(child_end, self._progress, self.limits),
-                                            name="arena-league-sandbox", daemon=True)
-            self._process.start()
+        parent_end, child_end = context.Pipe()
+        self._progress = context.RawArray("d", 2)
+        process = context.Process(target=_child_main, args=(child_end, self._progress, self.limits),
+                                  name="arena-league-sandbox", daemon=True)
+        try:
+            with _without_main_module():
+                process.start()
+        finally:
             child_end.close()
-            self._conn = parent_end
-            self.starts += 1
+        self._process, self._conn = process, parent_end
+        self.starts += 1
+
+    def _load_sources(self, raise_errors: bool = False) -> dict[str, dict[str, Any]]:
+        """Have the child (started if none runs) hold every source not known to be broken, in place of
+        what it held; returns what was loaded. An agent whose loading kills the child is broken and
+        the rest load into a new one. With ``raise_errors``, an agent's own artifact error is raised
+        (validation)."""
+        while True:
+            if self._process is None:
+                self._spawn()
             keys = [k for k in self._sources if k not in self._broken]
             try:
                 infos, errors, units = self._request(("load", [(k, self._sources[k]) for k in keys],
@@ -532,6 +542,22 @@ def _game_spec(source: AgentSource) -> ActionSpec:
     from arena_league.policies.spaces import game_action_spec
 
     return game_action_spec(source.game_id, source.action_type)
+
+
+@contextlib.contextmanager
+def _without_main_module() -> Any:
+    """Start a child without it re-running the caller's main module: multiprocessing's fork server
+    imports ``__main__`` again in every child it makes (so that objects defined there unpickle),
+    which runs an unguarded script's top level a second time and fails outright for code read from
+    stdin or ``-c``. The sandbox child needs nothing from ``__main__``, so while it starts, the main
+    module is an empty one, which the child does not import."""
+    main = sys.modules.get("__main__")
+    sys.modules["__main__"] = types.ModuleType("__main__")
+    try:
+        yield
+    finally:
+        if main is not None:
+            sys.modules["__main__"] = main
 
 
 def _process_context() -> Any:
@@ -639,6 +665,8 @@ class _Child:
         from arena_league.policies.families import PolicyGroup, stack_policies
         from arena_league.policies.spaces import game_action_spec
 
+        self.policies, self.units, self.unit_keys = {}, [], []
+        gc.collect()  # the agents held before go first
         infos: dict[str, dict[str, Any]] = {}
         errors: dict[str, tuple[str, str]] = {}
         for index, (key, source) in enumerate(items):
@@ -785,7 +813,6 @@ class _Child:
 def _warm_onnxruntime() -> None:
     """Run a one-node model once, so that onnxruntime's environment (tens of MiB, made on the first
     session) belongs to the child's runtime, not to the first agent it loads."""
-    import onnx
     import onnxruntime
     from onnx import TensorProto, helper
 

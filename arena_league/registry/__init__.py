@@ -77,11 +77,13 @@ from arena_league.registry.repository import (
     RecordedMatch,
     SeatResult,
     add_population_member,
+    agent_forfeits,
     count_matches,
     create_agent,
     create_population,
     ensure_game,
     find_agents_by_artifact,
+    forfeit_counts,
     freeze_population,
     get_agent,
     get_game,
@@ -112,6 +114,7 @@ from arena_league.registry.schedules import (
     set_schedule_enabled,
     tick,
 )
+from arena_league.registry.settings import delete_setting, read_settings, write_setting
 
 __all__ = [
     "Agent",
@@ -158,6 +161,7 @@ __all__ = [
     "WorkerReport",
     "add_population_member",
     "add_schedule",
+    "agent_forfeits",
     "alembic_config",
     "artifact_path",
     "cancel_job",
@@ -167,10 +171,12 @@ __all__ = [
     "create_agent",
     "create_population",
     "default_worker_id",
+    "delete_setting",
     "enqueue",
     "ensure_game",
     "fail_job",
     "find_agents_by_artifact",
+    "forfeit_counts",
     "freeze_population",
     "get_agent",
     "get_artifact",
@@ -194,6 +200,7 @@ __all__ = [
     "next_run_after",
     "open_league",
     "queue_counts",
+    "read_settings",
     "record_match",
     "record_matches",
     "refuse_taken_name",
@@ -211,4 +218,5 @@ __all__ = [
     "tick",
     "verify_artifact",
     "write_rating_snapshot",
+    "write_setting",
 ]

@@ -5,7 +5,11 @@ population, and schedules re-rank the league. That work is queued here as jobs, 
 (which handler runs it) and a JSON `payload`.
 
 A worker *claims* a job by taking a *lease* on it until `lease_expires_at`, and renews the lease
-while it works. If the worker dies, the lease runs out and the next claim takes the job again;
+while it works, every third of the lease, but only while the work progresses: a renewal needs a
+sign of progress from the handler (`JobContext.heartbeat`, which the match engine gives every
+step) since the one before. A worker whose handler is stuck therefore lets its lease run out
+within one lease length, and another worker can take the job; the stuck one's result, should it
+ever come, is refused. If the worker dies, the lease runs out and the next claim takes the job again;
 each claim counts one attempt, and a job that has used `max_attempts` is failed with its error
 kept. The attempt number is a fencing token: renewing, completing or failing a job needs the
 attempt one claimed, so a worker that lost its lease can no longer complete the job.
@@ -91,11 +95,17 @@ class ClaimedJob:
 
 @dataclass(frozen=True)
 class JobContext:
-    """What a handler receives: the league, the job, and whether the lease has been lost."""
+    """What a handler receives: the league, the job, whether the lease has been lost, and the
+    heartbeat by which it shows progress (see the module docstring)."""
 
     league: League
     job: ClaimedJob
     lease_lost: threading.Event
+    progressed: threading.Event = field(default_factory=threading.Event)
+
+    def heartbeat(self) -> None:
+        """Say the job made progress (a step played, a result stored): the lease may be renewed."""
+        self.progressed.set()
 
     def raise_if_lease_lost(self) -> None:
         """Stop a long handler early once another worker may have taken the job."""
@@ -560,27 +570,37 @@ def _under_lease(league: League, handler: Handler, job: ClaimedJob, lease_second
                  ) -> tuple[Any, threading.Event]:
     """Call the handler while a background thread renews the job's lease; returns its result and
     the event that tells whether the lease was lost meanwhile."""
-    lease_lost = threading.Event()
+    context = JobContext(league=league, job=job, lease_lost=threading.Event())
+    context.heartbeat()  # the claim itself: the first renewal waits for no step
     done = threading.Event()
-    keeper = threading.Thread(target=_keep_lease, args=(league, job, lease_seconds, lease_lost, done),
+    keeper = threading.Thread(target=_keep_lease, args=(league, job, lease_seconds, context, done),
                               name=f"lease-{job.id}", daemon=True)
     keeper.start()
     try:
-        return handler(JobContext(league=league, job=job, lease_lost=lease_lost)), lease_lost
+        return handler(context), context.lease_lost
     finally:
         done.set()
         keeper.join()
 
 
 def _keep_lease(
-    league: League, job: ClaimedJob, lease_seconds: float, lease_lost: threading.Event, done: threading.Event
+    league: League, job: ClaimedJob, lease_seconds: float, context: JobContext, done: threading.Event
 ) -> None:
-    """Renew the lease every third of its length until `done`, or until it is lost."""
+    """Every third of the lease until `done`: renew it if the handler made progress since the last
+    look, else leave it to run out (logged once); stop once it is lost."""
+    stalled = False
     while not done.wait(lease_seconds / 3):
+        if not context.progressed.is_set():
+            if not stalled:
+                logger.warning("job %d: no progress for %.0f s; its lease is not renewed", job.id, lease_seconds / 3)
+            stalled = True
+            continue
+        context.progressed.clear()
+        stalled = False
         try:
             renew_lease(league, job, lease_seconds=lease_seconds)
         except LeaseLostError:
-            lease_lost.set()
+            context.lease_lost.set()
             return
         except Exception:  # a database hiccup: try again at the next interval
             logger.exception("job %d: could not renew the lease", job.id)

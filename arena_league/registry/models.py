@@ -84,6 +84,7 @@ class AgentStatus(enum.StrEnum):
     ACTIVE = "active"  # validated, plays ranked matches
     REJECTED = "rejected"  # failed validation; reject_reason says why
     RETIRED = "retired"  # kept for history, no longer scheduled
+    SUSPENDED = "suspended"  # forfeited too many matches; reject_reason says why, no longer scheduled
 
 
 class ArtifactFormat(enum.StrEnum):
@@ -326,6 +327,9 @@ class MatchSeat(Base):
     score: Mapped[float] = mapped_column(Float)
     outcome: Mapped[str] = mapped_column(String(8))
     position: Mapped[int | None] = mapped_column(Integer)  # 1 = first place, for > 2 teams
+    #: Why the seat's agent forfeited the match (its call failed in the inference sandbox); NULL
+    #: for a seat played out.
+    forfeit: Mapped[str | None] = mapped_column(Text)
 
     match: Mapped[Match] = relationship(back_populates="seats")
     agent: Mapped[Agent] = relationship()
@@ -335,6 +339,17 @@ class MatchSeat(Base):
         CheckConstraint("seat >= 0 AND team >= 0", name="indices"),
         Index(None, "agent_id"),
     )
+
+
+class Setting(Base):
+    """A league setting changed from its default: its key and JSON value (the league layer knows
+    the keys, their types and defaults)."""
+
+    __tablename__ = "settings"
+
+    key: Mapped[str] = mapped_column(String(64), primary_key=True)
+    value: Mapped[Any] = mapped_column(JSON)
+    updated_at: Mapped[datetime] = mapped_column(default=utcnow, onupdate=utcnow)
 
 
 class RatingSnapshot(Base):

@@ -73,6 +73,7 @@ class SeatResult:
     score: float
     outcome: Outcome | str
     position: int | None = None  # finishing place, 1 = first, for games of more than two teams
+    forfeit: str | None = None  # why the seat's agent forfeited the match (None: played out)
 
 
 @dataclass(frozen=True)
@@ -355,17 +356,18 @@ def set_agent_status(
     reason: str | None = None,
     log: str | None = None,
 ) -> Agent:
-    """Move an agent to pending / active / rejected / retired.
+    """Move an agent to pending / active / rejected / retired / suspended.
 
-    `reason` is required for "rejected" (and cleared otherwise); `log`, when given, replaces the
-    stored validation log, so a rejected agent keeps the log that explains why.
+    `reason` is required for "rejected" and "suspended" (and cleared otherwise); `log`, when given,
+    replaces the stored validation log, so a rejected agent keeps the log that explains why.
     """
     target = require_agent(session, agent) if isinstance(agent, str) else agent
     new_status = _parse(AgentStatus, status, "agent status")
-    if new_status is AgentStatus.REJECTED and not (reason and reason.strip()):
-        raise InvalidRecordError(f"rejecting agent {target.name!r} needs a reason the owner can act on")
+    explained = (AgentStatus.REJECTED, AgentStatus.SUSPENDED)
+    if new_status in explained and not (reason and reason.strip()):
+        raise InvalidRecordError(f"a {new_status.value} agent ({target.name!r}) needs a reason the owner can act on")
     target.status = new_status.value
-    target.reject_reason = reason if new_status is AgentStatus.REJECTED else None
+    target.reject_reason = reason if new_status in explained else None
     if log is not None:
         target.validation_log = log
     session.flush()
@@ -714,6 +716,7 @@ def _seat_rows(game: Game, match: MatchRecord) -> list[dict[str, Any]]:
                 "score": float(seat.score),
                 "outcome": outcome.value,
                 "position": seat.position,
+                "forfeit": seat.forfeit,
             }
         )
     return rows
@@ -840,3 +843,31 @@ def _parse(enum_type: Any, value: Any, what: str) -> Any:
     except ValueError:
         allowed = ", ".join(repr(member.value) for member in enum_type)
         raise InvalidRecordError(f"unknown {what} {value!r}; use one of {allowed}") from None
+
+
+def forfeit_counts(session: Session, agent_ids: Sequence[int]) -> dict[int, int]:
+    """Agent id -> matches it forfeited (seats with a forfeit reason), for the given agents."""
+    counts: dict[int, int] = {}
+    ids = list(dict.fromkeys(int(i) for i in agent_ids))
+    for start in range(0, len(ids), _BATCH_ROWS):
+        query = (
+            select(MatchSeat.agent_id, func.count(func.distinct(MatchSeat.match_id)))
+            .where(MatchSeat.agent_id.in_(ids[start: start + _BATCH_ROWS]), MatchSeat.forfeit.is_not(None))
+            .group_by(MatchSeat.agent_id)
+        )
+        counts.update({int(agent_id): int(n) for agent_id, n in session.execute(query)})
+    return counts
+
+
+def agent_forfeits(session: Session, agent: Agent, *, limit: int = 20) -> list[dict[str, Any]]:
+    """The agent's most recent forfeits, newest first: ``match_key``, ``job_id``, ``reason``, ``at``."""
+    query = (
+        select(Match.match_key, Match.job_id, MatchSeat.forfeit, Match.created_at)
+        .join(MatchSeat, MatchSeat.match_id == Match.id)
+        .where(MatchSeat.agent_id == agent.id, MatchSeat.forfeit.is_not(None))
+        .group_by(Match.id, Match.match_key, Match.job_id, MatchSeat.forfeit, Match.created_at)
+        .order_by(Match.id.desc())
+        .limit(limit)
+    )
+    return [{"match_key": key, "job_id": job_id, "reason": reason, "at": at}
+            for key, job_id, reason, at in session.execute(query)]

@@ -1,0 +1,112 @@
+"""League settings: the budgets submitted agents play within, kept in the registry.
+
+Every setting has a default; a league stores only the ones its operator changed
+(``arena-league settings set KEY VALUE``), so every worker and web server of the league reads the
+same values. The budgets of the inference sandbox (:class:`~arena_league.policies.sandbox.SandboxLimits`)
+take their defaults from that class, the one place they are written.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+from arena_league import registry as reg
+from arena_league.league.home import did_you_mean
+from arena_league.policies.sandbox import SandboxLimits
+from arena_league.registry import League
+
+__all__ = ["SETTINGS", "Setting", "league_settings", "reset_setting", "sandbox_limits", "set_setting",
+           "suspend_after"]
+
+_DEFAULT_LIMITS = SandboxLimits()
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One setting: its key, type, default, bounds and what it does."""
+
+    key: str
+    kind: type
+    default: Any
+    low: float
+    high: float
+    help: str
+
+    def parse(self, text: str | int | float) -> int | float:
+        """``text`` as this setting's value; ``ValueError`` naming the key, the bounds and an example."""
+        try:
+            value = self.kind(text) if not isinstance(text, str) else self.kind(text.strip())
+        except (TypeError, ValueError):
+            kind = "a whole number" if self.kind is int else "a number"
+            raise ValueError(f"{self.key} takes {kind}, not {text!r} (e.g. `arena-league settings set {self.key} "
+                             f"{self.default}`)") from None
+        if not self.low <= value <= self.high:
+            raise ValueError(f"{self.key} must lie in [{self.low:g}, {self.high:g}], not {value:g} "
+                             f"(default {self.default})")
+        return value
+
+
+def _sandbox_setting(name: str, low: float, high: float, help_text: str) -> Setting:
+    default = getattr(_DEFAULT_LIMITS, name)
+    return Setting(f"sandbox.{name}", type(default), default, low, high, help_text)
+
+
+#: Every setting a league has, by key.
+SETTINGS: dict[str, Setting] = {s.key: s for s in (
+    _sandbox_setting("memory_mib", 256, 1 << 20, "address space (MiB) a worker's inference sandbox may add to "
+                     "its runtime, for every submitted agent it holds; an allocation past it fails the agent's call"),
+    _sandbox_setting("call_seconds", 0.05, 600, "wall-clock seconds one submitted agent's forward may take in a "
+                     "step (all its seats); over it, the agent forfeits its matches in flight"),
+    _sandbox_setting("load_seconds", 1, 3600, "wall-clock seconds loading one submitted agent may take"),
+    _sandbox_setting("agent_memory_mib", 16, 1 << 20, "memory (MiB) an agent may use in validation: loaded, "
+                     "plus a forward at the largest batch; over it, the submission is rejected"),
+    Setting("forfeits.suspend_after", int, 3, 1, 10**6, "forfeits after which an agent is suspended (it plays no "
+            "more until an operator makes it active again)"),
+)}
+
+
+def _require(key: str) -> Setting:
+    if key not in SETTINGS:
+        raise ValueError(f"there is no setting {key!r}.{did_you_mean(key, SETTINGS)} The settings are: "
+                         f"{', '.join(SETTINGS)}")
+    return SETTINGS[key]
+
+
+def league_settings(league: League) -> dict[str, dict[str, Any]]:
+    """Every setting: ``value`` (what applies), ``default``, ``changed`` and ``help``, by key."""
+    with league.reading() as session:
+        stored = reg.read_settings(session)
+    out = {}
+    for key, setting in SETTINGS.items():
+        value = setting.parse(stored[key]) if key in stored else setting.default
+        out[key] = {"value": value, "default": setting.default, "changed": key in stored, "help": setting.help}
+    return out
+
+
+def set_setting(league: League, key: str, value: str | int | float) -> int | float:
+    """Store ``value`` for ``key`` (checked first); returns it as stored."""
+    setting = _require(key)
+    parsed = setting.parse(value)
+    with league.transaction() as session:
+        reg.write_setting(session, key, parsed)
+    return parsed
+
+
+def reset_setting(league: League, key: str) -> Any:
+    """Forget the league's value of ``key``; returns the default that applies again."""
+    setting = _require(key)
+    with league.transaction() as session:
+        reg.delete_setting(session, key)
+    return setting.default
+
+
+def sandbox_limits(league: League) -> SandboxLimits:
+    """The league's inference-sandbox budgets."""
+    values = league_settings(league)
+    return SandboxLimits(**{f.name: values[f"sandbox.{f.name}"]["value"] for f in fields(SandboxLimits)})
+
+
+def suspend_after(league: League) -> int:
+    """Forfeits after which an agent is suspended."""
+    return int(league_settings(league)["forfeits.suspend_after"]["value"])
