@@ -12,15 +12,21 @@ specs with the same agents:
 * ``engine_env_path``: the same runner stepping one env per match through the env's array API
   (rewards computed), as the naive loop does, on the first ``--env-path-matches``: what batching
   the policy calls alone brings;
+* ``engine_sandboxed``: the same runner and specs with the same 100 agents as *submitted* agents:
+  saved as arena-policy folders and loaded into an inference sandbox (a child process with a
+  memory limit and a time budget per call, as a league worker plays submissions); each step's
+  forward of the stacked agents crosses to the child and back. ``sandbox_cost`` is the share of
+  matches per second the sandbox costs against ``engine``;
 * ``naive``: one match at a time through the env's array API, one forward per seat per step
   (each agent its own torch module, no batching), uniforms drawn from the same per-match
   generators; for turn-based games also ``naive_acting_seat_only``, asking only the seat to move.
 
-Both run on one core (the process is pinned and torch uses one thread), and their results are
-compared match by match. The estimate of a full round robin of 100 agents at 10 matches per pair
+All run on one core (the process is pinned before the sandbox's child is forked, so the child
+shares that core, and torch uses one thread), and their results are compared match by match. The estimate of a full round robin of 100 agents at 10 matches per pair
 (4950 pairs, 49,500 matches) divides that count by each side's measured matches/s.
 
     python benchmarks/match_engine.py [--agents 100] [--matches N] [--naive-matches 24] [--batch-size N] [--repeats 3]
+                                      [--games Crossroads-2T2P-v1 ...]
 """
 
 from __future__ import annotations
@@ -30,21 +36,26 @@ import json
 import os
 import platform
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 import torch
 
 from arena_league.envs import make
 from arena_league.matchmaking import (
+    AgentRef,
     LockstepRunner,
     MatchSpec,
     action_spec_of,
     round_robin,
     specs_for_seatings,
 )
+from arena_league.matchmaking.agents import load_agents
 from arena_league.matchmaking.specs import MatchResult
 from arena_league.policies.architecture import Architecture
+from arena_league.policies.artifacts import save_arena_policy
 from arena_league.policies.families import TorchPolicy
 
 GAMES = ("Crossroads-2T2P-v1", "GoBang-2T1P-v1")
@@ -134,6 +145,15 @@ def measure(game_id: str, n_agents: int, n_matches: int, n_naive: int, n_env_pat
     env_results, figures["engine_env_path"] = timed(lambda: env_path.play(env_specs), repeats)
     figures["engine_env_path"]["batch_size"] = env_path.batch_size
     assert env_results == engine_results[:n_env_path]
+    with tempfile.TemporaryDirectory() as folder:
+        refs = {key: AgentRef("arena-policy", str(save_arena_policy(Path(folder) / key, policy.architecture,
+                                                                     policy.parameters(), game_id, name=key)),
+                              game_id, sandboxed=True)
+                for key, policy in policies.items()}
+        sandboxed = LockstepRunner(game_id, load_agents(refs), batch_size=batch_size)
+        sandboxed_results, figures["engine_sandboxed"] = timed(lambda: sandboxed.play(specs), repeats)
+    figures["engine_sandboxed"]["batch_size"] = batch_size
+    assert sandboxed_results == engine_results
     naive_results, figures["naive"] = timed(lambda: [naive_play(s, policies) for s in naive_specs], repeats)
     if turn_based:
         acting_results, figures["naive_acting_seat_only"] = timed(
@@ -149,6 +169,8 @@ def measure(game_id: str, n_agents: int, n_matches: int, n_naive: int, n_env_pat
         "speedup_vs_naive": {name: round(engine["env_steps_per_s"] / f["env_steps_per_s"], 2)
                              for name, f in figures.items() if name.startswith("naive")},
         "results_identical_to_naive": engine_results[:n_naive] == naive_results,
+        "results_identical_sandboxed": True,  # asserted above
+        "sandbox_cost": round(1 - figures["engine_sandboxed"]["matches_per_s"] / engine["matches_per_s"], 3),
         "round_robin_100x100_at_10_per_pair": {
             "matches": round_robin_matches,
             "engine_hours": round(round_robin_matches / engine["matches_per_s"] / 3600, 2),

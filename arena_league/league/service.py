@@ -494,9 +494,14 @@ class _Sandboxing:
 
     def play(self, specs: Sequence[MatchSpec], refs: Mapping[str, AgentRef], ctx: reg.JobContext,
              recorder: _Recorder, **options: Any) -> list[MatchResult]:
-        """``play_matches`` under the budgets, storing through ``recorder``, beating the job's heart."""
-        return play_matches(specs, refs, sandbox_limits=self.limits, forfeit_limit=self.allowance,
-                            heartbeat=ctx.heartbeat, on_result=recorder, **options)
+        """``play_matches`` under the budgets, storing through ``recorder``, beating the job's heart;
+        each agent's allowance shrinks by what it forfeited, for the job's next call."""
+        results = play_matches(specs, refs, sandbox_limits=self.limits, forfeit_limit=self.allowance,
+                               heartbeat=ctx.heartbeat, on_result=recorder, **options)
+        for result in results:
+            for name in result.forfeit_of:
+                self.allowance[name] = self.allowance.get(name, 0) - 1
+        return results
 
     def suspend(self, league: League, forfeits: Mapping[str, int]) -> dict[str, str]:
         """Suspend each agent of ``forfeits`` that reached the limit; returns name -> reason."""

@@ -387,7 +387,7 @@ class LockstepRunner:
         slots: list[_Slot | None] = [None] * width
         queue = iter(enumerate(specs))
         matches = self._matches(width)
-        stopped: set[str] = set()  # agents past their forfeit allowance
+        stopped = {key for key, left in allowance.items() if key and left <= 0}  # past their forfeit allowance
 
         def start(position: int) -> None:
             nxt = next(queue, None)

@@ -36,7 +36,6 @@ from __future__ import annotations
 import atexit
 import contextlib
 import functools
-import gc
 import multiprocessing
 import os
 import re
@@ -194,9 +193,11 @@ class SandboxedPolicy(Policy):
         """The agent's raw outputs (``logits`` or ``action``) and next state, computed in the child."""
         return self.sandbox.forward(self.key, obs, state)
 
-    def measure(self, obs: np.ndarray, state: np.ndarray | None = None, repeats: int = 3) -> dict[str, float]:
-        """Seconds of each of ``repeats`` forwards over ``obs`` and the most memory they added
-        (``seconds``, ``peak_mib``), measured in the child; raises :class:`ForfeitError` on failure."""
+    def measure(self, obs: np.ndarray, state: np.ndarray | None = None, repeats: int = 3) -> dict[str, Any]:
+        """Measured in the child: ``seconds`` of each of ``repeats`` forwards over ``obs``, the memory
+        the agent holds at their peak since before it was loaded (``peak_mib``: its weights, what its
+        earlier calls left allocated, these forwards) and what these forwards added (``forward_mib``);
+        raises :class:`ForfeitError` on failure."""
         return self.sandbox.measure(self.key, obs, state, repeats)
 
 
@@ -341,7 +342,7 @@ class InferenceSandbox:
         except _ChildDied as death:
             raise ForfeitError(key, death.reason) from None
 
-    def measure(self, key: str, obs: np.ndarray, state: np.ndarray | None, repeats: int) -> dict[str, float]:
+    def measure(self, key: str, obs: np.ndarray, state: np.ndarray | None, repeats: int) -> dict[str, Any]:
         """See :meth:`SandboxedPolicy.measure`."""
         self._require_loaded(key)
         try:
@@ -655,6 +656,7 @@ class _Child:
         self.policies: dict[str, Policy] = {}
         self.units: list[Any] = []
         self.unit_keys: list[list[str]] = []
+        self.baseline: dict[str, int] = {}  # agent -> the child's resident KiB before it was loaded
 
     def _start(self, index: int) -> None:
         self.progress[0] = float(index)
@@ -665,8 +667,7 @@ class _Child:
         from arena_league.policies.families import PolicyGroup, stack_policies
         from arena_league.policies.spaces import game_action_spec
 
-        self.policies, self.units, self.unit_keys = {}, [], []
-        gc.collect()  # the agents held before go first
+        self.policies, self.units, self.unit_keys = {}, [], []  # the agents held before go first
         infos: dict[str, dict[str, Any]] = {}
         errors: dict[str, tuple[str, str]] = {}
         for index, (key, source) in enumerate(items):
@@ -683,6 +684,7 @@ class _Child:
                 errors[key] = (type(error).__name__, text)
                 continue
             self.policies[key] = loaded.policy
+            self.baseline[key] = before
             policy = loaded.policy
             infos[key] = {"spec": policy.spec, "recurrent": bool(policy.recurrent),
                           "state_shape": tuple(loaded.info.state_shape), "name": policy.name, "info": loaded.info,
@@ -806,8 +808,11 @@ class _Child:
             return "error", _one_line(error)
         finally:
             self.progress[1] = 0.0
-        peak = (_status_kib("VmHWM") if exact else _status_kib("VmRSS")) - before
-        return "ok", {"seconds": seconds, "peak_mib": max(0, peak) / 1024}
+        peak = _status_kib("VmHWM") if exact else _status_kib("VmRSS")
+        # memory the agent holds since before it was loaded, at the forwards' peak (what earlier calls
+        # left in onnxruntime's arena included), and what these forwards added
+        return "ok", {"seconds": seconds, "peak_mib": max(0, peak - self.baseline.get(key, before)) / 1024,
+                      "forward_mib": max(0, peak - before) / 1024}
 
 
 def _warm_onnxruntime() -> None:

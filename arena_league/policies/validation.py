@@ -8,16 +8,18 @@ of the candidate; it must finish without error. The stages, each written to the 
 1. ``read``: size limits (by ``stat``, before reading) and format (no pickle, TorchScript, .pt2);
 2. ``load``: in an inference sandbox (:mod:`arena_league.policies.sandbox`: a child process
    with a memory limit and a time budget), the agent's inputs and outputs match the game's spaces;
-3. ``probe``: on probe observations (random normal, random uniform in [-1, 1], zeros, real
-   observations from a few steps of random play, and real observations at the largest batch the
-   engine hands a policy, :func:`~arena_league.policies.sandbox.largest_batch`) the outputs are
+3. ``size``: at the largest batch the engine hands a policy
+   (:func:`~arena_league.policies.sandbox.largest_batch`, rows of real play), the memory the agent
+   holds (loaded, plus its forwards' peak) must stay within
+   :attr:`~arena_league.policies.sandbox.SandboxLimits.agent_memory_mib`, and the time of a forward
+   (the median of three) within half the sandbox's budget per call (headroom for a busy machine);
+   the figures are logged, and named in the reason when over. This comes before the probes, so an
+   agent that is slow or swells at full size is refused after three forwards;
+4. ``probe``: on probe observations (random normal, random uniform in [-1, 1], zeros, real
+   observations from a few steps of random play, and those of the largest batch) the outputs are
    finite, continuous actions lie in [-1, 1], the same input gives the same output, and a row's
    output does not depend on the other rows of the batch (the league batches seats of many
    matches together);
-4. ``size``: at that largest batch, the time of a forward (the median of three) must stay within
-   half the sandbox's budget per call (headroom for a busy machine), and the memory the agent adds
-   (loaded, plus the forward's peak) within :attr:`~arena_league.policies.sandbox.SandboxLimits.agent_memory_mib`;
-   the figures are logged, and named in the reason when over;
 5. ``match``: a short match (``match_cycles`` steps at most) through ``make(game_id)`` and the
    env's array API, all seats played by the candidate, within ``max_seconds``.
 
@@ -145,8 +147,10 @@ def validate_submission(source: str | os.PathLike[str] | AgentArtifact, game_id:
             state["digest"] = artifact.digest
             policy = _stage_load(sandbox, artifact, game_id, action_type, limits, log)
             info = state["spec"] = policy.info
-            big = _stage_probe(policy, game_id, info, n_probes, seed, log)
+            real = _real_observations(game_id, info.action_type, info.obs_dim, seed)
+            big = _largest_batch_observations(real, game_id, seed)
             state["size"] = _stage_size(sandbox, policy, big, log)
+            _stage_probe(policy, info, real, big, n_probes, seed, log)
             state["match"] = _stage_match(policy, game_id, info, match_cycles, seed, max_seconds, log)
     except _Rejected as rejection:
         reason = str(rejection)
@@ -228,20 +232,23 @@ def _forward(policy: Policy, obs: np.ndarray, state: np.ndarray | None) -> tuple
     return np.asarray(actions, dtype=np.float64).reshape(obs.shape[0], -1), next_state
 
 
-def _stage_probe(policy: Policy, game_id: str, info: AgentInfo, n_probes: int, seed: int, log: Any) -> np.ndarray:
-    """The probe checks; returns the largest-batch observations (for the size stage)."""
+def _largest_batch_observations(real: np.ndarray, game_id: str, seed: int) -> np.ndarray:
+    """Rows of real play, as many as the largest batch, each made its own by a little noise."""
+    rows = largest_batch(game_id)
+    noise = np.random.default_rng([seed, 1]).normal(0.0, 0.05, (rows, real.shape[1]))
+    return (real[np.arange(rows) % len(real)] + noise).astype(np.float32)
+
+
+def _stage_probe(policy: Policy, info: AgentInfo, real: np.ndarray, big: np.ndarray, n_probes: int, seed: int,
+                 log: Any) -> None:
     rng = np.random.default_rng(seed)
     obs_dim = info.obs_dim
-    real = _real_observations(game_id, info.action_type, obs_dim, seed)
-    rows = largest_batch(game_id)
-    noise = rng.normal(0.0, 0.05, (rows, obs_dim)).astype(np.float32)
-    big = (real[np.arange(rows) % len(real)] + noise).astype(np.float32)  # real play, every row its own
     probes = {
         "random normal": rng.standard_normal((n_probes, obs_dim)).astype(np.float32),
         "random uniform [-1, 1]": rng.uniform(-1.0, 1.0, (n_probes, obs_dim)).astype(np.float32),
         "zeros": np.zeros((1, obs_dim), np.float32),
         "real (random play)": real,
-        f"largest batch ({rows} rows of real play)": big,
+        f"largest batch ({len(big)} rows of real play)": big,
     }
     if getattr(policy, "forward", None) is None:
         output = "actions"
@@ -281,7 +288,6 @@ def _stage_probe(policy: Policy, game_id: str, info: AgentInfo, n_probes: int, s
                                 "processed on its own (no batch statistics)")
         log("probe", f"{label}: {n} rows, {output} finite, deterministic, batch-independent "
                      f"(range {out.min():.3g} .. {out.max():.3g})")
-    return big
 
 
 def _stage_size(sandbox: InferenceSandbox, policy: SandboxedPolicy, obs: np.ndarray, log: Any) -> dict[str, Any]:
@@ -294,18 +300,18 @@ def _stage_size(sandbox: InferenceSandbox, policy: SandboxedPolicy, obs: np.ndar
         raise _Rejected(f"at the largest batch ({rows} rows) it {error.reason}") from None
     seconds = float(np.median(figures["seconds"]))
     load_mib = sandbox.memory_of(policy.key)
-    memory = load_mib + figures["peak_mib"]
+    memory = max(figures["peak_mib"], load_mib)
     size = {"rows": rows, "seconds": seconds, "memory_mib": memory, "load_mib": load_mib,
-            "forward_mib": figures["peak_mib"]}
+            "forward_mib": figures["forward_mib"]}
+    if memory > limits.agent_memory_mib:
+        raise _Rejected(f"uses too much memory: {memory:.0f} MiB at a forward of {rows} rows (the largest batch the "
+                        f"league plays; {load_mib:.0f} MiB once loaded), over the {limits.agent_memory_mib} MiB an "
+                        "agent may use; submit a smaller network")
     budget = limits.call_seconds * TIME_HEADROOM
     if seconds > budget:
         raise _Rejected(f"too slow: a forward of {rows} rows (the largest batch the league plays) takes "
                         f"{1e3 * seconds:.0f} ms, over {1e3 * budget:.0f} ms (half the {limits.call_seconds:g} s "
                         "budget per call); submit a smaller or faster network")
-    if memory > limits.agent_memory_mib:
-        raise _Rejected(f"uses too much memory: {memory:.0f} MiB ({load_mib:.0f} MiB loaded, a forward of {rows} rows "
-                        f"peaks at {figures['peak_mib']:.0f} MiB more), over the {limits.agent_memory_mib} MiB an agent "
-                        "may use; submit a smaller network")
     log("size", f"a forward of {rows} rows (the largest batch) takes {1e3 * seconds:.2f} ms (budget "
                 f"{1e3 * budget:.0f} ms) and the agent uses {memory:.1f} MiB (budget {limits.agent_memory_mib} MiB)")
     return size
