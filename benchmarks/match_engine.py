@@ -12,11 +12,12 @@ specs with the same agents:
 * ``engine_env_path``: the same runner stepping one env per match through the env's array API
   (rewards computed), as the naive loop does, on the first ``--env-path-matches``: what batching
   the policy calls alone brings;
-* ``engine_sandboxed``: the same runner and specs with the same 100 agents as *submitted* agents:
-  saved as arena-policy folders and loaded into an inference sandbox (a child process with a
-  memory limit and a time budget per call, as a league worker plays submissions); each step's
-  forward of the stacked agents crosses to the child and back. ``sandbox_cost`` is the share of
-  matches per second the sandbox costs against ``engine``;
+* ``engine_sandboxed``: the same specs with the same 100 agents as *submitted* agents, as a league
+  worker plays them: saved as arena-policy folders, referenced as sandboxed agents and played with
+  ``play_matches``, which runs the lockstep loop inside the inference sandbox's child process
+  (memory limit, time budget per call, each call marked) while this process watches; the child is
+  started and loaded before the timing. ``sandbox_cost`` is the share of matches per second the
+  sandbox costs against ``engine``;
 * ``naive``: one match at a time through the env's array API, one forward per seat per step
   (each agent its own torch module, no batching), uniforms drawn from the same per-match
   generators; for turn-based games also ``naive_acting_seat_only``, asking only the seat to move.
@@ -49,10 +50,10 @@ from arena_league.matchmaking import (
     LockstepRunner,
     MatchSpec,
     action_spec_of,
+    play_matches,
     round_robin,
     specs_for_seatings,
 )
-from arena_league.matchmaking.agents import load_agents
 from arena_league.matchmaking.specs import MatchResult
 from arena_league.policies.architecture import Architecture
 from arena_league.policies.artifacts import save_arena_policy
@@ -150,8 +151,9 @@ def measure(game_id: str, n_agents: int, n_matches: int, n_naive: int, n_env_pat
                                                                      policy.parameters(), game_id, name=key)),
                               game_id, sandboxed=True)
                 for key, policy in policies.items()}
-        sandboxed = LockstepRunner(game_id, load_agents(refs), batch_size=batch_size)
-        sandboxed_results, figures["engine_sandboxed"] = timed(lambda: sandboxed.play(specs), repeats)
+        play_matches(specs[:1], refs, batch_size=batch_size)  # start the child and load the agents
+        sandboxed_results, figures["engine_sandboxed"] = timed(
+            lambda: play_matches(specs, refs, batch_size=batch_size), repeats)
     figures["engine_sandboxed"]["batch_size"] = batch_size
     assert sandboxed_results == engine_results
     naive_results, figures["naive"] = timed(lambda: [naive_play(s, policies) for s in naive_specs], repeats)

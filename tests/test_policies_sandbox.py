@@ -1,13 +1,14 @@
 """The inference sandbox: agents compute in a child process, every failure stays with its agent.
 
 Hostile ONNX graphs (a Loop of 10^15 iterations, a 3 GiB allocation, an onnxruntime failure, NaN
-logits), each on every call or only past 100 rows, fail their own agent's call and no other; the
-child is restarted after it had to die; stacked agents are run apart to find the one at fault;
-matches played through the sandbox are the matches played in-process, bit for bit. The sandbox
-child carries its own address-space limit, so none of these can take the machine down."""
+logits), each only past some batch size, forfeit their own matches and no other; after a death
+the matches in flight are replayed in a new child; stacked agents are run apart to find the one at
+fault; matches played in the sandbox are the matches played in-process, bit for bit. The child
+carries its own address-space limit, so none of this can take the machine down."""
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import subprocess
 import sys
@@ -18,15 +19,16 @@ import hostile_agents as hostile
 import numpy as np
 import pytest
 
-from arena_league.matchmaking import AgentRef, LockstepRunner, play_matches, round_robin, specs_for_seatings
+from arena_league.matchmaking import AgentRef, play_matches, round_robin, specs_for_seatings
 from arena_league.matchmaking.agents import load_agents
 from arena_league.policies import Architecture, game_action_spec, init_parameters, save_arena_policy
 from arena_league.policies.sandbox import (
     AgentSource,
-    GroupCall,
+    ForfeitError,
     InferenceSandbox,
     SandboxLimits,
     largest_batch,
+    process_sandbox,
 )
 
 CROSSROADS = "Crossroads-2T2P-v1"
@@ -34,12 +36,11 @@ GOBANG = "GoBang-2T1P-v1"
 FAST = SandboxLimits(call_seconds=0.5)
 
 
-def mlp_folder(tmp_path, game_id: str, seed: int, hidden=(16,), family: str = "mlp"):
+def mlp_folder(tmp_path, game_id: str, seed: int, hidden=(16,)):
     spec = game_action_spec(game_id)
-    arch = Architecture(family, obs_dim=spec.obs_dim, action_type=spec.action_type, n_actions=spec.n_actions,
-                        act_dim=spec.act_dim, hidden=hidden, **({"gru_size": 8} if family == "gru" else {}))
-    return save_arena_policy(tmp_path / f"{family}-{seed}", arch, init_parameters(arch, seed), game_id,
-                             name=f"{family}-{seed}")
+    arch = Architecture("mlp", obs_dim=spec.obs_dim, action_type=spec.action_type, n_actions=spec.n_actions,
+                        act_dim=spec.act_dim, hidden=hidden)
+    return save_arena_policy(tmp_path / f"mlp-{seed}", arch, init_parameters(arch, seed), game_id, name=f"mlp-{seed}")
 
 
 def observations(game_id: str, rows: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -48,68 +49,79 @@ def observations(game_id: str, rows: int, seed: int = 0) -> tuple[np.ndarray, np
     return rng.standard_normal((rows, spec.obs_dim)).astype(np.float32), rng.random((rows, 1))
 
 
-@pytest.fixture
-def sandbox():
-    with InferenceSandbox(FAST) as box:
-        yield box
-
-
-def test_hostile_calls_fail_only_their_own_agent(tmp_path, sandbox):
-    models = {"hang": hostile.hanging(CROSSROADS, above=100), "alloc": hostile.allocating(CROSSROADS, 3 << 30, above=100),
-              "fail": hostile.failing(CROSSROADS, above=100), "nan": hostile.nan_out(CROSSROADS, above=100),
-              "plain": hostile.plain(CROSSROADS)}
-    agents = {key: AgentSource(str(hostile.save(model, tmp_path / f"{key}.onnx")), CROSSROADS)
-              for key, model in models.items()}
-    handles = sandbox.load(agents)
-
-    def step(rows: int):
-        obs, uniforms = observations(CROSSROADS, rows)
-        calls = [GroupCall(h.group, obs, uniforms, np.full(rows, h.position)) for h in handles.values()]
-        return dict(zip(handles, sandbox.act_many(calls)))
-
-    small = step(50)  # under the trigger: every agent plays
-    assert all(not outcome.failures for outcome in small.values())
-    assert sandbox.starts == 1
+def test_hostile_agents_forfeit_their_own_matches_and_the_others_play_as_in_process(tmp_path):
+    models = {"hang": hostile.hanging(CROSSROADS, above=20),
+              "alloc": hostile.allocating(CROSSROADS, 3 << 30, above=20),
+              "fail": hostile.failing(CROSSROADS, above=20), "nan": hostile.nan_out(CROSSROADS, above=20)}
+    refs = {name: AgentRef("onnx", str(hostile.save(model, tmp_path / f"{name}.onnx")), CROSSROADS, sandboxed=True)
+            for name, model in models.items()}
+    for seed in (1, 2):
+        refs[f"good{seed}"] = AgentRef("arena-policy", str(mlp_folder(tmp_path, CROSSROADS, seed)), CROSSROADS,
+                                       sandboxed=True)
+    specs = specs_for_seatings(CROSSROADS, round_robin(list(refs), 8))
     started = time.monotonic()
-    big = step(150)
-    assert time.monotonic() - started < 10  # the hanging call was stopped at its budget
-    reasons = {key: outcome.failures.get(handles[key].position) for key, outcome in big.items()}
-    assert "ran past its 0.5 s budget for a call of 150 rows" in reasons["hang"]
+    results = play_matches(specs, refs, sandbox_limits=FAST, forfeit_limit=1)
+    assert time.monotonic() - started < 120
+    reasons = {}
+    for result in results:
+        for agent, reason in result.forfeits:
+            reasons.setdefault(agent, reason)
+    assert "ran past its 0.5 s budget for a call of" in reasons["hang"]
     assert reasons["alloc"].startswith("ran out of memory") and "ConstantOfShape" in reasons["alloc"]
     assert reasons["fail"].startswith("failed: onnxruntime failed in a Reshape node")
-    assert reasons["nan"].startswith("output NaN or infinite logits for 150 of 150")
-    assert reasons["plain"] is None
-    # the hang killed the child; the others were answered by a new one, and the plain agent's
-    # actions are what the same agent computes in-process
-    assert sandbox.starts == 2
-    plain = load_agents({"p": AgentRef("onnx", agents["plain"].source, CROSSROADS)})["p"]
-    obs, uniforms = observations(CROSSROADS, 150)
-    np.testing.assert_array_equal(big["plain"].actions, plain.act(obs, uniforms)[0])
+    assert reasons["nan"].startswith("output NaN or infinite logits")
+    assert set(reasons) == {"hang", "alloc", "fail", "nan"}
+    # every match without a hostile agent was played, exactly as in-process
+    good = [s for s in specs if set(s.seats) <= {"good1", "good2"}]
+    played = {r.spec: r for r in results}
+    local = {k: AgentRef(r.kind, r.name, r.game_id) for k, r in refs.items()}
+    assert [played[s] for s in good] == play_matches(good, local)
+    # a hostile agent's matches are forfeits (lost) or, past its one allowed forfeit, skipped
+    for result in results:
+        bad = set(result.seats) - {"good1", "good2"}
+        if bad:
+            assert result.forfeits and {a for a, _ in result.forfeits} <= bad
+    assert process_sandbox(FAST).starts >= 2  # the hang and the allocation killed a child
 
 
-def test_a_call_larger_than_the_largest_batch_is_split_to_it(tmp_path, sandbox):
+def test_a_call_larger_than_the_largest_batch_is_split_to_it(tmp_path):
     limit = largest_batch(CROSSROADS)
     assert limit == 64 * 4
-    agent = AgentSource(str(hostile.save(hostile.failing(CROSSROADS, above=limit), tmp_path / "a.onnx")), CROSSROADS)
-    handle = sandbox.load({"a": agent})["a"]
-    obs, uniforms = observations(CROSSROADS, 3 * limit + 5)
-    actions, _ = handle.act(obs, uniforms)  # never sees more rows than validation tried
-    assert actions.shape == (3 * limit + 5,)
+    path = hostile.save(hostile.failing(CROSSROADS, above=limit), tmp_path / "a.onnx")
+    specs = specs_for_seatings(CROSSROADS, [("a", "a")] * 128)
+    results = play_matches(specs, {"a": AgentRef("onnx", str(path), CROSSROADS, sandboxed=True)}, batch_size=128,
+                           sandbox_limits=FAST)
+    assert len(results) == 128 and not any(r.forfeits for r in results)  # 512 rows a step, in calls of 256
+
+
+def test_a_stacked_call_that_kills_the_child_is_replayed_member_by_member(tmp_path):
+    game_id = "Crossroads-2T4P-v1"
+    refs = {f"m{i}": AgentRef("arena-policy", str(mlp_folder(tmp_path, game_id, i, hidden=(2048, 2048))), game_id,
+                              sandboxed=True) for i in (1, 2)}
+    refs["script"] = AgentRef("scripted", "heuristic", game_id)
+    # a budget no big call meets (each takes some GFLOP): the stacked call of m1 and m2 is stopped
+    # and blames no one; run apart, each one's call is stopped in turn, and each forfeits alone
+    limits = SandboxLimits(call_seconds=1e-6)
+    results = play_matches(specs_for_seatings(game_id, round_robin(list(refs), 8)), refs, sandbox_limits=limits,
+                           forfeit_limit=1)
+    forfeited = {agent for r in results for agent, _ in r.forfeits}
+    assert forfeited == {"m1", "m2"} and all(len(r.forfeits) == 1 for r in results)
+    assert all("budget" in reason for r in results for _, reason in r.forfeits)
+    assert all(r.outcomes[r.seats.index("script")] == "win" for r in results if "script" in r.seats)
+    assert process_sandbox(limits).starts >= 3
 
 
 def test_a_stacked_call_that_raises_is_run_member_by_member_in_the_child(tmp_path, monkeypatch):
     # the child's own logic, run here: a stacked forward that runs out of memory is retried member by
     # member, so only the member that fails alone is blamed and the other's rows get their actions
-    import multiprocessing
-
-    from arena_league.policies.families import StackedPolicy
+    from arena_league.policies.families import StackedPolicy, stack_policies
     from arena_league.policies.sandbox import _Child
 
-    child = _Child(multiprocessing.RawArray("d", 2))
+    child = _Child(multiprocessing.RawArray("d", 4))
     folders = [mlp_folder(tmp_path, CROSSROADS, seed) for seed in (1, 2)]
-    _, errors, units = child.load([(f"m{i}", AgentSource(str(f), CROSSROADS)) for i, f in enumerate(folders)], [])
-    assert not errors and units == [["m0", "m1"]]
-    stacked = child.units[0].policy
+    _, errors = child.load([(f"m{i}", AgentSource(str(f), CROSSROADS)) for i, f in enumerate(folders)])
+    assert not errors
+    [unit] = stack_policies([child.policies["m0"], child.policies["m1"]])
     member = StackedPolicy.member
 
     def out_of_memory(*args, **kwargs):
@@ -121,43 +133,26 @@ def test_a_stacked_call_that_raises_is_run_member_by_member_in_the_child(tmp_pat
             monkeypatch.setattr(policy, "act", out_of_memory)
         return policy
 
-    monkeypatch.setattr(stacked, "act", out_of_memory)
+    monkeypatch.setattr(unit.policy, "act", out_of_memory)
     monkeypatch.setattr(StackedPolicy, "member", member_one_fails)
     obs, uniforms = observations(CROSSROADS, 10)
     owners = np.arange(10) % 2
-    [(actions, _, failures)] = child.act([(0, obs, uniforms, owners, None, None)])
+    actions, _, failures = child.guarded(0, unit, obs, uniforms, owners, None, None)
     assert failures == {1: "ran out of memory (a stacked forward too big)"}
-    alone = member(stacked, 0).act(obs[owners == 0], uniforms[owners == 0])[0]
+    alone = member(unit.policy, 0).act(obs[owners == 0], uniforms[owners == 0])[0]
     np.testing.assert_array_equal(actions[owners == 0], alone)
 
 
-def test_a_stacked_call_that_dies_is_run_member_by_member(tmp_path):
-    game_id = "Crossroads-2T4P-v1"
-    folders = [mlp_folder(tmp_path, game_id, seed, hidden=(2048, 2048)) for seed in (1, 2)]
-    # a budget no call can meet (each takes a few GFLOP): the stacked call is stopped, then each
-    # member's call alone, so the blame lands on each agent by itself
-    with InferenceSandbox(SandboxLimits(call_seconds=1e-6)) as box:
-        handles = box.load({f"m{i}": AgentSource(str(f), game_id) for i, f in enumerate(folders)})
-        assert handles["m0"].group == handles["m1"].group
-        rows = largest_batch(game_id)
-        obs, uniforms = observations(game_id, rows)
-        positions = np.arange(rows) % 2
-        outcome = box.act_many([GroupCall(handles["m0"].group, obs, uniforms, positions)])[0]
-        assert set(outcome.failures) == {0, 1}
-        assert all("budget" in reason for reason in outcome.failures.values())
-        assert box.starts == 4  # the first child, then one after the stacked call and each member
-
-
-def test_an_agent_that_cannot_load_is_broken_and_the_others_play(tmp_path, sandbox):
-    wrong_game = mlp_folder(tmp_path, GOBANG, 3)  # a GoBang agent offered to Crossroads
-    fine = mlp_folder(tmp_path, CROSSROADS, 4)
-    handles = sandbox.load({"wrong": AgentSource(str(wrong_game), CROSSROADS), "fine": AgentSource(str(fine), CROSSROADS)})
-    assert "could not be loaded" in handles["wrong"].broken and "GoBang" in handles["wrong"].broken
-    assert handles["fine"].broken is None
-    obs, uniforms = observations(CROSSROADS, 8)
-    calls = [GroupCall(handles[k].group, obs, uniforms, np.full(8, handles[k].position)) for k in ("wrong", "fine")]
-    wrong, right = sandbox.act_many(calls)
-    assert wrong.failures and not right.failures
+def test_an_agent_that_cannot_load_forfeits_its_matches_without_a_step(tmp_path):
+    refs = {"wrong": AgentRef("arena-policy", str(mlp_folder(tmp_path / "g", GOBANG, 3)), CROSSROADS, sandboxed=True),
+            "fine": AgentRef("arena-policy", str(mlp_folder(tmp_path, CROSSROADS, 4)), CROSSROADS, sandboxed=True),
+            "other": AgentRef("scripted", "heuristic", CROSSROADS)}
+    specs = specs_for_seatings(CROSSROADS, round_robin(list(refs), 2))
+    results = play_matches(specs, refs, sandbox_limits=FAST, forfeit_limit=5)
+    wrong = [r for r in results if "wrong" in r.seats]
+    assert len(wrong) == 4 and all(r.steps == 0 for r in wrong)
+    assert all("could not be loaded" in r.forfeit_of["wrong"] and "GoBang" in r.forfeit_of["wrong"] for r in wrong)
+    assert [r for r in results if "wrong" not in r.seats and r.forfeits] == []
 
 
 def test_matches_through_the_sandbox_are_the_matches_played_in_process(tmp_path):
@@ -175,31 +170,18 @@ def test_matches_through_the_sandbox_are_the_matches_played_in_process(tmp_path)
         assert sandboxed == inprocess
 
 
-def test_an_agent_that_fails_forfeits_its_matches_in_flight_and_is_then_skipped(tmp_path):
-    game_id = CROSSROADS
-    good = [mlp_folder(tmp_path, game_id, seed) for seed in (1, 2)]
-    bad = hostile.save(hostile.failing(game_id, above=20), tmp_path / "bad.onnx")
-    refs = {"g1": AgentRef("arena-policy", str(good[0]), game_id, sandboxed=True),
-            "g2": AgentRef("arena-policy", str(good[1]), game_id, sandboxed=True),
-            "bad": AgentRef("onnx", str(bad), game_id, sandboxed=True)}
-    specs = specs_for_seatings(game_id, round_robin(["g1", "g2", "bad"], 12))
-    policies = load_agents(refs, FAST)
-    runner = LockstepRunner(game_id, policies, batch_size=32)
-    results = runner.play(specs, forfeit_limit={"bad": 5})
-    forfeited = [r for r in results if r.forfeits]
-    # every match of `bad` in flight at its first failing call forfeited at once (team `bad` loses)
-    assert forfeited and all(r.forfeit_of == {"bad": forfeited[0].forfeits[0][1]} for r in forfeited)
-    assert "Reshape" in forfeited[0].forfeits[0][1]
-    for result in forfeited:
-        bad_team = result.teams[result.seats.index("bad")]
-        assert all(o == ("loss" if t == bad_team else "win") for o, t in zip(result.outcomes, result.teams))
-    assert runner.forfeit_counts["bad"] == len(forfeited) >= 5
-    # then its remaining matches were skipped, and every match of the good pair was played
-    played = {r.spec for r in results}
-    assert {s for s in specs if "bad" not in s.seats} <= played
-    assert all("bad" in s.seats for s in runner.skipped) and len(runner.skipped) + len(results) == len(specs)
-    again = LockstepRunner(game_id, policies, batch_size=32).play(specs, forfeit_limit={"bad": 5})
-    assert again == results  # forfeits are deterministic too
+def test_a_single_agent_call_over_budget_raises_and_the_next_call_gets_a_new_child(tmp_path):
+    path = hostile.save(hostile.hanging(CROSSROADS, above=100), tmp_path / "h.onnx")
+    with InferenceSandbox(FAST) as box:
+        agent = box.load_one(AgentSource(str(path), CROSSROADS))
+        obs, uniforms = observations(CROSSROADS, 150)
+        with pytest.raises(ForfeitError, match="ran past its 0.5 s budget for a forward"):
+            agent.act(obs, uniforms)
+        actions, _ = agent.act(obs[:50], uniforms[:50])
+        assert actions.shape == (50,) and box.starts == 2
+    handle = load_agents({"h": AgentRef("onnx", str(path), CROSSROADS, sandboxed=True)}, FAST)["h"]
+    with pytest.raises(ForfeitError, match="budget"):
+        handle.act(obs, uniforms)
 
 
 def test_the_child_dies_with_its_parent(tmp_path):

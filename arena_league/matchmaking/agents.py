@@ -10,9 +10,11 @@ The process-pool and Ray backends never ship torch objects between processes: ea
 
 Its text form is ``<kind>:<name or path>`` (``scripted:heuristic``, ``onnx:/league/ab12.onnx``).
 
-A reference marked ``sandboxed`` (the league marks every submitted agent so) is loaded into the
+A reference marked ``sandboxed`` (the league marks every submitted agent so) computes in the
 process's :class:`~arena_league.policies.sandbox.InferenceSandbox`, a child process with memory
-and time budgets, and computes there; the others load in the process itself.
+and time budgets: ``play_matches`` plays the matches of such agents inside it
+(:mod:`arena_league.matchmaking.sandboxed`), and :func:`load_agents` gives a handle whose every
+call goes there. The others load in the process itself.
 """
 
 from __future__ import annotations

@@ -32,6 +32,7 @@ from typing import Any
 
 from arena_league.matchmaking.agents import AgentRef, load_agents
 from arena_league.matchmaking.runner import LockstepRunner, MatchRecording
+from arena_league.matchmaking.sandboxed import play_in_sandbox
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import Policy
 from arena_league.policies.sandbox import FORKSERVER_PRELOAD, SandboxLimits
@@ -53,6 +54,10 @@ def play_chunk(game_id: str, agents: Mapping[str, AgentRef], specs: Sequence[Mat
     """Plays one chunk of specs of one game in this process (the unit of work of the process-pool
     and Ray backends); in-process policies are loaded once per process and kept, sandboxed ones
     live in the process's sandbox (which keeps the same set loaded from chunk to chunk)."""
+    if any(ref.sandboxed for ref in agents.values()):
+        return play_in_sandbox(game_id, specs, agents, batch_size=batch_size, env_kwargs=env_kwargs,
+                               recording=recording, forfeit_limit=_keyed(forfeit_limit, agents),
+                               heartbeat=_pool_heartbeat(), sandbox_limits=sandbox_limits)
     local = {ref for ref in agents.values() if not ref.sandboxed}
     cache_key = tuple(sorted(local, key=lambda ref: (ref.key, ref.game_id, str(ref.action_type))))
     policies = _WORKER_POLICIES.get(cache_key)
@@ -65,13 +70,18 @@ def play_chunk(game_id: str, agents: Mapping[str, AgentRef], specs: Sequence[Mat
     seat_policies = {key: policies[ref.key] for key, ref in agents.items()}
     runner = LockstepRunner(game_id, seat_policies, batch_size=batch_size, env_kwargs=env_kwargs,
                             recording=recording)
-    heartbeat = None
-    if _WORKER_HEARTBEAT:
-        counter = _WORKER_HEARTBEAT[0]
+    return runner.play(specs, forfeit_limit=_keyed(forfeit_limit, agents), heartbeat=_pool_heartbeat())
 
-        def heartbeat() -> None:
-            counter.value += 1
-    return runner.play(specs, forfeit_limit=_keyed(forfeit_limit, agents), heartbeat=heartbeat)
+
+def _pool_heartbeat() -> Callable[[], None] | None:
+    """In a process-pool worker, a heartbeat that counts steps where the parent can see them."""
+    if not _WORKER_HEARTBEAT:
+        return None
+    counter = _WORKER_HEARTBEAT[0]
+
+    def heartbeat() -> None:
+        counter.value += 1
+    return heartbeat
 
 
 def _keyed(forfeit_limit: int | Mapping[str, int] | None, agents: Mapping[str, AgentRef]
@@ -154,12 +164,19 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
     results: list[MatchResult | None] = [None] * len(specs)
 
     if backend == "inprocess":
-        policies = load_agents(agents, sandbox_limits)
         for game_id, indices in by_game.items():
-            runner = LockstepRunner(game_id, {k: policies[k] for k in _keys_of(specs, indices)},
-                                    batch_size=batch_size, env_kwargs=env_kwargs, recording=recording)
-            played = runner.play([specs[i] for i in indices], on_result, forfeit_limit=forfeit_limit,
-                                 heartbeat=heartbeat)
+            keys = _keys_of(specs, indices)
+            game_specs = [specs[i] for i in indices]
+            if all(isinstance(agents[k], AgentRef) for k in keys) and any(agents[k].sandboxed for k in keys):
+                # submitted agents: the whole game's lockstep loop runs in the sandbox's child
+                played = play_in_sandbox(game_id, game_specs, {k: agents[k] for k in keys}, batch_size=batch_size,
+                                         env_kwargs=env_kwargs, recording=recording, forfeit_limit=forfeit_limit,
+                                         on_result=on_result, heartbeat=heartbeat, sandbox_limits=sandbox_limits)
+            else:
+                policies = load_agents({k: agents[k] for k in keys}, sandbox_limits)
+                runner = LockstepRunner(game_id, policies, batch_size=batch_size, env_kwargs=env_kwargs,
+                                        recording=recording)
+                played = runner.play(game_specs, on_result, forfeit_limit=forfeit_limit, heartbeat=heartbeat)
             _place(results, played, specs, indices)
         return [r for r in results if r is not None]
 

@@ -23,15 +23,13 @@ Acting seats: in turn-based games only the seat to move is asked for an action; 
 active seats (not arrived, not eliminated). The others get a fixed legal filler (action 0, or
 zeros) that the rules ignore; recurrent states advance only when a seat acts.
 
-Sandboxed agents: policies loaded in an :class:`~arena_league.policies.sandbox.InferenceSandbox`
-(submitted agents, see :func:`~arena_league.matchmaking.agents.load_agents`) compute in the
-sandbox's child process; the runner sends the calls of all of them for one step in one message.
-When an agent's call fails there (over its time or memory budget, a crash, an error, an invalid
-action), the agent *forfeits* every match it has in flight: each ends at once, its team losing
-(:meth:`MatchResult.forfeited`, the reason recorded), and the slot takes the next spec. With
-``forfeit_limit``, an agent that has forfeited that many matches is not seated again: the specs
-that name it are skipped (no result). In-process agents (scripted, the frozen base population)
-that fail raise, as a bug would.
+Forfeits: with a ``guard`` (the inference sandbox's child plays submitted agents so, see
+:mod:`arena_league.matchmaking.sandboxed`), every unit's call goes through it, and an agent whose
+call fails (an error, invalid actions, a non-finite state) *forfeits* every match it has in
+flight: each ends at once, its team losing (:meth:`MatchResult.forfeited`, the reason recorded),
+and the slot takes the next spec. With ``forfeit_limit``, an agent that has forfeited that many
+matches is not seated again: the specs that name it are skipped (no result). Without a guard, a
+policy that fails raises, as a bug would.
 
 Stepping paths: a result needs the rules' outcome, not the social-tree rewards, so unless a replay
 is recorded (or observations carry broadcast boards or the global state) the runner steps each
@@ -53,7 +51,7 @@ from arena_league.envs import make
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import ActionSpec, Policy, invalid_actions, valid_actions_text
 
-__all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "action_spec_of", "policy_units"]
+__all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "UnitGuard", "action_spec_of", "policy_units"]
 
 #: How a runner steps its matches (see :class:`LockstepRunner`).
 PATHS = ("auto", "env", "rules", "engine")
@@ -69,6 +67,15 @@ class MatchRecording(Protocol):
     """
 
     def __call__(self, spec: MatchSpec, env: Any, env_kwargs: dict[str, Any]) -> Any: ...
+
+
+class UnitGuard(Protocol):
+    """Calls a policy unit and reports failures instead of raising: ``guard(index, unit, obs,
+    uniforms, owners, mask, state)`` returns ``(actions or None, next_state, {owner: reason})``,
+    owners being positions in ``unit.members``."""
+
+    def __call__(self, index: int, unit: PolicyUnit, obs: np.ndarray, uniforms: np.ndarray, owners: np.ndarray,
+                 mask: np.ndarray | None, state: np.ndarray | None) -> tuple[Any, Any, dict[int, str]]: ...
 
 
 class PolicyError(RuntimeError):
@@ -92,11 +99,6 @@ class PolicyUnit:
     policy: Policy
     members: tuple[int, ...]
     stacked: bool
-    #: For agents in an inference sandbox: the sandbox, the group they form in it, and each
-    #: member's position in that group (the runner batches every sandboxed unit of a step).
-    sandbox: Any = None
-    group: int = -1
-    positions: np.ndarray | None = None
 
     def act(self, obs: np.ndarray, uniforms: np.ndarray, owners: np.ndarray, mask: np.ndarray | None,
             state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
@@ -108,30 +110,12 @@ class PolicyUnit:
 def policy_units(policies: Sequence[Policy]) -> list[PolicyUnit]:
     """Groups distinct policies into units: torch agents of one architecture stack into a single
     :class:`~arena_league.policies.families.StackedPolicy` (one forward for all of them, with
-    each row's owner index); sandboxed agents form the units their sandbox grouped them in; every
-    other policy is a unit of its own."""
-    sandbox_module = sys.modules.get("arena_league.policies.sandbox")
-    proxy_type = sandbox_module.SandboxedPolicy if sandbox_module is not None else ()
-    sandboxed: dict[tuple[int, int], list[int]] = {}
-    local = []
-    for i, policy in enumerate(policies):
-        if isinstance(policy, proxy_type):
-            sandboxed.setdefault((id(policy.sandbox), policy.group), []).append(i)
-        else:
-            local.append(i)
-    units = []
+    each row's owner index); every other policy is a unit of its own."""
     families = sys.modules.get("arena_league.policies.families")
     if families is None:  # no torch agent can exist unless the families module was imported
-        units = [PolicyUnit(policies[i], (i,), False) for i in local]
-    else:
-        units = [PolicyUnit(g.policy, tuple(local[m] for m in g.members),
-                            isinstance(g.policy, families.StackedPolicy))
-                 for g in families.stack_policies([policies[i] for i in local])]
-    for members in sandboxed.values():
-        first = policies[members[0]]
-        units.append(PolicyUnit(first, tuple(members), len(members) > 1, first.sandbox, first.group,
-                                np.asarray([policies[i].position for i in members], dtype=np.int64)))
-    return units
+        return [PolicyUnit(p, (i,), False) for i, p in enumerate(policies)]
+    return [PolicyUnit(g.policy, tuple(g.members), isinstance(g.policy, families.StackedPolicy))
+            for g in families.stack_policies(list(policies))]
 
 
 @dataclass
@@ -294,11 +278,14 @@ class LockstepRunner:
             ``"env"`` when recording or when the observations carry broadcast boards or the global
             state, else ``"engine"`` where the game has one, else ``"rules"``. Results are the same
             on every path.
+        guard: every unit's call goes through it (a :class:`UnitGuard`), which turns an agent's
+            error or invalid output into a failure of that agent, so the agent forfeits as a
+            sandboxed one does; the inference sandbox's child plays its matches so.
     """
 
     def __init__(self, game_id: str, policies: Mapping[str, Policy], *, batch_size: int = 64,
                  env_kwargs: Mapping[str, Any] | None = None, recording: MatchRecording | None = None,
-                 path: str = "auto") -> None:
+                 path: str = "auto", guard: UnitGuard | None = None) -> None:
         if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
             raise ValueError(f"batch_size must be a positive integer (matches in flight), not {batch_size!r}")
         for key, policy in policies.items():
@@ -313,6 +300,7 @@ class LockstepRunner:
             raise ValueError("env_kwargs must not set render_mode: matches are played without pictures "
                              "(replays render afterwards from the recorded actions)")
         self.recording = recording
+        self.guard = guard
         self.path = path
         if path not in PATHS:
             raise ValueError(f"path must be one of {', '.join(PATHS)}, not {path!r}")
@@ -356,9 +344,11 @@ class LockstepRunner:
     # --- public ---------------------------------------------------------------------------------
     def play(self, specs: Iterable[MatchSpec], on_result: Callable[[MatchResult], None] | None = None, *,
              forfeit_limit: int | Mapping[str, int] | None = None,
-             heartbeat: Callable[[], None] | None = None) -> list[MatchResult]:
+             heartbeat: Callable[[], None] | None = None,
+             on_start: Callable[[int], None] | None = None) -> list[MatchResult]:
         """Plays every spec; returns the results in the order of ``specs``. ``on_result`` is called
-        as each match ends (in the order they end); ``heartbeat`` once per step (a sign of progress).
+        as each match ends (in the order they end); ``heartbeat`` once per step (a sign of progress);
+        ``on_start`` with a spec's position in ``specs`` as its match starts.
 
         ``forfeit_limit``: how many matches an agent (by key, or every agent) may forfeit before its
         remaining specs are skipped (see the module docstring); None never skips. Skipped specs have
@@ -402,6 +392,8 @@ class LockstepRunner:
             order, spec = nxt
             slot = _Slot(order, spec, spec.seat_rng(), [self._initial_state(key) for key in spec.seats])
             matches.start(position, spec)
+            if on_start is not None:
+                on_start(order)
             slots[position] = slot
             for seat, key in enumerate(spec.seats):
                 row_unit[base + seat] = self._unit_of_key[key]
@@ -441,13 +433,14 @@ class LockstepRunner:
                                 stopped.add(key)
                 stepping = [p for p in live if p not in forfeited]
                 steps_before = {p: matches.steps_of(p) for p in forfeited}  # the engine steps every slot
-                for position in matches.step(stepping, actions, acting):
+                ended = matches.step(stepping, actions, acting)
+                if heartbeat is not None:  # the step is played (before the ended slots take new specs)
+                    heartbeat()
+                for position in ended:
                     if position not in forfeited:
                         finish(position)
                 for position, forfeits in forfeited.items():
                     finish(position, forfeits, steps_before[position])
-                if heartbeat is not None:
-                    heartbeat()
                 live = [p for p, slot in enumerate(slots) if slot is not None]
         finally:
             matches.abort()
@@ -470,6 +463,10 @@ class LockstepRunner:
 
             return _EngineMatches(self, batched_engine(self._probe, width))
         return _EnvMatches(self, width, self._probe, direct=path == "rules")
+
+    def unit_agents(self) -> list[list[str]]:
+        """The agent keys of each policy unit, in unit order (the index a ``guard`` is called with)."""
+        return [[key for member in unit.members for key in self._keys_of_member[member]] for unit in self._units]
 
     def stepping_path(self, width: int = 1) -> str:
         """The path (see the class docstring) this runner takes: ``"env"``, ``"rules"`` or ``"engine"``."""
@@ -514,53 +511,58 @@ class LockstepRunner:
     def _act_all(self, acting: np.ndarray, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None,
                  actions: np.ndarray, row_unit: np.ndarray, row_owner: np.ndarray, row_key: list,
                  slots: list) -> dict[str, str]:
-        """Every unit's actions for the acting rows; returns the sandboxed agents whose call failed
-        (key -> reason). Their rows get a legal filler action, which no match uses."""
+        """Every unit's actions for the acting rows; with a ``guard``, returns the agents whose call
+        failed (key -> reason), whose rows get a legal filler action that no match uses."""
         acting_rows = np.flatnonzero(acting)
         units = row_unit[acting_rows]
         order = np.argsort(units, kind="stable")
         acting_rows, units = acting_rows[order], units[order]
-        sandboxed: dict[int, list[tuple[int, np.ndarray, Any]]] = {}
+        failures: dict[str, str] = {}
         for group in np.split(acting_rows, np.flatnonzero(np.diff(units)) + 1):
             if not group.size:
                 continue
             unit_index = int(row_unit[group[0]])
-            unit = self._units[unit_index]
-            if unit.sandbox is None:
+            if self.guard is None:
                 self._act(unit_index, group, obs, uniforms, mask, actions, row_owner, row_key, slots)
                 continue
-            call = self._group_call(unit, group, obs, uniforms, mask, row_owner, slots)
-            sandboxed.setdefault(id(unit.sandbox), []).append((unit_index, group, call))
-        failures: dict[str, str] = {}
-        for calls in sandboxed.values():
-            sandbox = self._units[calls[0][0]].sandbox
-            for (unit_index, group, _), outcome in zip(calls, sandbox.act_many([c for _, _, c in calls])):
-                unit = self._units[unit_index]
-                bad = np.zeros(group.size, dtype=bool)
-                for position, reason in outcome.failures.items():
-                    bad |= unit.positions[row_owner[group]] == position
-                    member = unit.members[int(np.flatnonzero(unit.positions == position)[0])]
-                    for key in self._keys_of_member[member]:
-                        failures.setdefault(key, reason)
-                actions[group] = outcome.actions
-                if bad.any() and mask is not None:
-                    actions[group[bad]] = mask[group[bad]].argmax(axis=1)
-                if unit.policy.recurrent and outcome.next_state is not None:
-                    for i, r in enumerate(group):
-                        if not bad[i]:
-                            slots[r // self.n_agents].states[r % self.n_agents] = outcome.next_state[i]
+            unit = self._units[unit_index]
+            unit_obs, state = self._unit_inputs(unit, group, obs, slots)
+            owners = row_owner[group]
+            out, next_state, errors = self.guard(unit_index, unit, unit_obs, uniforms[group], owners,
+                                                 None if mask is None else mask[group], state)
+            self._take(unit, group, owners, out, next_state, errors, mask, actions, slots, failures)
         return failures
 
-    def _group_call(self, unit: PolicyUnit, rows: np.ndarray, obs: np.ndarray, uniforms: np.ndarray,
-                    mask: np.ndarray | None, row_owner: np.ndarray, slots: list) -> Any:
-        from arena_league.policies.sandbox import GroupCall
+    def _take(self, unit: PolicyUnit, rows: np.ndarray, owners: np.ndarray, out: np.ndarray | None,
+              next_state: np.ndarray | None, errors: Mapping[int, str], mask: np.ndarray | None,
+              actions: np.ndarray, slots: list, failures: dict[str, str]) -> None:
+        """Store a guarded call's actions and states; the rows of failed owners (positions in the
+        unit) get a legal filler, and their agents are added to ``failures``."""
+        bad = np.zeros(rows.size, dtype=bool)
+        for owner, reason in errors.items():
+            bad |= owners == owner
+            for key in self._keys_of_member[unit.members[owner]]:
+                failures.setdefault(key, reason)
+        if out is not None:
+            actions[rows] = out
+        if bad.any():
+            actions[rows[bad]] = 0
+            if mask is not None:
+                actions[rows[bad]] = mask[rows[bad]].argmax(axis=1)
+        if unit.policy.recurrent and next_state is not None:
+            n = self.n_agents
+            for i, r in enumerate(rows):
+                if not bad[i]:
+                    slots[r // n].states[r % n] = next_state[i]
 
+    def _unit_inputs(self, unit: PolicyUnit, rows: np.ndarray, obs: np.ndarray, slots: list
+                     ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The unit's observations (a policy reads its own width: the base observation first, then
+        boards, then the state) and recurrent states for ``rows``."""
         n = self.n_agents
         state = np.stack([slots[r // n].states[r % n] for r in rows]) if unit.policy.recurrent else None
         width = unit.policy.spec.obs_dim
-        unit_obs = obs[rows] if width == obs.shape[1] else obs[rows, :width]
-        return GroupCall(unit.group, unit_obs, uniforms[rows], unit.positions[row_owner[rows]],
-                         None if mask is None else mask[rows], state)
+        return (obs[rows] if width == obs.shape[1] else obs[rows, :width]), state
 
     def _act(self, unit_index: int, rows: np.ndarray, obs: np.ndarray, uniforms: np.ndarray,
              mask: np.ndarray | None, actions: np.ndarray, row_owner: np.ndarray, row_key: list,
@@ -568,12 +570,7 @@ class LockstepRunner:
         unit = self._units[unit_index]
         n = self.n_agents
         recurrent = bool(unit.policy.recurrent)
-        state = None
-        if recurrent:
-            state = np.stack([slots[r // n].states[r % n] for r in rows])
-        # a policy reads its own width: the base observation first, then boards, then the state
-        width = unit.policy.spec.obs_dim
-        unit_obs = obs[rows] if width == obs.shape[1] else obs[rows, :width]
+        unit_obs, state = self._unit_inputs(unit, rows, obs, slots)
         out, next_state = unit.act(unit_obs, uniforms[rows], row_owner[rows], None if mask is None else mask[rows],
                                    state)
         out = np.asarray(out)

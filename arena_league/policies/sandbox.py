@@ -2,28 +2,29 @@
 
 An ONNX graph can loop for 10^15 iterations, allocate a 12 GB tensor, or behave only once the
 batch passes some size; a league worker that ran it in its own process would hang, or be killed
-with every match it holds. So the forwards of submitted agents run in an :class:`InferenceSandbox`:
-one child process per worker (per process that plays matches), holding every submitted agent that
-process plays, with
+with every match it holds. So submitted agents run in an :class:`InferenceSandbox`: one child
+process per worker (per process that plays matches), holding every agent that process plays, with
 
 * an address-space limit (``RLIMIT_AS``): the child's size when it starts plus
   :attr:`SandboxLimits.memory_mib`; an allocation past it fails inside the child only;
-* a wall-clock budget per call (:attr:`SandboxLimits.call_seconds`, one policy's forward over all
-  the seats it holds in one step) and per agent loaded (:attr:`SandboxLimits.load_seconds`);
-  the child marks which call it is running in shared memory, so the parent knows whom to blame
-  when it kills a child that ran over.
+* a wall-clock budget per call (:attr:`SandboxLimits.call_seconds`: one policy's forward over all
+  the seats it holds in one step) and per agent loaded (:attr:`SandboxLimits.load_seconds`).
+  The child marks the call it is in (an index and its start time, in shared memory); the parent
+  watches the mark and kills the child when a call runs over, and then knows whom to blame.
 
-A call over budget, a crash, an allocation failure or an error fails that agent's call only: the
-sandbox answers every other call of the step, restarting the child (and reloading its agents)
-when it had to die, and reports the agent and the reason. What a failure means is the caller's
-business: the match engine makes the agent forfeit the matches it has in flight, validation
-rejects it. Agents of one architecture are stacked into one forward in the child as in the engine
-(:func:`~arena_league.policies.families.stack_policies`); when such a stacked call fails, the
-sandbox runs its members one by one to find the agent at fault, so no innocent agent forfeits.
+The child serves two kinds of work. Validation asks it for single forwards of one agent
+(:class:`SandboxedPolicy`: ``act``, ``forward``, ``measure`` of time and memory); a failure comes
+back as a :class:`ForfeitError` with the reason. Play runs a whole task in it
+(:meth:`InferenceSandbox.run`): the match engine's lockstep loop, every unit call going through
+:meth:`_Child.guarded`, which turns an agent's error, invalid actions or non-finite state into a
+failure of that agent instead of an exception, and runs a failed stacked call (agents of one
+architecture computed together) member by member so that only the agent at fault fails. A task
+streams messages back (results as matches end); when the child dies or is stopped,
+:class:`SandboxDied` names the marked call, and the next request starts a new child with the
+same agents (:mod:`arena_league.matchmaking.sandboxed` replays what was in flight).
 
-The sandbox never hands an agent more rows in one call than :func:`largest_batch` of its game:
-the size validation probes at, so an agent that passed validation never sees a batch it was not
-tried on. Calls are split to that size when the engine's batch is larger.
+A guarded call never hands an agent more rows than :func:`largest_batch` of its game, the size
+validation probes at, so an agent that passed validation never sees a batch it was not tried on.
 
 The child is forked from the multiprocessing fork server (which has the policy modules imported),
 dies with its parent (``PR_SET_PDEATHSIG``), ignores Ctrl-C (the parent handles it), and computes
@@ -35,16 +36,16 @@ from __future__ import annotations
 
 import atexit
 import contextlib
-import functools
 import multiprocessing
 import os
 import re
 import signal
 import sys
 import time
+import traceback
 import types
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -57,9 +58,9 @@ __all__ = [
     "FORKSERVER_PRELOAD",
     "AgentSource",
     "ForfeitError",
-    "GroupCall",
-    "GroupOutcome",
     "InferenceSandbox",
+    "SandboxDied",
+    "SandboxFailedError",
     "SandboxLimits",
     "SandboxedPolicy",
     "largest_batch",
@@ -133,48 +134,54 @@ class ForfeitError(RuntimeError):
         self.reason = reason
 
 
+class SandboxDied(Exception):
+    """The child died (or was stopped) while in call ``index`` (the item of a request, or the unit
+    call a task marked), at the task's step ``step``; ``reason`` says how, in one line."""
+
+    def __init__(self, index: int | None, reason: str, step: int = 0) -> None:
+        super().__init__(reason)
+        self.index = index
+        self.reason = reason
+        self.step = step
+
+
+class SandboxFailedError(RuntimeError):
+    """An operation failed in the child outside any agent's call (a bug, or the runtime itself out
+    of memory); the message ends with the child's traceback."""
+
+    def __init__(self, child_traceback: str) -> None:
+        last = child_traceback.strip().splitlines()[-1] if child_traceback.strip() else "no traceback"
+        super().__init__(f"the inference sandbox failed outside any agent's call: {last}\n{child_traceback}")
+
+
 @dataclass
-class GroupCall:
-    """One batched call of a group of agents (see :meth:`InferenceSandbox.act_many`): ``owners[i]``
-    is the position in the group of the agent playing row ``i``."""
+class _Emitted:
+    """A message a task in the child sends while it runs (see :meth:`InferenceSandbox.run`)."""
 
-    group: int
-    obs: np.ndarray
-    uniforms: np.ndarray
-    owners: np.ndarray
-    mask: np.ndarray | None = None
-    state: np.ndarray | None = None
+    payload: Any
 
 
 @dataclass
-class GroupOutcome:
-    """The answer to a :class:`GroupCall`: actions and next state for every row, and the agents (by
-    position in the group) whose call failed, with the reason; their rows hold zeros."""
+class _Failed:
+    """The child's answer when an operation raised outside any agent's call: its traceback."""
 
-    actions: np.ndarray
-    next_state: np.ndarray | None
-    failures: dict[int, str] = field(default_factory=dict)
+    traceback: str
 
 
 class SandboxedPolicy(Policy):
-    """A handle on an agent loaded in a sandbox: a :class:`Policy` whose calls go to the child.
+    """A handle on an agent loaded in a sandbox: a :class:`Policy` whose calls go to the child, one
+    request each (validation's probes and match). A failed call raises :class:`ForfeitError`; an
+    agent that could not be loaded has ``broken`` set (the reason) and fails every call."""
 
-    The match engine batches the calls of every sandboxed agent of a step into one message
-    (:meth:`InferenceSandbox.act_many`); called on its own, :meth:`act` raises :class:`ForfeitError`
-    when the call fails. An agent that could not be loaded has ``broken`` set (the reason) and fails
-    every call."""
-
-    def __init__(self, sandbox: InferenceSandbox, key: str, group: int, position: int, spec: ActionSpec,
-                 recurrent: bool, state_shape: tuple[int, ...], name: str, info: Any = None,
+    def __init__(self, sandbox: InferenceSandbox, key: str, spec: ActionSpec, recurrent: bool = False,
+                 state_shape: tuple[int, ...] = (), name: str = "", info: Any = None,
                  broken: str | None = None) -> None:
         self.sandbox = sandbox
         self.key = key
-        self.group = group
-        self.position = position
         self.spec = spec
         self.recurrent = recurrent
         self.state_shape = state_shape
-        self.name = name
+        self.name = name or key
         self.info = info
         self.broken = broken
 
@@ -183,44 +190,23 @@ class SandboxedPolicy(Policy):
 
     def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
             state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-        call = GroupCall(self.group, obs, uniforms, np.full(len(obs), self.position, dtype=np.int64), mask, state)
-        outcome = self.sandbox.act_many([call])[0]
-        if outcome.failures:
-            raise ForfeitError(self.key, outcome.failures[self.position])
-        return outcome.actions, outcome.next_state
+        return self.sandbox.call(self.key, "act", obs, uniforms, mask, state)
 
     def forward(self, obs: np.ndarray, state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
         """The agent's raw outputs (``logits`` or ``action``) and next state, computed in the child."""
-        return self.sandbox.forward(self.key, obs, state)
+        return self.sandbox.call(self.key, "forward", obs, state)
 
     def measure(self, obs: np.ndarray, state: np.ndarray | None = None, repeats: int = 3) -> dict[str, Any]:
         """Measured in the child: ``seconds`` of each of ``repeats`` forwards over ``obs``, the memory
         the agent holds at their peak since before it was loaded (``peak_mib``: its weights, what its
         earlier calls left allocated, these forwards) and what these forwards added (``forward_mib``);
         raises :class:`ForfeitError` on failure."""
-        return self.sandbox.measure(self.key, obs, state, repeats)
-
-
-class _ChildDied(Exception):
-    def __init__(self, index: int | None, reason: str) -> None:
-        super().__init__(reason)
-        self.index = index
-        self.reason = reason
-
-
-@dataclass
-class _Piece:
-    """Rows of one group call that go to one child unit (a chunk of at most the game's largest batch)."""
-
-    call: int
-    rows: np.ndarray
-    unit: int
-    owners: np.ndarray  # owners within the child unit
+        return self.sandbox.call(self.key, "measure", obs, state, repeats)
 
 
 class InferenceSandbox:
-    """A child process that loads agents and answers their calls within :class:`SandboxLimits`
-    (see the module docstring). Not thread-safe: one caller at a time."""
+    """A child process that loads agents and runs their calls within :class:`SandboxLimits` (see
+    the module docstring). Not thread-safe: one caller at a time."""
 
     def __init__(self, limits: SandboxLimits | None = None) -> None:
         self.limits = limits or SandboxLimits()
@@ -229,15 +215,8 @@ class InferenceSandbox:
         self._progress: Any = None
         self._sources: dict[str, AgentSource] = {}
         self._proxies: dict[str, SandboxedPolicy] = {}
-        self._groups: list[list[str]] = []
-        self._place: dict[str, tuple[int, int]] = {}  # agent -> (child unit, owner) in the running child
-        self._units: list[list[str]] = []  # the running child's units, as agent keys
-        self._split: set[str] = set()  # agents the child must not stack (a stacked call of theirs failed)
         self._broken: dict[str, str] = {}  # agents that cannot be loaded, with the reason
         self._load_mib: dict[str, float] = {}
-        # per group, the running child's unit and owner of each member (numpy, for routing rows)
-        self._group_unit: list[np.ndarray] = []
-        self._group_owner: list[np.ndarray] = []
         #: Children started so far (the first, and one after each death).
         self.starts = 0
 
@@ -246,115 +225,72 @@ class InferenceSandbox:
         """Make the child hold exactly ``agents`` (key -> source) and return a handle per key.
 
         Loading the same set again returns the same handles at once; another set replaces the
-        child's agents (handles of the previous set must not be used again). An agent that fails to
-        load (an error, its memory or time budget) gets a handle with ``broken`` set; the others
-        load as usual."""
+        child's agents. An agent that fails to load (an error, its memory or time budget) gets a
+        handle with ``broken`` set; the others load as usual."""
         agents = dict(agents)
         if agents == self._sources and self._proxies:
             return dict(self._proxies)
-        self._sources, self._split, self._broken, self._proxies = agents, set(), {}, {}
+        self._sources, self._broken, self._proxies = agents, {}, {}
         infos = self._load_sources()
-        self._groups = [list(unit) for unit in self._units] + [[key] for key in agents if key in self._broken]
-        self._route()
-        for g, members in enumerate(self._groups):
-            for position, key in enumerate(members):
-                source = agents[key]
-                if key in self._broken:
-                    spec = _game_spec(source)
-                    self._proxies[key] = SandboxedPolicy(self, key, g, position, spec, False, (), key,
-                                                         broken=self._broken[key])
-                else:
-                    info = infos[key]
-                    self._proxies[key] = SandboxedPolicy(self, key, g, position, info["spec"], info["recurrent"],
-                                                         tuple(info["state_shape"]), info["name"], info["info"])
+        for key, source in agents.items():
+            if key in self._broken:
+                self._proxies[key] = SandboxedPolicy(self, key, _game_spec(source), broken=self._broken[key])
+            else:
+                info = infos[key]
+                self._proxies[key] = SandboxedPolicy(self, key, info["spec"], info["recurrent"],
+                                                     tuple(info["state_shape"]), info["name"], info["info"])
         return dict(self._proxies)
 
     def load_one(self, source: AgentSource, key: str = "candidate") -> SandboxedPolicy:
         """Load a single agent (validation); raises the artifact's own error (``ArtifactError``) when
         it cannot be read, and :class:`ForfeitError` when loading runs out of time or memory."""
-        self._sources, self._split, self._broken, self._proxies = {key: source}, set(), {}, {}
+        self._sources, self._broken, self._proxies = {key: source}, {}, {}
         try:
-            infos = self._load_sources(raise_errors=True)
+            self._load_sources(raise_errors=True)
+            if key in self._broken:
+                raise ForfeitError(key, self._broken[key])
         except BaseException:
             self._sources = {}
             raise
-        if key in self._broken:
-            reason = self._broken[key]
-            self._sources = {}
-            raise ForfeitError(key, reason)
-        info = infos[key]
-        self._groups = [[key]]
-        self._route()
-        proxy = SandboxedPolicy(self, key, 0, 0, info["spec"], info["recurrent"], tuple(info["state_shape"]),
-                                info["name"], info["info"])
-        self._proxies = {key: proxy}
-        return proxy
+        return self.load({key: source})[key]
 
     def memory_of(self, key: str) -> float:
         """MiB the agent ``key`` added to the child when it was loaded."""
         return self._load_mib.get(key, 0.0)
 
     # --- calls ----------------------------------------------------------------------------------
-    def act_many(self, calls: Sequence[GroupCall]) -> list[GroupOutcome]:
-        """Answer one step's calls, one per group, in one message to the child (see the module
-        docstring for what happens when a call fails)."""
-        outcomes = [self._empty_outcome(call) for call in calls]
-        failed: dict[str, str] = {}
-        for _ in range(len(self._sources) + 2):  # each round retires an agent or splits a unit
-            self._ensure_child()
-            pieces = self._pieces(calls, failed)
-            if not pieces:
-                break
-            message = ("act", [(p.unit, calls[p.call].obs[p.rows], calls[p.call].uniforms[p.rows], p.owners,
-                                None if calls[p.call].mask is None else calls[p.call].mask[p.rows],
-                                None if calls[p.call].state is None else calls[p.call].state[p.rows])
-                               for p in pieces])
-            try:
-                answers = self._request(message, self.limits.call_seconds,
-                                        [f"a call of {len(p.rows)} rows" for p in pieces])
-            except _ChildDied as death:
-                self._blame(pieces, death, failed)
-                continue
-            for piece, (actions, next_state, errors) in zip(pieces, answers):
-                outcome = outcomes[piece.call]
-                if actions is not None:
-                    outcome.actions[piece.rows] = actions
-                if outcome.next_state is not None and next_state is not None:
-                    outcome.next_state[piece.rows] = next_state
-                for owner, reason in errors.items():
-                    failed.setdefault(self._units[piece.unit][owner], reason)
-            break
-        for call, outcome in zip(calls, outcomes):
-            group = self._groups[call.group]
-            for position in np.unique(call.owners).tolist():
-                reason = failed.get(group[position]) or self._broken.get(group[position])
-                if reason is not None:
-                    outcome.failures[position] = reason
-        return outcomes
-
-    def forward(self, key: str, obs: np.ndarray, state: np.ndarray | None = None
-                ) -> tuple[np.ndarray, np.ndarray | None]:
-        """Raw outputs of agent ``key`` (see :meth:`SandboxedPolicy.forward`)."""
-        self._require_loaded(key)
+    def call(self, key: str, operation: str, *args: Any, what: str = "a forward") -> Any:
+        """One operation (``act``, ``forward``, ``measure``) of agent ``key`` in the child, within the
+        budget per call; raises :class:`ForfeitError` when it fails."""
+        if key in self._broken:
+            raise ForfeitError(key, self._broken[key])
+        if key not in self._sources:
+            raise KeyError(f"agent {key!r} is not loaded in this sandbox")
+        self._ensure_child()
         try:
-            return self._answer(self._request(("forward", key, obs, state), self.limits.call_seconds, "a forward"),
-                                key)
-        except _ChildDied as death:
+            status, value = self._request(("call", key, operation, *args), self.limits.call_seconds, what)
+        except SandboxDied as death:
             raise ForfeitError(key, death.reason) from None
+        if status == "error":
+            raise ForfeitError(key, value)
+        return value
 
-    def measure(self, key: str, obs: np.ndarray, state: np.ndarray | None, repeats: int) -> dict[str, Any]:
-        """See :meth:`SandboxedPolicy.measure`."""
-        self._require_loaded(key)
-        try:
-            return self._answer(self._request(("measure", key, obs, state, int(repeats)), self.limits.call_seconds,
-                                              f"a forward of {len(obs)} rows"), key)
-        except _ChildDied as death:
-            raise ForfeitError(key, death.reason) from None
+    def run(self, task: Callable[..., Any], args: tuple, *, on_message: Callable[[Any], None] | None = None,
+            on_tick: Callable[[], None] | None = None, what: str = "a call") -> Any:
+        """Run ``task(child, emit, *args)`` in the child, with the agents :meth:`load` gave it, and
+        return what it returns. ``task`` (a module-level function, sent by reference) calls its
+        agents through ``child.guarded(...)``, which marks each call so that one over the budget is
+        stopped, and may ``emit(payload)`` messages, which reach ``on_message`` as they come;
+        ``child.tick()`` advances the step counter, which calls ``on_tick`` here (a sign of
+        progress). Raises :class:`SandboxDied` when the child dies or is stopped (the next request
+        starts a new one with the same agents), :class:`SandboxFailedError` when the task raises."""
+        self._ensure_child()
+        return self._request(("run", task, args), self.limits.call_seconds, what, on_message, on_tick)
 
     def close(self) -> None:
         """Stop the child (its agents are gone; :meth:`load` starts a new one)."""
         self._stop_child()
-        self._sources, self._proxies, self._groups = {}, {}, []
+        self._sources, self._proxies = {}, {}
 
     def __enter__(self) -> InferenceSandbox:
         return self
@@ -362,61 +298,7 @@ class InferenceSandbox:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    # --- internals ------------------------------------------------------------------------------
-    def _require_loaded(self, key: str) -> None:
-        if key in self._broken:
-            raise ForfeitError(key, self._broken[key])
-        if key not in self._sources:
-            raise KeyError(f"agent {key!r} is not loaded in this sandbox")
-
-    @staticmethod
-    def _answer(reply: Any, key: str) -> Any:
-        status, value = reply
-        if status == "error":
-            raise ForfeitError(key, value)
-        return value
-
-    def _empty_outcome(self, call: GroupCall) -> GroupOutcome:
-        proxy = self._proxies[self._groups[call.group][0]]
-        n = len(call.obs)
-        if proxy.spec.action_type == "discrete":
-            actions = np.zeros(n, dtype=np.int64)
-        else:
-            actions = np.zeros((n, proxy.spec.act_dim), dtype=np.float32)
-        state = np.zeros((n, *proxy.state_shape), dtype=np.float32) if proxy.recurrent else None
-        return GroupOutcome(actions, state)
-
-    def _pieces(self, calls: Sequence[GroupCall], failed: Mapping[str, str]) -> list[_Piece]:
-        """The child calls that answer ``calls``: rows split by child unit, then into chunks of at
-        most the game's largest batch; rows of failed and broken agents are left out."""
-        pieces = []
-        for index, call in enumerate(calls):
-            group = self._groups[call.group]
-            owners = np.asarray(call.owners, dtype=np.int64)
-            units = self._group_unit[call.group][owners]
-            keep = units >= 0
-            if failed:
-                keep &= ~np.asarray([key in failed for key in group], dtype=bool)[owners]
-            child_owners = self._group_owner[call.group][owners]
-            for unit in np.unique(units[keep]).tolist():
-                rows = np.flatnonzero(keep & (units == unit))
-                limit = _largest_batch(self._sources[self._units[unit][0]].game_id)
-                for start in range(0, len(rows), limit):
-                    part = rows[start: start + limit]
-                    pieces.append(_Piece(index, part, unit, child_owners[part]))
-        return pieces
-
-    def _blame(self, pieces: list[_Piece], death: _ChildDied, failed: dict[str, str]) -> None:
-        """The child died during ``pieces[death.index]``: blame its agent, or, for a stacked unit,
-        have its members run apart from now on so the next try finds the one at fault."""
-        if death.index is None or not 0 <= death.index < len(pieces):
-            raise RuntimeError(f"the inference sandbox died outside any agent's call ({death.reason})")
-        unit_members = self._units[pieces[death.index].unit]
-        if len(unit_members) > 1:
-            self._split.update(unit_members)
-        else:
-            failed.setdefault(unit_members[0], death.reason)
-
+    # --- the child's life -----------------------------------------------------------------------
     def _ensure_child(self) -> None:
         """After a death: a new child with the same agents."""
         if self._process is None and self._sources:
@@ -425,7 +307,8 @@ class InferenceSandbox:
     def _spawn(self) -> None:
         context = _process_context()
         parent_end, child_end = context.Pipe()
-        self._progress = context.RawArray("d", 2)
+        # the marked call, when it started, the task's step, the marked call's rows
+        self._progress = context.RawArray("d", 4)
         process = context.Process(target=_child_main, args=(child_end, self._progress, self.limits),
                                   name="arena-league-sandbox", daemon=True)
         try:
@@ -446,9 +329,9 @@ class InferenceSandbox:
                 self._spawn()
             keys = [k for k in self._sources if k not in self._broken]
             try:
-                infos, errors, units = self._request(("load", [(k, self._sources[k]) for k in keys],
-                                                      sorted(self._split)), self.limits.load_seconds, "loading")
-            except _ChildDied as death:
+                infos, errors = self._request(("load", [(k, self._sources[k]) for k in keys]),
+                                              self.limits.load_seconds, "loading")
+            except SandboxDied as death:
                 if death.index is None:
                     raise RuntimeError(f"the inference sandbox could not start ({death.reason})") from None
                 self._broken[keys[death.index]] = f"could not be loaded: {death.reason}"
@@ -456,51 +339,54 @@ class InferenceSandbox:
             for key, (kind, text) in errors.items():
                 error = getattr(artifact_errors, kind, None)
                 if raise_errors and isinstance(error, type) and issubclass(error, artifact_errors.ArtifactError):
-                    self._stop_child()
                     raise error(text)
                 self._broken[key] = f"could not be loaded: {text}"
-            self._units = [list(unit) for unit in units]
-            self._place = {key: (u, o) for u, unit in enumerate(self._units) for o, key in enumerate(unit)}
             self._load_mib.update({key: info["load_mib"] for key, info in infos.items()})
-            self._route()
             return infos
 
-    def _route(self) -> None:
-        """Each group member's unit and owner in the running child (-1: not loaded)."""
-        self._group_unit = [np.asarray([self._place.get(k, (-1, -1))[0] for k in g], dtype=np.int64)
-                            for g in self._groups]
-        self._group_owner = [np.asarray([self._place.get(k, (-1, -1))[1] for k in g], dtype=np.int64)
-                             for g in self._groups]
-
-    def _request(self, message: tuple, budget: float, what: str | list[str]) -> Any:
-        """Send ``message`` and wait for the answer, killing the child when the item it is working on
-        runs past ``budget`` seconds; raises :class:`_ChildDied` naming the item (``what`` says what
-        the items are, for the reason)."""
+    def _request(self, message: tuple, budget: float, what: str,
+                 on_message: Callable[[Any], None] | None = None, on_tick: Callable[[], None] | None = None) -> Any:
+        """Send ``message`` and wait for the answer, killing the child when the call it marked runs
+        past ``budget`` seconds (``what`` names such a call in the reason); raises
+        :class:`SandboxDied`. Messages a task emits meanwhile go to ``on_message``; ``on_tick`` is
+        called whenever the task's step counter has moved since the last look."""
         process, conn, progress = self._process, self._conn, self._progress
-        progress[0], progress[1] = -1.0, 0.0
+        progress[0], progress[1], progress[2], progress[3] = -1.0, 0.0, 0.0, 0.0
         try:
             conn.send(message)
         except (BrokenPipeError, ConnectionResetError, OSError):
-            raise self._died(None, self._exit_reason(process)) from None
+            raise self._died(self._exit_reason(process)) from None
+        seen = 0.0
         while True:
             try:
-                if conn.poll(_POLL_SECONDS):
-                    return conn.recv()
+                while conn.poll(_POLL_SECONDS):
+                    reply = conn.recv()
+                    if isinstance(reply, _Failed):
+                        raise SandboxFailedError(reply.traceback)
+                    if not isinstance(reply, _Emitted):
+                        return reply
+                    if on_message is not None:
+                        on_message(reply.payload)
             except (EOFError, ConnectionResetError, OSError):
-                raise self._died(_item(progress), self._exit_reason(process)) from None
+                raise self._died(self._exit_reason(process)) from None
+            if on_tick is not None and progress[2] != seen:
+                seen = progress[2]
+                on_tick()
             started = progress[1]
             if started and time.monotonic() - started > budget:
-                index = _item(progress)
                 process.kill()
-                process.join()
-                item = what if isinstance(what, str) else what[index] if index is not None else "a call"
-                raise self._died(index, f"ran past its {budget:g} s budget for {item} (stopped)")
+                rows = int(progress[3])
+                raise self._died(f"ran past its {budget:g} s budget for {what}{f' of {rows} rows' if rows else ''} "
+                                 "(stopped)")
             if not process.is_alive():
-                raise self._died(_item(progress), self._exit_reason(process))
+                raise self._died(self._exit_reason(process))
 
-    def _died(self, index: int | None, reason: str) -> _ChildDied:
+    def _died(self, reason: str) -> SandboxDied:
+        progress = self._progress
+        index = int(progress[0])
+        death = SandboxDied(None if index < 0 else index, reason, int(progress[2]))
         self._stop_child()
-        return _ChildDied(index, reason)
+        return death
 
     def _exit_reason(self, process: Any) -> str:
         process.join(timeout=5)
@@ -519,7 +405,7 @@ class InferenceSandbox:
 
     def _stop_child(self) -> None:
         process, conn = self._process, self._conn
-        self._process = self._conn = None  # the units and routes of the dead child stay until the next start
+        self._process = self._conn = None
         if conn is not None:
             with contextlib.suppress(OSError):
                 conn.close()
@@ -527,16 +413,6 @@ class InferenceSandbox:
             if process.is_alive():
                 process.kill()
             process.join()
-
-
-@functools.lru_cache(maxsize=64)
-def _largest_batch(game_id: str) -> int:
-    return largest_batch(game_id)
-
-
-def _item(progress: Any) -> int | None:
-    index = int(progress[0])
-    return None if index < 0 else index
 
 
 def _game_spec(source: AgentSource) -> ActionSpec:
@@ -649,29 +525,35 @@ def _one_line(error: BaseException) -> str:
 
 
 class _Child:
-    """The child's side: loaded agents, their units, and the operations the parent asks for."""
+    """The child's side: the loaded agents and the operations the parent asks for."""
 
-    def __init__(self, progress: Any) -> None:
+    def __init__(self, progress: Any, emit: Callable[[Any], None] | None = None) -> None:
         self.progress = progress
+        self.emit = emit or (lambda payload: None)
         self.policies: dict[str, Policy] = {}
-        self.units: list[Any] = []
-        self.unit_keys: list[list[str]] = []
         self.baseline: dict[str, int] = {}  # agent -> the child's resident KiB before it was loaded
 
-    def _start(self, index: int) -> None:
+    def _mark(self, index: int, rows: int = 0) -> None:
         self.progress[0] = float(index)
+        self.progress[3] = float(rows)
         self.progress[1] = time.monotonic()
 
-    def load(self, items: list[tuple[str, AgentSource]], split: list[str]) -> tuple[str, Any]:
+    def _unmark(self) -> None:
+        self.progress[1] = 0.0
+
+    def tick(self) -> None:
+        """A task's step is done (the parent sees the counter move: progress)."""
+        self.progress[2] += 1.0
+
+    def load(self, items: list[tuple[str, AgentSource]]) -> tuple[dict[str, Any], dict[str, tuple[str, str]]]:
         from arena_league.policies.artifacts import load_agent
-        from arena_league.policies.families import PolicyGroup, stack_policies
         from arena_league.policies.spaces import game_action_spec
 
-        self.policies, self.units, self.unit_keys = {}, [], []  # the agents held before go first
+        self.policies = {}  # the agents held before go first
         infos: dict[str, dict[str, Any]] = {}
         errors: dict[str, tuple[str, str]] = {}
         for index, (key, source) in enumerate(items):
-            self._start(index)
+            self._mark(index)
             with contextlib.suppress(Exception):  # the game's modules belong to the runtime, not to the agent
                 game_action_spec(source.game_id, source.action_type)
             _reset_peak()
@@ -689,39 +571,60 @@ class _Child:
             infos[key] = {"spec": policy.spec, "recurrent": bool(policy.recurrent),
                           "state_shape": tuple(loaded.info.state_shape), "name": policy.name, "info": loaded.info,
                           "load_mib": max(0, _status_kib("VmHWM") - before) / 1024}
-        self.progress[1] = 0.0
-        keys = list(self.policies)
-        apart = set(split)
-        stackable = [k for k in keys if k not in apart]
-        self.units, self.unit_keys = [], []
-        for group in stack_policies([self.policies[k] for k in stackable]):
-            self.units.append(group)
-            self.unit_keys.append([stackable[m] for m in group.members])
-        for key in keys:
-            if key in apart:
-                self.units.append(PolicyGroup(self.policies[key], (0,)))
-                self.unit_keys.append([key])
-        return infos, errors, self.unit_keys
+        self._unmark()
+        return infos, errors
 
-    def act(self, calls: list[tuple]) -> list[tuple]:
-        answers = []
-        for index, (unit, obs, uniforms, owners, mask, state) in enumerate(calls):
-            self._start(index)
-            group = self.units[unit]
-            try:
-                actions, next_state = group.act(obs, uniforms, owners, mask, state)
-            except Exception as error:
-                answers.append(self._act_apart(unit, obs, uniforms, owners, mask, state, error))
-                continue
-            answers.append(self._checked(group, np.asarray(actions), next_state, owners))
-        self.progress[1] = 0.0
-        return answers
+    def run(self, task: Callable[..., Any], args: tuple) -> Any:
+        return task(self, self.emit, *args)
+
+    def call(self, key: str, operation: str, *args: Any) -> tuple[str, Any]:
+        """One operation of one agent (see :meth:`InferenceSandbox.call`): ``("ok", value)`` or
+        ``("error", reason)``."""
+        if operation == "measure":
+            return self.measure(key, *args)
+        self._mark(0, len(args[0]))
+        try:
+            if operation == "forward":
+                return "ok", self._forward(key, *args)
+            obs, uniforms, mask, state = args
+            actions, next_state, failures = self._checked(_Single(self.policies[key]), *self.policies[key].act(
+                obs, uniforms, mask, state), np.zeros(len(obs), np.int64))
+            return ("error", failures[0]) if failures else ("ok", (actions, next_state))
+        except Exception as error:
+            return "error", _one_line(error)
+        finally:
+            self._unmark()
+
+    def guarded(self, index: int, group: Any, obs: np.ndarray, uniforms: np.ndarray, owners: np.ndarray,
+                mask: np.ndarray | None, state: np.ndarray | None, *, limit: int | None = None
+                ) -> tuple[Any, Any, dict[int, str]]:
+        """One call of ``group`` (a stacked or single policy unit: ``.policy``, ``.stacked``,
+        ``.act(obs, uniforms, owners, mask, state)``), marked as call ``index`` while it runs, in
+        chunks of at most ``limit`` rows: ``(actions, next_state, failures)``, where failures names
+        the owners (positions in the unit) whose call failed (an error, invalid actions or state)
+        and why; their rows are not valid."""
+        n = len(obs)
+        if limit is not None and n > limit:
+            parts = [self.guarded(index, group, obs[i: i + limit], uniforms[i: i + limit], owners[i: i + limit],
+                                  None if mask is None else mask[i: i + limit],
+                                  None if state is None else state[i: i + limit]) for i in range(0, n, limit)]
+            return _joined(parts, n)
+        self._mark(index, n)
+        try:
+            actions, next_state = group.act(obs, uniforms, owners, mask, state)
+        except Exception as error:
+            answer = self._act_apart(group, obs, uniforms, owners, mask, state, error)
+        else:
+            answer = self._checked(group, np.asarray(actions), next_state, owners)
+        self._unmark()
+        return answer
 
     @staticmethod
-    def _checked(group: Any, actions: np.ndarray, next_state: Any, owners: np.ndarray) -> tuple:
+    def _checked(group: Any, actions: Any, next_state: Any, owners: np.ndarray) -> tuple:
         """The answer to a call, with the owners of invalid actions or states named as failed."""
         spec = group.policy.spec
         n = len(owners)
+        actions = np.asarray(actions)
         problem, bad = invalid_actions(spec, actions, n)
         errors: dict[int, str] = {}
         if problem is None and group.policy.recurrent:
@@ -740,11 +643,10 @@ class _Child:
                                                 f"{valid_actions_text(spec)}")
         return actions, next_state, errors
 
-    def _act_apart(self, unit: int, obs, uniforms, owners, mask, state, error: Exception) -> tuple:
-        """A failed call of a stacked unit, run member by member to find the failing members."""
+    def _act_apart(self, group: Any, obs, uniforms, owners, mask, state, error: Exception) -> tuple:
+        """A failed call of a stacked group, run member by member to find the failing members."""
         from arena_league.policies.families import PolicyGroup
 
-        group = self.units[unit]
         if not group.stacked:
             return None, None, {0: _one_line(error)}
         actions: Any = None
@@ -774,16 +676,6 @@ class _Child:
                 next_state[rows] = part_state
         return actions, next_state, errors
 
-    def forward(self, key: str, obs: np.ndarray, state: np.ndarray | None) -> tuple[str, Any]:
-        self._start(0)
-        try:
-            out, next_state = self._forward(key, obs, state)
-        except Exception as error:
-            return "error", _one_line(error)
-        finally:
-            self.progress[1] = 0.0
-        return "ok", (out, next_state)
-
     def _forward(self, key: str, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, Any]:
         policy = self.policies[key]
         forward = getattr(policy, "forward", None)
@@ -800,14 +692,14 @@ class _Child:
         before = _status_kib("VmRSS")
         try:
             for index in range(repeats):
-                self._start(index)
+                self._mark(index, len(obs))
                 tick = time.perf_counter()
                 self._forward(key, obs, state)
                 seconds.append(time.perf_counter() - tick)
         except Exception as error:
             return "error", _one_line(error)
         finally:
-            self.progress[1] = 0.0
+            self._unmark()
         peak = _status_kib("VmHWM") if exact else _status_kib("VmRSS")
         # memory the agent holds since before it was loaded, at the forwards' peak (what earlier calls
         # left in onnxruntime's arena included), and what these forwards added
@@ -833,6 +725,28 @@ def _warm_onnxruntime() -> None:
     session.run(None, {"x": np.zeros(1, np.float32)})
 
 
+class _Single:
+    """One policy as a unit of one member (what :meth:`_Child._checked` reads)."""
+
+    stacked = False
+
+    def __init__(self, policy: Policy) -> None:
+        self.policy = policy
+
+
+def _joined(parts: list[tuple[Any, Any, dict[int, str]]], n: int) -> tuple[Any, Any, dict[int, str]]:
+    """The answers of consecutive chunks of one call, as one answer of ``n`` rows."""
+    failures: dict[int, str] = {}
+    for _, _, errors in parts:
+        for owner, reason in errors.items():
+            failures.setdefault(owner, reason)
+    if any(actions is None for actions, _, _ in parts):
+        return None, None, failures
+    actions = np.concatenate([actions for actions, _, _ in parts])
+    states = [state for _, state, _ in parts]
+    return actions, (None if any(s is None for s in states) else np.concatenate(states)), failures
+
+
 def _child_main(conn: Any, progress: Any, limits: SandboxLimits) -> None:
     _confine(limits)
     import onnxruntime
@@ -841,8 +755,8 @@ def _child_main(conn: Any, progress: Any, limits: SandboxLimits) -> None:
     torch.set_num_threads(1)
     onnxruntime.set_default_logger_severity(4)  # failures come back as reasons, not as log lines
     _warm_onnxruntime()
-    child = _Child(progress)
-    operations = {"load": child.load, "act": child.act, "forward": child.forward, "measure": child.measure}
+    child = _Child(progress, lambda payload: conn.send(_Emitted(payload)))
+    operations = {"load": child.load, "call": child.call, "run": child.run}
     while True:
         try:
             message = conn.recv()
@@ -850,8 +764,8 @@ def _child_main(conn: Any, progress: Any, limits: SandboxLimits) -> None:
             return
         try:
             reply = operations[message[0]](*message[1:])
-        except MemoryError as error:  # outside any agent's own call: still answer, and name it
-            reply = ("error", _one_line(error))
+        except Exception:  # outside any agent's own call: a bug, or the runtime out of memory
+            reply = _Failed(traceback.format_exc())
         try:
             conn.send(reply)
         except (BrokenPipeError, OSError):
