@@ -105,3 +105,15 @@ def valid_actions_text(spec: ActionSpec) -> str:
     if spec.action_type == "discrete":
         return f"integers 0..{spec.n_actions - 1}"
     return f"{spec.act_dim} finite floats in [-1, 1]"
+
+
+def raw_outputs(policy: Policy, obs: np.ndarray, state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """A policy's raw outputs for ``obs`` as float64 (``logits`` or ``action`` of a learned policy,
+    through its ``forward``; a scripted one's actions, taken at the middle uniform) and its next state."""
+    forward = getattr(policy, "forward", None)
+    if forward is not None:
+        out, next_state = forward(obs, state)
+        return np.asarray(out, dtype=np.float64), next_state
+    uniforms = np.full((obs.shape[0], policy.spec.uniforms_per_seat), 0.5)
+    actions, next_state = policy.act(obs, uniforms, None, state)
+    return np.asarray(actions, dtype=np.float64).reshape(obs.shape[0], -1), next_state

@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from arena_league.policies import errors as artifact_errors
-from arena_league.policies.policy import ActionSpec, Policy, invalid_actions, valid_actions_text
+from arena_league.policies.policy import ActionSpec, Policy, invalid_actions, raw_outputs, valid_actions_text
 
 __all__ = [
     "ENGINE_BATCH_MATCHES",
@@ -677,14 +677,7 @@ class _Child:
         return actions, next_state, errors
 
     def _forward(self, key: str, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, Any]:
-        policy = self.policies[key]
-        forward = getattr(policy, "forward", None)
-        if forward is not None:
-            out, next_state = forward(obs, state)
-            return np.asarray(out, dtype=np.float64), next_state
-        uniforms = np.full((obs.shape[0], policy.spec.uniforms_per_seat), 0.5)
-        actions, next_state = policy.act(obs, uniforms, None, state)
-        return np.asarray(actions, dtype=np.float64).reshape(obs.shape[0], -1), next_state
+        return raw_outputs(self.policies[key], obs, state)
 
     def measure(self, key: str, obs: np.ndarray, state: np.ndarray | None, repeats: int) -> tuple[str, Any]:
         seconds = []

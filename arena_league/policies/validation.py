@@ -221,17 +221,6 @@ def _env_spec(env: Any, obs_dim: int) -> ActionSpec:
     return ActionSpec("continuous", obs_dim, act_dim=rules.act_dim)
 
 
-def _forward(policy: Policy, obs: np.ndarray, state: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
-    """Raw outputs of a learned policy; a scripted one's actions."""
-    forward = getattr(policy, "forward", None)
-    if forward is not None:
-        out, next_state = forward(obs, state)
-        return np.asarray(out, dtype=np.float64), next_state
-    uniforms = np.full((obs.shape[0], policy.spec.uniforms_per_seat), 0.5)
-    actions, next_state = policy.act(obs, uniforms, None, state)
-    return np.asarray(actions, dtype=np.float64).reshape(obs.shape[0], -1), next_state
-
-
 def _largest_batch_observations(real: np.ndarray, game_id: str, seed: int) -> np.ndarray:
     """Rows of real play, as many as the largest batch, each made its own by a little noise."""
     rows = largest_batch(game_id)
@@ -239,7 +228,7 @@ def _largest_batch_observations(real: np.ndarray, game_id: str, seed: int) -> np
     return (real[np.arange(rows) % len(real)] + noise).astype(np.float32)
 
 
-def _stage_probe(policy: Policy, info: AgentInfo, real: np.ndarray, big: np.ndarray, n_probes: int, seed: int,
+def _stage_probe(policy: SandboxedPolicy, info: AgentInfo, real: np.ndarray, big: np.ndarray, n_probes: int, seed: int,
                  log: Any) -> None:
     rng = np.random.default_rng(seed)
     obs_dim = info.obs_dim
@@ -250,7 +239,7 @@ def _stage_probe(policy: Policy, info: AgentInfo, real: np.ndarray, big: np.ndar
         "real (random play)": real,
         f"largest batch ({len(big)} rows of real play)": big,
     }
-    if getattr(policy, "forward", None) is None:
+    if info.kind == "scripted":
         output = "actions"
     else:
         output = "logits" if info.action_type == "discrete" else "action"
@@ -260,9 +249,9 @@ def _stage_probe(policy: Policy, info: AgentInfo, real: np.ndarray, big: np.ndar
         if state is not None:
             state = rng.standard_normal(state.shape).astype(np.float32) * 0.5 if label != "zeros" else state
         try:
-            out, next_state = _forward(policy, obs, state)
-            again, _ = _forward(policy, obs, state)
-            alone = [_forward(policy, obs[i: i + 1], state[i: i + 1] if state is not None else None)[0]
+            out, next_state = policy.forward(obs, state)
+            again, _ = policy.forward(obs, state)
+            alone = [policy.forward(obs[i: i + 1], state[i: i + 1] if state is not None else None)[0]
                      for i in range(min(n, 4))]
         except ForfeitError as error:
             raise _Rejected(f"on probe observations ({label}) it {error.reason}") from None
