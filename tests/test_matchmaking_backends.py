@@ -46,6 +46,14 @@ def test_process_pool_matches_in_process(league):
     assert sum("mlp-folder" in r.seats for r in results) == sum("mlp-onnx" in r.seats for r in results) == 6
 
 
+def test_sandboxed_agents_in_a_process_pool_match_in_process(league):
+    # each pool worker plays the submitted agents' matches in a sandbox child of its own
+    specs, agents, expected = league
+    sandboxed = {key: AgentRef(ref.kind, ref.name, ref.game_id, ref.action_type, sandboxed=ref.kind != "scripted")
+                 for key, ref in agents.items()}
+    assert play_matches(specs, sandboxed, backend="process", workers=2, chunk_size=5, batch_size=2) == expected
+
+
 def test_ray_matches_in_process(league):
     specs, agents, expected = league
     ray = pytest.importorskip("ray", reason="the ray backend needs Ray (pip install 'arena-league[ray]')")

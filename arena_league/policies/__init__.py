@@ -12,6 +12,8 @@ After Arena (Song et al., AAAI 2020), which ranks new agents against a base popu
 * :mod:`.artifacts`: reading artifacts safely (no pickle, TorchScript or .pt2), content
   addresses, arena-policy folders, :func:`load_agent`;
 * :mod:`.validation`: :func:`validate_submission`, ending in a match against copies of itself;
+* :mod:`.sandbox`: the inference sandbox, a child process with memory and time budgets in which
+  submitted agents are validated and play;
 * :mod:`.threads`: :func:`torch_threads`, torch's thread count for a block, restored after it.
 
 The names below load their module on first use, so that a part of the league that needs only a
@@ -43,6 +45,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "onnx_export": ("export_onnx",),
     "onnx_policy": ("OnnxPolicy", "PolicyOutputError"),
     "policy": ("ActionSpec", "Policy", "sample_from_logits"),
+    "sandbox": ("AgentSource", "ForfeitError", "InferenceSandbox", "SandboxLimits", "SandboxedPolicy", "largest_batch"),
     "scripted": ("SCRIPTED_NAMES", "scripted_descriptor", "scripted_policy"),
     "spaces": ("game_action_spec",),
     "threads": ("torch_threads",),
