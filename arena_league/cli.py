@@ -271,13 +271,22 @@ def cmd_matches(args: argparse.Namespace) -> int:
 
 def cmd_worker(args: argparse.Namespace) -> int:
     import logging
+    import signal
 
     from arena_league.league import run_worker
 
+    def stop(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt  # the worker hands its job back to the queue
+
+    signal.signal(signal.SIGTERM, stop)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s", stream=sys.stderr)
     with _league(args) as league:
-        summary = run_worker(league, worker_id=args.worker_id, lease_seconds=args.lease, poll_seconds=args.poll,
-                             max_jobs=args.max_jobs, until_idle=args.until_idle)
+        try:
+            summary = run_worker(league, worker_id=args.worker_id, lease_seconds=args.lease,
+                                 poll_seconds=args.poll, max_jobs=args.max_jobs, until_idle=args.until_idle)
+        except KeyboardInterrupt:
+            stderr.print("worker stopped; the job it was running went back to the queue")
+            return 130
     if args.json:
         emit_json(summary.to_dict())
     else:
@@ -480,6 +489,49 @@ def cmd_reinstate(args: argparse.Namespace) -> int:
     else:
         stdout.print(f"{document['name']} is active again; it has forfeited {document['matches_forfeited']} "
                      "match(es), and its next forfeit suspends it again")
+    return 0
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    from arena_league.web import serve
+
+    if args.no_worker and args.workers is not None:
+        raise CommandError("give --workers N or --no-worker, not both")
+    workers = 0 if args.no_worker else (1 if args.workers is None else args.workers)
+    stderr.print(f"serving the league at {args.home or '$ARENA_LEAGUE_HOME or ~/.arena-league'} on "
+                 f"http://{args.host}:{args.port} with {workers} job worker(s); Ctrl-C stops it")
+    serve(host=args.host, port=args.port, home=args.home, url=args.db, workers=workers)
+    return 0
+
+
+def cmd_token(args: argparse.Namespace) -> int:
+    from arena_league.league import create_token, list_tokens, revoke_token
+
+    with _league(args) as league:
+        if args.action == "create":
+            document = create_token(league, _required(args.target, "the token's OWNER"), admin=args.admin)
+            if args.json:
+                emit_json({"owner": document["owner"], "token": document["token"], "admin": document["admin"],
+                           "id": document["id"]})
+            else:
+                stdout.print(document["token"], highlight=False, soft_wrap=True)
+                stderr.print(f"token {document['id']} of {document['owner']}{' (admin)' if args.admin else ''}: shown "
+                             "this once (the league keeps only its hash); send it as `Authorization: Bearer TOKEN`")
+            return 0
+        if args.action == "revoke":
+            document = revoke_token(league, str(_required(args.target, "the token's id or OWNER")))
+            if args.json:
+                emit_json(document)
+            else:
+                stdout.print(f"revoked {document['revoked']} token(s) of {args.target}")
+            return 0
+        rows = list_tokens(league)
+    if args.json:
+        emit_json({"tokens": rows})
+    else:
+        _print_table("tokens", ("id", "owner", "admin", "starts", "created", "last used", "revoked"),
+                     [(str(r["id"]), r["owner"], "yes" if r["admin"] else "", r["prefix"] + "...", r["created_at"],
+                       r["last_used_at"] or "", r["revoked_at"] or "") for r in rows])
     return 0
 
 
@@ -713,6 +765,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("name", help="the agent's name")
     _league_options(p)
     p.set_defaults(func=cmd_agent)
+
+    p = command("serve", "the league as a web service: pages, JSON API, uploads, replays (FastAPI on uvicorn)")
+    p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=_positive_int, default=8000, help="port (default 8000)")
+    p.add_argument("--workers", type=_non_negative_int, default=None,
+                   help="job workers to run beside the server (default 1)")
+    p.add_argument("--no-worker", action="store_true",
+                   help="run no worker: jobs wait for `arena-league worker` processes started elsewhere")
+    _league_options(p)
+    p.set_defaults(func=cmd_serve)
+
+    p = command("token", "bearer tokens of the web service: create OWNER [--admin], list, revoke ID|OWNER")
+    p.add_argument("action", choices=("create", "list", "revoke"), nargs="?", default="list",
+                   help="create a token (shown once), list them, or revoke one (by id) or an owner's")
+    p.add_argument("target", nargs="?", default=None, help="create: the OWNER; revoke: the token's id or OWNER")
+    p.add_argument("--admin", action="store_true", help="create: an administrator's token")
+    _league_options(p)
+    p.set_defaults(func=cmd_token)
 
     p = command("reinstate", "make a suspended agent active again (its next forfeit suspends it again)")
     p.add_argument("name", help="the suspended agent's name")

@@ -6,7 +6,10 @@
 * :mod:`.populations`: populations per game, the game's default base, import and export;
 * :mod:`.agents` / :mod:`.jobs`: agents and jobs as a person looks them up; cancelling a job;
   reinstating a suspended agent;
-* :mod:`.settings`: the league's settings (the inference sandbox's budgets, suspension after forfeits);
+* :mod:`.settings`: the league's settings (the inference sandbox's budgets, suspension after forfeits,
+  upload limits);
+* :mod:`.tokens`, :mod:`.uploads`, :mod:`.views`, :mod:`.matches`: what the web service calls:
+  bearer tokens, uploads validated by a job, one JSON document per page, matches and their replays;
 * :mod:`.leaderboards` / :mod:`.report`: ratings tables with intervals, for a terminal, JSON and HTML;
 * :mod:`.schedules`: recurring evaluations, the scheduler and the worker;
 * :mod:`.first_league`: the whole workflow on the embedded default;
@@ -28,18 +31,19 @@ from arena_league import lazy_exports
 _EXPORTS: dict[str, tuple[str, ...]] = {
     "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent"),
     "catalog": ("game_rows", "verify_social_tree"),
-    "errors": ("USER_ERRORS",),
+    "errors": ("USER_ERRORS", "ForbiddenError", "NotFoundError", "RateLimitedError"),
     "first_league": ("QuickstartReport", "quickstart"),
     "gc": ("collect_garbage",),
     "home": ("did_you_mean", "open_home", "register_game", "short_name"),
     "human": ("play_human",),
     "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),
+    "matches": ("match_replay", "match_view", "queue_replay"),
     "leaderboards": ("Leaderboard", "render_terminal"),
     "populations": (
         "ensure_population", "export_population", "game_population", "import_population", "list_populations",
-        "shipped_population",
+        "queue_import", "shipped_population",
     ),
-    "replays": ("replay_summary",),
+    "replays": ("replay_document", "replay_summary"),
     "report": ("write_html_report",),
     "schedules": (
         "WorkerSummary", "add_evaluation_schedule", "list_schedules", "remove_schedule", "run_scheduler",
@@ -48,9 +52,13 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "service": (
         "LEAGUE_WIDE", "MATCH_IDS_PER_JOB", "EvaluationPlan", "EvaluationReport", "RankReport", "SubmitResult",
         "agent_ref", "agent_refs", "base_population", "ensure_scripted_agents", "evaluate", "evaluation_plan",
-        "job_handlers", "leaderboard", "queue_evaluation", "rank", "scripted_agent_name", "submit",
+        "job_handlers", "leaderboard", "queue_evaluation", "queue_rank", "rank", "scripted_agent_name", "submit",
     ),
     "settings": ("SETTINGS", "league_settings", "reset_setting", "sandbox_limits", "set_setting"),
+    "tokens": ("Identity", "authenticate", "create_token", "list_tokens", "revoke_token"),
+    "uploads": ("series_versions", "upload_agent", "upload_limits"),
+    "views": ("METHODS", "LeaderboardCache", "agent_log", "agent_view", "game_view", "games_view", "home_view",
+              "job_view"),
     "train": ("train_entrant",),
 }
 __getattr__, __dir__, __all__ = lazy_exports(__name__, _EXPORTS)

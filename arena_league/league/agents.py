@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from arena_league import registry as reg
+from arena_league.league.errors import NotFoundError
 from arena_league.league.home import did_you_mean
 from arena_league.registry import League
 
@@ -51,7 +52,7 @@ def require_agent(session: Any, name: str) -> reg.Agent:
     agent = reg.get_agent(session, name)
     if agent is None:
         every = [a.name for a in reg.list_agents(session)]
-        raise ValueError(f"there is no agent {name!r}.{did_you_mean(name, every)} See `arena-league agents`")
+        raise NotFoundError(f"there is no agent {name!r}.{did_you_mean(name, every)} See `arena-league agents`")
     return agent
 
 

@@ -2,7 +2,9 @@
 
 Front ends show these as one line (and an exit code, or an HTTP 4xx), never as a traceback:
 ``ValueError`` (a bad option or name), ``FileNotFoundError``, the registry's errors (an unknown
-agent, a duplicate name) and the artifact errors of a refused submission.
+agent, a duplicate name) and the artifact errors of a refused submission. Three of them say more
+to a web client: :class:`NotFoundError` (404), :class:`ForbiddenError` (403) and
+:class:`RateLimitedError` (429).
 """
 
 from __future__ import annotations
@@ -10,6 +12,19 @@ from __future__ import annotations
 from arena_league.policies.errors import ArtifactError
 from arena_league.registry.errors import RegistryError
 
-__all__ = ["USER_ERRORS"]
+__all__ = ["USER_ERRORS", "ForbiddenError", "NotFoundError", "RateLimitedError"]
+
+
+class NotFoundError(ValueError):
+    """What was asked for does not exist (or is not this caller's to see)."""
+
+
+class ForbiddenError(ValueError):
+    """The caller may not do this (another owner's agent, an administrator's task)."""
+
+
+class RateLimitedError(ValueError):
+    """The caller has done this too often lately; the message says when to try again."""
+
 
 USER_ERRORS: tuple[type[BaseException], ...] = (ValueError, FileNotFoundError, RegistryError, ArtifactError)

@@ -52,9 +52,11 @@ __all__ = [
     "export_population",
     "find_population",
     "game_population",
+    "handle_import",
     "import_population",
     "list_populations",
     "population_folder_address",
+    "queue_import",
     "require_population",
     "shipped_member_names",
     "shipped_population",
@@ -120,16 +122,17 @@ def shipped_population(game_id: str, name: str = "base-v1") -> Path | None:
     return folder if (folder / POPULATION_MANIFEST).is_file() else None
 
 
-def game_population(league: League, game_id: str) -> str | None:
+def game_population(league: League, game_id: str, *, import_shipped: bool = True) -> str | None:
     """``name:version`` of the population entrants of ``game_id`` are ranked against by default:
     the newest frozen population of the game in the league, else the shipped ``base-v1``
-    (imported now), else None."""
+    (imported now, unless ``import_shipped`` is False: importing validates every member, which a
+    web request must not do), else None."""
     with league.reading() as session:
         frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
         if frozen:
             newest = max(frozen, key=lambda p: (p.created_at, p.id))
             return f"{newest.name}:{newest.version}"
-    folder = shipped_population(game_id)
+    folder = shipped_population(game_id) if import_shipped else None
     return import_population(league, folder) if folder is not None else None
 
 
@@ -380,3 +383,22 @@ def export_population(league: League, population: str, destination: str | Path, 
                     "provenance": provenance, "members": members}
     (dest / POPULATION_MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
     return dest
+
+
+def queue_import(league: League, game_id: str, population: str = "base-v1") -> int:
+    """Queue the import of a population shipped with arena-league for ``game_id`` (its members are
+    validated: agent code, run by a worker, never by the caller); returns the job id."""
+    name, version = _parse_label(population)
+    if version is not None or shipped_population(game_id, name) is None:
+        raise ValueError(f"no population {population!r} is shipped for {game_id}; the shipped ones lie under "
+                         f"checkpoints/<game>/<name>/ (e.g. base-v1)")
+    register_game(league, game_id)
+    with league.transaction() as session:
+        return reg.enqueue(session, "import", {"game_id": game_id, "population": name}, priority=80).id
+
+
+def handle_import(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
+    """Job handler: import a shipped population (see :func:`queue_import`)."""
+    payload = ctx.job.payload
+    label, imported = ensure_population(ctx.league, payload["game_id"], payload["population"])
+    return {"game_id": payload["game_id"], "population": label, "imported": imported}

@@ -18,6 +18,7 @@ reason its owner sees, and the job goes on without it (its remaining matches are
 
 from __future__ import annotations
 
+import contextlib
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -200,13 +201,7 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     database error, a full disk) the file it stored is removed again.
     """
     from arena_league.league.settings import sandbox_limits
-    from arena_league.policies import (
-        CorruptArtifactError,
-        errors,
-        read_artifact,
-        validate_submission,
-        write_artifact,
-    )
+    from arena_league.policies import CorruptArtifactError, errors, read_artifact, validate_submission
 
     start = time.perf_counter()
     register_game(league, game_id)
@@ -228,19 +223,12 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     if isinstance(refusal, type) and issubclass(refusal, CorruptArtifactError):
         raise refusal(verdict.reason)  # unreadable (truncated, corrupt): refused, nothing stored
     status = "active" if verdict.ok else "rejected"
-    info = verdict.spec.as_dict() if verdict.spec else {}
-    meta = {**dict(metadata or {}), "artifact_kind": artifact.kind,
-            **({"action_type": info["action_type"]} if info.get("action_type") else {})}
-    fmt = "onnx" if artifact.kind == "onnx" else "arena-policy"
     try:
-        with tempfile.TemporaryDirectory() as scratch, league.transaction() as session:
+        with league.transaction() as session:
             reg.refuse_taken_name(session, name)  # again under the write lock, before storing
-            # store the bytes that were validated, not the file as it may be by now; a failure below
-            # rolls the transaction back, and the store removes the file it placed in it
-            source = artifact.content if fmt == "onnx" else write_artifact(artifact, Path(scratch) / "agent")
-            stored = reg.store_artifact(session, league.home, source, fmt)
-            agent = reg.create_agent(session, name, game_id, kind, owner=owner, artifact_sha256=stored.sha256,
-                                     status="pending", metadata=meta)
+            sha256 = store_validated(session, league, artifact)
+            agent = reg.create_agent(session, name, game_id, kind, owner=owner, artifact_sha256=sha256,
+                                     status="pending", metadata=agent_metadata(metadata, artifact, verdict))
             reg.set_agent_status(session, agent, status, reason=verdict.reason, log=verdict.log)
     except ArtifactTakenError:
         # the same bytes were registered under another name meanwhile: answer as for a resubmission
@@ -250,6 +238,25 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
         return raced
     return SubmitResult(name, game_id, status, True, artifact.digest, verdict.reason, verdict.log,
                         time.perf_counter() - start, requested=name)
+
+
+def agent_metadata(metadata: Mapping[str, Any] | None, artifact: Any, verdict: Any) -> dict[str, Any]:
+    """What an agent's row keeps of its artifact and validation (its kind, the action type)."""
+    info = verdict.spec.as_dict() if verdict.spec else {}
+    return {**dict(metadata or {}), "artifact_kind": artifact.kind,
+            **({"action_type": info["action_type"]} if info.get("action_type") else {})}
+
+
+def store_validated(session: Any, league: League, artifact: Any) -> str:
+    """Store the bytes that were validated (not the file as it may be by now) in the league's
+    artifact store; returns their address. A failure later in the transaction rolls it back, and
+    the store removes the file it placed."""
+    from arena_league.policies import write_artifact
+
+    fmt = "onnx" if artifact.kind == "onnx" else "arena-policy"
+    with tempfile.TemporaryDirectory() as scratch:
+        source = artifact.content if fmt == "onnx" else write_artifact(artifact, Path(scratch) / "agent")
+        return reg.store_artifact(session, league.home, source, fmt).sha256
 
 
 # --- evaluation jobs -------------------------------------------------------------------------------
@@ -720,13 +727,51 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
     return RankReport(**reg.run_job_now(league, job_id, job_handlers(progress)))
 
 
+def queue_rank(league: League, agent: str, *, budget: int = 200, population: str | None = None, seed: int = 0,
+               target_half_width: float = 3.0) -> int:
+    """Queue a placement of ``agent`` against its game's base population (or ``population``, a
+    frozen one with ratings) for a worker; returns the job id. The job finds the base when it runs
+    (importing the shipped one on first use, which validates its members: agent code, never run in
+    the caller's request)."""
+    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 2:
+        raise ValueError(f"budget must be a whole number of matches, at least 2, not {budget!r}")
+    with league.reading() as session:
+        found = reg.get_agent(session, agent)
+        if found is None:
+            from arena_league.league.errors import NotFoundError
+
+            raise NotFoundError(f"there is no agent {agent!r}")
+        entrant = _active_agents(session, found.game_id, [agent])[0]
+        game_id = entrant.game_id
+    if game_spec(game_id).n_teams != 2:
+        raise ValueError(f"{game_id} has more than two teams; placement is for two-team games")
+    with league.transaction() as session:
+        return reg.enqueue(session, "rank", {"game_id": game_id, "agent": agent, "population": population,
+                                             "budget": int(budget), "target_half_width": float(target_half_width),
+                                             "seed": int(seed), "backend": "inprocess"}, priority=60).id
+
+
+def _resolve_base(ctx: reg.JobContext) -> dict[str, Any]:
+    """A queued placement's base population, found (and imported, the first time) when it runs and
+    kept in its payload, so that a retry places against the same base."""
+    p = ctx.job.payload
+    label, names, ratings = base_population(ctx.league, p["game_id"], p["agent"], p.get("population"))
+    if ratings is None:
+        raise ValueError(f"{label} has no frozen ratings to place {p['agent']} against; rank against the game's "
+                         "base population, or from the command line with --league-wide")
+    payload = {**p, "base": names, "base_label": label, "base_ratings": [float(r) for r in ratings]}
+    with ctx.league.transaction() as session:
+        set_job_payload(session, ctx.job, payload)
+    return payload
+
+
 def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[str, Any]:
     """Job handler: adaptive placement of an entrant (re-played from the start on a retry, which the
     engine's determinism makes exact and the match keys make idempotent)."""
     from arena_league.rating import AdaptivePlacement, nash_averaging
 
     start = time.perf_counter()
-    p = ctx.job.payload
+    p = ctx.job.payload if "base" in ctx.job.payload else _resolve_base(ctx)
     game_id, agent, names = p["game_id"], p["agent"], list(p["base"])
     with ctx.league.reading() as session:
         refs = agent_refs(session, ctx.league, _active_agents(session, game_id, [agent, *names]))
@@ -775,7 +820,7 @@ def _nash_of(rows: list[dict[str, Any]], agents: list[str], nash_averaging) -> t
 # --- leaderboards ----------------------------------------------------------------------------------
 
 def leaderboard(league: League, game_id: str, method: str = "bt", *, population: str | None = None,
-                rounds: int = 100, seed: int = 0, save: bool = True) -> Leaderboard:
+                rounds: int = 100, seed: int = 0, save: bool = True, import_shipped: bool = True) -> Leaderboard:
     """The leaderboard of ``game_id`` by ``method`` (bt, elo, openskill, nash or alpharank); its
     ratings are kept as a snapshot in the registry.
 
@@ -783,7 +828,8 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
 
     - None: with ``method="bt"``, the game's base population
       (:func:`~arena_league.league.populations.game_population`, which imports the shipped
-      ``base-v1`` on first use); with another method, or for a game without a base, every agent;
+      ``base-v1`` on first use unless ``import_shipped`` is False); with another method, or for a
+      game without a base, every agent;
     - ``"league"`` (:data:`LEAGUE_WIDE`): every agent of the game, re-rated from the stored matches;
     - ``name`` or ``name:version``: that population of the game.
 
@@ -800,7 +846,7 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
             raise ValueError(f"no matches of {game_id} in this league yet; play some with "
                              f"`arena-league evaluate {game_id}`")
     if population is None and method == "bt":
-        population = game_population(league, game_id)
+        population = game_population(league, game_id, import_shipped=import_shipped)
     scope = None if population in (None, LEAGUE_WIDE) else population
     with league.reading() as session:
         found = require_population(session, game_id, scope) if scope is not None else None
@@ -867,15 +913,44 @@ def _placements(session: Any, game_id: str, population: str, agents: set[str]) -
 
 # --- worker ----------------------------------------------------------------------------------------
 
+class _JobProgress:
+    """A job's progress callback: the caller's (a progress bar) and, at most every
+    :data:`PROGRESS_EVERY` seconds and at the end, the job's row, where any web server sees it."""
+
+    def __init__(self, ctx: reg.JobContext, progress: Progress | None) -> None:
+        self.ctx = ctx
+        self.progress = progress
+        self.written = 0.0
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.progress is not None:
+            self.progress(done, total)
+        now = time.monotonic()
+        if now - self.written >= PROGRESS_EVERY or done >= total:
+            self.written = now
+            with contextlib.suppress(reg.LeaseLostError):  # the job's own checks stop it
+                reg.set_job_progress(self.ctx.league, self.ctx.job, {"done": int(done), "total": int(total)})
+
+
+#: Seconds between two writes of a running job's progress to its row.
+PROGRESS_EVERY = 0.5
+
+
 def job_handlers(progress: Progress | None = None) -> dict[str, Callable[[reg.JobContext], Any]]:
-    """The job kinds a league worker runs."""
+    """The job kinds a league worker runs: evaluations, placements, uploads to validate, replays
+    to record, shipped populations to import."""
+    from arena_league.league.matches import handle_replay
+    from arena_league.league.populations import handle_import
+    from arena_league.league.uploads import handle_validate
     from arena_league.policies.threads import torch_threads
 
     def on_one_thread(handler: Callable[[reg.JobContext, Progress | None], Any]) -> Callable[[reg.JobContext], Any]:
         # a job runs many tiny batched forwards: one thread beats OpenMP's hand-offs
         def run(ctx: reg.JobContext) -> Any:
             with torch_threads(1):
-                return handler(ctx, progress)
+                return handler(ctx, _JobProgress(ctx, progress))
         return run
 
-    return {"evaluate": on_one_thread(handle_evaluate), "rank": on_one_thread(handle_rank)}
+    return {"evaluate": on_one_thread(handle_evaluate), "rank": on_one_thread(handle_rank),
+            "validate": on_one_thread(handle_validate), "replay": on_one_thread(handle_replay),
+            "import": on_one_thread(handle_import)}

@@ -63,6 +63,10 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
                      "plus a forward at the largest batch; over it, the submission is rejected"),
     Setting("forfeits.suspend_after", int, 3, 1, 10**6, "forfeits after which an agent is suspended (it plays no "
             "more until an operator makes it active again)"),
+    Setting("web.upload_mib", int, 300, 1, 1 << 16, "the most an upload to the web service may hold (MiB); the "
+            "artifact's own limits apply as well"),
+    Setting("web.uploads_per_hour", int, 30, 1, 10**6, "uploads one owner may make to the web service in an hour "
+            "(administrators are not limited)"),
 )}
 
 

@@ -52,6 +52,7 @@ from arena_league.registry.jobs import (
     renew_lease,
     run_job_now,
     run_worker,
+    set_job_progress,
 )
 from arena_league.registry.models import (
     Agent,
@@ -70,6 +71,7 @@ from arena_league.registry.models import (
     RatingEntry,
     RatingSnapshot,
     Schedule,
+    Token,
 )
 from arena_league.registry.repository import (
     MatchRecord,
@@ -78,6 +80,8 @@ from arena_league.registry.repository import (
     SeatResult,
     add_population_member,
     agent_forfeits,
+    attach_artifact,
+    count_agents_since,
     count_matches,
     create_agent,
     create_population,
@@ -88,6 +92,7 @@ from arena_league.registry.repository import (
     get_agent,
     get_game,
     get_match,
+    get_match_by_id,
     get_population,
     latest_rating_snapshot,
     list_agents,
@@ -101,7 +106,9 @@ from arena_league.registry.repository import (
     refuse_taken_name,
     require_agent,
     require_game,
+    series_agents,
     set_agent_status,
+    set_replay_path,
     write_rating_snapshot,
 )
 from arena_league.registry.schedules import (
@@ -115,6 +122,7 @@ from arena_league.registry.schedules import (
     tick,
 )
 from arena_league.registry.settings import delete_setting, read_settings, write_setting
+from arena_league.registry.tokens import create_token, find_token, list_tokens, revoke_tokens
 
 __all__ = [
     "Agent",
@@ -156,6 +164,7 @@ __all__ = [
     "SchemaOutOfDateError",
     "SchemaTooNewError",
     "SeatResult",
+    "Token",
     "UnknownAgentError",
     "UnknownGameError",
     "WorkerReport",
@@ -164,18 +173,22 @@ __all__ = [
     "agent_forfeits",
     "alembic_config",
     "artifact_path",
+    "attach_artifact",
     "cancel_job",
     "claim_job",
     "complete_job",
+    "count_agents_since",
     "count_matches",
     "create_agent",
     "create_population",
+    "create_token",
     "default_worker_id",
     "delete_setting",
     "enqueue",
     "ensure_game",
     "fail_job",
     "find_agents_by_artifact",
+    "find_token",
     "forfeit_counts",
     "freeze_population",
     "get_agent",
@@ -183,6 +196,7 @@ __all__ = [
     "get_game",
     "get_job",
     "get_match",
+    "get_match_by_id",
     "get_population",
     "get_schedule",
     "latest_rating_snapshot",
@@ -195,6 +209,7 @@ __all__ = [
     "list_matches",
     "list_populations",
     "list_schedules",
+    "list_tokens",
     "match_keys_of_job",
     "match_seat_rows",
     "next_run_after",
@@ -209,10 +224,14 @@ __all__ = [
     "renew_lease",
     "require_agent",
     "require_game",
+    "revoke_tokens",
     "run_job_now",
     "run_scheduler",
     "run_worker",
+    "series_agents",
     "set_agent_status",
+    "set_job_progress",
+    "set_replay_path",
     "set_schedule_enabled",
     "store_artifact",
     "tick",

@@ -332,6 +332,14 @@ def _cancel_held(league: League, job: ClaimedJob) -> None:
                        lease_owner=None, lease_expires_at=None)
 
 
+def set_job_progress(league: League, job: ClaimedJob, progress: Mapping[str, Any]) -> None:
+    """Note what a running job has done (JSON), for anyone watching it; raises LeaseLostError if the
+    lease is no longer held."""
+    _require_json(dict(progress), "job progress")
+    with league.transaction() as session:
+        _fenced_update(session, job, "report the progress of", progress=dict(progress))
+
+
 def set_job_payload(session: Session, job: ClaimedJob, payload: Mapping[str, Any]) -> None:
     """Replace a held job's payload in the caller's transaction (e.g. with the plan its handler made,
     so a retry replays the same plan); raises LeaseLostError if the lease is no longer held."""

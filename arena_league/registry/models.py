@@ -277,6 +277,8 @@ class Job(Base):
     run_after: Mapped[datetime] = mapped_column(default=utcnow)  # not claimed before this time
     result: Mapped[Any | None] = mapped_column(JSON(none_as_null=True))
     error: Mapped[str | None] = mapped_column(Text)
+    #: What a running job has done so far (``{"done": n, "total": m, ...}``), for live progress.
+    progress: Mapped[Any | None] = mapped_column(JSON(none_as_null=True))
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
     started_at: Mapped[datetime | None]
     finished_at: Mapped[datetime | None]
@@ -339,6 +341,24 @@ class MatchSeat(Base):
         CheckConstraint("seat >= 0 AND team >= 0", name="indices"),
         Index(None, "agent_id"),
     )
+
+
+class Token(Base):
+    """A bearer token of the web service: only its SHA-256 hash is kept, with its first characters
+    (to tell tokens apart), its owner and whether it is an administrator's."""
+
+    __tablename__ = "tokens"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    owner: Mapped[str] = mapped_column(String(128))
+    token_hash: Mapped[str] = mapped_column(String(64), unique=True)
+    prefix: Mapped[str] = mapped_column(String(16))
+    admin: Mapped[bool] = mapped_column(Boolean, default=False)
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+    last_used_at: Mapped[datetime | None] = mapped_column()
+    revoked_at: Mapped[datetime | None] = mapped_column()
+
+    __table_args__ = (Index(None, "owner"),)
 
 
 class Setting(Base):

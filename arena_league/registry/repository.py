@@ -253,7 +253,8 @@ def create_agent(
             bytes the second gets this error, naming the first).
         UnknownGameError: the game is not registered.
         InvalidRecordError: a malformed name, an unknown kind or status, or a base / submission /
-            trained agent without an artifact.
+            trained agent without an artifact (unless it is pending: a name reserved for an upload
+            that a job will validate and give its artifact, with `attach_artifact`).
     Nothing is stored when it raises.
     """
     if not AGENT_NAME_PATTERN.match(name):
@@ -263,7 +264,8 @@ def create_agent(
         )
     agent_kind = _parse(AgentKind, kind, "agent kind")
     agent_status = _parse(AgentStatus, status, "agent status")
-    if artifact_sha256 is None and agent_kind not in _KINDS_WITHOUT_ARTIFACT:
+    reserved = agent_status is AgentStatus.PENDING  # a name held for an upload being validated
+    if artifact_sha256 is None and agent_kind not in _KINDS_WITHOUT_ARTIFACT and not reserved:
         raise InvalidRecordError(
             f"a {agent_kind.value} agent needs an artifact; store it with store_artifact first"
         )
@@ -338,6 +340,36 @@ def list_agents(
     if kind is not None:
         query = query.where(Agent.kind == _parse(AgentKind, kind, "agent kind").value)
     return list(session.scalars(query))
+
+
+def attach_artifact(session: Session, agent: Agent, sha256: str) -> Agent:
+    """Give a pending agent (a reserved name) the artifact it was validated with.
+
+    Raises ArtifactTakenError when another agent of the game holds these bytes, InvalidRecordError
+    when the artifact is not stored or the agent already has one."""
+    if agent.artifact_sha256 is not None:
+        raise InvalidRecordError(f"agent {agent.name} already holds artifact {agent.artifact_sha256[:12]}")
+    if session.get(Artifact, sha256) is None:
+        raise InvalidRecordError(f"artifact {sha256[:12]} is not in the store; store it with store_artifact first")
+    _refuse_taken_artifact(session, agent.name, agent.game_id, sha256)
+    agent.artifact_sha256 = sha256
+    session.flush()
+    return agent
+
+
+def series_agents(session: Session, series: str) -> list[Agent]:
+    """The versions of a name: the agent ``series`` itself (version 1) and ``series:v2``,
+    ``series:v3``, ..., in version order."""
+    pattern = re.compile(rf"^{re.escape(series)}:v([0-9]+)$")
+    found = session.scalars(select(Agent).where(or_(Agent.name == series, Agent.name.like(f"{series}:v%")))).all()
+    versions = [(1, a) for a in found if a.name == series]
+    versions += [(int(m.group(1)), a) for a in found if (m := pattern.match(a.name))]
+    return [a for _, a in sorted(versions, key=lambda pair: pair[0])]
+
+
+def count_agents_since(session: Session, owner: str, since: Any) -> int:
+    """Agents ``owner`` registered at or after ``since`` (a UTC datetime): uploads, for rate limits."""
+    return int(session.scalar(select(func.count(Agent.id)).where(Agent.owner == owner, Agent.created_at >= since)))
 
 
 def find_agents_by_artifact(session: Session, sha256: str, *, game_id: str | None = None) -> list[Agent]:
@@ -614,6 +646,21 @@ def get_match(session: Session, match_key: str) -> Match | None:
     return session.scalars(
         select(Match).where(Match.match_key == match_key).options(selectinload(Match.seats))
     ).one_or_none()
+
+
+def get_match_by_id(session: Session, match_id: int) -> Match | None:
+    """The match with this row id, seats and their agents loaded, or None."""
+    return session.scalars(
+        select(Match).where(Match.id == match_id)
+        .options(selectinload(Match.seats).selectinload(MatchSeat.agent))
+    ).one_or_none()
+
+
+def set_replay_path(session: Session, match: Match, path: str) -> Match:
+    """Note the replay recorded for a stored match."""
+    match.replay_path = path
+    session.flush()
+    return match
 
 
 def list_matches(

@@ -1,0 +1,114 @@
+"""One stored match: what it was, and its replay, recorded again on demand.
+
+A match a job played is stored with its seed and seats (key ``job:<job>:<match id>``); with the
+league seed of its job that is its whole spec, and a match's result depends on nothing else. So
+any such match can be watched even if nobody recorded it: :func:`queue_replay` queues a
+``replay`` job that plays it again with a recorder (in a worker, with its submitted agents in the
+sandbox, never in a web request), checks that it ends exactly as stored, and keeps the replay.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+from arena_league import registry as reg
+from arena_league.league.errors import NotFoundError
+from arena_league.registry import League
+
+__all__ = ["handle_replay", "match_replay", "match_view", "queue_replay"]
+
+_JOB_MATCH_KEY = re.compile(r"^job:(?P<job>[0-9]+):(?P<match>[0-9]+)$")
+
+
+def _match(session: Any, match_id: int) -> reg.Match:
+    match = reg.get_match_by_id(session, match_id)
+    if match is None:
+        raise NotFoundError(f"there is no match {match_id}")
+    return match
+
+
+def match_view(league: League, match_id: int) -> dict[str, Any]:
+    """A stored match: game, seed, job, seats (agent, team, score, outcome, forfeit), each team's
+    result, and whether a replay is recorded or can be."""
+    with league.reading() as session:
+        match = _match(session, match_id)
+        seats = [{"seat": s.seat, "agent": s.agent.name, "team": s.team, "score": s.score, "outcome": s.outcome,
+                  "position": s.position, "forfeit": s.forfeit} for s in sorted(match.seats, key=lambda s: s.seat)]
+        view = {"id": match.id, "key": match.match_key, "game_id": match.game_id, "seed": match.seed,
+                "job": match.job_id, "created_at": match.created_at.isoformat(timespec="seconds"),
+                "seats": seats, "replay": bool(match.replay_path) and Path(match.replay_path).is_file(),
+                "replayable": _JOB_MATCH_KEY.match(match.match_key) is not None}
+    teams: dict[int, dict[str, Any]] = {}
+    for seat in seats:
+        team = teams.setdefault(seat["team"], {"team": seat["team"], "agents": [], "outcome": seat["outcome"],
+                                               "score": seat["score"]})
+        if seat["agent"] not in team["agents"]:
+            team["agents"].append(seat["agent"])
+    view["teams"] = [teams[t] for t in sorted(teams)]
+    return view
+
+
+def match_replay(league: League, match_id: int) -> dict[str, Any]:
+    """The replay document of a match (see :func:`arena_league.league.replays.replay_document`);
+    :class:`NotFoundError` when none is recorded yet."""
+    from arena_league.league.replays import replay_document
+
+    with league.reading() as session:
+        match = _match(session, match_id)
+        path = match.replay_path
+    if not path or not Path(path).is_file():
+        raise NotFoundError(f"match {match_id} has no recorded replay yet; POST /api/matches/{match_id}/replay "
+                            "queues a job that records it")
+    return replay_document(path)
+
+
+def queue_replay(league: League, match_id: int) -> int:
+    """Queue the recording of a stored match's replay (see the module docstring); the job id."""
+    with league.transaction() as session:
+        match = _match(session, match_id)
+        if not _JOB_MATCH_KEY.match(match.match_key):
+            raise ValueError(f"match {match_id} ({match.match_key}) was not played by a league job, so it cannot "
+                             "be played again; only matches of evaluations and placements have replays on demand")
+        return reg.enqueue(session, "replay", {"match": match.id, "game_id": match.game_id}, priority=70).id
+
+
+def handle_replay(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
+    """Job handler: play a stored match again with a recorder and keep the replay, if it ends as
+    stored (else the job fails, naming the difference)."""
+    from arena_league.league.service import agent_refs, match_key
+    from arena_league.matchmaking import MatchSpec, play_matches
+    from arena_league.replay import ReplayRecording
+
+    match_id = int(ctx.job.payload["match"])
+    with ctx.league.reading() as session:
+        match = _match(session, match_id)
+        key = _JOB_MATCH_KEY.match(match.match_key)
+        job = reg.get_job(session, int(key["job"]))
+        if job is None:
+            raise ValueError(f"match {match_id}'s job {key['job']} is gone; its league seed is unknown")
+        seats = sorted(match.seats, key=lambda s: s.seat)
+        agents = list({s.agent.name: s.agent for s in seats}.values())
+        refs = agent_refs(session, ctx.league, agents)
+        spec = MatchSpec(int(key["match"]), match.game_id, tuple(s.agent.name for s in seats),
+                         int((job.payload or {}).get("seed", 0)))
+        stored = [(s.score, s.outcome) for s in seats]
+        stored_key, game_id = match.match_key, match.game_id
+    if spec.seed != int(match.seed) or match_key(int(key["job"]), spec.match_id) != stored_key:
+        raise ValueError(f"match {match_id} cannot be rebuilt from its job: its seed differs")
+    folder = Path(ctx.league.home) / "replays" / game_id
+    folder.mkdir(parents=True, exist_ok=True)
+    ctx.heartbeat()
+    from arena_league.league.settings import sandbox_limits
+
+    [result] = play_matches([spec], refs, recording=ReplayRecording(folder), heartbeat=ctx.heartbeat,
+                            sandbox_limits=sandbox_limits(ctx.league))
+    replayed = list(zip(result.scores, result.outcomes))
+    if replayed != stored:
+        Path(result.replay_path).unlink(missing_ok=True)
+        raise ValueError(f"match {match_id} played again ended {replayed}, not {stored} as stored; an agent or "
+                         "the game's rules changed since (its replay is not kept)")
+    with ctx.league.transaction() as session:
+        reg.set_replay_path(session, _match(session, match_id), str(result.replay_path))
+    return {"match": match_id, "replay": True, "steps": result.steps}

@@ -1,0 +1,212 @@
+"""Agents uploaded through the web service: staged, named as versions, validated in a job.
+
+An upload is a set of files: one ONNX file (with its ``.onnx.data`` beside it when torch wrote
+one), or the files of an arena-policy folder (``manifest.json``, ``weights.safetensors``, and
+optionally ``README.md``). :func:`upload_agent` checks the request (the game, the name, who owns
+it, the uploader's rate), writes the files under the league home's ``uploads/`` (names checked,
+sizes counted), reserves the agent's name as a *pending* agent and queues a ``validate`` job; it
+answers at once. The job (:func:`handle_validate`) validates the files in the inference sandbox,
+as ``arena-league submit`` does, stores the bytes and makes the agent active, or rejects it with
+the reason and the log its owner can read. Agent code never runs in the request.
+
+A name is a series of immutable versions owned by whoever uploaded its first: ``alice`` is
+version 1, new bytes uploaded as ``alice`` by the same owner become ``alice:v2``, ``alice:v3``...
+(:func:`series_versions`); anyone else uploading as ``alice`` is refused.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import uuid
+from collections.abc import Iterable
+from datetime import timedelta
+from pathlib import Path
+from typing import Any, BinaryIO
+
+from arena_league import registry as reg
+from arena_league.league.errors import ForbiddenError, NotFoundError, RateLimitedError
+from arena_league.league.home import register_game
+from arena_league.league.tokens import Identity
+from arena_league.registry import League
+from arena_league.registry.errors import NameTakenError
+from arena_league.registry.models import utcnow
+from arena_league.registry.repository import AGENT_NAME_PATTERN
+
+__all__ = ["UPLOADS", "handle_validate", "series_of", "series_versions", "upload_agent", "upload_limits"]
+
+#: Folder of the league home where uploads wait for their validation job.
+UPLOADS = "uploads"
+#: What an uploaded file may be called: no folders, no dot files.
+_FILE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
+_POLICY_FILES = {"manifest.json", "weights.safetensors", "README.md"}
+_VERSION = re.compile(r"^(?P<series>.+):v(?P<version>[0-9]+)$")
+_CHUNK = 1 << 20
+
+
+def series_of(name: str) -> tuple[str, int]:
+    """``alice:v3`` -> (``alice``, 3); ``alice`` -> (``alice``, 1)."""
+    found = _VERSION.match(name)
+    return (found["series"], int(found["version"])) if found else (name, 1)
+
+
+def series_versions(league: League, name: str) -> list[dict[str, Any]]:
+    """Every version of the series ``name`` belongs to: name, version, status, reason, created."""
+    series, _ = series_of(name)
+    with league.reading() as session:
+        return [{"name": a.name, "version": series_of(a.name)[1], "status": a.status, "reason": a.reject_reason,
+                 "created_at": a.created_at.isoformat(timespec="seconds")} for a in reg.series_agents(session, series)]
+
+
+def upload_limits(league: League) -> tuple[int, int]:
+    """(bytes an upload may hold, uploads an owner may make per hour), from the league's settings."""
+    from arena_league.league.settings import league_settings
+
+    settings = league_settings(league)
+    return int(settings["web.upload_mib"]["value"]) << 20, int(settings["web.uploads_per_hour"]["value"])
+
+
+def upload_agent(league: League, who: Identity, game_id: str, name: str,
+                 files: Iterable[tuple[str, BinaryIO]]) -> dict[str, Any]:
+    """Stage an upload and queue its validation (see the module docstring); returns
+    ``{"name", "version", "status": "pending", "job"}``.
+
+    Raises ``ValueError`` for a bad game, name or file set (nothing is kept), :class:`ForbiddenError`
+    when the name belongs to another owner, :class:`RateLimitedError` past the hourly limit."""
+    from arena_league.league.service import reserved_name_reason
+
+    register_game(league, game_id)
+    if ":" in name or not AGENT_NAME_PATTERN.match(name):
+        raise ValueError(f"agent name {name!r} is not allowed: use 1 to 128 letters, digits and . _ @ + -, "
+                         "starting with a letter or digit (versions are named for you: name:v2, name:v3 ...)")
+    reserved = reserved_name_reason(name)
+    if reserved is not None:
+        raise ForbiddenError(f"{reserved}; the name is reserved for the league. Upload under a name of your own")
+    limit_bytes, per_hour = upload_limits(league)
+    with league.reading() as session:
+        recent = reg.count_agents_since(session, who.owner, utcnow() - timedelta(hours=1))
+        existing = reg.series_agents(session, name)
+        if existing and existing[0].owner != who.owner:
+            raise ForbiddenError(f"the name {name} belongs to another submitter; upload under a name of your own")
+        if existing and existing[0].game_id != game_id:
+            raise ValueError(f"{name} plays {existing[0].game_id}, not {game_id}; upload {game_id} agents under "
+                             "another name")
+    if recent >= per_hour and not who.admin:
+        raise RateLimitedError(f"{who.owner} has uploaded {recent} agents in the last hour, the most this league "
+                               f"allows ({per_hour}, the setting web.uploads_per_hour); try again later")
+    staged = _stage(league, files, limit_bytes)
+    try:
+        agent, job_id = _reserve(league, who, game_id, name, staged)
+    except BaseException:
+        shutil.rmtree(staged.parent if staged.is_file() else staged, ignore_errors=True)
+        raise
+    return {"name": agent, "version": series_of(agent)[1], "status": "pending", "job": job_id}
+
+
+def _stage(league: League, files: Iterable[tuple[str, BinaryIO]], limit_bytes: int) -> Path:
+    """Write the files under ``uploads/<random>/``; returns the artifact's path there (the ONNX file,
+    or the folder of an arena-policy). Nothing stays when the files are refused."""
+    folder = Path(league.home) / UPLOADS / uuid.uuid4().hex
+    folder.mkdir(parents=True)
+    names: list[str] = []
+    total = 0
+    try:
+        for filename, stream in files:
+            base = filename or ""
+            if not _FILE_NAME.match(base) or base in names:  # no folder part, no dot file, once each
+                raise ValueError(f"file name {filename!r} is not allowed (or given twice): upload model.onnx "
+                                 "(with model.onnx.data) or manifest.json, weights.safetensors and README.md")
+            names.append(base)
+            with open(folder / base, "wb") as out:
+                while chunk := stream.read(_CHUNK):
+                    total += len(chunk)
+                    if total > limit_bytes:
+                        raise ValueError(f"the upload is over {limit_bytes >> 20} MiB, the most this league takes "
+                                         "(the setting web.upload_mib)")
+                    out.write(chunk)
+        onnx = [n for n in names if n.endswith(".onnx")]
+        if len(onnx) == 1 and set(names) <= {onnx[0], onnx[0] + ".data"}:
+            return folder / onnx[0]
+        if {"manifest.json", "weights.safetensors"} <= set(names) <= _POLICY_FILES:
+            return folder
+        raise ValueError(f"an upload is one .onnx file (with its .onnx.data when torch wrote one) or an "
+                         f"arena-policy folder's manifest.json and weights.safetensors (and README.md); got "
+                         f"{', '.join(names) or 'no file'}")
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+
+
+def _reserve(league: League, who: Identity, game_id: str, series: str, staged: Path) -> tuple[str, int]:
+    """Reserve the series' next version as a pending agent and queue its validation, in one
+    transaction (a concurrent upload of the same series takes the version after)."""
+    relative = staged.relative_to(Path(league.home)).as_posix()
+    for _ in range(5):
+        try:
+            with league.transaction() as session:
+                existing = reg.series_agents(session, series)
+                version = series_of(existing[-1].name)[1] + 1 if existing else 1
+                name = series if version == 1 else f"{series}:v{version}"
+                reg.create_agent(session, name, game_id, "submission", owner=who.owner, status="pending",
+                                 metadata={"series": series, "version": version, "upload": relative})
+                job = reg.enqueue(session, "validate", {"game_id": game_id, "agent": name, "upload": relative},
+                                  priority=50)
+                return name, job.id
+        except NameTakenError:
+            continue  # another upload took this version first
+    raise ValueError(f"could not reserve a version of {series}: too many uploads of it at once; try again")
+
+
+def handle_validate(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
+    """Job handler: validate an upload in the sandbox and make its pending agent active or rejected
+    (the reason and the log kept); the staged files are removed either way."""
+    from arena_league.league.service import agent_metadata, store_validated
+    from arena_league.league.settings import sandbox_limits
+    from arena_league.policies import ArtifactError, read_artifact, validate_submission
+
+    payload = ctx.job.payload
+    home = Path(ctx.league.home)
+    staged = (home / payload["upload"]).resolve()
+    if home.resolve() / UPLOADS not in staged.parents:
+        raise ValueError(f"job {ctx.job.id}: upload path {payload['upload']!r} is outside the league's uploads")
+    with ctx.league.reading() as session:
+        agent = reg.get_agent(session, payload["agent"])
+        if agent is None:
+            raise NotFoundError(f"agent {payload['agent']} is gone")
+        if agent.status != "pending":  # a retried job whose first attempt finished
+            return {"agent": agent.name, "status": agent.status, "reason": agent.reject_reason}
+    ctx.heartbeat()
+    try:
+        try:
+            artifact = read_artifact(staged)
+        except (ArtifactError, OSError) as error:
+            return _settle(ctx.league, payload["agent"], "rejected", str(error), f"[read] {error}\n")
+        with ctx.league.reading() as session:
+            twin = next(iter(reg.find_agents_by_artifact(session, artifact.digest, game_id=payload["game_id"])), None)
+        if twin is not None:
+            reason = f"these bytes are already agent {twin.name}; upload new bytes to make a new version"
+            return _settle(ctx.league, payload["agent"], "rejected", reason, f"[read] {reason}\n")
+        if progress is not None:
+            progress(0, 1)
+        verdict = validate_submission(artifact, payload["game_id"], sandbox_limits=sandbox_limits(ctx.league))
+        ctx.heartbeat()
+        if progress is not None:
+            progress(1, 1)
+        status = "active" if verdict.ok else "rejected"
+        with ctx.league.transaction() as session:
+            row = reg.require_agent(session, payload["agent"])
+            if verdict.error is None or verdict.ok:  # read and loaded: keep the bytes that were judged
+                reg.attach_artifact(session, row, store_validated(session, ctx.league, artifact))
+            kept = {k: v for k, v in (row.meta or {}).items() if k != "upload"}  # its files are removed below
+            row.meta = {**agent_metadata(kept, artifact, verdict), "digest": artifact.digest}
+            reg.set_agent_status(session, row, status, reason=verdict.reason, log=verdict.log)
+        return {"agent": payload["agent"], "status": status, "reason": verdict.reason,
+                "seconds": round(verdict.seconds, 3), "size": verdict.size}
+    finally:
+        shutil.rmtree(staged.parent if staged.is_file() else staged, ignore_errors=True)
+
+
+def _settle(league: League, name: str, status: str, reason: str, log: str) -> dict[str, Any]:
+    with league.transaction() as session:
+        reg.set_agent_status(session, reg.require_agent(session, name), status, reason=reason, log=log)
+    return {"agent": name, "status": status, "reason": reason}

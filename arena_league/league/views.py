@@ -1,0 +1,282 @@
+"""What the web service shows, as plain JSON-ready documents: one function per page.
+
+Each page of ``arena-league serve`` renders one of these documents, and its ``.json`` twin returns
+it as it is, so a page never knows more than its JSON. They read the registry only: nothing here
+runs agent code or imports a population (a board of a game whose shipped base is not imported yet
+is the league-wide one until a job imports it).
+
+Leaderboards are the expensive part (a bootstrap over every stored match), so
+:class:`LeaderboardCache` keeps each board computed once per state of the league: a board is
+computed again only when the game's matches, agents or placements changed (one small query tells).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from arena_league import registry as reg
+from arena_league.envs import game_spec, list_games
+from arena_league.league.agents import agent_detail
+from arena_league.league.errors import NotFoundError
+from arena_league.league.home import short_name
+from arena_league.league.tokens import Identity
+from arena_league.league.uploads import series_versions
+from arena_league.registry import League
+
+__all__ = ["METHODS", "LeaderboardCache", "agent_log", "agent_view", "game_view", "games_view", "home_view",
+           "job_view"]
+
+#: Rating methods a board can be shown by.
+METHODS = ("bt", "elo", "openskill", "nash", "alpharank")
+#: Agents in a game page's win-rate heatmap.
+HEATMAP_AGENTS = 12
+_SORTS = {"rank": ("position", False), "rating": ("rating", True), "name": ("agent", False),
+          "matches": ("matches", True), "win_rate": ("win_rate", True)}
+
+
+def _stamp(moment: Any) -> str | None:
+    return moment.isoformat(timespec="seconds") if moment is not None else None
+
+
+def _require_game(game_id: str) -> None:
+    if game_id not in list_games():
+        raise NotFoundError(f"there is no game {game_id!r}; the games are listed at /api/games")
+
+
+# --- games and the home page -------------------------------------------------------------------
+
+def games_view(league: League) -> list[dict[str, Any]]:
+    """Every game: id, layout, whether a base population is shipped and whether it is imported."""
+    from arena_league.league.populations import shipped_population
+
+    with league.reading() as session:
+        frozen = {}
+        for population in reg.list_populations(session):
+            if population.frozen:
+                frozen.setdefault(population.game_id, []).append(
+                    {"population": f"{population.name}:{population.version}", "members": len(population.members)})
+    rows = []
+    for game_id in list_games():
+        spec = game_spec(game_id)
+        rows.append({"game_id": game_id, "teams": spec.n_teams, "players_per_team": spec.players_per_team,
+                     "action_types": list(spec.rules.action_types), "summary": spec.rules.summary,
+                     "base_shipped": shipped_population(game_id) is not None,
+                     "base_imported": frozen.get(game_id, [])})
+    return rows
+
+
+def home_view(league: League, *, latest: int = 12) -> dict[str, Any]:
+    """The games, their base populations, and the latest submissions."""
+    with league.reading() as session:
+        agents = reg.list_agents(session, kind="submission")[-latest:]
+        submissions = [{"name": a.name, "game_id": a.game_id, "owner": a.owner, "status": a.status,
+                        "reason": a.reject_reason, "created_at": _stamp(a.created_at)} for a in reversed(agents)]
+        counts: dict[str, int] = {}
+        for agent in reg.list_agents(session):
+            counts[agent.game_id] = counts.get(agent.game_id, 0) + 1
+    games = games_view(league)
+    for game in games:
+        game["agents"] = counts.get(game["game_id"], 0)
+    return {"games": games, "latest_submissions": submissions}
+
+
+# --- leaderboards ----------------------------------------------------------------------------------
+
+class LeaderboardCache:
+    """Leaderboards computed once per state of their game (see the module docstring). Thread-safe:
+    concurrent requests for one stale board wait for a single computation."""
+
+    def __init__(self) -> None:
+        self._boards: dict[tuple, tuple[tuple, dict[str, Any]]] = {}
+        self._locks: dict[tuple, threading.Lock] = {}
+        self._guard = threading.Lock()
+        #: Boards computed so far (for tests and logs).
+        self.computed = 0
+
+    def board(self, league: League, game_id: str, method: str = "bt") -> dict[str, Any]:
+        """The ``leaderboard --json`` document of ``game_id`` by ``method``."""
+        from arena_league.league.service import leaderboard
+
+        if method not in METHODS:
+            raise ValueError(f"unknown rating method {method!r}; one of {', '.join(METHODS)}")
+        _require_game(game_id)
+        key = (league.url, game_id, method)
+        state = self._state(league, game_id)
+        cached = self._boards.get(key)
+        if cached is not None and cached[0] == state:
+            return cached[1]
+        with self._guard:
+            lock = self._locks.setdefault(key, threading.Lock())
+        with lock:
+            cached = self._boards.get(key)
+            if cached is not None and cached[0] == state:
+                return cached[1]
+            if state[0] is None:  # no match of the game yet
+                document = {"game_id": game_id, "method": method, "rows": [], "n_matches": 0, "n_agents": 0,
+                            "population": None, "basis": "matches", "rating_label": "rating", "level": 0.95}
+            else:
+                document = leaderboard(league, game_id, method, import_shipped=False).to_dict()
+            self.computed += 1
+            self._boards[key] = (state, document)
+            return document
+
+    @staticmethod
+    def _state(league: League, game_id: str) -> tuple:
+        """What a board depends on: the game's newest match, its agents and their statuses, the
+        newest finished placement and the frozen populations."""
+        from sqlalchemy import func, select
+
+        with league.reading() as session:
+            newest_match = session.scalar(select(func.max(reg.Match.id)).where(reg.Match.game_id == game_id))
+            agents = tuple(session.execute(
+                select(reg.Agent.status, func.count(reg.Agent.id), func.max(reg.Agent.id))
+                .where(reg.Agent.game_id == game_id).group_by(reg.Agent.status).order_by(reg.Agent.status)).all())
+            placed = session.scalar(select(func.max(reg.Job.id)).where(reg.Job.kind == "rank",
+                                                                       reg.Job.status == "done"))
+            frozen = session.scalar(select(func.count(reg.Population.id)).where(
+                reg.Population.game_id == game_id, reg.Population.frozen.is_(True)))
+        return newest_match, agents, placed, frozen
+
+
+def game_view(league: League, cache: LeaderboardCache, game_id: str, *, method: str = "bt",
+              kind: str | None = None, owner: str | None = None, sort: str | None = None,
+              viewer: Identity | None = None) -> dict[str, Any]:
+    """A game's page: its board by ``method`` (rows filtered by ``kind`` and ``owner``, sorted by
+    ``sort``), the viewer's own agents marked, the scale of the interval bars, and the win-rate
+    heatmap of the top agents."""
+    board = cache.board(league, game_id, method)
+    with league.reading() as session:
+        owners = {a.name: a.owner for a in reg.list_agents(session, game_id=game_id)}
+    rows = []
+    for row in board["rows"]:
+        rows.append({**{k: row.get(k) for k in ("agent", "kind", "status", "rank", "rank_worst", "rating", "lower",
+                                                "upper", "matches", "win_rate", "percentile", "position")},
+                     "short": short_name(row["agent"], game_id), "owner": owners.get(row["agent"]),
+                     "mine": viewer is not None and owners.get(row["agent"]) == viewer.owner})
+    kinds = sorted({r["kind"] for r in rows if r["kind"]})
+    listed_owners = sorted({r["owner"] for r in rows if r["owner"]})
+    shown = [r for r in rows if (kind is None or r["kind"] == kind) and (owner is None or r["owner"] == owner)]
+    if sort is not None:
+        if sort not in _SORTS:
+            raise ValueError(f"unknown sort {sort!r}; one of {', '.join(_SORTS)}")
+        field, descending = _SORTS[sort]
+        rated = [r for r in shown if r[field] is not None]
+        rated.sort(key=lambda r: r[field], reverse=descending)
+        shown = rated + [r for r in shown if r[field] is None]
+    values = [v for r in rows for v in (r["lower"], r["upper"], r["rating"]) if v is not None]
+    scale = [min(values), max(values)] if values else [0.0, 1.0]
+    return {"game_id": game_id, "method": method, "methods": list(METHODS), "basis": board.get("basis"),
+            "population": board.get("population"), "rating_label": board.get("rating_label"),
+            "level": board.get("level"), "n_matches": board.get("n_matches"), "n_agents": len(rows),
+            "filters": {"kind": kind, "owner": owner, "sort": sort, "kinds": kinds, "owners": listed_owners},
+            "scale": scale, "rows": shown, "heatmap": _heatmap(league, game_id, board, rows)}
+
+
+def _heatmap(league: League, game_id: str, board: dict[str, Any], rows: Sequence[dict[str, Any]]
+             ) -> dict[str, Any]:
+    """Pairwise win rates (share of points, draws half) among the board's top rated agents."""
+    top = [r["agent"] for r in rows if r["rating"] is not None][:HEATMAP_AGENTS]
+    if len(top) < 2:
+        return {"agents": top, "short": [short_name(a, game_id) for a in top], "win_rate": [], "games": []}
+    if board.get("win_rate") is not None:
+        index = {name: i for i, name in enumerate(board["agents"])}
+        picks = [index[a] for a in top if a in index]
+        rate = np.asarray(board["win_rate"], dtype=float)[np.ix_(picks, picks)]
+        games = np.asarray(board["games"], dtype=float)[np.ix_(picks, picks)]
+    else:
+        from arena_league.league.leaderboards import outcome_table
+
+        with league.reading() as session:
+            seat_rows = reg.match_seat_rows(session, game_id, agents=top)
+        rate = np.full((len(top), len(top)), np.nan)
+        games = np.zeros((len(top), len(top)))
+        if seat_rows:
+            counts = outcome_table(seat_rows).pair_counts()
+            table_index = {name: i for i, name in enumerate(counts.agents)}
+            mine = [i for i, a in enumerate(top) if a in table_index]
+            picks = [table_index[top[i]] for i in mine]
+            wins, draws = counts.wins[np.ix_(picks, picks)], counts.draws[np.ix_(picks, picks)]
+            played = wins + wins.T + draws
+            with np.errstate(invalid="ignore", divide="ignore"):
+                share = np.where(played > 0, (wins + 0.5 * draws) / played, np.nan)
+            rate[np.ix_(mine, mine)], games[np.ix_(mine, mine)] = share, played
+    plain = [[None if not np.isfinite(v) else round(float(v), 4) for v in line] for line in rate]
+    return {"agents": top, "short": [short_name(a, game_id) for a in top], "win_rate": plain,
+            "games": [[int(v) for v in line] for line in np.nan_to_num(games)]}
+
+
+# --- agents -----------------------------------------------------------------------------------------
+
+def _agent(session: Any, name: str) -> reg.Agent:
+    agent = reg.get_agent(session, name)
+    if agent is None:
+        raise NotFoundError(f"there is no agent {name!r}")
+    return agent
+
+
+def agent_view(league: League, name: str, *, viewer: Identity | None = None) -> dict[str, Any]:
+    """An agent's page: its record, its versions, its placements (newest first), its win rate
+    against each member of the base it was last placed against, its recent matches; the validation
+    log and the forfeits only for its owner and administrators."""
+    detail = agent_detail(league, name)
+    private = viewer is not None and viewer.may_manage(detail["owner"])
+    with league.reading() as session:
+        agent = _agent(session, name)
+        recent = reg.list_matches(session, agent.game_id, agent_id=agent.id)[-10:]
+        matches = [{"id": m.id, "key": m.match_key, "created_at": _stamp(m.created_at), "replay": bool(m.replay_path),
+                    "seats": [{"agent": s.agent.name, "team": s.team, "outcome": s.outcome, "forfeit": s.forfeit}
+                              for s in m.seats]} for m in reversed(recent)]
+        frozen = {m.agent.name: (m.meta or {}).get("rating") for p in reg.list_populations(session, game_id=agent.game_id)
+                  if p.frozen for m in p.members}
+    latest = detail["placements"][0] if detail["placements"] else None
+    against = []
+    if latest:
+        for opponent, record in (latest.get("opponents") or {}).items():
+            against.append({"agent": opponent, "short": short_name(opponent, agent.game_id),
+                            "rating": frozen.get(opponent), "matches": record["matches"],
+                            "win_rate": record["score"] / record["matches"] if record["matches"] else None})
+        against.sort(key=lambda r: (r["rating"] is None, r["rating"] or 0.0))
+    view = {key: detail[key] for key in ("name", "game_id", "kind", "status", "owner", "created_at", "reason",
+                                         "matches_played", "matches_forfeited", "populations")}
+    view.update(versions=series_versions(league, name), placements=detail["placements"], against=against,
+                recent_matches=matches, private=private, mine=viewer is not None and viewer.owner == detail["owner"])
+    if private:
+        view.update(validation_log=detail["validation_log"], forfeits=detail["forfeits"])
+    return view
+
+
+def agent_log(league: League, name: str, viewer: Identity | None) -> dict[str, Any]:
+    """The validation log and forfeits of ``name``, for its owner and administrators; anyone else
+    gets :class:`NotFoundError`, as if there were none."""
+    detail = agent_detail(league, name)
+    if viewer is None or not viewer.may_manage(detail["owner"]):
+        raise NotFoundError(f"there is no log of {name!r} for you: an agent's log is its owner's")
+    return {"name": name, "status": detail["status"], "reason": detail["reason"],
+            "validation_log": detail["validation_log"], "forfeits": detail["forfeits"],
+            "matches_forfeited": detail["matches_forfeited"]}
+
+
+# --- jobs ---------------------------------------------------------------------------------------------
+
+def job_view(league: League, job_id: int) -> dict[str, Any]:
+    """A job as a page shows it: state, progress, result (the error's last line when it failed)."""
+    from arena_league.league.jobs import job_detail
+
+    try:
+        detail = job_detail(league, job_id)
+    except ValueError:
+        raise NotFoundError(f"there is no job {job_id}") from None
+    with league.reading() as session:
+        progress = reg.get_job(session, job_id).progress
+    error = (detail["error"] or "").strip().splitlines()
+    payload = detail["payload"] or {}
+    return {"id": detail["id"], "kind": detail["kind"], "state": detail["status"], "progress": progress,
+            "result": detail["result"], "error": error[-1] if error else None, "what": detail["what"],
+            "game_id": detail["game_id"], "agent": payload.get("agent"), "attempts": detail["attempts"],
+            "created_at": detail["created_at"], "started_at": detail["started_at"],
+            "finished_at": detail["finished_at"], "matches_stored": detail["matches_stored"],
+            "finished": detail["status"] in ("done", "failed", "cancelled")}

@@ -1,0 +1,217 @@
+"""The JSON API under ``/api``: games, leaderboards, agents and their uploads, placements, jobs and
+their live progress, matches and their replays, and an administrator's schedules and populations.
+
+Reads are open to anyone; every write needs a bearer token (:mod:`.auth`) and queues a job (agent
+code never runs in a request). Errors are ``{"detail": "..."}`` with 400 (bad input), 401 (no or a
+bad token), 403 (not yours), 404 (no such thing, or another owner's private data), 413 (an upload
+over the size limit) or 429 (too many uploads).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import time
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Body, Depends, File, Form, Query, Request, UploadFile
+from fastapi.responses import StreamingResponse
+from pydantic import BaseModel, Field
+
+from arena_league import league as ops
+from arena_league.league import Identity
+from arena_league.web.auth import optional_identity, required_identity
+
+__all__ = ["router"]
+
+router = APIRouter(prefix="/api")
+Viewer = Annotated[Identity | None, Depends(optional_identity)]
+Writer = Annotated[Identity, Depends(required_identity)]
+#: Longest a progress stream stays open.
+EVENTS_SECONDS = 3600.0
+_EVENTS_POLL = 0.5
+
+
+class Game(BaseModel):
+    game_id: str
+    teams: int
+    players_per_team: int
+    action_types: list[str]
+    summary: str
+    base_shipped: bool = Field(description="a base population of this game ships with arena-league")
+    base_imported: list[dict[str, Any]] = Field(description="the game's frozen populations in this league")
+
+
+class Queued(BaseModel):
+    job: int = Field(description="the queued job; follow it at /api/jobs/{job}")
+
+
+class Uploaded(BaseModel):
+    name: str = Field(description="the version's name: NAME for the first upload, NAME:vK after")
+    version: int
+    status: str = Field(description="pending until its validation job has run")
+    job: int
+
+
+class JobState(BaseModel):
+    id: int
+    kind: str
+    state: str = Field(description="queued, running, done, failed or cancelled")
+    progress: dict[str, Any] | None = Field(description="{'done': n, 'total': m} while it runs")
+    result: Any = None
+    error: str | None = None
+    what: str = ""
+    game_id: str | None = None
+    agent: str | None = None
+    finished: bool
+
+
+class RankRequest(BaseModel):
+    budget: int = Field(200, ge=2, le=5000, description="at most this many matches")
+    seed: int = Field(0, ge=0, le=2**31)
+
+
+class ScheduleRequest(BaseModel):
+    name: str = Field(min_length=1, max_length=128)
+    game: str
+    every: int | None = Field(None, ge=60, description="seconds between runs (or give cron)")
+    cron: str | None = Field(None, description="5 fields, UTC (or give every)")
+    matches_per_pair: int = Field(10, ge=1, le=1000)
+
+
+def _league(request: Request) -> Any:
+    return request.app.state.league
+
+
+def _admin(who: Identity) -> None:
+    if not who.admin:
+        raise ops.ForbiddenError("only an administrator's token may do this")
+
+
+@router.get("/me", summary="who the presented token belongs to")
+def me(who: Writer) -> dict[str, Any]:
+    return {"owner": who.owner, "admin": who.admin}
+
+
+@router.get("/games", response_model=list[Game], summary="every game, and its base populations")
+def games(request: Request) -> list[dict[str, Any]]:
+    return ops.games_view(_league(request))
+
+
+@router.get("/games/{game}/leaderboard", summary="the game's leaderboard (the `leaderboard --json` document)")
+def game_leaderboard(request: Request, game: str,
+                     method: Annotated[str, Query(pattern="^(bt|elo|openskill|nash|alpharank)$")] = "bt"
+                     ) -> dict[str, Any]:
+    return request.app.state.boards.board(_league(request), game, method)
+
+
+@router.post("/games/{game}/population", response_model=Queued, status_code=202,
+             summary="import the game's shipped base population (administrators)")
+def import_population(request: Request, game: str, who: Writer) -> dict[str, int]:
+    _admin(who)
+    return {"job": ops.queue_import(_league(request), game)}
+
+
+@router.post("/agents", response_model=Uploaded, status_code=202,
+             summary="upload an agent: one .onnx (with its .onnx.data), or an arena-policy folder's files")
+def upload(request: Request, who: Writer, game: Annotated[str, Form(description="the game id it plays")],
+           name: Annotated[str, Form(description="the agent's name (new bytes under it make NAME:v2 ...)")],
+           file: Annotated[list[UploadFile], File(description="model.onnx (+ model.onnx.data), or manifest.json "
+                                                               "+ weights.safetensors (+ README.md)")]
+           ) -> dict[str, Any]:
+    return ops.upload_agent(_league(request), who, game, name, [(f.filename or "", f.file) for f in file])
+
+
+@router.get("/agents/{name}", summary="an agent: status, reason, kind, owner, versions, placements")
+def agent(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
+    view = ops.agent_view(_league(request), name, viewer=viewer)
+    return {k: v for k, v in view.items() if k not in ("validation_log", "forfeits")}
+
+
+@router.get("/agents/{name}/log", summary="the validation log and forfeits (the owner and administrators)")
+def agent_log(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
+    return ops.agent_log(_league(request), name, viewer)
+
+
+@router.post("/agents/{name}/rank", response_model=Queued, status_code=202,
+             summary="queue a placement against the game's base population (the owner)")
+def rank(request: Request, name: str, who: Writer, options: Annotated[RankRequest | None, Body()] = None
+         ) -> dict[str, int]:
+    league = _league(request)
+    owner = ops.agent_view(league, name)["owner"]
+    if not who.may_manage(owner):
+        raise ops.ForbiddenError(f"{name} is not yours to rank")
+    options = options or RankRequest()
+    return {"job": ops.queue_rank(league, name, budget=options.budget, seed=options.seed)}
+
+
+@router.post("/agents/{name}/reinstate", summary="let a suspended agent play again (administrators)")
+def reinstate(request: Request, name: str, who: Writer) -> dict[str, Any]:
+    _admin(who)
+    return ops.reinstate_agent(_league(request), name)
+
+
+@router.get("/jobs/{job_id}", response_model=JobState, summary="a job's state, progress and result")
+def job(request: Request, job_id: int) -> dict[str, Any]:
+    return ops.job_view(_league(request), job_id)
+
+
+@router.get("/jobs/{job_id}/events", summary="a job's progress as server-sent events, until it ends",
+            response_class=StreamingResponse,
+            responses={200: {"content": {"text/event-stream": {}}, "description": "`progress` events, then `done`"}})
+async def job_events(request: Request, job_id: int) -> StreamingResponse:
+    league = _league(request)
+    first = await asyncio.to_thread(ops.job_view, league, job_id)  # 404 before the stream starts
+
+    async def events() -> Any:
+        view, last, started = first, None, time.monotonic()
+        while True:
+            state = (view["state"], json.dumps(view["progress"], sort_keys=True))
+            if state != last:
+                last = state
+                yield f"event: progress\ndata: {json.dumps(view)}\n\n"
+            if view["finished"]:
+                yield f"event: done\ndata: {json.dumps(view)}\n\n"
+                return
+            if await request.is_disconnected() or time.monotonic() - started > EVENTS_SECONDS:
+                return
+            await asyncio.sleep(_EVENTS_POLL)
+            view = await asyncio.to_thread(ops.job_view, league, job_id)
+
+    return StreamingResponse(events(), media_type="text/event-stream", headers={"Cache-Control": "no-cache"})
+
+
+@router.get("/matches/{match_id}", summary="a match: game, seats, outcome, whether it has a replay")
+def match(request: Request, match_id: int) -> dict[str, Any]:
+    return ops.match_view(_league(request), match_id)
+
+
+@router.get("/matches/{match_id}/replay", summary="the match's recorded replay, as frames of its top-down scene")
+def match_replay(request: Request, match_id: int) -> dict[str, Any]:
+    return ops.match_replay(_league(request), match_id)
+
+
+@router.post("/matches/{match_id}/replay", response_model=Queued, status_code=202,
+             summary="queue a job that plays the match again and records its replay")
+def record_replay(request: Request, match_id: int, who: Writer) -> dict[str, int]:
+    return {"job": ops.queue_replay(_league(request), match_id)}
+
+
+@router.get("/schedules", summary="recurring evaluations (administrators)")
+def schedules(request: Request, who: Writer) -> list[dict[str, Any]]:
+    _admin(who)
+    return ops.list_schedules(_league(request))
+
+
+@router.post("/schedules", status_code=201, summary="add a recurring evaluation (administrators)")
+def add_schedule(request: Request, who: Writer, schedule: ScheduleRequest) -> dict[str, Any]:
+    _admin(who)
+    return ops.add_evaluation_schedule(_league(request), schedule.name, schedule.game, every=schedule.every,
+                                       cron=schedule.cron, matches_per_pair=schedule.matches_per_pair)
+
+
+@router.delete("/schedules/{name}", summary="remove a recurring evaluation (administrators)")
+def remove_schedule(request: Request, name: str, who: Writer) -> dict[str, str]:
+    _admin(who)
+    ops.remove_schedule(_league(request), name)
+    return {"removed": name}

@@ -1,0 +1,196 @@
+"""The pages: server-rendered HTML, each with a ``.json`` twin that returns the document the page
+shows (:mod:`arena_league.league.views`). Reading needs no token; the forms that write (sign in,
+submit, rank, record a replay) use the sign-in cookie and answer with a redirect to the page that
+shows what happened (``303 See Other``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+from urllib.parse import urlparse
+
+from fastapi import APIRouter, Depends, File, Form, Query, Request, UploadFile
+from fastapi.responses import HTMLResponse, RedirectResponse
+from fastapi.templating import Jinja2Templates
+
+from arena_league import league as ops
+from arena_league.league import Identity
+from arena_league.web.auth import COOKIE, optional_identity
+
+__all__ = ["router", "templates"]
+
+router = APIRouter(include_in_schema=False)
+templates = Jinja2Templates(directory=str(Path(__file__).parent / "templates"))
+Viewer = Annotated[Identity | None, Depends(optional_identity)]
+Method = Annotated[str, Query(pattern="^(bt|elo|openskill|nash|alpharank)$")]
+
+
+def _league(request: Request) -> Any:
+    return request.app.state.league
+
+
+def _page(request: Request, template: str, view: Any, viewer: Identity | None, json_url: str, **extra: Any
+          ) -> HTMLResponse:
+    return templates.TemplateResponse(request, template, {"view": view, "viewer": viewer, "json_url": json_url,
+                                                          **extra})
+
+
+def _local(target: str) -> str:
+    """A redirect target on this site only (no scheme, no host: no open redirect)."""
+    parsed = urlparse(target or "/")
+    return parsed.path if not parsed.scheme and not parsed.netloc and parsed.path.startswith("/") else "/"
+
+
+def _seen(request: Request, query: dict[str, Any]) -> str:
+    pairs = "&".join(f"{k}={v}" for k, v in query.items() if v)
+    return f"{request.url.path}.json" + (f"?{pairs}" if pairs else "")
+
+
+def _signed_in(viewer: Identity | None, path: str) -> Identity | RedirectResponse:
+    return viewer if viewer is not None else RedirectResponse(f"/signin?next={path}", status_code=303)
+
+
+# --- home ---------------------------------------------------------------------------------------
+
+@router.get("/index.json")
+def home_json(request: Request) -> dict[str, Any]:
+    return ops.home_view(_league(request))
+
+
+@router.get("/", response_class=HTMLResponse)
+def home(request: Request, viewer: Viewer) -> HTMLResponse:
+    return _page(request, "index.html", ops.home_view(_league(request)), viewer, "/index.json")
+
+
+# --- games --------------------------------------------------------------------------------------
+
+def _game(request: Request, game: str, method: str, kind: str | None, owner: str | None, sort: str | None,
+          viewer: Identity | None) -> dict[str, Any]:
+    return ops.game_view(_league(request), request.app.state.boards, game, method=method, kind=kind or None,
+                         owner=owner or None, sort=sort or None, viewer=viewer)
+
+
+@router.get("/games/{game}.json")
+def game_json(request: Request, game: str, viewer: Viewer, method: Method = "bt", kind: str | None = None,
+              owner: str | None = None, sort: str | None = None) -> dict[str, Any]:
+    return _game(request, game, method, kind, owner, sort, viewer)
+
+
+@router.get("/games/{game}", response_class=HTMLResponse)
+def game_page(request: Request, game: str, viewer: Viewer, method: Method = "bt", kind: str | None = None,
+              owner: str | None = None, sort: str | None = None) -> HTMLResponse:
+    view = _game(request, game, method, kind, owner, sort, viewer)
+    return _page(request, "game.html", view, viewer,
+                 _seen(request, {"method": method, "kind": kind, "owner": owner, "sort": sort}))
+
+
+# --- agents -------------------------------------------------------------------------------------
+
+@router.get("/agents/{name}.json")
+def agent_json(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
+    return ops.agent_view(_league(request), name, viewer=viewer)
+
+
+@router.get("/agents/{name}", response_class=HTMLResponse)
+def agent_page(request: Request, name: str, viewer: Viewer) -> HTMLResponse:
+    return _page(request, "agent.html", ops.agent_view(_league(request), name, viewer=viewer), viewer,
+                 f"/agents/{name}.json")
+
+
+@router.post("/agents/{name}/rank")
+def rank(request: Request, name: str, viewer: Viewer) -> RedirectResponse:
+    who = _signed_in(viewer, f"/agents/{name}")
+    if isinstance(who, RedirectResponse):
+        return who
+    league = _league(request)
+    if not who.may_manage(ops.agent_view(league, name)["owner"]):
+        raise ops.ForbiddenError(f"{name} is not yours to rank")
+    return RedirectResponse(f"/jobs/{ops.queue_rank(league, name)}", status_code=303)
+
+
+# --- matches ------------------------------------------------------------------------------------
+
+@router.get("/matches/{match_id}.json")
+def match_json(request: Request, match_id: int) -> dict[str, Any]:
+    return ops.match_view(_league(request), match_id)
+
+
+@router.get("/matches/{match_id}", response_class=HTMLResponse)
+def match_page(request: Request, match_id: int, viewer: Viewer) -> HTMLResponse:
+    return _page(request, "match.html", ops.match_view(_league(request), match_id), viewer,
+                 f"/matches/{match_id}.json")
+
+
+@router.post("/matches/{match_id}/replay")
+def record_replay(request: Request, match_id: int, viewer: Viewer) -> RedirectResponse:
+    who = _signed_in(viewer, f"/matches/{match_id}")
+    if isinstance(who, RedirectResponse):
+        return who
+    return RedirectResponse(f"/jobs/{ops.queue_replay(_league(request), match_id)}", status_code=303)
+
+
+# --- jobs ---------------------------------------------------------------------------------------
+
+@router.get("/jobs/{job_id}.json")
+def job_json(request: Request, job_id: int) -> dict[str, Any]:
+    return ops.job_view(_league(request), job_id)
+
+
+@router.get("/jobs/{job_id}", response_class=HTMLResponse)
+def job_page(request: Request, job_id: int, viewer: Viewer) -> HTMLResponse:
+    return _page(request, "job.html", ops.job_view(_league(request), job_id), viewer, f"/jobs/{job_id}.json")
+
+
+# --- submitting, signing in ---------------------------------------------------------------------
+
+def _submit_page(request: Request, viewer: Identity | None, **extra: Any) -> HTMLResponse:
+    games = [g["game_id"] for g in ops.games_view(_league(request))]
+    return _page(request, "submit.html", None, viewer, "/api/games", games=games, **extra)
+
+
+@router.get("/submit", response_class=HTMLResponse)
+def submit_form(request: Request, viewer: Viewer) -> HTMLResponse:
+    return _submit_page(request, viewer)
+
+
+@router.post("/submit", response_model=None)
+def submit(request: Request, viewer: Viewer, game: Annotated[str, Form()], name: Annotated[str, Form()],
+           file: Annotated[list[UploadFile], File()]) -> RedirectResponse | HTMLResponse:
+    who = _signed_in(viewer, "/submit")
+    if isinstance(who, RedirectResponse):
+        return who
+    try:
+        queued = ops.upload_agent(_league(request), who, game, name, [(f.filename or "", f.file) for f in file])
+    except ops.USER_ERRORS as error:
+        response = _submit_page(request, viewer, error=str(error), game=game, name=name)
+        response.status_code = 403 if isinstance(error, ops.ForbiddenError) else \
+            429 if isinstance(error, ops.RateLimitedError) else 400
+        return response
+    return RedirectResponse(f"/jobs/{queued['job']}", status_code=303)
+
+
+@router.get("/signin", response_class=HTMLResponse)
+def signin_form(request: Request, viewer: Viewer, next: str = "/") -> HTMLResponse:
+    return _page(request, "signin.html", None, viewer, "/api/games", next=_local(next))
+
+
+@router.post("/signin", response_model=None)
+def signin(request: Request, token: Annotated[str, Form()], next: Annotated[str, Form()] = "/"
+           ) -> RedirectResponse | HTMLResponse:
+    identity = ops.authenticate(_league(request), token.strip())
+    if identity is None:
+        response = _page(request, "signin.html", None, None, "/api/games", next=_local(next),
+                         error="this token is not valid (unknown or revoked)")
+        response.status_code = 401
+        return response
+    response = RedirectResponse(_local(next), status_code=303)
+    response.set_cookie(COOKIE, token.strip(), httponly=True, samesite="strict", secure=request.url.scheme == "https",
+                        max_age=30 * 24 * 3600)
+    return response
+
+
+@router.post("/signout")
+def signout() -> RedirectResponse:
+    response = RedirectResponse("/", status_code=303)
+    response.delete_cookie(COOKIE)
+    return response

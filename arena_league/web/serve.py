@@ -1,0 +1,25 @@
+"""Running the web service: uvicorn on one application (:func:`serve`, ``arena-league serve``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["serve"]
+
+
+def serve(*, host: str = "127.0.0.1", port: int = 8000, home: str | Path | None = None, url: str | None = None,
+          workers: int = 1) -> None:
+    """Serve the league at ``home`` / ``url`` on ``host:port`` until interrupted, with ``workers``
+    job workers beside it (0: jobs wait for ``arena-league worker`` processes started elsewhere).
+    One log line per request goes to stderr (the application's own, which names who asked; uvicorn's
+    access log is off)."""
+    import logging
+    import sys
+
+    import uvicorn
+
+    from arena_league.web.app import create_app
+
+    logging.basicConfig(level=logging.INFO, stream=sys.stderr, format="%(asctime)s %(name)s %(message)s")
+    app = create_app(home, url, workers=workers)
+    uvicorn.run(app, host=host, port=port, access_log=False, log_level="info")
