@@ -44,6 +44,16 @@ def upload(server: Server, token: str | None, name: str, files, game: str = GAME
         return client.post("/api/agents", data={"game": game, "name": name}, files=files)
 
 
+def board_with(client: httpx.Client, agent: str) -> dict:
+    """The game's board once it lists ``agent`` placed (a served board may be a second behind)."""
+    deadline = time.monotonic() + 10
+    while True:
+        board = client.get(f"/api/games/{GAME}/leaderboard").json()
+        if any(r["agent"] == agent and r["status"] == "placed" for r in board["rows"]) or time.monotonic() > deadline:
+            return board
+        time.sleep(0.2)
+
+
 def test_pages_and_their_json_twins_are_served_to_anyone(server):
     with server.client() as client:
         games = client.get("/api/games").json()
@@ -171,7 +181,7 @@ def test_a_placement_is_queued_streams_its_progress_and_lands_on_the_board(serve
     assert events[0] == "progress" and events[-1] == "done" and final["state"] == "done", final
     assert final["result"]["base"] == "base-v1:1" and final["result"]["matches"] > 0
     with server.client() as client:
-        board = client.get(f"/api/games/{GAME}/leaderboard").json()
+        board = board_with(client, "climber")
         page = client.get(f"/games/{GAME}.json").json()
     row = next(r for r in board["rows"] if r["agent"] == "climber")
     assert board["population"] == "base-v1:1" and row["status"] == "placed" and row["rating"] is not None

@@ -12,7 +12,9 @@ computed again only when the game's matches, agents or placements changed (one s
 
 from __future__ import annotations
 
+import json
 import threading
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -87,11 +89,18 @@ def home_view(league: League, *, latest: int = 12) -> dict[str, Any]:
 # --- leaderboards ----------------------------------------------------------------------------------
 
 class LeaderboardCache:
-    """Leaderboards computed once per state of their game (see the module docstring). Thread-safe:
-    concurrent requests for one stale board wait for a single computation."""
+    """Leaderboards computed once per state of their game (see the module docstring). Thread-safe.
 
-    def __init__(self) -> None:
+    The state is looked up at most every ``check_every`` seconds per board (so a board may be that
+    much behind the registry); when it changed, one request computes the board again while the
+    others are served the board as it was (stale while it is revalidated), so readers never queue
+    behind a computation, except for the very first one of a board."""
+
+    def __init__(self, check_every: float = 1.0) -> None:
+        self.check_every = check_every
         self._boards: dict[tuple, tuple[tuple, dict[str, Any]]] = {}
+        self._checked: dict[tuple, float] = {}
+        self._encoded: dict[tuple, tuple[int, bytes]] = {}
         self._locks: dict[tuple, threading.Lock] = {}
         self._guard = threading.Lock()
         #: Boards computed so far (for tests and logs).
@@ -99,30 +108,52 @@ class LeaderboardCache:
 
     def board(self, league: League, game_id: str, method: str = "bt") -> dict[str, Any]:
         """The ``leaderboard --json`` document of ``game_id`` by ``method``."""
-        from arena_league.league.service import leaderboard
-
         if method not in METHODS:
             raise ValueError(f"unknown rating method {method!r}; one of {', '.join(METHODS)}")
         _require_game(game_id)
         key = (league.url, game_id, method)
-        state = self._state(league, game_id)
         cached = self._boards.get(key)
+        if cached is not None and time.monotonic() - self._checked.get(key, 0.0) < self.check_every:
+            return cached[1]
+        state = self._state(league, game_id)
+        self._checked[key] = time.monotonic()
         if cached is not None and cached[0] == state:
             return cached[1]
         with self._guard:
             lock = self._locks.setdefault(key, threading.Lock())
-        with lock:
+        if cached is not None and not lock.acquire(blocking=False):
+            return cached[1]  # another request is computing the new board: this one gets the last
+        if cached is None:
+            lock.acquire()
+        try:
             cached = self._boards.get(key)
             if cached is not None and cached[0] == state:
                 return cached[1]
-            if state[0] is None:  # no match of the game yet
-                document = {"game_id": game_id, "method": method, "rows": [], "n_matches": 0, "n_agents": 0,
-                            "population": None, "basis": "matches", "rating_label": "rating", "level": 0.95}
-            else:
-                document = leaderboard(league, game_id, method, import_shipped=False).to_dict()
-            self.computed += 1
+            document = self._compute(league, game_id, method, state)
             self._boards[key] = (state, document)
             return document
+        finally:
+            lock.release()
+
+    def _compute(self, league: League, game_id: str, method: str, state: tuple) -> dict[str, Any]:
+        from arena_league.league.service import leaderboard
+
+        self.computed += 1
+        if state[0] is None:  # no match of the game yet
+            return {"game_id": game_id, "method": method, "rows": [], "n_matches": 0, "n_agents": 0,
+                    "population": None, "basis": "matches", "rating_label": "rating", "level": 0.95}
+        return leaderboard(league, game_id, method, import_shipped=False).to_dict()
+
+    def board_json(self, league: League, game_id: str, method: str = "bt") -> bytes:
+        """The board of :meth:`board` as JSON bytes, encoded once per computed board (a board of a
+        thousand agents takes longer to encode than to look up)."""
+        document = self.board(league, game_id, method)
+        key = (league.url, game_id, method)
+        encoded = self._encoded.get(key)
+        if encoded is None or encoded[0] != id(document):
+            encoded = (id(document), json.dumps(document, separators=(",", ":"), allow_nan=False).encode())
+            self._encoded[key] = encoded
+        return encoded[1]
 
     @staticmethod
     def _state(league: League, game_id: str) -> tuple:

@@ -14,8 +14,8 @@ import json
 import time
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Body, Depends, File, Form, Query, Request, UploadFile
-from fastapi.responses import StreamingResponse
+from fastapi import APIRouter, Body, Depends, File, Form, Path, Query, Request, UploadFile
+from fastapi.responses import Response, StreamingResponse
 from pydantic import BaseModel, Field
 
 from arena_league import league as ops
@@ -24,9 +24,23 @@ from arena_league.web.auth import optional_identity, required_identity
 
 __all__ = ["router"]
 
-router = APIRouter(prefix="/api")
+class Error(BaseModel):
+    detail: str = Field(description="what went wrong, and the fix, in one line")
+
+
+#: Every error the API answers, documented with its one-line body.
+ERRORS: dict[int | str, dict[str, Any]] = {
+    status: {"model": Error, "description": text} for status, text in (
+        (400, "bad input (a bad name, game or file set)"), (401, "no token, or an unknown or revoked one"),
+        (403, "another owner's agent, or an administrator's task"),
+        (404, "no such thing, or another owner's private data"), (413, "an upload over the size limit"),
+        (422, "a request that does not fit this schema"), (429, "too many uploads lately"))}
+
+router = APIRouter(prefix="/api", responses=ERRORS)
 Viewer = Annotated[Identity | None, Depends(optional_identity)]
 Writer = Annotated[Identity, Depends(required_identity)]
+#: A row id: the database's 64-bit integers.
+RowId = Annotated[int, Path(ge=1, le=2**63 - 1, description="a row id")]
 #: Longest a progress stream stays open.
 EVENTS_SECONDS = 3600.0
 _EVENTS_POLL = 0.5
@@ -98,11 +112,15 @@ def games(request: Request) -> list[dict[str, Any]]:
     return ops.games_view(_league(request))
 
 
-@router.get("/games/{game}/leaderboard", summary="the game's leaderboard (the `leaderboard --json` document)")
+@router.get("/games/{game}/leaderboard", summary="the game's leaderboard (the `leaderboard --json` document)",
+            response_class=Response, responses={200: {"content": {"application/json": {"schema": {"type": "object"}}},
+                                                      "description": "the board: rows with rating and rank intervals"}})
 def game_leaderboard(request: Request, game: str,
                      method: Annotated[str, Query(pattern="^(bt|elo|openskill|nash|alpharank)$")] = "bt"
-                     ) -> dict[str, Any]:
-    return request.app.state.boards.board(_league(request), game, method)
+                     ) -> Response:
+    # computed once per state of the game, encoded once: a cached board is bytes off the shelf
+    return Response(request.app.state.boards.board_json(_league(request), game, method),
+                    media_type="application/json")
 
 
 @router.post("/games/{game}/population", response_model=Queued, status_code=202,
@@ -152,14 +170,14 @@ def reinstate(request: Request, name: str, who: Writer) -> dict[str, Any]:
 
 
 @router.get("/jobs/{job_id}", response_model=JobState, summary="a job's state, progress and result")
-def job(request: Request, job_id: int) -> dict[str, Any]:
+def job(request: Request, job_id: RowId) -> dict[str, Any]:
     return ops.job_view(_league(request), job_id)
 
 
 @router.get("/jobs/{job_id}/events", summary="a job's progress as server-sent events, until it ends",
             response_class=StreamingResponse,
             responses={200: {"content": {"text/event-stream": {}}, "description": "`progress` events, then `done`"}})
-async def job_events(request: Request, job_id: int) -> StreamingResponse:
+async def job_events(request: Request, job_id: RowId) -> StreamingResponse:
     league = _league(request)
     first = await asyncio.to_thread(ops.job_view, league, job_id)  # 404 before the stream starts
 
@@ -182,18 +200,18 @@ async def job_events(request: Request, job_id: int) -> StreamingResponse:
 
 
 @router.get("/matches/{match_id}", summary="a match: game, seats, outcome, whether it has a replay")
-def match(request: Request, match_id: int) -> dict[str, Any]:
+def match(request: Request, match_id: RowId) -> dict[str, Any]:
     return ops.match_view(_league(request), match_id)
 
 
 @router.get("/matches/{match_id}/replay", summary="the match's recorded replay, as frames of its top-down scene")
-def match_replay(request: Request, match_id: int) -> dict[str, Any]:
+def match_replay(request: Request, match_id: RowId) -> dict[str, Any]:
     return ops.match_replay(_league(request), match_id)
 
 
 @router.post("/matches/{match_id}/replay", response_model=Queued, status_code=202,
              summary="queue a job that plays the match again and records its replay")
-def record_replay(request: Request, match_id: int, who: Writer) -> dict[str, int]:
+def record_replay(request: Request, match_id: RowId, who: Writer) -> dict[str, int]:
     return {"job": ops.queue_replay(_league(request), match_id)}
 
 

@@ -99,6 +99,21 @@ async def _no_body() -> dict:
     return {"type": "http.disconnect"}
 
 
+def _openapi(app: FastAPI) -> dict[str, Any]:
+    """The OpenAPI document, with FastAPI's validation error (a list) replaced by this API's one-line
+    ``{"detail": ...}``, which every error answers with."""
+    if app.openapi_schema is None:
+        from fastapi.openapi.utils import get_openapi
+
+        document = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
+        schemas = document.get("components", {}).get("schemas", {})
+        schemas["HTTPValidationError"] = {"title": "HTTPValidationError", "type": "object", "required": ["detail"],
+                                          "properties": {"detail": {"type": "string", "title": "Detail"}}}
+        schemas.pop("ValidationError", None)
+        app.openapi_schema = document
+    return app.openapi_schema
+
+
 def create_app(home: str | Path | None = None, url: str | None = None, *, workers: int = 0) -> FastAPI:
     """The web service of the league at ``home`` / ``url`` (``ARENA_LEAGUE_HOME``,
     ``ARENA_LEAGUE_DB``, default ``~/.arena-league``), with ``workers`` job workers beside it."""
@@ -142,6 +157,7 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
     app.state.workers = processes
     app.include_router(api.router)
     app.include_router(pages.router)
+    app.openapi = lambda: _openapi(app)
     app.mount("/static", StaticFiles(directory=str(Path(__file__).parent / "static")), name="static")
 
     def upload_limit() -> int:

@@ -10,6 +10,7 @@ from typing import Annotated, Any
 from urllib.parse import urlparse
 
 from fastapi import APIRouter, Depends, File, Form, Query, Request, UploadFile
+from fastapi import Path as PathParameter
 from fastapi.responses import HTMLResponse, RedirectResponse
 from fastapi.templating import Jinja2Templates
 
@@ -23,6 +24,7 @@ router = APIRouter(include_in_schema=False)
 templates = Jinja2Templates(directory=str(Path(__file__).parent / "templates"))
 Viewer = Annotated[Identity | None, Depends(optional_identity)]
 Method = Annotated[str, Query(pattern="^(bt|elo|openskill|nash|alpharank)$")]
+RowId = Annotated[int, PathParameter(ge=1, le=2**63 - 1)]
 
 
 def _league(request: Request) -> Any:
@@ -111,18 +113,18 @@ def rank(request: Request, name: str, viewer: Viewer) -> RedirectResponse:
 # --- matches ------------------------------------------------------------------------------------
 
 @router.get("/matches/{match_id}.json")
-def match_json(request: Request, match_id: int) -> dict[str, Any]:
+def match_json(request: Request, match_id: RowId) -> dict[str, Any]:
     return ops.match_view(_league(request), match_id)
 
 
 @router.get("/matches/{match_id}", response_class=HTMLResponse)
-def match_page(request: Request, match_id: int, viewer: Viewer) -> HTMLResponse:
+def match_page(request: Request, match_id: RowId, viewer: Viewer) -> HTMLResponse:
     return _page(request, "match.html", ops.match_view(_league(request), match_id), viewer,
                  f"/matches/{match_id}.json")
 
 
 @router.post("/matches/{match_id}/replay")
-def record_replay(request: Request, match_id: int, viewer: Viewer) -> RedirectResponse:
+def record_replay(request: Request, match_id: RowId, viewer: Viewer) -> RedirectResponse:
     who = _signed_in(viewer, f"/matches/{match_id}")
     if isinstance(who, RedirectResponse):
         return who
@@ -132,12 +134,12 @@ def record_replay(request: Request, match_id: int, viewer: Viewer) -> RedirectRe
 # --- jobs ---------------------------------------------------------------------------------------
 
 @router.get("/jobs/{job_id}.json")
-def job_json(request: Request, job_id: int) -> dict[str, Any]:
+def job_json(request: Request, job_id: RowId) -> dict[str, Any]:
     return ops.job_view(_league(request), job_id)
 
 
 @router.get("/jobs/{job_id}", response_class=HTMLResponse)
-def job_page(request: Request, job_id: int, viewer: Viewer) -> HTMLResponse:
+def job_page(request: Request, job_id: RowId, viewer: Viewer) -> HTMLResponse:
     return _page(request, "job.html", ops.job_view(_league(request), job_id), viewer, f"/jobs/{job_id}.json")
 
 
