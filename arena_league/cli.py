@@ -639,9 +639,9 @@ def cmd_gc(args: argparse.Namespace) -> int:
     for entry in report["artifacts"]:
         stdout.print(f"{verb} artifact {entry['sha256'][:12]} ({entry['path']}, {entry['bytes']} bytes)",
                      highlight=False)
-    for entry in report["incoming"]:
+    for entry in report["incoming"] + report["uploads"]:
         stdout.print(f"{verb} leftover {entry['path']} ({entry['bytes']} bytes)", highlight=False)
-    count = len(report["artifacts"]) + len(report["incoming"])
+    count = len(report["artifacts"]) + len(report["incoming"]) + len(report["uploads"])
     stdout.print(f"{verb} {count} entries, {report['bytes']} bytes" if count else "nothing to remove",
                  highlight=False)
     return 0
@@ -864,7 +864,7 @@ def build_parser() -> argparse.ArgumentParser:
     _league_options(p)
     p.set_defaults(func=cmd_population)
 
-    p = command("gc", "remove artifact files no agent references and leftovers of interrupted writes")
+    p = command("gc", "remove artifact files no agent references, leftovers of interrupted writes and stale uploads")
     p.add_argument("--dry-run", action="store_true", help="only list what would be removed")
     p.add_argument("--min-age", type=float, default=3600.0, metavar="SECONDS",
                    help="leave files modified in the last SECONDS, which a running submission may be storing "

@@ -204,11 +204,17 @@ def test_gc_removes_unreferenced_artifacts_and_stale_incoming_files(capsys, home
     loose = home / "artifacts" / "ab" / ("ab" + "0" * 62 + ".onnx")
     loose.parent.mkdir(parents=True, exist_ok=True)
     loose.write_bytes(b"a file without a row")
+    for folder in ("abandoned", "awaited"):  # web uploads: one no job waits for, one a queued validation does
+        (home / "uploads" / folder).mkdir(parents=True)
+        (home / "uploads" / folder / "model.onnx").write_bytes(b"staged")
+    with open_home(home) as league, league.transaction() as session:
+        reg.enqueue(session, "validate", {"game_id": GAME, "agent": "nobody", "upload": "uploads/awaited/model.onnx"})
 
     code, doc, err = run(capsys, "gc", "--min-age", "0", "--dry-run", "--json")
     assert code == 0 and doc["dry_run"], err
     listed = {e["path"] for e in doc["artifacts"]} | {e["path"] for e in doc["incoming"]}
     assert listed == {orphan.path, "artifacts/.incoming/dead.part", loose.relative_to(home).as_posix()}
+    assert [e["path"] for e in doc["uploads"]] == ["uploads/abandoned"]
     assert stale.exists() and (home / orphan.path).exists()  # a dry run removes nothing
 
     code, doc, err = run(capsys, "gc", "--json")  # a fresh leftover may be a write under way: kept by default
@@ -217,10 +223,11 @@ def test_gc_removes_unreferenced_artifacts_and_stale_incoming_files(capsys, home
     assert code == 0, err
     assert not stale.exists() and not loose.exists() and not (home / orphan.path).exists()
     assert (home / kept.path).exists()
+    assert not (home / "uploads" / "abandoned").exists() and (home / "uploads" / "awaited").exists()
     state = league_state(home)
     assert state["artifacts"] == [kept.sha256] and state["agents"] == ["alice"]
     code, doc, _ = run(capsys, "gc", "--min-age", "0", "--json")
-    assert doc["artifacts"] == [] and doc["incoming"] == [] and doc["bytes"] == 0
+    assert doc["artifacts"] == [] and doc["incoming"] == [] and doc["uploads"] == [] and doc["bytes"] == 0
 
 
 def test_shipped_population_imports_through_the_gate_and_rank_works(capsys, home, tmp_path):

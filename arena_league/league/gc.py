@@ -6,15 +6,21 @@ version that did not clean up after a refused submission. :func:`collect_garbage
 files and folders (and their rows), and the leftovers of interrupted writes in
 ``artifacts/.incoming/``. It runs in one write transaction, so no submission commits a reference
 to a file while it decides, and it leaves alone anything modified in the last ``min_age_s``
-seconds, which another process may be storing right now.
+seconds, which another process may be storing right now. It also removes uploads of the web
+service left under ``uploads/`` with no validation job waiting for them (a worker killed while it
+validated one, for instance).
 """
 
 from __future__ import annotations
 
+import shutil
+import time
+from pathlib import Path
 from typing import Any
 
 from arena_league.registry import League
 from arena_league.registry.artifacts import collect_artifact_garbage
+from arena_league.registry.jobs import live_jobs
 
 __all__ = ["collect_garbage"]
 
@@ -30,12 +36,31 @@ def collect_garbage(league: League, dry_run: bool = False, *, min_age_s: float =
 
     Returns:
         ``{"dry_run", "artifacts": [{"sha256", "path", "bytes", "row"}...], "incoming": [{"path",
-        "bytes"}...], "bytes"}``: what was (or, with ``dry_run``, would be) removed, paths relative to
-        the league home, and the bytes freed.
+        "bytes"}...], "uploads": [{"path", "bytes"}...], "bytes"}``: what was (or, with ``dry_run``,
+        would be) removed, paths relative to the league home, and the bytes freed.
     """
     if min_age_s < 0:
         raise ValueError(f"min_age_s must be 0 or more, not {min_age_s}")
     with league.transaction() as session:
         removed = collect_artifact_garbage(session, league.home, dry_run=dry_run, min_age_s=min_age_s)
+        waiting = {(job.payload or {}).get("upload", "").split("/")[1] for job in live_jobs(session, "validate")
+                   if "/" in (job.payload or {}).get("upload", "")}
+        removed["uploads"] = _stale_uploads(Path(league.home), waiting, dry_run, min_age_s)
     freed = sum(entry["bytes"] for entries in removed.values() for entry in entries)
     return {"dry_run": dry_run, **removed, "bytes": freed}
+
+
+def _stale_uploads(home: Path, waiting: set[str], dry_run: bool, min_age_s: float) -> list[dict[str, Any]]:
+    """Upload folders no validation job waits for, older than ``min_age_s`` (removed unless ``dry_run``)."""
+    from arena_league.league.uploads import UPLOADS
+
+    root = home / UPLOADS
+    stale = []
+    for folder in sorted(root.iterdir()) if root.is_dir() else []:
+        if folder.name in waiting or time.time() - folder.stat().st_mtime < min_age_s:
+            continue
+        size = sum(f.stat().st_size for f in folder.rglob("*") if f.is_file())
+        stale.append({"path": folder.relative_to(home).as_posix(), "bytes": size})
+        if not dry_run:
+            shutil.rmtree(folder, ignore_errors=True)
+    return stale

@@ -148,7 +148,7 @@ def _reserve(league: League, who: Identity, game_id: str, series: str, staged: P
                 version = series_of(existing[-1].name)[1] + 1 if existing else 1
                 name = series if version == 1 else f"{series}:v{version}"
                 reg.create_agent(session, name, game_id, "submission", owner=who.owner, status="pending",
-                                 metadata={"series": series, "version": version, "upload": relative})
+                                 metadata={"series": series, "version": version, "upload": relative}, reserved=True)
                 job = reg.enqueue(session, "validate", {"game_id": game_id, "agent": name, "upload": relative},
                                   priority=50)
                 return name, job.id

@@ -243,8 +243,11 @@ def create_agent(
     artifact_sha256: str | None = None,
     status: AgentStatus | str = AgentStatus.PENDING,
     metadata: Mapping[str, Any] | None = None,
+    reserved: bool = False,
 ) -> Agent:
-    """Register a new agent of a registered game.
+    """Register a new agent of a registered game. With ``reserved``, a pending agent without an
+    artifact yet: a name held for an upload that a job validates and then gives its artifact
+    (`attach_artifact`).
 
     Raises:
         NameTakenError: another agent has this name (the error names it and suggests a free name).
@@ -252,9 +255,8 @@ def create_agent(
             bytes; a unique index enforces it, so of two concurrent registrations of the same
             bytes the second gets this error, naming the first).
         UnknownGameError: the game is not registered.
-        InvalidRecordError: a malformed name, an unknown kind or status, or a base / submission /
-            trained agent without an artifact (unless it is pending: a name reserved for an upload
-            that a job will validate and give its artifact, with `attach_artifact`).
+        InvalidRecordError: a malformed name, an unknown kind or status, a base / submission /
+            trained agent without an artifact (unless ``reserved``), or a reserved one not pending.
     Nothing is stored when it raises.
     """
     if not AGENT_NAME_PATTERN.match(name):
@@ -264,7 +266,8 @@ def create_agent(
         )
     agent_kind = _parse(AgentKind, kind, "agent kind")
     agent_status = _parse(AgentStatus, status, "agent status")
-    reserved = agent_status is AgentStatus.PENDING  # a name held for an upload being validated
+    if reserved and (agent_status is not AgentStatus.PENDING or artifact_sha256 is not None):
+        raise InvalidRecordError("a reserved agent is pending and has no artifact yet")
     if artifact_sha256 is None and agent_kind not in _KINDS_WITHOUT_ARTIFACT and not reserved:
         raise InvalidRecordError(
             f"a {agent_kind.value} agent needs an artifact; store it with store_artifact first"
