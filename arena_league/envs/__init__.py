@@ -24,12 +24,15 @@ __all__ = [
     "SocialTree",
     "TreeSpecError",
     "build_tree",
+    "check_tree",
     "default_tree",
+    "example_trees",
     "game_spec",
     "list_games",
     "make",
     "make_aec",
     "make_rules",
+    "reward_catalog",
 ]
 
 ACTION_TYPES = ("discrete", "continuous")
@@ -53,6 +56,33 @@ def default_tree(game_id: str) -> dict:
     """The default social tree spec of ``game_id`` (mirroring the Arena paper's table)."""
     spec = game_spec(game_id)
     return spec.rules.default_tree(spec.n_teams, spec.players_per_team)
+
+
+def example_trees(game_id: str) -> dict[str, dict]:
+    """Named social trees of ``game_id`` worth starting from besides its default (the paper's
+    Crossroads case study for Crossroads-2T2P-v1), by name."""
+    spec = game_spec(game_id)
+    return spec.rules.example_trees(spec.n_teams, spec.players_per_team)
+
+
+def reward_catalog(game_id: str) -> dict[str, list[dict[str, Any]]]:
+    """Per scheme, the reward functions a social tree of ``game_id`` may use (those whose measures
+    the game emits): name, one-line description, parameters with their defaults, measures read."""
+    from arena_league.envs.social.rewards import REWARD_FUNCTIONS
+
+    provided = frozenset(game_spec(game_id).rules.measures_provided)
+    return {scheme: [{"name": fn.name, "doc": fn.doc, "params": dict(fn.defaults),
+                      "needs": sorted(set(fn.needs) | set(fn.needs_previous))}
+                     for fn in sorted(table.values(), key=lambda f: f.name)
+                     if set(fn.needs) | set(fn.needs_previous) <= provided]
+            for scheme, table in REWARD_FUNCTIONS.items()}
+
+
+def check_tree(game_id: str, tree: Any) -> list[dict[str, Any]]:
+    """Build ``tree`` for ``game_id`` and return its nodes described (path, scheme, reward, scale,
+    agents, board); raises :class:`TreeSpecError` naming the node and the fix."""
+    rules = make_rules(game_id)
+    return build_tree(game_id, tree, rules).describe()
 
 
 def build_tree(game_id: str, tree: Any, rules: GameRules) -> SocialTree:

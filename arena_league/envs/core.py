@@ -205,6 +205,12 @@ class GameRules(ABC):
     def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
         """The default social tree spec of this layout, mirroring the paper."""
 
+    @classmethod
+    def example_trees(cls, n_teams: int, players_per_team: int) -> dict[str, dict]:
+        """Other social trees of this layout worth starting from (a paper's case study), by name.
+        Default: none."""
+        return {}
+
     @staticmethod
     @abstractmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:

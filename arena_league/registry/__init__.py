@@ -48,6 +48,7 @@ from arena_league.registry.jobs import (
     get_job,
     list_jobs,
     queue_counts,
+    record_finished_job,
     release_job,
     renew_lease,
     run_job_now,
@@ -72,6 +73,7 @@ from arena_league.registry.models import (
     RatingSnapshot,
     Schedule,
     Token,
+    Tree,
 )
 from arena_league.registry.repository import (
     MatchRecord,
@@ -123,6 +125,7 @@ from arena_league.registry.schedules import (
 )
 from arena_league.registry.settings import delete_setting, read_settings, write_setting
 from arena_league.registry.tokens import create_token, find_token, list_tokens, revoke_tokens
+from arena_league.registry.trees import create_tree, delete_tree, get_tree, list_trees
 
 __all__ = [
     "Agent",
@@ -165,6 +168,7 @@ __all__ = [
     "SchemaTooNewError",
     "SeatResult",
     "Token",
+    "Tree",
     "UnknownAgentError",
     "UnknownGameError",
     "WorkerReport",
@@ -182,8 +186,10 @@ __all__ = [
     "create_agent",
     "create_population",
     "create_token",
+    "create_tree",
     "default_worker_id",
     "delete_setting",
+    "delete_tree",
     "enqueue",
     "ensure_game",
     "fail_job",
@@ -199,6 +205,7 @@ __all__ = [
     "get_match_by_id",
     "get_population",
     "get_schedule",
+    "get_tree",
     "latest_rating_snapshot",
     "league_home",
     "league_url",
@@ -210,12 +217,14 @@ __all__ = [
     "list_populations",
     "list_schedules",
     "list_tokens",
+    "list_trees",
     "match_keys_of_job",
     "match_seat_rows",
     "next_run_after",
     "open_league",
     "queue_counts",
     "read_settings",
+    "record_finished_job",
     "record_match",
     "record_matches",
     "refuse_taken_name",

@@ -332,6 +332,19 @@ def _cancel_held(league: League, job: ClaimedJob) -> None:
                        lease_owner=None, lease_expires_at=None)
 
 
+def record_finished_job(session: Session, kind: str, payload: Mapping[str, Any], result: Any) -> Job:
+    """A job that was done outside any worker (a person's placement after a match played live):
+    recorded as done at once, with its result, so that it reads like every other finished job."""
+    _require_json(payload, "job payload")
+    _require_json(result, "job result")
+    now = utcnow()
+    job = Job(kind=kind, payload=dict(payload), status=JobStatus.DONE.value, attempts=1, result=result,
+              created_at=now, started_at=now, finished_at=now, run_after=now)
+    session.add(job)
+    session.flush()
+    return job
+
+
 def set_job_progress(league: League, job: ClaimedJob, progress: Mapping[str, Any]) -> None:
     """Note what a running job has done (JSON), for anyone watching it; raises LeaseLostError if the
     lease is no longer held."""

@@ -361,6 +361,21 @@ class Token(Base):
     __table_args__ = (Index(None, "owner"),)
 
 
+class Tree(Base):
+    """A social tree saved by its owner: the spec ``arena_league.envs.make(game, tree=spec)`` takes."""
+
+    __tablename__ = "trees"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(128))
+    game_id: Mapped[str] = mapped_column(ForeignKey("games.id"))
+    owner: Mapped[str] = mapped_column(String(128))
+    spec: Mapped[dict[str, Any]] = mapped_column()
+    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+
+    __table_args__ = (Index(None, "game_id"),)
+
+
 class Setting(Base):
     """A league setting changed from its default: its key and JSON value (the league layer knows
     the keys, their types and defaults)."""

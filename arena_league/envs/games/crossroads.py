@@ -232,6 +232,11 @@ CASE_STUDY_TREES: dict[str, dict] = {
 class CrossroadsRules(ReplayedMatch, GameRules):
     """Crossroads rules: pymunk bodies driven to targets across a crossing (see the module)."""
 
+    @classmethod
+    def example_trees(cls, n_teams: int, players_per_team: int) -> dict[str, dict]:
+        """The paper's case study (2T2P): all IS, CL over everyone, two CL teams under a CP root."""
+        return dict(CASE_STUDY_TREES) if (n_teams, players_per_team) == (2, 2) else {}
+
     name: ClassVar[str] = "Crossroads"
     version: ClassVar[int] = 1
     layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2), (2, 3), (2, 4), (4, 1))
