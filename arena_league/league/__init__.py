@@ -8,8 +8,9 @@
   reinstating a suspended agent;
 * :mod:`.settings`: the league's settings (the inference sandbox's budgets, suspension after forfeits,
   upload limits);
-* :mod:`.tokens`, :mod:`.uploads`, :mod:`.views`, :mod:`.matches`: what the web service calls:
-  bearer tokens, uploads validated by a job, one JSON document per page, matches and their replays;
+* :mod:`.tokens`, :mod:`.uploads`, :mod:`.views`, :mod:`.matches`, :mod:`.trees`: what the web
+  service calls: bearer tokens, uploads validated by a job, one JSON document per page, matches and
+  their replays, social trees kept, verified and previewed;
 * :mod:`.leaderboards` / :mod:`.report`: ratings tables with intervals, for a terminal, JSON and HTML;
 * :mod:`.schedules`: recurring evaluations, the scheduler and the worker;
 * :mod:`.first_league`: the whole workflow on the embedded default;
@@ -56,6 +57,10 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     ),
     "settings": ("SETTINGS", "league_settings", "reset_setting", "sandbox_limits", "set_setting"),
     "tokens": ("Identity", "authenticate", "create_token", "list_tokens", "revoke_token"),
+    "trees": (
+        "check_spec", "delete_saved_tree", "list_tree_views", "preview_replay", "queue_preview", "queue_verify",
+        "save_tree", "tree_catalog", "tree_text", "tree_view",
+    ),
     "uploads": ("series_versions", "upload_agent", "upload_limits"),
     "views": ("METHODS", "LeaderboardCache", "agent_log", "agent_view", "game_view", "games_view", "home_view",
               "job_view"),

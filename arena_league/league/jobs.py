@@ -47,6 +47,10 @@ def _summary(job: reg.Job) -> str:
         who = f"{len(agents)} agents" if agents else "every active agent"
         cap = f", at most {payload['max_matches']}" if payload.get("max_matches") else ""
         return f"{who}, {payload.get('matches_per_pair')} per pair{cap}"
+    if job.kind == "verify":
+        return f"a social tree of {payload.get('game_id')}, {payload.get('samples')} sampled pairs"
+    if job.kind == "preview":
+        return f"one match of {payload.get('game_id')} under a social tree"
     return ""
 
 

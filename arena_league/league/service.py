@@ -938,9 +938,10 @@ PROGRESS_EVERY = 0.5
 
 def job_handlers(progress: Progress | None = None) -> dict[str, Callable[[reg.JobContext], Any]]:
     """The job kinds a league worker runs: evaluations, placements, uploads to validate, replays
-    to record, shipped populations to import."""
+    to record, shipped populations to import, social trees to verify and to preview."""
     from arena_league.league.matches import handle_replay
     from arena_league.league.populations import handle_import
+    from arena_league.league.trees import handle_preview, handle_verify
     from arena_league.league.uploads import handle_validate
     from arena_league.policies.threads import torch_threads
 
@@ -953,4 +954,5 @@ def job_handlers(progress: Progress | None = None) -> dict[str, Callable[[reg.Jo
 
     return {"evaluate": on_one_thread(handle_evaluate), "rank": on_one_thread(handle_rank),
             "validate": on_one_thread(handle_validate), "replay": on_one_thread(handle_replay),
-            "import": on_one_thread(handle_import)}
+            "import": on_one_thread(handle_import), "verify": on_one_thread(handle_verify),
+            "preview": on_one_thread(handle_preview)}

@@ -1,5 +1,6 @@
 """The JSON API under ``/api``: games, leaderboards, agents and their uploads, placements, jobs and
-their live progress, matches and their replays, and an administrator's schedules and populations.
+their live progress, matches and their replays, social trees (checked, verified, previewed and
+kept), and an administrator's schedules and populations.
 
 Reads are open to anyone; every write needs a bearer token (:mod:`.auth`) and queues a job (agent
 code never runs in a request). Errors are ``{"detail": "..."}`` with 400 (bad input), 401 (no or a
@@ -82,6 +83,24 @@ class JobState(BaseModel):
 
 class RankRequest(BaseModel):
     budget: int = Field(200, ge=2, le=5000, description="at most this many matches")
+    seed: int = Field(0, ge=0, le=2**31)
+
+
+class TreeSpec(BaseModel):
+    game: str = Field(description="the game id the tree is for")
+    spec: dict[str, Any] = Field(description="the social tree: a node with 'scheme', 'reward', 'children' ...")
+
+
+class TreeSave(TreeSpec):
+    name: str = Field(min_length=1, max_length=64, description="a name for the tree")
+
+
+class TreeVerify(TreeSpec):
+    samples: int = Field(64, ge=2, le=512, description="paired episodes to sample")
+    seed: int = Field(0, ge=0, le=2**31)
+
+
+class TreePreview(TreeSpec):
     seed: int = Field(0, ge=0, le=2**31)
 
 
@@ -213,6 +232,65 @@ def match_replay(request: Request, match_id: RowId) -> dict[str, Any]:
              summary="queue a job that plays the match again and records its replay")
 def record_replay(request: Request, match_id: RowId, who: Writer) -> dict[str, int]:
     return {"job": ops.queue_replay(_league(request), match_id)}
+
+
+@router.get("/games/{game}/tree-catalog", summary="what a social tree of the game may hold: seats, schemes, "
+            "reward functions with their parameters, the default and example trees")
+def tree_catalog(game: str) -> dict[str, Any]:
+    return ops.tree_catalog(game)
+
+
+@router.post("/trees/check", summary="check a social tree with the library's own messages (nothing is kept)")
+def check_tree(tree: TreeSpec) -> dict[str, Any]:
+    return ops.check_spec(tree.game, tree.spec)
+
+
+@router.post("/trees/verify", response_model=Queued, status_code=202,
+             summary="queue the sampling verification of a social tree; its result paints every node")
+def verify_tree(request: Request, tree: TreeVerify, who: Writer) -> dict[str, int]:
+    return {"job": ops.queue_verify(_league(request), tree.game, tree.spec, samples=tree.samples, seed=tree.seed)}
+
+
+@router.post("/trees/preview", response_model=Queued, status_code=202,
+             summary="queue one recorded match of the game's scripted players under a social tree")
+def preview_tree(request: Request, tree: TreePreview, who: Writer) -> dict[str, int]:
+    return {"job": ops.queue_preview(_league(request), tree.game, tree.spec, seed=tree.seed)}
+
+
+@router.get("/trees/previews/{job_id}", summary="a finished preview's replay, as frames of its top-down scene")
+def tree_preview_replay(request: Request, job_id: RowId) -> dict[str, Any]:
+    return ops.preview_replay(_league(request), job_id)
+
+
+@router.get("/trees", summary="saved social trees, newest first")
+def trees(request: Request, game: str | None = None, owner: str | None = None) -> list[dict[str, Any]]:
+    return ops.list_tree_views(_league(request), game_id=game, owner=owner)
+
+
+@router.post("/trees", status_code=201, summary="save a social tree (checked first); yours to delete")
+def save_tree(request: Request, tree: TreeSave, who: Writer) -> dict[str, Any]:
+    return ops.save_tree(_league(request), who, tree.name, tree.game, tree.spec)
+
+
+@router.get("/trees/{tree_id}", summary="a saved tree: its spec, and the same as YAML")
+def tree(request: Request, tree_id: RowId) -> dict[str, Any]:
+    return ops.tree_view(_league(request), tree_id)
+
+
+@router.get("/trees/{tree_id}/download", summary="a saved tree as a YAML or JSON file for make(game, tree=...)",
+            response_class=Response,
+            responses={200: {"content": {"application/yaml": {}, "application/json": {}}, "description": "the file"}})
+def tree_download(request: Request, tree_id: RowId,
+                  format: Annotated[str, Query(pattern="^(yaml|json)$")] = "yaml") -> Response:
+    view = ops.tree_view(_league(request), tree_id)
+    name = f"tree-{tree_id}.{format}"
+    return Response(ops.tree_text(view["spec"], format), media_type=f"application/{format}",
+                    headers={"Content-Disposition": f'attachment; filename="{name}"'})
+
+
+@router.delete("/trees/{tree_id}", summary="delete a saved tree (its owner)")
+def delete_tree(request: Request, tree_id: RowId, who: Writer) -> dict[str, int]:
+    return ops.delete_saved_tree(_league(request), who, tree_id)
 
 
 @router.get("/schedules", summary="recurring evaluations (administrators)")

@@ -1,7 +1,8 @@
 """The pages: server-rendered HTML, each with a ``.json`` twin that returns the document the page
 shows (:mod:`arena_league.league.views`). Reading needs no token; the forms that write (sign in,
 submit, rank, record a replay) use the sign-in cookie and answer with a redirect to the page that
-shows what happened (``303 See Other``)."""
+shows what happened (``303 See Other``). The social-tree editor (``/trees/new``, ``/trees/{id}``)
+is a script that talks to ``/api/trees`` with the same cookie."""
 
 from __future__ import annotations
 
@@ -141,6 +142,43 @@ def job_json(request: Request, job_id: RowId) -> dict[str, Any]:
 @router.get("/jobs/{job_id}", response_class=HTMLResponse)
 def job_page(request: Request, job_id: RowId, viewer: Viewer) -> HTMLResponse:
     return _page(request, "job.html", ops.job_view(_league(request), job_id), viewer, f"/jobs/{job_id}.json")
+
+
+# --- social trees -------------------------------------------------------------------------------
+
+def _trees(request: Request, game: str | None, owner: str | None) -> dict[str, Any]:
+    league = _league(request)
+    return {"trees": ops.list_tree_views(league, game_id=game or None, owner=owner or None),
+            "games": [g["game_id"] for g in ops.games_view(league)], "filters": {"game": game, "owner": owner}}
+
+
+@router.get("/trees.json")
+def trees_json(request: Request, game: str | None = None, owner: str | None = None) -> dict[str, Any]:
+    return _trees(request, game, owner)
+
+
+@router.get("/trees", response_class=HTMLResponse)
+def trees_page(request: Request, viewer: Viewer, game: str | None = None, owner: str | None = None) -> HTMLResponse:
+    return _page(request, "trees.html", _trees(request, game, owner), viewer, _seen(request, {"game": game,
+                                                                                               "owner": owner}))
+
+
+@router.get("/trees/new", response_class=HTMLResponse)
+def tree_new(request: Request, viewer: Viewer, game: str = "Crossroads-2T2P-v1") -> HTMLResponse:
+    ops.tree_catalog(game)  # an unknown game is a 400 naming the valid ones
+    return _page(request, "tree.html", {"game_id": game, "tree": None}, viewer,
+                 f"/api/games/{game}/tree-catalog")
+
+
+@router.get("/trees/{tree_id}.json")
+def tree_json(request: Request, tree_id: RowId) -> dict[str, Any]:
+    return ops.tree_view(_league(request), tree_id)
+
+
+@router.get("/trees/{tree_id}", response_class=HTMLResponse)
+def tree_page(request: Request, tree_id: RowId, viewer: Viewer) -> HTMLResponse:
+    view = ops.tree_view(_league(request), tree_id)
+    return _page(request, "tree.html", {"game_id": view["game_id"], "tree": view}, viewer, f"/trees/{tree_id}.json")
 
 
 # --- submitting, signing in ---------------------------------------------------------------------
