@@ -1,7 +1,8 @@
 """How a person plays a seat: the controls a game gives a human player at a terminal.
 
 A game's rules give the controls of one seat with ``GameRules.human_controls(seat)``; the session
-that seats a person (``arena-league play``) draws, asks and steps, and knows no game::
+that seats a person (``arena-league play``, or the browser's ``/play/{game}``) draws, asks and
+steps, and knows no game::
 
     controls = rules.human_controls(seat)
     # every step the seat acts:
@@ -18,6 +19,11 @@ game's actions by number or name (``action_meanings``) under a coarse text view 
 picture (:func:`ascii_topdown`); games with a board or their own frames override
 ``human_controls`` (GoBang's cells, Snake's moves on the board as drawn, Soccer's mirrored
 compass, the robot games' walking directions in ``envs.robots.controls``).
+
+In a browser the same controls answer: :meth:`Controls.web` declares how a page plays the seat
+(keys that send answers, a click on a cell, or typed text, and the pace the server steps at), and
+:meth:`Controls.point` turns a click into an answer; what the page sends goes through ``parse``
+like a typed line.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ from arena_league.envs.rendering import TEAM_COLOURS
 if TYPE_CHECKING:
     from arena_league.envs.core import GameRules
 
-__all__ = ["ActionControls", "Controls", "ascii_topdown"]
+__all__ = ["ActionControls", "Controls", "arrow_keys", "ascii_topdown"]
 
 
 class Controls(ABC):
@@ -73,6 +79,29 @@ class Controls(ABC):
     def final_view(self) -> str:
         """What the person is shown when the match ends. Default: :meth:`view`."""
         return self.view()
+
+    # --- in a browser -----------------------------------------------------------------------------
+    def web(self) -> dict[str, Any]:
+        """How a browser plays this seat, as JSON (the play page reads it; see the module docstring):
+
+        * ``"input"``: ``"keys"`` (keys send answers), ``"cells"`` (a click on the top-down view
+          sends its world point, which :meth:`point` turns into an answer) or ``"text"`` (a typed
+          answer, as at the terminal);
+        * ``"pace"``: steps per second the server plays at without waiting, the person's last
+          answer holding (``None``: every step the person acts waits for an answer);
+        * ``"hint"``: one line saying what to press, click or type;
+        * with keys: ``"keys"`` (browser key name, as ``KeyboardEvent.key``, -> the answer it
+          sends), ``"release"`` (the answer sent when every key is up; ``None``: the last holds),
+          ``"combine"`` (an order of answers: keys held together send their answers joined in
+          that order, when the joined answer is in ``"accepts"``; ``None``: the newest key wins).
+
+        Default: typed answers, each step the person acts waiting for one."""
+        return {"input": "text", "pace": None, "hint": self.prompt(0).rstrip(" >")}
+
+    def point(self, x: float, y: float) -> str | None:
+        """The answer a click at the world point (x, y) of the top-down scene stands for (None: this
+        game takes no clicks)."""
+        return None
 
 
 class ActionControls(Controls):
@@ -115,6 +144,26 @@ class ActionControls(Controls):
     def action(self, command: Any) -> int:
         self.last = int(command)
         return self.last
+
+    #: Steps per second a browser plays the game's actions at.
+    PACE = 10.0
+
+    def web(self) -> dict[str, Any]:
+        """Digit keys pick the action by number, the last one holding; see :meth:`Controls.web`."""
+        meanings = self.meanings()
+        keys = {str(i): str(i) for i in range(min(10, len(meanings)))}
+        return {"input": "keys", "pace": self.PACE, "keys": keys, "release": None, "combine": None, "accepts": [],
+                "hint": "keys " + ", ".join(f"{i} {m}" for i, m in enumerate(meanings[:10])) + " (the last holds)"}
+
+
+def arrow_keys(up: str, left: str, down: str, right: str) -> dict[str, str]:
+    """A browser's arrow keys and W/A/S/D (either case) -> the answers for up, left, down and right
+    on the view as drawn (see :meth:`Controls.web`)."""
+    keys: dict[str, str] = {}
+    for answer, names in ((up, ("ArrowUp", "w", "W")), (left, ("ArrowLeft", "a", "A")),
+                          (down, ("ArrowDown", "s", "S")), (right, ("ArrowRight", "d", "D"))):
+        keys.update(dict.fromkeys(names, answer))
+    return keys
 
 
 def ascii_topdown(picture: np.ndarray, columns: int = 64) -> str:

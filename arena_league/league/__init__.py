@@ -16,7 +16,8 @@
 * :mod:`.first_league`: the whole workflow on the embedded default;
 * :mod:`.gc`: removing artifact files no agent references;
 * :mod:`.catalog`: the game set and social-tree verification; :mod:`.replays`: replay summaries;
-* :mod:`.train`: training an entrant; :mod:`.human`: a person playing against a base population;
+* :mod:`.train`: training an entrant; :mod:`.human`: a person playing against a base population
+  (at a terminal), :mod:`.live`: the same in a browser, one message at a time;
 * :mod:`.home`: opening a league, registering games, suggestions for mistyped names;
 * :mod:`.population`: the base-population build (train, round robin, select, rate, freeze).
 
@@ -36,7 +37,8 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "first_league": ("QuickstartReport", "quickstart"),
     "gc": ("collect_garbage",),
     "home": ("did_you_mean", "open_home", "register_game", "short_name"),
-    "human": ("play_human",),
+    "human": ("Ladder", "LiveMatch", "play_human"),
+    "live": ("LivePlay", "player_of"),
     "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),
     "matches": ("match_replay", "match_view", "queue_replay"),
     "leaderboards": ("Leaderboard", "render_terminal"),

@@ -10,7 +10,8 @@ base agents and are placed among them like any entrant. :func:`play_human` does 
   a win climbs the ladder by ``climb`` places, a draw stays, a loss steps back half as far;
 * after each match the person's rating, its 95% interval and rank among the base come from the
   rating engine's :func:`~arena_league.rating.place_entrant` over all their results against
-  that population;
+  that population, kept as a finished ``rank`` job, so the game's leaderboard places the person
+  like any entrant;
 * the person holds one seat (team 0's first seat in odd-numbered matches, team 1's in the
   others); in team layouts the person's teammates are played by the same base agent as the
   opponents, so the two teams differ only in the seat the person holds.
@@ -42,7 +43,7 @@ from arena_league.matchmaking import MatchResult, MatchSpec
 from arena_league.rating import place_entrant
 from arena_league.registry.repository import AGENT_NAME_PATTERN
 
-__all__ = ["HumanMatch", "HumanSession", "play_human"]
+__all__ = ["HumanMatch", "HumanSession", "Ladder", "LiveMatch", "play_human"]
 
 InputFn = Callable[[str], str]
 
@@ -109,73 +110,30 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
         climb: places to climb after a win (default a tenth of the base, at least 1).
         picture_dir: save the top-down picture of every step the person acts there as PNG.
     """
-    from arena_league.league.home import open_home, register_game
-    from arena_league.league.populations import ensure_population
-    from arena_league.league.service import agent_refs, base_population
-
     out = output if output is not None else sys.stdout
-    spec = game_spec(game_id)
-    if spec.n_teams != 2:
-        raise ValueError(f"{game_id} has {spec.n_teams} teams; human ranking places a person among a base population "
-                         "with two-team matches")
-    league = league if league is not None else open_home()
-    register_game(league, game_id)
-    agent_name = f"{player}@{game_id}"
-    if not AGENT_NAME_PATTERN.match(agent_name):
-        raise ValueError(f"player name {player!r} is not allowed: use letters, digits and . _ - (it becomes the "
-                         f"agent name {agent_name!r})")
-    against, imported = ensure_population(league, game_id, against)
-    if imported:
-        out.write(f"imported the shipped base population {against} of {game_id}\n")
-    label, names, ratings = base_population(league, game_id, agent_name, against)
-    if not names:
-        raise ValueError(f"population {against} of {game_id} has no members to play")
-    if ratings is None:
-        raise ValueError(f"population {label} has no stored ratings (it is not frozen with ratings); import a built "
-                         f"base population: `arena-league population import checkpoints/{game_id}/base-v1`")
-    human_id = _human_agent(league, agent_name, game_id, player)
-    order = np.argsort(ratings, kind="stable")  # weakest first
-    with league.reading() as session:
-        refs = agent_refs(session, league, [reg.require_agent(session, name) for name in names])
-    step = climb if climb is not None else max(1, len(names) // 10)
-    report = HumanSession(agent_name, game_id, label, len(names))
-    rung = 0
-    played = 0
-    print(f"You are {agent_name}. {label} has {len(names)} agents, rated {ratings.min():.0f} to {ratings.max():.0f}; "
-          "you start with the weakest. Type q to resign and stop.", file=out)
-    while matches is None or played < matches:
-        opponent = names[int(order[rung])]
-        team = played % 2
-        with league.reading() as session:
-            number = len(reg.list_matches(session, game_id, agent_id=human_id))
-        print(f"\n=== Match {played + 1}: you play team {team} against {opponent} (rating "
-              f"{ratings[order[rung]]:.0f}, {rung + 1} of {len(names)} from the bottom)", file=out)
-        policy = refs[opponent].load()
+    ladder = Ladder(game_id, against, league, player=player, climb=climb)
+    if ladder.imported:
+        out.write(f"imported the shipped base population {ladder.against} of {game_id}\n")
+    report = ladder.report
+    names, ratings = ladder.names, ladder.ratings
+    print(f"You are {ladder.agent_name}. {report.base} has {len(names)} agents, rated {ratings.min():.0f} to "
+          f"{ratings.max():.0f}; you start with the weakest. Type q to resign and stop.", file=out)
+    while matches is None or ladder.played < matches:
+        match = ladder.next_match(seed)
+        print(f"\n=== Match {ladder.played + 1}: you play team {match.team} against {match.opponent} (rating "
+              f"{match.opponent_rating:.0f}, {ladder.rung + 1} of {len(names)} from the bottom)", file=out)
         resigned = False
-        match_key = f"human:{human_id}:{number + 1}"
-        spec_ = MatchSpec(number + 1, game_id, tuple(opponent for _ in range(spec.n_agents)), seed)
         try:
-            team_scores, steps = _play_match(game_id, spec_, policy, team, input_fn, out, picture_dir)
+            _play_match(match, input_fn, out, picture_dir)
         except _Resign:
-            team_scores, steps, resigned = np.where(np.arange(2) == team, 0.0, 1.0), 0, True
-        result = _record(league, game_id, match_key, spec_, team, team_scores, steps, human_id, opponent)
-        outcome = result.outcomes[result.teams.index(team)]
-        report.matches.append(HumanMatch(opponent, float(ratings[order[rung]]), team, outcome, steps, match_key,
-                                         resigned))
-        played += 1
-        _place(league, game_id, agent_name, names, ratings, report)
-        print(f"--- You {'resigned: a loss' if resigned else {'win': 'won', 'loss': 'lost', 'draw': 'drew'}[outcome]}"
-              f" against {opponent}.", file=out)
+            resigned = True
+        played = ladder.record(match, resigned=resigned)
+        print(f"--- You {'resigned: a loss' if resigned else {'win': 'won', 'loss': 'lost', 'draw': 'drew'}[played.outcome]}"
+              f" against {match.opponent}.", file=out)
         print(f"Your estimated placement: rating {report.rating:.0f} (95% {report.lower:.0f} .. {report.upper:.0f}), "
               f"rank {report.rank} of {len(names) + 1} (between {report.rank_best} and {report.rank_worst}), above "
-              f"{report.percentile:.0f}% of {label}, from {report.total_matches} match(es).", file=out)
-        if resigned:
-            break
-        if outcome == "win":
-            rung = min(len(names) - 1, rung + step)
-        elif outcome == "loss":
-            rung = max(0, rung - max(1, step // 2))
-        if matches is not None and played >= matches:
+              f"{report.percentile:.0f}% of {report.base}, from {report.total_matches} match(es).", file=out)
+        if resigned or (matches is not None and ladder.played >= matches):
             break
         try:
             answer = input_fn("Next match? [Enter: play, q: stop] ").strip().lower()
@@ -186,18 +144,99 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
     return report
 
 
-def _human_agent(league: reg.League, name: str, game_id: str, player: str) -> int:
+class Ladder:
+    """A person's climb through a frozen base population, weakest first (see the module docstring):
+    the opponent of the next match, and each match played recorded and placed.
+
+    Both front ends use it: the terminal (:func:`play_human`) and the browser
+    (:mod:`arena_league.league.live`). ``owner`` is who owns the person's agent (default: the
+    player's name)."""
+
+    def __init__(self, game_id: str, against: str = "base-v1", league: reg.League | None = None, *,
+                 player: str = "human", owner: str | None = None, climb: int | None = None) -> None:
+        from arena_league.league.home import open_home, register_game
+        from arena_league.league.populations import ensure_population
+        from arena_league.league.service import agent_refs, base_population
+
+        spec = game_spec(game_id)
+        if spec.n_teams != 2:
+            raise ValueError(f"{game_id} has {spec.n_teams} teams; human ranking places a person among a base "
+                             "population with two-team matches")
+        league = league if league is not None else open_home()
+        register_game(league, game_id)
+        agent_name = f"{player}@{game_id}"
+        if not AGENT_NAME_PATTERN.match(agent_name):
+            raise ValueError(f"player name {player!r} is not allowed: use letters, digits and . _ - (it becomes the "
+                             f"agent name {agent_name!r})")
+        against, self.imported = ensure_population(league, game_id, against)
+        label, names, ratings = base_population(league, game_id, agent_name, against)
+        if not names:
+            raise ValueError(f"population {against} of {game_id} has no members to play")
+        if ratings is None:
+            raise ValueError(f"population {label} has no stored ratings (it is not frozen with ratings); import a "
+                             f"built base population: `arena-league population import checkpoints/{game_id}/base-v1`")
+        self.league, self.game_id, self.against, self.agent_name = league, game_id, against, agent_name
+        self.names, self.ratings = names, ratings
+        self.human_id = _human_agent(league, agent_name, game_id, owner or player, player)
+        self.order = np.argsort(ratings, kind="stable")  # weakest first
+        with league.reading() as session:
+            self.refs = agent_refs(session, league, [reg.require_agent(session, name) for name in names])
+        self.step = climb if climb is not None else max(1, len(names) // 10)
+        self.report = HumanSession(agent_name, game_id, label, len(names))
+        self.rung = 0
+        self.played = 0
+
+    @property
+    def opponent(self) -> tuple[str, float]:
+        """The next opponent and its frozen rating."""
+        member = int(self.order[self.rung])
+        return self.names[member], float(self.ratings[member])
+
+    def next_match(self, seed: int = 0) -> LiveMatch:
+        """The next match, ready to step: the person in team ``played % 2``'s first seat, every other
+        seat played by the current opponent."""
+        opponent, rating = self.opponent
+        with self.league.reading() as session:
+            number = len(reg.list_matches(session, self.game_id, agent_id=self.human_id))
+        n_agents = game_spec(self.game_id).n_agents
+        spec = MatchSpec(number + 1, self.game_id, tuple(opponent for _ in range(n_agents)), seed)
+        return LiveMatch(spec, self.refs[opponent].load(), self.played % 2, opponent, rating,
+                         f"human:{self.human_id}:{number + 1}")
+
+    def record(self, match: LiveMatch, *, resigned: bool = False) -> HumanMatch:
+        """Store ``match`` (a resignation is a loss, whatever the board said), place the person
+        again from all their matches against this base, and move along the ladder."""
+        team = match.team
+        if resigned:
+            team_scores, steps = np.where(np.arange(2) == team, 0.0, 1.0), match.steps
+        else:
+            team_scores, steps = match.finish(), match.steps
+        result = _record(self.league, self.game_id, match.key, match.spec, team, team_scores, steps, self.human_id,
+                         match.opponent)
+        outcome = result.outcomes[result.teams.index(team)]
+        played = HumanMatch(match.opponent, match.opponent_rating, team, outcome, steps, match.key, resigned)
+        self.report.matches.append(played)
+        self.played += 1
+        _place(self.league, self.game_id, self.agent_name, self.names, self.ratings, self.report)
+        if outcome == "win":
+            self.rung = min(len(self.names) - 1, self.rung + self.step)
+        elif outcome == "loss":
+            self.rung = max(0, self.rung - max(1, self.step // 2))
+        return played
+
+
+def _human_agent(league: reg.League, name: str, game_id: str, owner: str, player: str) -> int:
     """The person's agent (created on first play). Registered as retired: kept with its matches,
     but never scheduled into the league's automatic evaluations, which need an artifact to play."""
     with league.transaction() as session:
         agent = reg.get_agent(session, name)
         if agent is None:
-            agent = reg.create_agent(session, name, game_id, "human", owner=player, status="retired",
+            agent = reg.create_agent(session, name, game_id, "human", owner=owner, status="retired",
                                      metadata={"player": player})
             session.flush()
-        elif agent.kind != "human" or agent.game_id != game_id:
-            raise ValueError(f"the name {name} belongs to a {agent.kind} agent of {agent.game_id}; play under another "
-                             "player name")
+        elif agent.kind != "human" or agent.game_id != game_id or agent.owner != owner:
+            raise ValueError(f"the name {name} belongs to another {agent.kind} agent of {agent.game_id}; play under "
+                             "another player name")
         return int(agent.id)
 
 
@@ -237,58 +276,141 @@ def _place(league: reg.League, game_id: str, agent: str, names: list[str], ratin
     report.rank, report.rank_best, report.rank_worst = placement.rank, placement.rank_best, placement.rank_worst
     report.percentile = placement.percentile
     report.total_matches = total
+    # kept as a finished placement, so the game's leaderboard lists the person like any entrant
+    with league.transaction() as session:
+        reg.record_finished_job(session, "rank", {"agent": agent, "game_id": game_id, "base_label": report.base,
+                                                  "human": True},
+                                {**asdict(placement), "agent": agent, "game_id": game_id, "base": report.base,
+                                 "base_size": len(names), "human": True})
 
 
 # --- one match ---------------------------------------------------------------------------------------
 
-def _play_match(game_id: str, spec: MatchSpec, policy: Any, team: int, input_fn: InputFn, out: TextIO,
-                picture_dir: str | Path | None) -> tuple[np.ndarray, int]:
-    """Play one match with the person in team ``team``'s first seat; (team scores, steps)."""
-    env = make(game_id)
-    rules = env.rules
-    rules.reset(spec.seed)
-    rng = spec.seat_rng()
-    n = rules.n_agents
-    seat = int(np.flatnonzero(rules.team_of == team)[0])
-    width = policy.spec.uniforms_per_seat
-    states = policy.initial_state(n)
-    controls = rules.human_controls(seat)
-    max_cycles = env.max_cycles
-    steps = 0
-    if picture_dir is not None:
-        Path(picture_dir).mkdir(parents=True, exist_ok=True)
-    while not rules.game_over and steps < max_cycles:
+#: How an event reads in a sentence, by kind (other kinds read as their name).
+_EVENT_VERBS = {"five": "made five in a row", "goal": "scored a goal", "death": "died", "eat": "ate",
+                "arrive": "arrived", "out": "was pushed out of the ring", "fall": "fell", "move": "moved",
+                "illegal_move": "tried an illegal move", "draw": "drew"}
+
+
+class LiveMatch:
+    """One match with a person in one seat, stepped one env step at a time: the person's seat is
+    team ``team``'s first, every other seat is played by ``policy`` (the opponent). What the person
+    types goes through the game's own controls (``rules.human_controls(seat)``)."""
+
+    def __init__(self, spec: MatchSpec, policy: Any, team: int, opponent: str, opponent_rating: float, key: str
+                 ) -> None:
+        env = make(spec.game_id)
+        self.spec, self.policy, self.team, self.key = spec, policy, int(team), key
+        self.opponent, self.opponent_rating = opponent, float(opponent_rating)
+        self.rules = rules = env.rules
+        rules.reset(spec.seed)
+        self.rng = spec.seat_rng()
+        self.n = rules.n_agents
+        self.seat = int(np.flatnonzero(rules.team_of == team)[0])
+        self.states = policy.initial_state(self.n)
+        self.controls = rules.human_controls(self.seat)
+        self.max_cycles = env.max_cycles
+        self.steps = 0
+        self.events: list[dict[str, Any]] = []
+        """Every event the rules reported, with its ``step``."""
+
+    @property
+    def over(self) -> bool:
+        return bool(self.rules.game_over) or self.steps >= self.max_cycles
+
+    def person_acts(self) -> bool:
+        """Whether the person's seat acts this step (its turn, or it is still in play)."""
+        rules = self.rules
+        if rules.turn_based:
+            return int(rules.current_player()) == self.seat
+        return bool(np.asarray(rules.measures.active, dtype=bool)[self.seat])
+
+    def needs_command(self) -> bool:
+        """Whether this step waits for the person to say something (their seat acts and their
+        controls ask; the robots' controls hold a direction for some steps)."""
+        return not self.over and self.person_acts() and self.controls.wants_command()
+
+    def step(self, command: Any = None) -> list[dict[str, Any]]:
+        """One env step: the opponent's seats act, the person's seat acts by ``command`` (accepted by
+        the controls' ``parse``; None on a step that asks nothing); the step's events."""
+        if self.over:
+            raise ValueError("the match is over")
+        rules, policy, n = self.rules, self.policy, self.n
         obs = rules.observe()
         mask = rules.action_mask()
-        uniforms = rng.random((n, width))
+        uniforms = self.rng.random((n, policy.spec.uniforms_per_seat))
         if rules.turn_based:
             acting = np.zeros(n, dtype=bool)
             acting[rules.current_player()] = True
         else:
             acting = np.asarray(rules.measures.active, dtype=bool).copy()
+        if acting[self.seat] and command is None and self.controls.wants_command():
+            raise ValueError("this step waits for the person's move")
         actions = np.zeros(n, dtype=np.int64) if rules.action_type == "discrete" else \
             np.zeros((n, rules.act_dim), dtype=np.float32)
-        agents = np.flatnonzero(acting & (np.arange(n) != seat))
+        agents = np.flatnonzero(acting & (np.arange(n) != self.seat))
         if agents.size:
             chosen, next_state = policy.act(obs[agents, : policy.spec.obs_dim], uniforms[agents],
                                             None if mask is None else mask[agents],
-                                            None if states is None else states[agents])
+                                            None if self.states is None else self.states[agents])
             actions[agents] = chosen
-            if states is not None and next_state is not None:
-                states[agents] = next_state
-        if acting[seat]:
+            if self.states is not None and next_state is not None:
+                self.states[agents] = next_state
+        if acting[self.seat]:
+            actions[self.seat] = self.controls.action(command)
+        rules.step(actions)
+        events = [{**event, "step": self.steps} for event in rules.events()]
+        self.events += events
+        self.steps += 1
+        return events
+
+    def finish(self) -> np.ndarray:
+        """The team scores once the match is over (a match cut by its step limit is finished by
+        the rules: a draw or by the score, as the game says)."""
+        if not self.rules.game_over:
+            self.rules.finish()
+        return np.asarray(self.rules.team_result(), dtype=np.float64)
+
+    def describe_event(self, event: dict[str, Any], names: list[str]) -> str:
+        """An event as a sentence, the seats named by ``names``."""
+        kind = str(event.get("kind", "event"))
+        if "seat" in event and 0 <= int(event["seat"]) < len(names):
+            who = names[int(event["seat"])]
+        elif "team" in event:
+            who = f"team {int(event['team'])}" + (" (yours)" if int(event["team"]) == self.team else "")
+        else:
+            who = ""
+        details = ", ".join(f"{k} {v}" for k, v in event.items() if k not in ("kind", "seat", "team", "step", "cell"))
+        text = f"{who} {_EVENT_VERBS.get(kind, kind.replace('_', ' '))}".strip()
+        return f"{text} ({details})" if details else text
+
+    def end_reason(self, names: list[str], resigned: bool = False) -> str:
+        """Why the match ended, in a sentence."""
+        if resigned:
+            return "you resigned (a loss)"
+        if not self.rules.game_over:
+            return f"the step limit ({self.max_cycles} steps) ran out"
+        last = [e for e in self.events if e["step"] == self.steps - 1 and e.get("kind") not in ("move", "eat")]
+        if not last:
+            return "the game reached its end"
+        return "; ".join(self.describe_event(e, names) for e in last)
+
+
+def _play_match(match: LiveMatch, input_fn: InputFn, out: TextIO, picture_dir: str | Path | None) -> None:
+    """Play ``match`` in the terminal: show, ask and step until it ends."""
+    if picture_dir is not None:
+        Path(picture_dir).mkdir(parents=True, exist_ok=True)
+    while not match.over:
+        command = None
+        if match.person_acts():
             if picture_dir is not None:
                 from PIL import Image
 
-                Image.fromarray(rules.render_topdown()).save(Path(picture_dir) / f"step-{steps:05d}.png")
-            command = _ask(controls, steps, input_fn, out) if controls.wants_command() else None
-            actions[seat] = controls.action(command)
-        rules.step(actions)
-        steps += 1
-    if not rules.game_over:
-        rules.finish()
-    print(controls.final_view(), file=out)
-    return np.asarray(rules.team_result(), dtype=np.float64), steps
+                Image.fromarray(match.rules.render_topdown()).save(Path(picture_dir) / f"step-{match.steps:05d}.png")
+            if match.controls.wants_command():
+                command = _ask(match.controls, match.steps, input_fn, out)
+        match.step(command)
+    print(match.controls.final_view(), file=out)
 
 
 def _ask(controls: Controls, step: int, input_fn: InputFn, out: TextIO) -> Any:

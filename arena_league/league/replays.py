@@ -12,7 +12,7 @@ from typing import Any
 from arena_league.replay import TOPICS, export_gif, iter_messages, read_replay
 from arena_league.replay.captions import team_colour
 
-__all__ = ["SHAPE_KINDS", "replay_document", "replay_summary", "scene_shapes", "shape_points"]
+__all__ = ["SHAPE_KINDS", "frames_bounds", "replay_document", "replay_summary", "scene_shapes", "shape_points"]
 
 #: The kinds of shape in a replay document's frames (see :func:`replay_document`).
 SHAPE_KINDS: tuple[str, ...] = ("rect", "circle", "arrow", "line", "text")
@@ -107,7 +107,7 @@ def replay_document(path: str | Path, *, max_frames: int = 2000) -> dict[str, An
         frames.append({"step": step, "shapes": scene_shapes(last)})
 
     return {"match": match, "teams": _teams(summary.seats, summary.teams, summary.scores, summary.outcomes),
-            "bounds": _bounds(frames), "frames": frames, "frames_kept_every": every, "events": events}
+            "bounds": frames_bounds(frames), "frames": frames, "frames_kept_every": every, "events": events}
 
 
 def scene_shapes(update: Mapping[str, Any]) -> list[dict[str, Any]]:
@@ -253,7 +253,7 @@ def shape_points(shape: Mapping[str, Any]) -> Iterator[tuple[float, float]]:
         yield shape["x"], shape["y"]
 
 
-def _bounds(frames: Sequence[Mapping[str, Any]]) -> list[float]:
+def frames_bounds(frames: Sequence[Mapping[str, Any]]) -> list[float]:
     """``[xmin, ymin, xmax, ymax]`` around every shape of ``frames``, with a margin."""
     xs: list[float] = []
     ys: list[float] = []

@@ -33,7 +33,7 @@ from fastapi.responses import JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 
 from arena_league import league as ops
-from arena_league.web import api, pages
+from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
 
 __all__ = ["create_app"]
@@ -42,6 +42,8 @@ logger = logging.getLogger("arena_league.web")
 #: Room a multipart form needs beyond the files it carries.
 FORM_SLACK_BYTES = 1 << 20
 _UPLOAD_PATHS = ("/api/agents", "/submit")
+#: The most any other request body (a JSON document, a form) may hold.
+JSON_BODY_BYTES = 1 << 20
 
 
 class _BodyTooLarge(Exception):
@@ -49,18 +51,19 @@ class _BodyTooLarge(Exception):
 
 
 class BodyLimit:
-    """ASGI middleware: refuse an upload whose body is over the league's upload limit, by its
-    Content-Length at once, or, without one, as soon as that much has streamed in."""
+    """ASGI middleware: refuse an upload whose body is over the league's upload limit (any other
+    body over :data:`JSON_BODY_BYTES`), by its Content-Length at once, or, without one, as soon as
+    that much has streamed in."""
 
     def __init__(self, app: Any, limit: Any) -> None:
         self.app = app
         self.limit = limit  # a callable: the limit in bytes now
 
     async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
-        if scope["type"] != "http" or scope["method"] != "POST" or scope["path"] not in _UPLOAD_PATHS:
+        if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
             await self.app(scope, receive, send)
             return
-        limit = self.limit()
+        limit = self.limit() if scope["path"] in _UPLOAD_PATHS else JSON_BODY_BYTES
         declared = dict(scope.get("headers") or []).get(b"content-length")
         if declared is not None and declared.isdigit() and int(declared) > limit:
             await _refuse(scope, send, limit)
@@ -90,8 +93,12 @@ class BodyLimit:
 
 
 async def _refuse(scope: dict, send: Any, limit: int) -> None:
-    response = JSONResponse({"detail": f"the upload is over {(limit - FORM_SLACK_BYTES) >> 20} MiB, the most this "
-                                       "league takes (the setting web.upload_mib)"}, status_code=413)
+    if scope["path"] in _UPLOAD_PATHS:
+        detail = (f"the upload is over {(limit - FORM_SLACK_BYTES) >> 20} MiB, the most this league takes (the "
+                  "setting web.upload_mib)")
+    else:
+        detail = f"the request body is over {limit >> 20} MiB, the most a request other than an upload may carry"
+    response = JSONResponse({"detail": detail}, status_code=413)
     await response(scope, _no_body, send)
 
 
@@ -155,8 +162,10 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
     app.state.league = league
     app.state.boards = ops.LeaderboardCache()
     app.state.workers = processes
+    app.state.live_games = 0  # people playing in a browser now (see .play)
     app.include_router(api.router)
     app.include_router(pages.router)
+    app.include_router(play.router)
     app.openapi = lambda: _openapi(app)
     app.mount("/static", StaticFiles(directory=str(Path(__file__).parent / "static")), name="static")
 

@@ -22,4 +22,5 @@ def serve(*, host: str = "127.0.0.1", port: int = 8000, home: str | Path | None 
 
     logging.basicConfig(level=logging.INFO, stream=sys.stderr, format="%(asctime)s %(name)s %(message)s")
     app = create_app(home, url, workers=workers)
-    uvicorn.run(app, host=host, port=port, access_log=False, log_level="info")
+    # a play page's messages are a few bytes: a WebSocket message over 64 KiB closes its connection
+    uvicorn.run(app, host=host, port=port, access_log=False, log_level="info", ws_max_size=1 << 16)

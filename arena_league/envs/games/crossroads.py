@@ -124,6 +124,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
+from arena_league.envs.controls import ActionControls, arrow_keys
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, body_cells, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
@@ -229,8 +230,22 @@ CASE_STUDY_TREES: dict[str, dict] = {
 }
 
 
+class CrossroadsControls(ActionControls):
+    """The actions by name at a terminal; in a browser, arrows (or W A S D) drive and turn while
+    held."""
+
+    def web(self) -> dict[str, Any]:
+        return {"input": "keys", "pace": self.PACE,
+                "keys": arrow_keys("forward", "turn_left", "backward", "turn_right"), "release": "noop",
+                "combine": None, "accepts": [],
+                "hint": "Hold Up (W) to drive, Down (S) to back up, Left and Right (A, D) to turn; let go to coast."}
+
+
 class CrossroadsRules(ReplayedMatch, GameRules):
     """Crossroads rules: pymunk bodies driven to targets across a crossing (see the module)."""
+
+    def human_controls(self, seat: int) -> CrossroadsControls:
+        return CrossroadsControls(self, seat)
 
     @classmethod
     def example_trees(cls, n_teams: int, players_per_team: int) -> dict[str, dict]:

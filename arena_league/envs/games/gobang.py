@@ -119,6 +119,7 @@ red mark on the last stone: entities ``board``, ``stones`` and ``last_move``.
 
 from __future__ import annotations
 
+import math
 import re
 from functools import cache
 from typing import Any, ClassVar
@@ -406,6 +407,15 @@ class GoBangControls(Controls):
         if rules.engine.cells[0, cell] != 0:
             return None, f"{chr(ord('A') + col)}{row + 1} is occupied: choose an empty cell (shown as .)"
         return cell, None
+
+    def web(self) -> dict[str, Any]:
+        colour = "X (black, first)" if int(self.rules.team_of[self.seat]) == 0 else "O (white, second)"
+        return {"input": "cells", "pace": None, "hint": f"Click an empty cell to place a stone; you play {colour}."}
+
+    def point(self, x: float, y: float) -> str | None:
+        """The cell under (x, y): cells are unit squares, row 1 at the top (see ``scene.board_xy``)."""
+        size = self.rules.size
+        return f"{size - math.floor(y)} {math.floor(x) + 1}"
 
 
 def _check_geometry(size: Any, n_in_row: Any) -> None:

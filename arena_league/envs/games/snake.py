@@ -166,7 +166,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from arena_league.envs import scene
-from arena_league.envs.controls import Controls
+from arena_league.envs.controls import Controls, arrow_keys
 from arena_league.envs.core import GameRules, cell_bounds
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 
@@ -885,6 +885,10 @@ class SnakeControls(Controls):
         if text not in HUMAN_KEYS:
             return None, f"{text!r} is not a move: type w (up), a (left), s (down) or d (right), or Enter to go on"
         return (HUMAN_KEYS[text] - rotation) % 4, None
+
+    def web(self) -> dict[str, Any]:
+        return {"input": "keys", "pace": 6.0, "keys": arrow_keys("w", "a", "s", "d"), "release": None, "combine": None,
+                "accepts": [], "hint": "Arrow keys or W A S D turn your snake on the board as drawn; it keeps going."}
 
 
 def heuristic_actions(obs: np.ndarray) -> np.ndarray:

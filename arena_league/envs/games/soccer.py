@@ -130,7 +130,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import ActionControls
+from arena_league.envs.controls import ActionControls, arrow_keys
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.physics2d import BodyFields, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
@@ -698,6 +698,11 @@ class SoccerControls(ActionControls):
     def prompt(self, step: int) -> str:
         names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
         return f"step {step}: move on the field as drawn ({names}; Enter repeats) > "
+
+    def web(self) -> dict[str, Any]:
+        return {"input": "keys", "pace": self.PACE, "keys": arrow_keys("n", "w", "s", "e"), "release": "noop",
+                "combine": "nsew", "accepts": ["ne", "nw", "se", "sw"],
+                "hint": "Arrow keys or W A S D run on the field as drawn (two at once: diagonally); let go to stop."}
 
 
 RULES = SoccerRules

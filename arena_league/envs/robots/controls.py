@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from arena_league.envs.controls import Controls, ascii_topdown
+from arena_league.envs.controls import Controls, arrow_keys, ascii_topdown
 from arena_league.envs.robots.gait import stand, trot
 
 if TYPE_CHECKING:
@@ -57,6 +57,12 @@ class RobotControls(Controls):
         # world frame (as drawn) -> the seat's frame: turn by minus the seat's angle
         way = complex(*self.direction) * np.exp(-1j * float(rules.seat_angle[self.seat]))
         return trot(obs, [[way.real, way.imag]])[0]
+
+    def web(self) -> dict[str, Any]:
+        return {"input": "keys", "pace": 20.0, "keys": arrow_keys("w", "a", "s", "d"), "release": "x",
+                "combine": "wsad", "accepts": ["wa", "wd", "sa", "sd"],
+                "hint": "Arrow keys or W A S D walk your ant on the arena as drawn (two at once: diagonally); "
+                        "let go to stand."}
 
     def parse(self, text: str) -> tuple[Any, str | None]:
         """``text`` (``<direction> [steps]``; Enter repeats the last) as ``(direction, keys, steps)``."""

@@ -15,6 +15,8 @@
  * player): space plays or pauses, left and right arrows step back and forward.
  * Speed 1x shows 10 frames per second; playback stops on the last frame.
  * Players added to the page later can be started with window.ArenaReplay.mount(element).
+ * Other pages draw frames with the same painter: window.ArenaReplay.paint(context, dpr, width,
+ * height, bounds, shapes) returns the view (fit(bounds, width, height): scale, x, y, toWorld).
  */
 (function () {
   "use strict";
@@ -356,34 +358,44 @@
     var canvas = this.canvas;
     var context = canvas.getContext && canvas.getContext("2d");
     if (!context || !this.doc) return;
-    var dpr = this.dpr || 1;
-    var width = this.cssWidth;
-    var height = this.cssHeight;
-    var bounds = this.doc.bounds;
+    paint(context, this.dpr || 1, this.cssWidth, this.cssHeight, this.doc.bounds,
+          this.doc.frames[this.frame].shapes || []);
+  };
+
+  // The view that fits the world rectangle bounds [xmin, ymin, xmax, ymax] into width x height
+  // CSS pixels, y up: its scale, x(world) and y(world) in CSS pixels, and back (toWorld).
+  function fit(bounds, width, height) {
     var spanX = Math.max(1e-9, bounds[2] - bounds[0]);
     var spanY = Math.max(1e-9, bounds[3] - bounds[1]);
     var scale = Math.max(1e-9, Math.min((width - 2 * PADDING) / spanX, (height - 2 * PADDING) / spanY));
     var offsetX = (width - spanX * scale) / 2;
     var offsetY = (height - spanY * scale) / 2;
-    var view = {
+    return {
       scale: scale,
       x: function (x) { return offsetX + (x - bounds[0]) * scale; },
-      y: function (y) { return offsetY + (bounds[3] - y) * scale; } // y up
+      y: function (y) { return offsetY + (bounds[3] - y) * scale; }, // y up
+      toWorld: function (px, py) { return [bounds[0] + (px - offsetX) / scale, bounds[3] - (py - offsetY) / scale]; }
     };
+  }
+
+  // Draw shapes (a replay document frame's) on a 2D context of a canvas width x height CSS pixels
+  // at device pixel ratio dpr, the world rectangle bounds fitted in.
+  function paint(context, dpr, width, height, bounds, shapes) {
+    var view = fit(bounds, width, height);
     context.setTransform(dpr, 0, 0, dpr, 0, 0);
     context.clearRect(0, 0, width, height);
-    var shapes = this.doc.frames[this.frame].shapes || [];
     for (var i = 0; i < shapes.length; i++) {
       var shape = shapes[i];
-      var paint = DRAW[shape.kind];
-      if (!paint) continue;
+      var draw = DRAW[shape.kind];
+      if (!draw) continue;
       context.save();
       context.fillStyle = shape.color;
       context.strokeStyle = shape.color;
-      paint(context, shape, view);
+      draw(context, shape, view);
       context.restore();
     }
-  };
+    return view;
+  }
 
   var DRAW = {
     rect: function (context, shape, view) {
@@ -497,7 +509,7 @@
   }
 
   document.addEventListener("keydown", onKey);
-  window.ArenaReplay = { mount: mount, mountAll: mountAll };
+  window.ArenaReplay = { mount: mount, mountAll: mountAll, paint: paint, fit: fit };
   if (document.readyState === "loading") {
     document.addEventListener("DOMContentLoaded", mountAll);
   } else {

@@ -1,0 +1,154 @@
+"""Playing in a real browser: Playwright driving Debian's Chromium against ``arena-league serve``.
+
+A signed-in person plays GoBang against the base population by clicking cells until the match
+ends, reads why it ended, and finds the match stored and themself placed on the game's leaderboard
+with an interval; a guest steers a snake with the arrow keys and sees it turn. Skipped, with the
+reason, where Chromium or Playwright is missing (``.ci/run`` installs both).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from web_helpers import Server, running_server
+
+CHROMIUM = Path("/usr/bin/chromium")
+pytestmark = pytest.mark.slow
+sync_api = pytest.importorskip("playwright.sync_api", reason="the browser tests need Playwright (pip install "
+                                                             "playwright; its own browser download is not needed)")
+if not CHROMIUM.exists():
+    pytest.skip(f"the browser tests need Debian's Chromium at {CHROMIUM} (apt-get install -y chromium)",
+                allow_module_level=True)
+PADDING = 12  # the painter's margin in CSS pixels (replay.js)
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory) -> Server:
+    with running_server(tmp_path_factory.mktemp("play") / "home", workers=0) as running:
+        yield running
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_api.sync_playwright() as playwright:
+        chromium = playwright.chromium.launch(
+            executable_path=str(CHROMIUM),
+            args=["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+                  "--disable-sync", "--no-first-run"])
+        yield chromium
+        chromium.close()
+
+
+def to_screen(page, x: float, y: float) -> tuple[float, float]:
+    """The page position of the world point (x, y) on the play view (the painter's fit)."""
+    bounds = json.loads(page.get_attribute("#play", "data-bounds"))
+    box = page.locator('[data-role="view"]').bounding_box()
+    span_x, span_y = bounds[2] - bounds[0], bounds[3] - bounds[1]
+    scale = min((box["width"] - 2 * PADDING) / span_x, (box["height"] - 2 * PADDING) / span_y)
+    offset_x = (box["width"] - span_x * scale) / 2
+    offset_y = (box["height"] - span_y * scale) / 2
+    return box["x"] + offset_x + (x - bounds[0]) * scale, box["y"] + offset_y + (bounds[3] - y) * scale
+
+
+def gobang_cells(size: int = 15) -> list[tuple[int, int]]:
+    """Cells to try, in order: a row of five across the middle first, then the board outward."""
+    middle = size // 2
+    first = [(middle, c) for c in range(middle - 4, middle + 5)] + [(middle + 1, c) for c in range(middle - 4, middle + 5)]
+    rest = sorted(((r, c) for r in range(size) for c in range(size)),
+                  key=lambda rc: (abs(rc[0] - middle) + abs(rc[1] - middle), rc))
+    return first + [rc for rc in rest if rc not in first]
+
+
+def test_a_person_plays_gobang_to_the_end_by_clicking_and_lands_on_the_leaderboard(server, browser):
+    token = server.token("clicker")
+    page = browser.new_page(viewport={"width": 1280, "height": 1000})
+    page.set_default_timeout(60_000)
+    page.goto(f"{server.url}/signin?next=/play/GoBang-2T1P-v1")
+    page.fill('input[name="token"]', token)
+    page.click('button[type="submit"]')
+    page.click('[data-role="start"]')
+    # the first game of the league imports the shipped base population, then the match begins
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "your-move", timeout=120_000)
+    seats = page.locator('[data-role="seats"] li')
+    sync_api.expect(seats).to_have_count(2)
+    sync_api.expect(seats.nth(0)).to_contain_text("you (clicker@GoBang-2T1P-v1)")
+    sync_api.expect(seats.nth(1)).to_contain_text("opponent: base-v1.")
+    size = 15
+    for row, col in gobang_cells(size):
+        if page.get_attribute("#play", "data-state") == "ended":
+            break
+        step = page.get_attribute("#play", "data-step")
+        x, y = to_screen(page, col + 0.5, size - row - 0.5)
+        page.mouse.click(x, y)
+        # the server answers with the move and the opponent's reply, or refuses an occupied cell
+        page.wait_for_function(
+            "([step]) => { const root = document.getElementById('play');"
+            " const refused = document.querySelector('[data-role=\"message\"]').textContent.includes('occupied');"
+            " return root.dataset.state === 'ended' || refused ||"
+            " (root.dataset.step !== step && root.dataset.state === 'your-move'); }", arg=[step])
+        page.evaluate("document.querySelector('[data-role=\"message\"]').textContent = ''")
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
+    outcome = page.get_attribute("#play", "data-outcome")
+    assert outcome in ("win", "loss", "draw")
+    reason = page.locator('[data-role="reason"]').inner_text()
+    assert reason.startswith("Why it ended: ") and ("five in a row" in reason or "board full" in reason), reason
+    sync_api.expect(page.locator('[data-role="placement"]')).to_contain_text("95%")
+    scores = page.locator('[data-role="scores"]').inner_text()
+    match_id = int(scores.rsplit("stored as match ", 1)[1].rstrip("."))
+    with server.client() as client:
+        match = client.get(f"/api/matches/{match_id}").json()
+        assert {s["agent"] for s in match["seats"]} >= {"clicker@GoBang-2T1P-v1"}
+        assert next(s for s in match["seats"] if s["agent"] == "clicker@GoBang-2T1P-v1")["outcome"] == outcome
+        board = client.get("/api/games/GoBang-2T1P-v1/leaderboard").json()
+    row = next(r for r in board["rows"] if r["agent"] == "clicker@GoBang-2T1P-v1")
+    assert row["kind"] == "human" and row["lower"] <= row["rating"] <= row["upper"]
+    # the game's page lists the person among the base, and a next match can begin
+    page.goto(f"{server.url}/games/GoBang-2T1P-v1")
+    sync_api.expect(page.locator('table.data a[href="/agents/clicker@GoBang-2T1P-v1"]')).to_have_count(1)
+    page.close()
+
+
+def test_a_guest_turns_a_snake_with_the_arrow_keys(server, browser):
+    page = browser.new_page(viewport={"width": 1280, "height": 1000})
+    page.set_default_timeout(60_000)
+    page.goto(f"{server.url}/play/Snake-2T2P-v1")
+    page.fill('[data-role="guest"]', "snaky")
+    page.click('[data-role="start"]')
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "playing", timeout=120_000)
+    sync_api.expect(page.locator('[data-role="seats"] li')).to_have_count(4)
+    sync_api.expect(page.locator('[data-role="seats"] li[data-seat-role="teammate"]')).to_have_count(1)
+
+    def positions(count: int) -> list[tuple[float, float]]:
+        """Where the person's snake head is drawn on the next ``count`` steps (fewer if it dies)."""
+        seen = []
+        while len(seen) < count:
+            step = page.get_attribute("#play", "data-step")
+            page.wait_for_function("([step]) => document.getElementById('play').dataset.step !== step", arg=[step])
+            you = page.get_attribute("#play", "data-you")
+            if you is None:
+                break
+            seen.append(tuple(float(v) for v in you.split(",")))
+        return seen
+
+    before = positions(2)
+    heading = (round(before[1][0] - before[0][0]), round(before[1][1] - before[0][1]))
+    assert abs(heading[0]) + abs(heading[1]) == 1, heading
+    bounds = json.loads(page.get_attribute("#play", "data-bounds"))
+    x, y = before[1]
+    if heading[0] != 0:  # going sideways: turn up or down, toward the roomier side
+        key, wanted = ("ArrowUp", (0, 1)) if bounds[3] - y > y - bounds[1] else ("ArrowDown", (0, -1))
+    else:
+        key, wanted = ("ArrowRight", (1, 0)) if bounds[2] - x > x - bounds[0] else ("ArrowLeft", (-1, 0))
+    page.keyboard.down(key)
+    page.keyboard.up(key)
+    after = positions(3)
+    moves = [(round(b[0] - a[0]), round(b[1] - a[1])) for a, b in zip([before[1], *after], after)]
+    events = page.locator('[data-role="events"]').inner_text()
+    assert wanted in moves, (heading, key, moves, events)
+    # resigning ends the match (unless it has ended already, the snake having run into something)
+    page.evaluate("document.querySelector('[data-role=\"resign\"]').click()")
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
+    sync_api.expect(page.locator('[data-role="reason"]')).to_contain_text("Why it ended: ")
+    page.close()
