@@ -639,9 +639,9 @@ def cmd_gc(args: argparse.Namespace) -> int:
     for entry in report["artifacts"]:
         stdout.print(f"{verb} artifact {entry['sha256'][:12]} ({entry['path']}, {entry['bytes']} bytes)",
                      highlight=False)
-    for entry in report["incoming"] + report["uploads"]:
+    for entry in report["incoming"] + report["uploads"] + report["previews"]:
         stdout.print(f"{verb} leftover {entry['path']} ({entry['bytes']} bytes)", highlight=False)
-    count = len(report["artifacts"]) + len(report["incoming"]) + len(report["uploads"])
+    count = len(report["artifacts"]) + len(report["incoming"]) + len(report["uploads"]) + len(report["previews"])
     stdout.print(f"{verb} {count} entries, {report['bytes']} bytes" if count else "nothing to remove",
                  highlight=False)
     return 0

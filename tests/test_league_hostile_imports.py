@@ -227,7 +227,7 @@ def test_gc_removes_unreferenced_artifacts_and_stale_incoming_files(capsys, home
     state = league_state(home)
     assert state["artifacts"] == [kept.sha256] and state["agents"] == ["alice"]
     code, doc, _ = run(capsys, "gc", "--min-age", "0", "--json")
-    assert doc["artifacts"] == [] and doc["incoming"] == [] and doc["uploads"] == [] and doc["bytes"] == 0
+    assert doc["artifacts"] == [] and doc["incoming"] == [] and doc["uploads"] == [] and doc["previews"] == [] and doc["bytes"] == 0
 
 
 def test_shipped_population_imports_through_the_gate_and_rank_works(capsys, home, tmp_path):

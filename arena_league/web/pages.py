@@ -41,7 +41,17 @@ def _page(request: Request, template: str, view: Any, viewer: Identity | None, j
 def _local(target: str) -> str:
     """A redirect target on this site only (no scheme, no host: no open redirect)."""
     parsed = urlparse(target or "/")
-    return parsed.path if not parsed.scheme and not parsed.netloc and parsed.path.startswith("/") else "/"
+    if parsed.scheme or parsed.netloc or not parsed.path.startswith("/") or parsed.path[1:2] in ("/", "\\"):
+        return "/"
+    return parsed.path + (f"?{parsed.query}" if parsed.query else "")
+
+
+def _here(request: Request) -> str:
+    """The page asked for, query included: where signing in comes back to."""
+    return request.url.path + (f"?{request.url.query}" if request.url.query else "")
+
+
+templates.env.globals["here"] = _here
 
 
 def _seen(request: Request, query: dict[str, Any]) -> str:

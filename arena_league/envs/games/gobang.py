@@ -409,7 +409,7 @@ class GoBangControls(Controls):
         return cell, None
 
     def web(self) -> dict[str, Any]:
-        colour = "X (black, first)" if int(self.rules.team_of[self.seat]) == 0 else "O (white, second)"
+        colour = "black (first)" if int(self.rules.team_of[self.seat]) == 0 else "white (second)"
         return {"input": "cells", "pace": None, "hint": f"Click an empty cell to place a stone; you play {colour}."}
 
     def point(self, x: float, y: float) -> str | None:

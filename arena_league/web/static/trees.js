@@ -1076,6 +1076,7 @@
         ? "Verified: " + off + " of " + nodes.length + " nodes do not behave as declared (marked below)."
         : "Verified: every node (" + nodes.length + ") behaves as its declared scheme.");
       self.paintVerification();
+      self.markStale(); // edited while it ran
     }, function () { /* shown by runJob */ });
   };
 
@@ -1134,6 +1135,9 @@
   Editor.prototype.showPreview = function (result) {
     var self = this;
     var area = self.previewArea;
+    Array.prototype.forEach.call(area.querySelectorAll(".replay-player"), function (old) {
+      if (old.__arenaReplay && old.__arenaReplay.pause) old.__arenaReplay.pause(); // stop an earlier preview
+    });
     area.textContent = "";
     area.hidden = false;
     area.appendChild(el("h2", {}, "Preview"));
