@@ -9,20 +9,15 @@ the reason, where Chromium or Playwright is missing (``.ci/run`` installs both).
 from __future__ import annotations
 
 import shutil
-from pathlib import Path
 
 import pytest
+from browser_helpers import CHROMIUM, chromium, playwright_or_skip
 from cli_helpers import gobang_agent
 from web_helpers import Server, running_server
 
-CHROMIUM = Path("/usr/bin/chromium")
 GAME = "GoBang-2T1P-v1"
 pytestmark = pytest.mark.slow
-sync_api = pytest.importorskip("playwright.sync_api", reason="the browser tests need Playwright (pip install "
-                                                             "playwright; its own browser download is not needed)")
-if not CHROMIUM.exists():
-    pytest.skip(f"the browser tests need Debian's Chromium at {CHROMIUM} (apt-get install -y chromium)",
-                allow_module_level=True)
+sync_api = playwright_or_skip()
 
 
 @pytest.fixture(scope="module")
@@ -33,13 +28,8 @@ def server(tmp_path_factory) -> Server:
 
 @pytest.fixture(scope="module")
 def browser():
-    with sync_api.sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(
-            executable_path=str(CHROMIUM),
-            args=["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-                  "--disable-sync", "--no-first-run"])
-        yield chromium
-        chromium.close()
+    with chromium(sync_api) as launched:
+        yield launched
 
 
 def wait_done(page, seconds: float = 120) -> None:

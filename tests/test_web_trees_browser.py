@@ -12,22 +12,17 @@ with the reason, where Chromium or Playwright is missing (``.ci/run`` installs b
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import httpx
 import pytest
+from browser_helpers import chromium, playwright_or_skip
 from web_helpers import Server, running_server
 
 from arena_league.envs import make
 
-CHROMIUM = Path("/usr/bin/chromium")
 GAME = "Crossroads-2T2P-v1"
 pytestmark = pytest.mark.slow
-sync_api = pytest.importorskip("playwright.sync_api", reason="the browser tests need Playwright (pip install "
-                                                             "playwright; its own browser download is not needed)")
-if not CHROMIUM.exists():
-    pytest.skip(f"the browser tests need Debian's Chromium at {CHROMIUM} (apt-get install -y chromium)",
-                allow_module_level=True)
+sync_api = playwright_or_skip()
 expect = sync_api.expect
 
 
@@ -39,13 +34,8 @@ def server(tmp_path_factory) -> Server:
 
 @pytest.fixture(scope="module")
 def browser():
-    with sync_api.sync_playwright() as playwright:
-        chromium = playwright.chromium.launch(
-            executable_path=str(CHROMIUM),
-            args=["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-                  "--disable-sync", "--no-first-run"])
-        yield chromium
-        chromium.close()
+    with chromium(sync_api) as launched:
+        yield launched
 
 
 def signed_in_editor(browser, server: Server, owner: str):
