@@ -768,7 +768,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = command("serve", "the league as a web service: pages, JSON API, uploads, replays (FastAPI on uvicorn)")
     p.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=_positive_int, default=8000, help="port (default 8000)")
+    p.add_argument("--port", type=_port, default=8000, help="port (default 8000)")
     p.add_argument("--workers", type=_non_negative_int, default=None,
                    help="job workers to run beside the server (default 1)")
     p.add_argument("--no-worker", action="store_true",
@@ -922,15 +922,16 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     return (CommandError, *USER_ERRORS)
 
 
-def _int_at_least(minimum: int, requirement: str) -> Callable[[str], int]:
-    """An argparse type: an integer of at least ``minimum``, refused as ``must be <requirement>``."""
+def _int_at_least(minimum: int, requirement: str, maximum: int | None = None) -> Callable[[str], int]:
+    """An argparse type: an integer of at least ``minimum`` (and at most ``maximum``), refused as
+    ``must be <requirement>``."""
 
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-        if value < minimum:
+        if value < minimum or (maximum is not None and value > maximum):
             raise argparse.ArgumentTypeError(f"must be {requirement}, not {value}")
         return value
 
@@ -939,6 +940,7 @@ def _int_at_least(minimum: int, requirement: str) -> Callable[[str], int]:
 
 _positive_int = _int_at_least(1, "a positive integer")
 _non_negative_int = _int_at_least(0, "0 or more")
+_port = _int_at_least(1, "a port number from 1 to 65535", 65535)
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

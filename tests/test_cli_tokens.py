@@ -41,3 +41,13 @@ def test_a_token_is_shown_once_kept_as_a_hash_and_revoked(capsys, home):
         assert authenticate(league, token) is None and authenticate(league, admin["token"]) is None
     code, _, err = run(capsys, "token", "create", "a:b")
     assert code == 2 and "not allowed" in err
+
+
+def test_serve_refuses_a_bad_port_and_one_in_use_in_one_line(capsys, home):
+    import socket
+
+    with socket.create_server(("127.0.0.1", 0)) as taken:
+        port = taken.getsockname()[1]
+        code, _, err = run(capsys, "serve", "--port", str(port), "--no-worker")
+    assert code == 2 and f"cannot listen on 127.0.0.1:{port} (Address already in use" in err
+    assert "Traceback" not in err

@@ -63,9 +63,11 @@ def test_moves_are_refused_with_the_reason_and_a_match_ends_stored_and_placed(ho
         assert opening["type"] == "match" and opening["team"] == 0 and opening["controls"]["input"] == "cells"
         assert [s["role"] for s in opening["seats"]] == ["you", "opponent"]
         assert first["type"] == "frame" and first["waiting"] and first["step"] == 0
-        refusals = [live.act({"type": "act", "point": p})[0] for p in ([99.0, 3.0], [1.0], ["a", "b"], [float("nan"), 1])]
-        assert [r["type"] for r in refusals] == ["refused"] * 4
+        refusals = [live.act({"type": "act", "point": p})[0]
+                    for p in ([15.3, 3.0], [1.0], ["a", "b"], [float("nan"), 1], [1e308, -1e308])]
+        assert [r["type"] for r in refusals] == ["refused"] * 5
         assert "off the board" in refusals[0]["reason"] and "point: [x, y]" in refusals[1]["reason"]
+        assert refusals[4]["reason"] == "that click is outside the view; click on the board"
         assert "occupied" not in refusals[0]["reason"]
         out = live.act({"type": "act", "point": cell_point(7, 7)})
         assert [m["type"] for m in out] == ["frame", "frame"] and out[-1]["waiting"]
@@ -182,6 +184,8 @@ def test_the_socket_answers_bad_messages_with_one_line_and_plays_on(client):
         assert "unknown message type 'dance'" in socket.receive_json()["detail"]
         socket.send_json({"type": "next"})
         assert "in progress" in socket.receive_json()["detail"]
+        socket.send_bytes(b"\x00\x01")  # no JSON text: answered, and the game goes on
+        assert "one JSON object" in socket.receive_json()["detail"]
         socket.send_json({"type": "act", "point": cell_point(7, 7)})
         assert socket.receive_json()["type"] == "frame"
 

@@ -163,15 +163,18 @@ class LivePlay:
             raise ValueError("no match in progress: send {\"type\": \"next\"} to start one")
         return self.match
 
-    @staticmethod
-    def _parse(match: LiveMatch, message: dict[str, Any]) -> tuple[Any, str | None]:
+    def _parse(self, match: LiveMatch, message: dict[str, Any]) -> tuple[Any, str | None]:
         point = message.get("point")
         if point is not None:
             if (not isinstance(point, list) or len(point) != 2 or
                     not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
                             for v in point)):
                 return None, "a click is sent as point: [x, y], two finite numbers"
-            text = match.controls.point(float(point[0]), float(point[1]))
+            x, y = float(point[0]), float(point[1])
+            xmin, ymin, xmax, ymax = self.bounds
+            if not (xmin <= x <= xmax and ymin <= y <= ymax):
+                return None, "that click is outside the view; click on the board"
+            text = match.controls.point(x, y)
             if text is None:
                 return None, "this game is not played by clicking; use the keys the page lists"
         else:

@@ -124,15 +124,15 @@ async def _session(websocket: WebSocket, league: Any, game: str, idle: float) ->
 
 
 async def _read(websocket: WebSocket, inbox: asyncio.Queue) -> None:
-    """Put every message of the page in ``inbox`` (None when it goes away); messages beyond what
-    the game can use (the inbox full) are dropped."""
-    try:
-        while True:
-            text = await websocket.receive_text()
-            if not inbox.full():
-                inbox.put_nowait(text)
-    except (WebSocketDisconnect, RuntimeError, KeyError):
-        await inbox.put(None)
+    """Put every message of the page in ``inbox`` (a binary one as ``""``, which is no JSON; None
+    when the page goes away); messages beyond what the game can use (the inbox full) are dropped."""
+    while True:
+        message = await websocket.receive()
+        if message["type"] == "websocket.disconnect":
+            await inbox.put(None)
+            return
+        if not inbox.full():
+            inbox.put_nowait(message.get("text") or "")
 
 
 async def _answer(live: Any, text: str) -> list[dict[str, Any]]:

@@ -14,13 +14,22 @@ def serve(*, host: str = "127.0.0.1", port: int = 8000, home: str | Path | None 
     One log line per request goes to stderr (the application's own, which names who asked; uvicorn's
     access log is off)."""
     import logging
+    import socket
     import sys
 
     import uvicorn
 
     from arena_league.web.app import create_app
 
+    # listen before anything starts, so that a port in use is one line and no worker is left behind
+    try:
+        listening = socket.create_server((host, port))
+    except OSError as error:
+        raise ValueError(f"cannot listen on {host}:{port} ({error.strerror or error}); check --host, or choose "
+                         "another --port (or stop what holds this one)") from None
     logging.basicConfig(level=logging.INFO, stream=sys.stderr, format="%(asctime)s %(name)s %(message)s")
     app = create_app(home, url, workers=workers)
     # a play page's messages are a few bytes: a WebSocket message over 64 KiB closes its connection
-    uvicorn.run(app, host=host, port=port, access_log=False, log_level="info", ws_max_size=1 << 16)
+    config = uvicorn.Config(app, access_log=False, log_level="info", ws_max_size=1 << 16)
+    with listening:
+        uvicorn.Server(config).run(sockets=[listening])
