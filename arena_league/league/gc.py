@@ -49,11 +49,12 @@ def collect_garbage(league: League, dry_run: bool = False, *, min_age_s: float =
         raise ValueError(f"min_age_s must be 0 or more, not {min_age_s}")
     with league.transaction() as session:
         removed = collect_artifact_garbage(session, league.home, dry_run=dry_run, min_age_s=min_age_s)
-        waiting = {(job.payload or {}).get("upload", "").split("/")[1] for job in live_jobs(session, "validate")
-                   if "/" in (job.payload or {}).get("upload", "")}
+        uploads = [(job.payload or {}).get("upload", "") for job in live_jobs(session, "validate")]
+        waiting = {upload.split("/")[1] for upload in uploads if "/" in upload}
         removed["uploads"] = _stale_folders(Path(league.home), UPLOADS, waiting, dry_run, min_age_s)
-        removed["previews"] = _stale_folders(Path(league.home), PREVIEWS, set(), dry_run,
-                                             0.0 if min_age_s == 0 else max(min_age_s, PREVIEW_KEEP_S))
+    # previews belong to no row: swept outside the transaction
+    removed["previews"] = _stale_folders(Path(league.home), PREVIEWS, set(), dry_run,
+                                         0.0 if min_age_s == 0 else max(min_age_s, PREVIEW_KEEP_S))
     freed = sum(entry["bytes"] for entries in removed.values() for entry in entries)
     return {"dry_run": dry_run, **removed, "bytes": freed}
 

@@ -41,8 +41,7 @@ import numpy as np
 
 from arena_league import registry as reg
 from arena_league.league.human import Ladder, LiveMatch
-from arena_league.league.replays import frames_bounds, scene_shapes, shape_points
-from arena_league.replay.captions import team_colour
+from arena_league.league.replays import frames_bounds, scene_shapes, shape_points, team_hex
 from arena_league.replay.scenes import scene_entities
 from arena_league.replay.writer import STEP_NS
 
@@ -117,7 +116,7 @@ class LivePlay:
         self.bounds = frames_bounds([{"shapes": first}])
         seats = [{"seat": s, "team": team_of[s], "role": roles[s], "label": self.labels[s],
                   "agent": self.ladder.agent_name if s == seat else match.opponent,
-                  "color": "#{:02x}{:02x}{:02x}".format(*team_colour(team_of[s]))} for s in range(n)]
+                  "color": team_hex(team_of[s])} for s in range(n)]
         opening = {"type": "match", "number": self.ladder.played + 1, "opponent": match.opponent,
                    "opponent_rating": match.opponent_rating, "rung": self.ladder.rung + 1, "team": match.team,
                    "seat": seat, "seats": seats, "controls": match.controls.web(), "bounds": self.bounds,

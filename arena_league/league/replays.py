@@ -12,7 +12,7 @@ from typing import Any
 from arena_league.replay import TOPICS, export_gif, iter_messages, read_replay
 from arena_league.replay.captions import team_colour
 
-__all__ = ["SHAPE_KINDS", "frames_bounds", "replay_document", "replay_summary", "scene_shapes", "shape_points"]
+__all__ = ["SHAPE_KINDS", "frames_bounds", "replay_document", "replay_summary", "scene_shapes", "shape_points", "team_hex"]
 
 #: The kinds of shape in a replay document's frames (see :func:`replay_document`).
 SHAPE_KINDS: tuple[str, ...] = ("rect", "circle", "arrow", "line", "text")
@@ -220,13 +220,17 @@ def _text(label: Mapping[str, Any]) -> dict[str, Any]:
 
 
 # --- teams and bounds -----------------------------------------------------------------------------
+def team_hex(team: int) -> str:
+    """The colour of ``team`` in the pictures, as CSS ``#rrggbb``."""
+    return "#{:02x}{:02x}{:02x}".format(*team_colour(team))
+
+
 def _teams(seats: Sequence[str], teams: Sequence[int], scores: Sequence[float], outcomes: Sequence[str]
            ) -> list[dict[str, Any]]:
     out = []
     for team in sorted(set(teams)):
         members = [seat for seat, t in enumerate(teams) if t == team]
-        red, green, blue = team_colour(team)
-        out.append({"team": team, "color": f"#{red:02x}{green:02x}{blue:02x}",
+        out.append({"team": team, "color": team_hex(team),
                     "agents": [seats[seat] for seat in members], "seats": members,
                     "score": scores[members[0]], "outcome": outcomes[members[0]]})
     return out

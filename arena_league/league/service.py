@@ -24,7 +24,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -55,6 +55,9 @@ from arena_league.registry.errors import ArtifactTakenError
 from arena_league.registry.jobs import live_jobs, lock_game, set_job_payload
 from arena_league.registry.repository import AGENT_NAME_PATTERN
 from arena_league.replay import ReplayRecording
+
+if TYPE_CHECKING:
+    from arena_league.league.tokens import Identity
 
 MATCH_IDS_PER_JOB = 2**20
 #: Matches per pair of the round robin that rates a league-wide base before a placement.
@@ -201,7 +204,8 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     database error, a full disk) the file it stored is removed again.
     """
     from arena_league.league.settings import sandbox_limits
-    from arena_league.policies import CorruptArtifactError, errors, read_artifact, validate_submission
+    from arena_league.policies import CorruptArtifactError, read_artifact, validate_submission
+    from arena_league.policies.errors import artifact_error_class
 
     start = time.perf_counter()
     register_game(league, game_id)
@@ -219,8 +223,8 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     with league.reading() as session:
         reg.refuse_taken_name(session, name)  # before anything is stored
     verdict = validate_submission(artifact, game_id, sandbox_limits=sandbox_limits(league))
-    refusal = getattr(errors, verdict.error or "", None)
-    if isinstance(refusal, type) and issubclass(refusal, CorruptArtifactError):
+    refusal = artifact_error_class(verdict.error, CorruptArtifactError)
+    if refusal is not None:
         raise refusal(verdict.reason)  # unreadable (truncated, corrupt): refused, nothing stored
     status = "active" if verdict.ok else "rejected"
     try:
@@ -459,7 +463,6 @@ class _Recorder:
             self.forfeits[agent] = self.forfeits.get(agent, 0) + 1
         if len(self.pending) >= _RECORD_EVERY or result.forfeits:
             self.flush()  # a forfeit is stored at once: it may suspend its agent
-        self.ctx.heartbeat()
         if self.progress is not None:
             self.progress(self.played, self.total)
 
@@ -480,35 +483,35 @@ class _Recorder:
 
 @dataclass
 class _Sandboxing:
-    """How one job's agents play: the league's sandbox budgets, and how many more matches each
-    sandboxed agent may forfeit before it is suspended."""
+    """How one job's agents play: the league's sandbox budgets, and how many matches each sandboxed
+    agent could still forfeit before it is suspended when the job began (its recorder counts the
+    job's own forfeits)."""
 
     limits: Any
     suspend_after: int
     allowance: dict[str, int]
 
     @classmethod
-    def of(cls, league: League, refs: Mapping[str, AgentRef]) -> _Sandboxing:
-        from arena_league.league.settings import sandbox_limits, suspend_after
+    def of(cls, league: League, refs: Mapping[str, AgentRef], ids: Mapping[str, int]) -> _Sandboxing:
+        """For the agents ``refs`` of one game, ``ids`` their registry ids."""
+        from arena_league.league.settings import league_settings, sandbox_limits, suspend_after
 
-        limit = suspend_after(league)
+        values = league_settings(league)
+        limit = suspend_after(league, values)
         sandboxed = [name for name, ref in refs.items() if ref.sandboxed]
         with league.reading() as session:
-            ids = {a.name: a.id for a in reg.list_agents(session) if a.name in set(sandboxed)}
-            counts = reg.forfeit_counts(session, list(ids.values()))
-        return cls(sandbox_limits(league), limit,
+            counts = reg.forfeit_counts(session, [ids[name] for name in sandboxed])
+        return cls(sandbox_limits(league, values), limit,
                    {name: max(0, limit - counts.get(ids[name], 0)) for name in sandboxed})
 
     def play(self, specs: Sequence[MatchSpec], refs: Mapping[str, AgentRef], ctx: reg.JobContext,
              recorder: _Recorder, **options: Any) -> list[MatchResult]:
         """``play_matches`` under the budgets, storing through ``recorder``, beating the job's heart;
-        each agent's allowance shrinks by what it forfeited, for the job's next call."""
-        results = play_matches(specs, refs, sandbox_limits=self.limits, forfeit_limit=self.allowance,
-                               heartbeat=ctx.heartbeat, on_result=recorder, **options)
-        for result in results:
-            for name in result.forfeit_of:
-                self.allowance[name] = self.allowance.get(name, 0) - 1
-        return results
+        each agent may forfeit what it had left when the job began, less the job's forfeits so far."""
+        left = {name: self.allowance.get(name, 0) - recorder.forfeits.get(name, 0)
+                for name in {*self.allowance, *recorder.forfeits}}
+        return play_matches(specs, refs, sandbox_limits=self.limits, forfeit_limit=left, heartbeat=ctx.heartbeat,
+                            on_result=recorder, **options)
 
     def suspend(self, league: League, forfeits: Mapping[str, int]) -> dict[str, str]:
         """Suspend each agent of ``forfeits`` that reached the limit; returns name -> reason."""
@@ -516,16 +519,17 @@ class _Sandboxing:
         if not forfeits:
             return suspended
         with league.transaction() as session:
-            for name in forfeits:
-                agent = reg.require_agent(session, name)
-                count = reg.forfeit_counts(session, [agent.id]).get(agent.id, 0)
+            agents = [reg.require_agent(session, name) for name in forfeits]
+            counts = reg.forfeit_counts(session, [agent.id for agent in agents])
+            for agent in agents:
+                count = counts.get(agent.id, 0)
                 if count < self.suspend_after or agent.status != "active":
                     continue
                 last = reg.agent_forfeits(session, agent, limit=1)
                 reason = (f"suspended after forfeiting {count} matches (the league suspends at "
                           f"{self.suspend_after}); the last: it {last[0]['reason'] if last else 'failed'}")
                 reg.set_agent_status(session, agent, "suspended", reason=reason)
-                suspended[name] = reason
+                suspended[agent.name] = reason
         return suspended
 
 
@@ -566,7 +570,7 @@ def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> di
     specs = specs_for_seatings(game_id, seatings, int(payload["seed"]), ctx.job.id * MATCH_IDS_PER_JOB)
     specs = [s for s in specs if match_key(ctx.job.id, s.match_id) not in done_keys]
     recorder = _Recorder(ctx, game_id, len(specs), progress)
-    sandboxing = _Sandboxing.of(ctx.league, refs)
+    sandboxing = _Sandboxing.of(ctx.league, refs, recorder.ids)
     sandboxing.play(specs, refs, ctx, recorder, backend=payload.get("backend", "inprocess"),
                     workers=payload.get("workers"), recording=_recording(ctx.league, payload))
     recorder.flush()
@@ -677,6 +681,25 @@ def _base_ratings(league: League, game_id: str, names: list[str], seed: int, pro
     return np.asarray(bradley_terry(counts.wins, counts.draws), dtype=float)
 
 
+def _entrant_game(league: League, agent: str, who: Identity | None = None) -> str:
+    """The game of the active agent ``agent`` that a placement is asked for (a two-team game);
+    with ``who``, refused unless it is theirs to rank."""
+    from arena_league.league.errors import ForbiddenError, NotFoundError
+
+    with league.reading() as session:
+        found = reg.get_agent(session, agent)
+        if found is None:
+            every = [a.name for a in reg.list_agents(session)]
+            raise NotFoundError(f"there is no agent {agent!r}.{did_you_mean(agent, every)} See `arena-league agents`")
+        if who is not None and not who.may_manage(found.owner):
+            raise ForbiddenError(f"{agent} is not yours to rank")
+        game_id = _active_agents(session, found.game_id, [agent])[0].game_id
+    if game_spec(game_id).n_teams != 2:
+        raise ValueError(f"{game_id} has more than two teams; placement is for two-team games. Use "
+                         f"`arena-league evaluate {game_id}` and an openskill leaderboard")
+    return game_id
+
+
 def rank(league: League, agent: str, *, budget: int = 200, population: str | None = None, seed: int = 0,
          target_half_width: float = 3.0, backend: str = "inprocess", progress: Progress | None = None,
          log: Callable[[str], None] | None = None) -> RankReport:
@@ -689,16 +712,7 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
     round robin of :data:`BASE_ROUND_ROBIN_PER_PAIR` matches for each pair that never met, which
     counts against ``budget`` and is announced through ``log`` before it starts."""
     say = log or (lambda line: None)
-    with league.reading() as session:
-        found = reg.get_agent(session, agent)
-        if found is None:
-            every = [a.name for a in reg.list_agents(session)]
-            raise ValueError(f"there is no agent {agent!r}.{did_you_mean(agent, every)} See `arena-league agents`")
-        entrant = _active_agents(session, found.game_id, [agent])[0]
-        game_id = entrant.game_id
-    if game_spec(game_id).n_teams != 2:
-        raise ValueError(f"{game_id} has more than two teams; placement is for two-team games. Use "
-                         f"`arena-league evaluate {game_id}` and an openskill leaderboard")
+    game_id = _entrant_game(league, agent)
     label, names, ratings = base_population(league, game_id, agent, population)
     if not names:
         raise ValueError(f"{game_id} has no base agents to rank {agent} against; import a base population "
@@ -728,23 +742,14 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
 
 
 def queue_rank(league: League, agent: str, *, budget: int = 200, population: str | None = None, seed: int = 0,
-               target_half_width: float = 3.0) -> int:
+               target_half_width: float = 3.0, who: Identity | None = None) -> int:
     """Queue a placement of ``agent`` against its game's base population (or ``population``, a
     frozen one with ratings) for a worker; returns the job id. The job finds the base when it runs
     (importing the shipped one on first use, which validates its members: agent code, never run in
-    the caller's request)."""
+    the caller's request). With ``who``, only the agent's owner (or an administrator) may."""
     if isinstance(budget, bool) or not isinstance(budget, int) or budget < 2:
         raise ValueError(f"budget must be a whole number of matches, at least 2, not {budget!r}")
-    with league.reading() as session:
-        found = reg.get_agent(session, agent)
-        if found is None:
-            from arena_league.league.errors import NotFoundError
-
-            raise NotFoundError(f"there is no agent {agent!r}")
-        entrant = _active_agents(session, found.game_id, [agent])[0]
-        game_id = entrant.game_id
-    if game_spec(game_id).n_teams != 2:
-        raise ValueError(f"{game_id} has more than two teams; placement is for two-team games")
+    game_id = _entrant_game(league, agent, who)
     with league.transaction() as session:
         return reg.enqueue(session, "rank", {"game_id": game_id, "agent": agent, "population": population,
                                              "budget": int(budget), "target_half_width": float(target_half_width),
@@ -778,7 +783,7 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
     chooser = AdaptivePlacement(np.asarray(p["base_ratings"]), budget=int(p["budget"]),
                                 target_half_width=float(p["target_half_width"]))
     recorder = _Recorder(ctx, game_id, int(p["budget"]), progress)
-    sandboxing = _Sandboxing.of(ctx.league, refs)
+    sandboxing = _Sandboxing.of(ctx.league, refs, recorder.ids)
 
     def play(specs):
         return sandboxing.play(specs, refs, ctx, recorder, backend=p.get("backend", "inprocess"))

@@ -8,6 +8,7 @@ take their defaults from that class, the one place they are written.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -109,12 +110,14 @@ def reset_setting(league: League, key: str) -> Any:
     return setting.default
 
 
-def sandbox_limits(league: League) -> SandboxLimits:
-    """The league's inference-sandbox budgets."""
-    values = league_settings(league)
+def sandbox_limits(league: League, values: Mapping[str, Mapping[str, Any]] | None = None) -> SandboxLimits:
+    """The league's inference-sandbox budgets (from ``values``, :func:`league_settings` already read,
+    when given)."""
+    values = values if values is not None else league_settings(league)
     return SandboxLimits(**{f.name: values[f"sandbox.{f.name}"]["value"] for f in fields(SandboxLimits)})
 
 
-def suspend_after(league: League) -> int:
-    """Forfeits after which an agent is suspended."""
-    return int(league_settings(league)["forfeits.suspend_after"]["value"])
+def suspend_after(league: League, values: Mapping[str, Mapping[str, Any]] | None = None) -> int:
+    """Forfeits after which an agent is suspended (from ``values`` when given)."""
+    values = values if values is not None else league_settings(league)
+    return int(values["forfeits.suspend_after"]["value"])

@@ -53,15 +53,18 @@ _NODE_PATH = re.compile(r"^social tree node (\S+): ")
 
 
 def tree_catalog(game_id: str) -> dict[str, Any]:
-    """What the editor offers for ``game_id``: seats (``player_i``) and their teams, the schemes with
+    """What the editor offers for ``game_id``: seats (``player_i``), their teams and the teams'
+    colours (as drawn everywhere else), the schemes with
     a line each, per scheme the reward functions of this game, its default tree and example trees."""
     from arena_league.envs import default_tree, example_trees, game_spec, reward_catalog
     from arena_league.envs.social.rewards import SCHEMES
+    from arena_league.league.replays import team_hex
 
     spec = game_spec(game_id)
     agents = [f"player_{i}" for i in range(spec.n_agents)]
     return {"game_id": game_id, "agents": agents,
             "teams": [i // spec.players_per_team for i in range(spec.n_agents)],
+            "colors": [team_hex(team) for team in range(spec.n_teams)],
             "schemes": [{"name": name, "doc": doc} for name, doc in SCHEMES.items()],
             "rewards": reward_catalog(game_id), "default": default_tree(game_id),
             "examples": example_trees(game_id),

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from arena_league.policies.policy import Policy
-from arena_league.policies.sandbox import SandboxLimits
+from arena_league.policies.sandbox import AgentSource, SandboxLimits
 
 __all__ = ["AGENT_KINDS", "AgentRef", "load_agents"]
 
@@ -78,6 +78,11 @@ class AgentRef:
             return scripted_policy(self.name, self.game_id, self.action_type)
         return _load_artifact(self)
 
+    def sandbox_source(self) -> AgentSource:
+        """What the inference sandbox loads for this reference (a scripted agent by its key, an
+        artifact by its path)."""
+        return AgentSource(self.name if self.kind != "scripted" else self.key, self.game_id, self.action_type)
+
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "name": self.name, "game_id": self.game_id, "action_type": self.action_type,
                 "sandboxed": self.sandboxed}
@@ -103,11 +108,9 @@ def load_agents(agents: Mapping[str, AgentRef | Policy], sandbox_limits: Sandbox
     loaded: dict[AgentRef, Policy] = {}
     sandboxed = [a for a in dict.fromkeys(agents.values()) if isinstance(a, AgentRef) and a.sandboxed]
     if sandboxed:
-        from arena_league.policies.sandbox import AgentSource, process_sandbox
+        from arena_league.policies.sandbox import process_sandbox
 
-        proxies = process_sandbox(sandbox_limits).load(
-            {ref.key: AgentSource(ref.name if ref.kind != "scripted" else ref.key, ref.game_id, ref.action_type)
-             for ref in sandboxed})
+        proxies = process_sandbox(sandbox_limits).load({ref.key: ref.sandbox_source() for ref in sandboxed})
         loaded.update({ref: proxies[ref.key] for ref in sandboxed})
     out: dict[str, Policy] = {}
     for key, agent in agents.items():

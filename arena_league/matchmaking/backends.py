@@ -35,7 +35,12 @@ from arena_league.matchmaking.runner import LockstepRunner, MatchRecording
 from arena_league.matchmaking.sandboxed import play_in_sandbox
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import Policy
-from arena_league.policies.sandbox import FORKSERVER_PRELOAD, SandboxLimits
+from arena_league.policies.sandbox import (
+    ENGINE_BATCH_MATCHES,
+    FORKSERVER_PRELOAD,
+    SandboxLimits,
+    process_context,
+)
 
 __all__ = ["BACKENDS", "play_chunk", "play_matches"]
 
@@ -56,21 +61,18 @@ def play_chunk(game_id: str, agents: Mapping[str, AgentRef], specs: Sequence[Mat
     live in the process's sandbox (which keeps the same set loaded from chunk to chunk)."""
     if any(ref.sandboxed for ref in agents.values()):
         return play_in_sandbox(game_id, specs, agents, batch_size=batch_size, env_kwargs=env_kwargs,
-                               recording=recording, forfeit_limit=_keyed(forfeit_limit, agents),
-                               heartbeat=_pool_heartbeat(), sandbox_limits=sandbox_limits)
-    local = {ref for ref in agents.values() if not ref.sandboxed}
-    cache_key = tuple(sorted(local, key=lambda ref: (ref.key, ref.game_id, str(ref.action_type))))
+                               recording=recording, forfeit_limit=forfeit_limit, heartbeat=_pool_heartbeat(),
+                               sandbox_limits=sandbox_limits)
+    refs = set(agents.values())
+    cache_key = tuple(sorted(refs, key=lambda ref: (ref.key, ref.game_id, str(ref.action_type))))
     policies = _WORKER_POLICIES.get(cache_key)
     if policies is None:
-        policies = load_agents({ref.key: ref for ref in local})
+        policies = load_agents({ref.key: ref for ref in refs})
         _WORKER_POLICIES[cache_key] = policies
-    sandboxed = {ref.key: ref for ref in agents.values() if ref.sandboxed}
-    if sandboxed:
-        policies = {**policies, **load_agents(sandboxed, sandbox_limits)}
     seat_policies = {key: policies[ref.key] for key, ref in agents.items()}
     runner = LockstepRunner(game_id, seat_policies, batch_size=batch_size, env_kwargs=env_kwargs,
                             recording=recording)
-    return runner.play(specs, forfeit_limit=_keyed(forfeit_limit, agents), heartbeat=_pool_heartbeat())
+    return runner.play(specs, forfeit_limit=forfeit_limit, heartbeat=_pool_heartbeat())
 
 
 def _pool_heartbeat() -> Callable[[], None] | None:
@@ -82,12 +84,6 @@ def _pool_heartbeat() -> Callable[[], None] | None:
     def heartbeat() -> None:
         counter.value += 1
     return heartbeat
-
-
-def _keyed(forfeit_limit: int | Mapping[str, int] | None, agents: Mapping[str, AgentRef]
-           ) -> int | Mapping[str, int] | None:
-    return forfeit_limit if not isinstance(forfeit_limit, Mapping) else {
-        key: forfeit_limit[key] for key in agents if key in forfeit_limit}
 
 
 #: A process-pool worker's step counter, shared with the parent (a sign of progress for its lease).
@@ -113,13 +109,11 @@ _PRELOAD = [*FORKSERVER_PRELOAD, "arena_league.matchmaking"]
 def _process_context() -> multiprocessing.context.BaseContext:
     """A fork server that has imported the league's modules (torch included) once: its workers fork
     from it, without inheriting this process's threads or state, and start in milliseconds."""
-    context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(_PRELOAD)
-    return context
+    return process_context(_PRELOAD)
 
 
 def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Policy], *,
-                 backend: str = "inprocess", batch_size: int = 64, workers: int | None = None,
+                 backend: str = "inprocess", batch_size: int = ENGINE_BATCH_MATCHES, workers: int | None = None,
                  chunk_size: int | None = None, ray_address: str | None = None,
                  env_kwargs: Mapping[str, Any] | None = None, recording: MatchRecording | None = None,
                  on_result: Callable[[MatchResult], None] | None = None,
@@ -192,7 +186,7 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
             part = indices[start: start + size]
             refs = {k: agents[k] for k in _keys_of(specs, part)}
             tasks.append((part, (game_id, refs, [specs[i] for i in part], batch_size, env_kwargs, recording,
-                                 sandbox_limits, _keyed(forfeit_limit, refs))))
+                                 sandbox_limits, forfeit_limit)))
 
     def collect(part: list[int], chunk_results: list[MatchResult]) -> None:
         _place(results, chunk_results, specs, part)

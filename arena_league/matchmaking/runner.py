@@ -50,6 +50,7 @@ import numpy as np
 from arena_league.envs import make
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import ActionSpec, Policy, invalid_actions, valid_actions_text
+from arena_league.policies.sandbox import ENGINE_BATCH_MATCHES
 
 __all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "UnitGuard", "action_spec_of", "policy_units"]
 
@@ -259,6 +260,23 @@ class _EngineMatches:
         pass
 
 
+def forfeit_allowance(forfeit_limit: int | Mapping[str, int] | None, keys: Iterable[str] | None = None
+                      ) -> dict[str, float]:
+    """A forfeit limit (one for every agent, or per agent key) as agent key -> forfeits allowed,
+    ``""`` standing for every agent not named; with ``keys``, only those keys are kept."""
+    if forfeit_limit is None:
+        return {}
+    if isinstance(forfeit_limit, Mapping):
+        wanted = None if keys is None else set(keys)
+        return {str(key): float(value) for key, value in forfeit_limit.items() if wanted is None or key in wanted}
+    return {"": float(forfeit_limit)}
+
+
+def allowed(allowance: Mapping[str, float], key: str) -> float:
+    """Forfeits ``key`` may make under ``allowance`` (see :func:`forfeit_allowance`)."""
+    return allowance.get(key, allowance.get("", np.inf))
+
+
 class LockstepRunner:
     """Plays matches of one game in lockstep with batched policy calls.
 
@@ -283,7 +301,7 @@ class LockstepRunner:
             sandboxed one does; the inference sandbox's child plays its matches so.
     """
 
-    def __init__(self, game_id: str, policies: Mapping[str, Policy], *, batch_size: int = 64,
+    def __init__(self, game_id: str, policies: Mapping[str, Policy], *, batch_size: int = ENGINE_BATCH_MATCHES,
                  env_kwargs: Mapping[str, Any] | None = None, recording: MatchRecording | None = None,
                  path: str = "auto", guard: UnitGuard | None = None) -> None:
         if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
@@ -352,13 +370,12 @@ class LockstepRunner:
 
         ``forfeit_limit``: how many matches an agent (by key, or every agent) may forfeit before its
         remaining specs are skipped (see the module docstring); None never skips. Skipped specs have
-        no result, so the list may be shorter than ``specs``; :attr:`skipped` lists them."""
+        no result, so the list may be shorter than ``specs``."""
         specs = list(specs)
         for spec in specs:
             self._check_spec(spec)
-        self.skipped: list[MatchSpec] = []
-        self.forfeit_counts: dict[str, int] = {}
-        allowance = self._allowance(forfeit_limit)
+        forfeit_counts: dict[str, int] = {}
+        allowance = forfeit_allowance(forfeit_limit)
         width = min(self.batch_size, len(specs))
         if width == 0:
             return []
@@ -382,7 +399,6 @@ class LockstepRunner:
         def start(position: int) -> None:
             nxt = next(queue, None)
             while nxt is not None and stopped.intersection(nxt[1].seats):
-                self.skipped.append(nxt[1])
                 nxt = next(queue, None)
             base = position * n
             if nxt is None:
@@ -428,8 +444,8 @@ class LockstepRunner:
                                  for p in live if failures.keys() & set(slots[p].spec.seats)}
                     for forfeits in forfeited.values():
                         for key in forfeits:
-                            self.forfeit_counts[key] = self.forfeit_counts.get(key, 0) + 1
-                            if self.forfeit_counts[key] >= allowance.get(key, allowance.get("", np.inf)):
+                            forfeit_counts[key] = forfeit_counts.get(key, 0) + 1
+                            if forfeit_counts[key] >= allowed(allowance, key):
                                 stopped.add(key)
                 stepping = [p for p in live if p not in forfeited]
                 steps_before = {p: matches.steps_of(p) for p in forfeited}  # the engine steps every slot
@@ -445,15 +461,6 @@ class LockstepRunner:
         finally:
             matches.abort()
         return [r for r in results if r is not None]
-
-    @staticmethod
-    def _allowance(forfeit_limit: int | Mapping[str, int] | None) -> dict[str, float]:
-        """Agent key -> forfeits allowed ("" for every agent not named)."""
-        if forfeit_limit is None:
-            return {}
-        if isinstance(forfeit_limit, Mapping):
-            return {str(key): float(value) for key, value in forfeit_limit.items()}
-        return {"": float(forfeit_limit)}
 
     # --- internals ------------------------------------------------------------------------------
     def _matches(self, width: int) -> _EnvMatches | _EngineMatches:
@@ -550,10 +557,7 @@ class LockstepRunner:
             if mask is not None:
                 actions[rows[bad]] = mask[rows[bad]].argmax(axis=1)
         if unit.policy.recurrent and next_state is not None:
-            n = self.n_agents
-            for i, r in enumerate(rows):
-                if not bad[i]:
-                    slots[r // n].states[r % n] = next_state[i]
+            self._store_states(rows[~bad], np.asarray(next_state)[~bad], slots)
 
     def _unit_inputs(self, unit: PolicyUnit, rows: np.ndarray, obs: np.ndarray, slots: list
                      ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -568,7 +572,6 @@ class LockstepRunner:
              mask: np.ndarray | None, actions: np.ndarray, row_owner: np.ndarray, row_key: list,
              slots: list) -> None:
         unit = self._units[unit_index]
-        n = self.n_agents
         recurrent = bool(unit.policy.recurrent)
         unit_obs, state = self._unit_inputs(unit, rows, obs, slots)
         out, next_state = unit.act(unit_obs, uniforms[rows], row_owner[rows], None if mask is None else mask[rows],
@@ -577,9 +580,13 @@ class LockstepRunner:
         self._check_actions(out, rows, row_key)
         actions[rows] = out
         if recurrent and next_state is not None:
-            next_state = np.asarray(next_state)
-            for i, r in enumerate(rows):
-                slots[r // n].states[r % n] = next_state[i]
+            self._store_states(rows, np.asarray(next_state), slots)
+
+    def _store_states(self, rows: np.ndarray, next_state: np.ndarray, slots: list) -> None:
+        """Keep each row's next recurrent state in its match's slot."""
+        n = self.n_agents
+        for r, row_state in zip(rows, next_state):
+            slots[r // n].states[r % n] = row_state
 
     def _check_actions(self, out: np.ndarray, rows: np.ndarray, row_key: list) -> None:
         problem, bad = invalid_actions(self.spec, out, rows.size)

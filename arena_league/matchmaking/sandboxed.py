@@ -34,11 +34,11 @@ from typing import Any
 import numpy as np
 
 from arena_league.matchmaking.agents import AgentRef
-from arena_league.matchmaking.runner import LockstepRunner, MatchRecording
+from arena_league.matchmaking.runner import LockstepRunner, MatchRecording, allowed, forfeit_allowance
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import Policy
 from arena_league.policies.sandbox import (
-    AgentSource,
+    ENGINE_BATCH_MATCHES,
     SandboxDied,
     SandboxLimits,
     largest_batch,
@@ -49,7 +49,7 @@ __all__ = ["play_in_sandbox"]
 
 
 def play_in_sandbox(game_id: str, specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef], *,
-                    batch_size: int = 64, env_kwargs: Mapping[str, Any] | None = None,
+                    batch_size: int = ENGINE_BATCH_MATCHES, env_kwargs: Mapping[str, Any] | None = None,
                     recording: MatchRecording | None = None, forfeit_limit: int | Mapping[str, int] | None = None,
                     on_result: Callable[[MatchResult], None] | None = None,
                     heartbeat: Callable[[], None] | None = None,
@@ -62,10 +62,9 @@ def play_in_sandbox(game_id: str, specs: Sequence[MatchSpec], agents: Mapping[st
     team_of = np.repeat(np.arange(game.n_teams), game.players_per_team)
     sandbox = process_sandbox(sandbox_limits)
     refs = dict.fromkeys(agents.values())
-    handles = sandbox.load({ref.key: AgentSource(ref.name if ref.kind != "scripted" else ref.key, ref.game_id,
-                                                 ref.action_type) for ref in refs})
+    handles = sandbox.load({ref.key: ref.sandbox_source() for ref in refs})
     loaded = {seat: ref.key for seat, ref in agents.items()}
-    limit = _limits(forfeit_limit, agents)
+    limit = forfeit_allowance(forfeit_limit, agents)
     play = _Play(specs, team_of, limit, on_result)
     for seat, key in list(loaded.items()):  # an agent that cannot be loaded loses each match without a step
         if handles[key].broken:
@@ -113,7 +112,7 @@ class _Play:
         return {key: value - self.forfeits.get(key, 0) for key, value in self.limit.items()}
 
     def stopped(self, seat: str) -> bool:
-        return self.forfeits.get(seat, 0) >= self.limit.get(seat, self.limit.get("", np.inf))
+        return self.forfeits.get(seat, 0) >= allowed(self.limit, seat)
 
     def pending(self) -> list[int]:
         for index, spec in enumerate(self.specs):
@@ -164,14 +163,6 @@ class _Play:
 
     def results_in_order(self) -> list[MatchResult]:
         return [self.results[i] for i in sorted(self.results)]
-
-
-def _limits(forfeit_limit: int | Mapping[str, int] | None, agents: Mapping[str, AgentRef]) -> dict[str, float]:
-    if forfeit_limit is None:
-        return {}
-    if isinstance(forfeit_limit, Mapping):
-        return {str(key): float(value) for key, value in forfeit_limit.items() if key in agents}
-    return {"": float(forfeit_limit)}
 
 
 class _Apart(Policy):

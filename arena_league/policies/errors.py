@@ -41,3 +41,10 @@ class WeightsMismatchError(ManifestError, CorruptArtifactError):
     """An ``arena-policy`` folder's ``weights.safetensors`` header does not list the tensors its
     ``manifest.json`` describes (a name, dtype or shape differs): the two files contradict each
     other, so the artifact is refused as unreadable, before any tensor is loaded."""
+
+
+def artifact_error_class(name: str | None, base: type[ArtifactError] = ArtifactError) -> type[ArtifactError] | None:
+    """The artifact error class named ``name`` (as a validation verdict or the sandbox reports it)
+    when it is ``base`` or one of its kinds; None otherwise."""
+    found = globals().get(name or "")
+    return found if isinstance(found, type) and issubclass(found, base) else None

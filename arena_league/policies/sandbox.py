@@ -44,7 +44,7 @@ import sys
 import time
 import traceback
 import types
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,6 +64,7 @@ __all__ = [
     "SandboxLimits",
     "SandboxedPolicy",
     "largest_batch",
+    "process_context",
     "process_sandbox",
 ]
 
@@ -231,14 +232,7 @@ class InferenceSandbox:
         if agents == self._sources and self._proxies:
             return dict(self._proxies)
         self._sources, self._broken, self._proxies = agents, {}, {}
-        infos = self._load_sources()
-        for key, source in agents.items():
-            if key in self._broken:
-                self._proxies[key] = SandboxedPolicy(self, key, _game_spec(source), broken=self._broken[key])
-            else:
-                info = infos[key]
-                self._proxies[key] = SandboxedPolicy(self, key, info["spec"], info["recurrent"],
-                                                     tuple(info["state_shape"]), info["name"], info["info"])
+        self._proxies = self._handles(self._load_sources())
         return dict(self._proxies)
 
     def load_one(self, source: AgentSource, key: str = "candidate") -> SandboxedPolicy:
@@ -246,13 +240,26 @@ class InferenceSandbox:
         it cannot be read, and :class:`ForfeitError` when loading runs out of time or memory."""
         self._sources, self._broken, self._proxies = {key: source}, {}, {}
         try:
-            self._load_sources(raise_errors=True)
+            infos = self._load_sources(raise_errors=True)
             if key in self._broken:
                 raise ForfeitError(key, self._broken[key])
         except BaseException:
             self._sources = {}
             raise
-        return self.load({key: source})[key]
+        self._proxies = self._handles(infos)
+        return self._proxies[key]
+
+    def _handles(self, infos: Mapping[str, Any]) -> dict[str, SandboxedPolicy]:
+        """A handle per loaded source, from what the child said of each (broken ones with the reason)."""
+        handles = {}
+        for key, source in self._sources.items():
+            if key in self._broken:
+                handles[key] = SandboxedPolicy(self, key, _game_spec(source), broken=self._broken[key])
+            else:
+                info = infos[key]
+                handles[key] = SandboxedPolicy(self, key, info["spec"], info["recurrent"],
+                                               tuple(info["state_shape"]), info["name"], info["info"])
+        return handles
 
     def memory_of(self, key: str) -> float:
         """MiB the agent ``key`` added to the child when it was loaded."""
@@ -305,7 +312,7 @@ class InferenceSandbox:
             self._load_sources()
 
     def _spawn(self) -> None:
-        context = _process_context()
+        context = process_context()
         parent_end, child_end = context.Pipe()
         # the marked call, when it started, the task's step, the marked call's rows
         self._progress = context.RawArray("d", 4)
@@ -337,8 +344,8 @@ class InferenceSandbox:
                 self._broken[keys[death.index]] = f"could not be loaded: {death.reason}"
                 continue
             for key, (kind, text) in errors.items():
-                error = getattr(artifact_errors, kind, None)
-                if raise_errors and isinstance(error, type) and issubclass(error, artifact_errors.ArtifactError):
+                error = artifact_errors.artifact_error_class(kind)
+                if raise_errors and error is not None:
                     raise error(text)
                 self._broken[key] = f"could not be loaded: {text}"
             self._load_mib.update({key: info["load_mib"] for key, info in infos.items()})
@@ -437,9 +444,11 @@ def _without_main_module() -> Any:
             sys.modules["__main__"] = main
 
 
-def _process_context() -> Any:
+def process_context(preload: Sequence[str] = FORKSERVER_PRELOAD) -> Any:
+    """The forkserver context, its server importing ``preload`` once when it starts (a process has
+    one fork server: the first start decides what it preloads)."""
     context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(FORKSERVER_PRELOAD)
+    context.set_forkserver_preload(list(preload))
     return context
 
 
@@ -586,8 +595,11 @@ class _Child:
         try:
             if operation == "forward":
                 return "ok", self._forward(key, *args)
+            from arena_league.policies.families import PolicyGroup
+
             obs, uniforms, mask, state = args
-            actions, next_state, failures = self._checked(_Single(self.policies[key]), *self.policies[key].act(
+            policy = self.policies[key]
+            actions, next_state, failures = self._checked(PolicyGroup(policy, (0,)), *policy.act(
                 obs, uniforms, mask, state), np.zeros(len(obs), np.int64))
             return ("error", failures[0]) if failures else ("ok", (actions, next_state))
         except Exception as error:
@@ -716,15 +728,6 @@ def _warm_onnxruntime() -> None:
     session = onnxruntime.InferenceSession(model.SerializeToString(),
                                            session_options(), providers=["CPUExecutionProvider"])
     session.run(None, {"x": np.zeros(1, np.float32)})
-
-
-class _Single:
-    """One policy as a unit of one member (what :meth:`_Child._checked` reads)."""
-
-    stacked = False
-
-    def __init__(self, policy: Policy) -> None:
-        self.policy = policy
 
 
 def _joined(parts: list[tuple[Any, Any, dict[int, str]]], n: int) -> tuple[Any, Any, dict[int, str]]:

@@ -115,10 +115,7 @@ def rank(request: Request, name: str, viewer: Viewer) -> RedirectResponse:
     who = _signed_in(viewer, f"/agents/{name}")
     if isinstance(who, RedirectResponse):
         return who
-    league = _league(request)
-    if not who.may_manage(ops.agent_view(league, name)["owner"]):
-        raise ops.ForbiddenError(f"{name} is not yours to rank")
-    return RedirectResponse(f"/jobs/{ops.queue_rank(league, name)}", status_code=303)
+    return RedirectResponse(f"/jobs/{ops.queue_rank(_league(request), name, who=who)}", status_code=303)
 
 
 # --- matches ------------------------------------------------------------------------------------
