@@ -37,6 +37,7 @@ from websockets.sync.client import connect
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+from browser_helpers import CHROMIUM, chromium, to_screen
 from web_helpers import running_server
 
 from arena_league.league import LivePlay, open_home
@@ -100,8 +101,6 @@ def over_socket(url: str, moves: int, seed: int) -> list[float]:
     return times
 
 
-CHROMIUM = Path("/usr/bin/chromium")
-PADDING = 12  # the painter's margin in CSS pixels (replay.js)
 _CLICK_AND_WAIT = """async ([x, y]) => {
   const root = document.getElementById('play');
   const step = root.dataset.step;
@@ -125,7 +124,7 @@ _CLICK_AND_WAIT = """async ([x, y]) => {
 def in_browser(url: str, moves: int, seed: int) -> dict:
     """Clicks on the play page in Chromium, each timed from the click to the next frame drawn."""
     try:
-        from playwright.sync_api import sync_playwright
+        from playwright import sync_api
     except ImportError:
         return {"skipped": "Playwright is not installed"}
     if not CHROMIUM.exists():
@@ -140,8 +139,7 @@ def in_browser(url: str, moves: int, seed: int) -> dict:
         if message.get("type") == "frame":
             taken = occupied(message["shapes"])
 
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=str(CHROMIUM), args=["--no-sandbox", "--disable-gpu"])
+    with chromium(sync_api) as browser:
         page = browser.new_page(viewport={"width": 1280, "height": 1000})
         page.on("websocket", lambda socket: socket.on("framereceived", on_frame))
         page.goto(f"{url}/play/{GAME}")
@@ -154,17 +152,9 @@ def in_browser(url: str, moves: int, seed: int) -> dict:
                 page.click('[data-role="next"]')
                 page.wait_for_function("() => document.getElementById('play').dataset.state !== 'ended'")
                 continue
-            bounds = json.loads(page.get_attribute("#play", "data-bounds"))
-            box = page.locator('[data-role="view"]').bounding_box()
-            span_x, span_y = bounds[2] - bounds[0], bounds[3] - bounds[1]
-            scale = min((box["width"] - 2 * PADDING) / span_x, (box["height"] - 2 * PADDING) / span_y)
-            x, y = pick(rng, taken)
-            screen = [box["x"] + (box["width"] - span_x * scale) / 2 + (x - bounds[0]) * scale,
-                      box["y"] + (box["height"] - span_y * scale) / 2 + (bounds[3] - y) * scale]
-            elapsed = page.evaluate(_CLICK_AND_WAIT, screen)
+            elapsed = page.evaluate(_CLICK_AND_WAIT, list(to_screen(page, *pick(rng, taken))))
             if elapsed is not None:
                 times.append(float(elapsed))
-        browser.close()
     return summary(times)
 
 

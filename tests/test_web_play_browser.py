@@ -11,12 +11,11 @@ from __future__ import annotations
 import json
 
 import pytest
-from browser_helpers import chromium, playwright_or_skip
+from browser_helpers import chromium, playwright_or_skip, to_screen
 from web_helpers import Server, running_server
 
 pytestmark = pytest.mark.slow
 sync_api = playwright_or_skip()
-PADDING = 12  # the painter's margin in CSS pixels (replay.js)
 
 
 @pytest.fixture(scope="module")
@@ -29,17 +28,6 @@ def server(tmp_path_factory) -> Server:
 def browser():
     with chromium(sync_api) as launched:
         yield launched
-
-
-def to_screen(page, x: float, y: float) -> tuple[float, float]:
-    """The page position of the world point (x, y) on the play view (the painter's fit)."""
-    bounds = json.loads(page.get_attribute("#play", "data-bounds"))
-    box = page.locator('[data-role="view"]').bounding_box()
-    span_x, span_y = bounds[2] - bounds[0], bounds[3] - bounds[1]
-    scale = min((box["width"] - 2 * PADDING) / span_x, (box["height"] - 2 * PADDING) / span_y)
-    offset_x = (box["width"] - span_x * scale) / 2
-    offset_y = (box["height"] - span_y * scale) / 2
-    return box["x"] + offset_x + (x - bounds[0]) * scale, box["y"] + offset_y + (bounds[3] - y) * scale
 
 
 def gobang_cells(size: int = 15) -> list[tuple[int, int]]:

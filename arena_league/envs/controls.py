@@ -38,7 +38,7 @@ from arena_league.envs.rendering import TEAM_COLOURS
 if TYPE_CHECKING:
     from arena_league.envs.core import GameRules
 
-__all__ = ["ActionControls", "Controls", "arrow_keys", "ascii_topdown"]
+__all__ = ["ActionControls", "Controls", "arrow_keys", "ascii_topdown", "key_controls"]
 
 
 class Controls(ABC):
@@ -152,8 +152,15 @@ class ActionControls(Controls):
         """Digit keys pick the action by number, the last one holding; see :meth:`Controls.web`."""
         meanings = self.meanings()
         keys = {str(i): str(i) for i in range(min(10, len(meanings)))}
-        return {"input": "keys", "pace": self.PACE, "keys": keys, "release": None, "combine": None, "accepts": [],
-                "hint": "keys " + ", ".join(f"{i} {m}" for i, m in enumerate(meanings[:10])) + " (the last holds)"}
+        return key_controls(keys, self.PACE,
+                            "keys " + ", ".join(f"{i} {m}" for i, m in enumerate(meanings[:10])) + " (the last holds)")
+
+
+def key_controls(keys: dict[str, str], pace: float, hint: str, *, release: str | None = None,
+                 combine: str | None = None, accepts: tuple[str, ...] = ()) -> dict[str, Any]:
+    """A :meth:`Controls.web` declaration of a seat played by keys at ``pace`` steps per second."""
+    return {"input": "keys", "pace": pace, "keys": keys, "release": release, "combine": combine,
+            "accepts": list(accepts), "hint": hint}
 
 
 def arrow_keys(up: str, left: str, down: str, right: str) -> dict[str, str]:

@@ -32,7 +32,7 @@ def latest_placements(session: Any, game_id: str | None = None, *, base: str | N
     return placed
 
 
-def _frozen_ratings(session: Any, game_id: str | None) -> dict[str, tuple[float, str]]:
+def frozen_ratings(session: Any, game_id: str | None) -> dict[str, tuple[float, str]]:
     """Base member name -> (frozen rating, ``population:version``), newest population first."""
     ratings: dict[str, tuple[float, str]] = {}
     populations = sorted(reg.list_populations(session, game_id=game_id), key=lambda p: (p.created_at, p.id),
@@ -66,7 +66,7 @@ def agent_rows(league: League, game_id: str | None = None) -> list[dict[str, Any
             game_spec(game_id)  # an unknown id raises with the valid ones
             return []
         placed = latest_placements(session, game_id)
-        frozen = _frozen_ratings(session, game_id)
+        frozen = frozen_ratings(session, game_id)
         rows = []
         for agent in reg.list_agents(session, game_id=game_id):
             row: dict[str, Any] = {"name": agent.name, "game_id": agent.game_id, "kind": agent.kind,
@@ -102,7 +102,8 @@ def agent_detail(league: League, name: str, *, matches: int = 10) -> dict[str, A
             "validation_log": agent.validation_log or "", "populations": populations, "placements": placements,
             "matches_played": played, "matches_forfeited": forfeited,
             "forfeits": [{**f, "at": f["at"].isoformat(timespec="seconds")} for f in forfeits],
-            "recent_matches": [{"match_key": m.match_key, "created_at": m.created_at.isoformat(timespec="seconds"),
+            "recent_matches": [{"id": m.id, "match_key": m.match_key, "replay": bool(m.replay_path),
+                                "created_at": m.created_at.isoformat(timespec="seconds"),
                                 "seats": [{"agent": s.agent.name, "team": s.team, "outcome": s.outcome,
                                            **({"forfeit": s.forfeit} if s.forfeit else {})}
                                           for s in m.seats]} for m in reversed(recent)],

@@ -7,7 +7,18 @@ from typing import Any
 from arena_league.envs import default_tree, game_spec, list_games, make_rules
 from arena_league.envs.social.verify import VerificationReport, verify
 
-__all__ = ["game_rows", "verify_social_tree"]
+__all__ = ["check_game", "game_ids", "game_rows", "verify_social_tree"]
+
+
+def game_ids() -> list[str]:
+    """Every game id, in the catalog's order."""
+    return list_games()
+
+
+def check_game(game_id: str) -> str:
+    """``game_id`` when it names a game; else ``ValueError`` naming the closest ids."""
+    game_spec(game_id)
+    return game_id
 
 
 def game_rows() -> list[dict[str, Any]]:

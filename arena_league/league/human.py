@@ -176,6 +176,7 @@ class Ladder:
             raise ValueError(f"population {label} has no stored ratings (it is not frozen with ratings); import a "
                              f"built base population: `arena-league population import checkpoints/{game_id}/base-v1`")
         self.league, self.game_id, self.against, self.agent_name = league, game_id, against, agent_name
+        self.n_agents = spec.n_agents
         self.names, self.ratings = names, ratings
         self.human_id = _human_agent(league, agent_name, game_id, owner or player, player)
         self.order = np.argsort(ratings, kind="stable")  # weakest first
@@ -197,22 +198,17 @@ class Ladder:
         seat played by the current opponent."""
         opponent, rating = self.opponent
         with self.league.reading() as session:
-            number = len(reg.list_matches(session, self.game_id, agent_id=self.human_id))
-        n_agents = game_spec(self.game_id).n_agents
-        spec = MatchSpec(number + 1, self.game_id, tuple(opponent for _ in range(n_agents)), seed)
+            number = reg.count_matches(session, self.game_id, agent_id=self.human_id)
+        spec = MatchSpec(number + 1, self.game_id, tuple(opponent for _ in range(self.n_agents)), seed)
         return LiveMatch(spec, self.refs[opponent].load(), self.played % 2, opponent, rating,
                          f"human:{self.human_id}:{number + 1}")
 
     def record(self, match: LiveMatch, *, resigned: bool = False) -> HumanMatch:
         """Store ``match`` (a resignation is a loss, whatever the board said), place the person
         again from all their matches against this base, and move along the ladder."""
-        team = match.team
-        if resigned:
-            team_scores, steps = np.where(np.arange(2) == team, 0.0, 1.0), match.steps
-        else:
-            team_scores, steps = match.finish(), match.steps
-        result = _record(self.league, self.game_id, match.key, match.spec, team, team_scores, steps, self.human_id,
-                         match.opponent)
+        team, steps = match.team, match.steps
+        match.scores = np.where(np.arange(2) == team, 0.0, 1.0) if resigned else match.finish()
+        result, match.match_id = _record(self.league, match, match.scores, self.human_id)
         outcome = result.outcomes[result.teams.index(team)]
         played = HumanMatch(match.opponent, match.opponent_rating, team, outcome, steps, match.key, resigned)
         self.report.matches.append(played)
@@ -240,17 +236,16 @@ def _human_agent(league: reg.League, name: str, game_id: str, owner: str, player
         return int(agent.id)
 
 
-def _record(league: reg.League, game_id: str, match_key: str, spec: MatchSpec, team: int, team_scores: np.ndarray,
-            steps: int, human_id: int, opponent: str) -> MatchResult:
-    rules_team = game_spec(game_id)
-    team_of = np.repeat(np.arange(rules_team.n_teams), rules_team.players_per_team)
-    result = MatchResult.from_team_result(spec, team_of, team_scores, steps)
+def _record(league: reg.League, match: LiveMatch, team_scores: np.ndarray, human_id: int) -> tuple[MatchResult, int]:
+    """Store ``match`` ended with ``team_scores``: its result and its row id."""
+    spec = match.spec
+    result = MatchResult.from_team_result(spec, match.rules.team_of, team_scores, match.steps)
     with league.transaction() as session:
-        opponent_id = reg.require_agent(session, opponent).id
-        seats = [reg.SeatResult(human_id if t == team else opponent_id, t, score, outcome)
+        opponent_id = reg.require_agent(session, match.opponent).id
+        seats = [reg.SeatResult(human_id if t == match.team else opponent_id, t, score, outcome)
                  for t, score, outcome in zip(result.teams, result.scores, result.outcomes)]
-        reg.record_matches(session, game_id, [reg.MatchRecord(match_key, spec.seed, seats)])
-    return result
+        [stored] = reg.record_matches(session, spec.game_id, [reg.MatchRecord(match.key, spec.seed, seats)])
+    return result, stored.match_id
 
 
 def _place(league: reg.League, game_id: str, agent: str, names: list[str], ratings: np.ndarray,
@@ -313,6 +308,10 @@ class LiveMatch:
         self.steps = 0
         self.events: list[dict[str, Any]] = []
         """Every event the rules reported, with its ``step``."""
+        self.scores: np.ndarray | None = None
+        """The team scores, once :meth:`Ladder.record` stored the match (a resignation: a loss)."""
+        self.match_id: int | None = None
+        """The stored match's row id, once recorded."""
 
     @property
     def over(self) -> bool:
@@ -320,10 +319,16 @@ class LiveMatch:
 
     def person_acts(self) -> bool:
         """Whether the person's seat acts this step (its turn, or it is still in play)."""
+        return bool(self._acting()[self.seat])
+
+    def _acting(self) -> np.ndarray:
+        """Which seats act this step: the one whose turn it is, or those still in play."""
         rules = self.rules
         if rules.turn_based:
-            return int(rules.current_player()) == self.seat
-        return bool(np.asarray(rules.measures.active, dtype=bool)[self.seat])
+            acting = np.zeros(self.n, dtype=bool)
+            acting[rules.current_player()] = True
+            return acting
+        return np.asarray(rules.measures.active, dtype=bool).copy()
 
     def needs_command(self) -> bool:
         """Whether this step waits for the person to say something (their seat acts and their
@@ -339,11 +344,7 @@ class LiveMatch:
         obs = rules.observe()
         mask = rules.action_mask()
         uniforms = self.rng.random((n, policy.spec.uniforms_per_seat))
-        if rules.turn_based:
-            acting = np.zeros(n, dtype=bool)
-            acting[rules.current_player()] = True
-        else:
-            acting = np.asarray(rules.measures.active, dtype=bool).copy()
+        acting = self._acting()
         if acting[self.seat] and command is None and self.controls.wants_command():
             raise ValueError("this step waits for the person's move")
         actions = np.zeros(n, dtype=np.int64) if rules.action_type == "discrete" else \

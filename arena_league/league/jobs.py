@@ -34,7 +34,7 @@ def evaluation_payload(game_id: str, agents: Sequence[str] | None, *, matches_pe
     return payload
 
 
-def _stamp(moment: Any) -> str | None:
+def stamp(moment: Any) -> str | None:
     return moment.isoformat(timespec="seconds") if moment is not None else None
 
 
@@ -56,8 +56,8 @@ def _summary(job: reg.Job) -> str:
 
 def _row(job: reg.Job) -> dict[str, Any]:
     return {"id": job.id, "kind": job.kind, "status": job.status, "game_id": (job.payload or {}).get("game_id"),
-            "what": _summary(job), "attempts": job.attempts, "created_at": _stamp(job.created_at),
-            "finished_at": _stamp(job.finished_at), "worker": job.lease_owner}
+            "what": _summary(job), "attempts": job.attempts, "created_at": stamp(job.created_at),
+            "finished_at": stamp(job.finished_at), "worker": job.lease_owner}
 
 
 def job_rows(league: League, *, status: str | None = None, kind: str | None = None, limit: int = 50
@@ -70,14 +70,14 @@ def job_rows(league: League, *, status: str | None = None, kind: str | None = No
 
 
 def job_detail(league: League, job_id: int) -> dict[str, Any]:
-    """One job in full: its row, payload, result or error, and how many matches it stored."""
+    """One job in full: its row, payload, result or error, its progress, and how many matches it stored."""
     with league.reading() as session:
         job = reg.get_job(session, job_id)
         if job is None:
             raise ValueError(f"there is no job {job_id}; see `arena-league jobs list`")
         stored = len(reg.match_keys_of_job(session, job.id))
         return {**_row(job), "payload": job.payload, "result": job.result, "error": job.error,
-                "matches_stored": stored, "started_at": _stamp(job.started_at)}
+                "progress": job.progress, "matches_stored": stored, "started_at": stamp(job.started_at)}
 
 
 def cancel_job(league: League, job_id: int) -> dict[str, Any]:

@@ -83,6 +83,8 @@ class LivePlay:
         self.bounds: list[float] = [-1.0, -1.0, 1.0, 1.0]
         self.names: list[str] = []
         self.labels: list[str] = []
+        self.controls: dict[str, Any] = {}
+        """How the page plays the match in progress (its controls' ``web()``)."""
 
     # --- what the page asks -------------------------------------------------------------------------
     def hello(self) -> dict[str, Any]:
@@ -98,7 +100,7 @@ class LivePlay:
     @property
     def pace(self) -> float | None:
         """Steps per second the server plays the match at by itself (None: it waits for moves)."""
-        return None if self.match is None else self.match.controls.web().get("pace")
+        return None if self.match is None else self.controls.get("pace")
 
     def start(self) -> list[dict[str, Any]]:
         """Begin the next match: its ``match`` message and frames up to the person's first move
@@ -106,22 +108,22 @@ class LivePlay:
         if self.match is not None:
             raise ValueError("a match is in progress: finish or resign it first")
         match = self.ladder.next_match(self.seed)
-        self.match, self.pending = match, None
+        self.match, self.pending, self.controls = match, None, match.controls.web()
         n, seat = match.n, match.seat
         team_of = [int(t) for t in match.rules.team_of]
         roles = ["you" if s == seat else "teammate" if team_of[s] == match.team else "opponent" for s in range(n)]
         self.names = ["you" if s == seat else f"{roles[s]} #{s}" for s in range(n)]
         self.labels = ["you" if s == seat else f"#{s}" for s in range(n)]
-        first = scene_shapes({"entities": scene_entities(match.rules, 0)})
-        self.bounds = frames_bounds([{"shapes": first}])
+        scene = self._scene()
+        self.bounds = frames_bounds([{"shapes": [shape for _, shapes in scene for shape in shapes]}])
         seats = [{"seat": s, "team": team_of[s], "role": roles[s], "label": self.labels[s],
                   "agent": self.ladder.agent_name if s == seat else match.opponent,
                   "color": team_hex(team_of[s])} for s in range(n)]
         opening = {"type": "match", "number": self.ladder.played + 1, "opponent": match.opponent,
                    "opponent_rating": match.opponent_rating, "rung": self.ladder.rung + 1, "team": match.team,
-                   "seat": seat, "seats": seats, "controls": match.controls.web(), "bounds": self.bounds,
+                   "seat": seat, "seats": seats, "controls": self.controls, "bounds": self.bounds,
                    "max_steps": match.max_cycles}
-        return [opening, self._frame([]), *self._advance()]
+        return [opening, self._frame([], scene), *self._advance()]
 
     def act(self, message: dict[str, Any]) -> list[dict[str, Any]]:
         """The person's move (``text``, or a click's ``point``): refused with the reason, held for
@@ -193,27 +195,31 @@ class LivePlay:
             out.append(self._end(resigned=False))
         return out
 
-    def _frame(self, events: list[dict[str, Any]]) -> dict[str, Any]:
+    def _scene(self) -> list[tuple[dict[str, Any], list[dict[str, Any]]]]:
+        """The match now: every scene entity with its shapes."""
         match = self._require_match()
-        entities = scene_entities(match.rules, match.steps * STEP_NS)
-        shapes = scene_shapes({"entities": entities}) + self._seat_labels(entities)
-        return {"type": "frame", "step": match.steps, "shapes": shapes,
+        return [(entity, scene_shapes({"entities": [entity]}))
+                for entity in scene_entities(match.rules, match.steps * STEP_NS)]
+
+    def _frame(self, events: list[dict[str, Any]], scene: list | None = None) -> dict[str, Any]:
+        match = self._require_match()
+        scene = scene if scene is not None else self._scene()
+        # one stable sort by height over the entities' shapes: the order scene_shapes gives the whole scene
+        shapes = sorted((shape for _, parts in scene for shape in parts), key=lambda shape: shape["z"])
+        return {"type": "frame", "step": match.steps, "shapes": shapes + self._seat_labels(scene),
                 "waiting": self.pace is None and match.needs_command(),
                 "events": [match.describe_event(e, self.names) for e in events if e.get("kind") not in _QUIET]}
 
-    def _seat_labels(self, entities: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    def _seat_labels(self, scene: list[tuple[dict[str, Any], list[dict[str, Any]]]]) -> list[dict[str, Any]]:
         """A label over every seat's body (``you`` for the person, ``#k`` for seat k) and a ring
         around the person's."""
         span = max(self.bounds[2] - self.bounds[0], self.bounds[3] - self.bounds[1])
         out: list[dict[str, Any]] = []
-        for entity in entities:
+        for entity, shapes in scene:
             found = _SEAT_ENTITY.match(str(entity.get("id", "")))
-            if not found or int(found.group(1)) >= len(self.labels):
+            if not found or int(found.group(1)) >= len(self.labels) or not shapes:
                 continue
             seat = int(found.group(1))
-            shapes = scene_shapes({"entities": [entity]})
-            if not shapes:
-                continue
             top = shapes[-1]  # the highest: a snake's head, an ant's torso
             points = list(shape_points(top))
             x = sum(p[0] for p in points) / len(points)
@@ -234,14 +240,11 @@ class LivePlay:
     def _end(self, *, resigned: bool) -> dict[str, Any]:
         match = self._require_match()
         reason = match.end_reason(self.names, resigned=resigned)
-        scores = [float(v) for v in (np.where(np.arange(2) == match.team, 0.0, 1.0) if resigned else match.finish())]
         played = self.ladder.record(match, resigned=resigned)
-        with self.ladder.league.reading() as session:
-            stored = reg.get_match(session, match.key)
-            match_id = None if stored is None else int(stored.id)
         self.match, self.pending = None, None
-        return {"type": "end", "outcome": played.outcome, "reason": reason, "resigned": resigned, "scores": scores,
-                "team": match.team, "steps": played.steps, "match_id": match_id, "opponent": played.opponent,
+        return {"type": "end", "outcome": played.outcome, "reason": reason, "resigned": resigned,
+                "scores": [float(v) for v in match.scores], "team": match.team, "steps": played.steps,
+                "match_id": match.match_id, "opponent": played.opponent,
                 "placement": self._placement(), "at": time.time()}
 
     def _placement(self) -> dict[str, Any]:

@@ -681,16 +681,17 @@ def _base_ratings(league: League, game_id: str, names: list[str], seed: int, pro
     return np.asarray(bradley_terry(counts.wins, counts.draws), dtype=float)
 
 
-def _entrant_game(league: League, agent: str, who: Identity | None = None) -> str:
+def _entrant_game(league: League, agent: str, who: Identity | None = None,
+                  missing: type[ValueError] = ValueError) -> str:
     """The game of the active agent ``agent`` that a placement is asked for (a two-team game);
-    with ``who``, refused unless it is theirs to rank."""
-    from arena_league.league.errors import ForbiddenError, NotFoundError
+    with ``who``, refused unless it is theirs to rank. An unknown agent raises ``missing``."""
+    from arena_league.league.errors import ForbiddenError
 
     with league.reading() as session:
         found = reg.get_agent(session, agent)
         if found is None:
             every = [a.name for a in reg.list_agents(session)]
-            raise NotFoundError(f"there is no agent {agent!r}.{did_you_mean(agent, every)} See `arena-league agents`")
+            raise missing(f"there is no agent {agent!r}.{did_you_mean(agent, every)} See `arena-league agents`")
         if who is not None and not who.may_manage(found.owner):
             raise ForbiddenError(f"{agent} is not yours to rank")
         game_id = _active_agents(session, found.game_id, [agent])[0].game_id
@@ -749,7 +750,9 @@ def queue_rank(league: League, agent: str, *, budget: int = 200, population: str
     the caller's request). With ``who``, only the agent's owner (or an administrator) may."""
     if isinstance(budget, bool) or not isinstance(budget, int) or budget < 2:
         raise ValueError(f"budget must be a whole number of matches, at least 2, not {budget!r}")
-    game_id = _entrant_game(league, agent, who)
+    from arena_league.league.errors import NotFoundError
+
+    game_id = _entrant_game(league, agent, who, NotFoundError)
     with league.transaction() as session:
         return reg.enqueue(session, "rank", {"game_id": game_id, "agent": agent, "population": population,
                                              "budget": int(budget), "target_half_width": float(target_half_width),

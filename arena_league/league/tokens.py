@@ -19,7 +19,7 @@ from typing import Any
 from arena_league import registry as reg
 from arena_league.registry import League
 from arena_league.registry.models import utcnow
-from arena_league.registry.repository import AGENT_NAME_PATTERN
+from arena_league.registry.repository import plain_name
 
 __all__ = ["TOKEN_PREFIX", "Identity", "authenticate", "create_token", "list_tokens", "revoke_token"]
 
@@ -48,7 +48,7 @@ def _hash(token: str) -> str:
 
 def create_token(league: League, owner: str, *, admin: bool = False) -> dict[str, Any]:
     """A new token for ``owner``; the returned ``token`` is the only time it is shown."""
-    if not AGENT_NAME_PATTERN.match(owner) or ":" in owner:
+    if not plain_name(owner):
         raise ValueError(f"owner {owner!r} is not allowed: use 1 to 128 letters, digits and . _ @ + -, starting "
                          "with a letter or digit (it names who owns the agents uploaded with the token)")
     token = TOKEN_PREFIX + secrets.token_urlsafe(32)

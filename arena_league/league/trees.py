@@ -145,8 +145,7 @@ def tree_view(league: League, tree_id: int) -> dict[str, Any]:
 def list_tree_views(league: League, game_id: str | None = None, owner: str | None = None) -> list[dict[str, Any]]:
     """Saved trees, newest first (of one game or owner when given), without their YAML."""
     with league.reading() as session:
-        return [{k: v for k, v in _view(t).items() if k != "yaml"}
-                for t in reg.list_trees(session, game_id=game_id, owner=owner)]
+        return [_view(t, yaml=False) for t in reg.list_trees(session, game_id=game_id, owner=owner)]
 
 
 def delete_saved_tree(league: League, who: Identity, tree_id: int) -> dict[str, Any]:
@@ -175,10 +174,10 @@ def _tree(session: Any, tree_id: int) -> reg.Tree:
     return tree
 
 
-def _view(tree: reg.Tree) -> dict[str, Any]:
-    return {"id": tree.id, "name": tree.name, "game_id": tree.game_id, "owner": tree.owner,
-            "created_at": tree.created_at.isoformat(timespec="seconds"), "spec": tree.spec,
-            "yaml": tree_text(tree.spec)}
+def _view(tree: reg.Tree, *, yaml: bool = True) -> dict[str, Any]:
+    view = {"id": tree.id, "name": tree.name, "game_id": tree.game_id, "owner": tree.owner,
+            "created_at": tree.created_at.isoformat(timespec="seconds"), "spec": tree.spec}
+    return {**view, "yaml": tree_text(tree.spec)} if yaml else view
 
 
 # --- jobs -----------------------------------------------------------------------------------------
@@ -215,6 +214,7 @@ def queue_preview(league: League, game_id: str, spec: Any, *, seed: int = 0) -> 
 def handle_preview(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
     """Job handler: play one match of ``scripted:heuristic`` in every seat under the tree, recorded;
     the steps, outcome and every seat's summed reward under the tree."""
+    from arena_league.envs import game_spec
     from arena_league.matchmaking import MatchSpec, play_matches
     from arena_league.policies import scripted_policy
     from arena_league.replay import ReplayRecording, iter_messages
@@ -224,7 +224,7 @@ def handle_preview(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
     game_id = p["game_id"]
     folder = Path(ctx.league.home) / PREVIEWS / str(ctx.job.id)
     folder.mkdir(parents=True, exist_ok=True)
-    n_agents = len(tree_catalog(game_id)["agents"])
+    n_agents = game_spec(game_id).n_agents
     spec = MatchSpec(ctx.job.id, game_id, ("heuristic",) * n_agents, int(p["seed"]))
     [result] = play_matches([spec], {"heuristic": scripted_policy("heuristic", game_id)}, env_kwargs={"tree": p["tree"]},
                             recording=ReplayRecording(folder), heartbeat=ctx.heartbeat)

@@ -31,7 +31,7 @@ from arena_league.league.tokens import Identity
 from arena_league.registry import League
 from arena_league.registry.errors import NameTakenError
 from arena_league.registry.models import utcnow
-from arena_league.registry.repository import AGENT_NAME_PATTERN
+from arena_league.registry.repository import plain_name
 
 __all__ = ["UPLOADS", "handle_validate", "series_of", "series_versions", "upload_agent", "upload_limits"]
 
@@ -76,7 +76,7 @@ def upload_agent(league: League, who: Identity, game_id: str, name: str,
     from arena_league.league.service import reserved_name_reason
 
     register_game(league, game_id)
-    if ":" in name or not AGENT_NAME_PATTERN.match(name):
+    if not plain_name(name):
         raise ValueError(f"agent name {name!r} is not allowed: use 1 to 128 letters, digits and . _ @ + -, "
                          "starting with a letter or digit (versions are named for you: name:v2, name:v3 ...)")
     reserved = reserved_name_reason(name)
@@ -98,7 +98,7 @@ def upload_agent(league: League, who: Identity, game_id: str, name: str,
     try:
         agent, job_id = _reserve(league, who, game_id, name, staged)
     except BaseException:
-        shutil.rmtree(staged.parent if staged.is_file() else staged, ignore_errors=True)
+        _discard(staged)
         raise
     return {"name": agent, "version": series_of(agent)[1], "status": "pending", "job": job_id}
 
@@ -203,7 +203,12 @@ def handle_validate(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]
         return {"agent": payload["agent"], "status": status, "reason": verdict.reason,
                 "seconds": round(verdict.seconds, 3), "size": verdict.size}
     finally:
-        shutil.rmtree(staged.parent if staged.is_file() else staged, ignore_errors=True)
+        _discard(staged)
+
+
+def _discard(staged: Path) -> None:
+    """Remove a staged upload (a file's folder, or the folder of a policy's files)."""
+    shutil.rmtree(staged.parent if staged.is_file() else staged, ignore_errors=True)
 
 
 def _settle(league: League, name: str, status: str, reason: str, log: str) -> dict[str, Any]:

@@ -22,9 +22,11 @@ import numpy as np
 
 from arena_league import registry as reg
 from arena_league.envs import game_spec, list_games
-from arena_league.league.agents import agent_detail
+from arena_league.league.agents import agent_detail, frozen_ratings
 from arena_league.league.errors import NotFoundError
 from arena_league.league.home import short_name
+from arena_league.league.jobs import stamp
+from arena_league.league.leaderboards import METHODS
 from arena_league.league.tokens import Identity
 from arena_league.league.uploads import series_versions
 from arena_league.registry import League
@@ -32,16 +34,10 @@ from arena_league.registry import League
 __all__ = ["METHODS", "LeaderboardCache", "agent_log", "agent_view", "game_view", "games_view", "home_view",
            "job_view"]
 
-#: Rating methods a board can be shown by.
-METHODS = ("bt", "elo", "openskill", "nash", "alpharank")
 #: Agents in a game page's win-rate heatmap.
 HEATMAP_AGENTS = 12
 _SORTS = {"rank": ("position", False), "rating": ("rating", True), "name": ("agent", False),
           "matches": ("matches", True), "win_rate": ("win_rate", True)}
-
-
-def _stamp(moment: Any) -> str | None:
-    return moment.isoformat(timespec="seconds") if moment is not None else None
 
 
 def _require_game(game_id: str) -> None:
@@ -73,13 +69,15 @@ def games_view(league: League) -> list[dict[str, Any]]:
 
 def home_view(league: League, *, latest: int = 12) -> dict[str, Any]:
     """The games, their base populations, and the latest submissions."""
+    from sqlalchemy import func, select
+
     with league.reading() as session:
-        agents = reg.list_agents(session, kind="submission")[-latest:]
+        agents = session.scalars(select(reg.Agent).where(reg.Agent.kind == "submission")
+                                 .order_by(reg.Agent.id.desc()).limit(latest))
         submissions = [{"name": a.name, "game_id": a.game_id, "owner": a.owner, "status": a.status,
-                        "reason": a.reject_reason, "created_at": _stamp(a.created_at)} for a in reversed(agents)]
-        counts: dict[str, int] = {}
-        for agent in reg.list_agents(session):
-            counts[agent.game_id] = counts.get(agent.game_id, 0) + 1
+                        "reason": a.reject_reason, "created_at": stamp(a.created_at)} for a in agents]
+        counts = dict(session.execute(select(reg.Agent.game_id, func.count(reg.Agent.id))
+                                      .group_by(reg.Agent.game_id)).all())
     games = games_view(league)
     for game in games:
         game["agents"] = counts.get(game["game_id"], 0)
@@ -103,8 +101,6 @@ class LeaderboardCache:
         self._encoded: dict[tuple, tuple[int, bytes]] = {}
         self._locks: dict[tuple, threading.Lock] = {}
         self._guard = threading.Lock()
-        #: Boards computed so far (for tests and logs).
-        self.computed = 0
 
     def board(self, league: League, game_id: str, method: str = "bt") -> dict[str, Any]:
         """The ``leaderboard --json`` document of ``game_id`` by ``method``."""
@@ -138,7 +134,6 @@ class LeaderboardCache:
     def _compute(self, league: League, game_id: str, method: str, state: tuple) -> dict[str, Any]:
         from arena_league.league.service import leaderboard
 
-        self.computed += 1
         if state[0] is None:  # no match of the game yet
             return {"game_id": game_id, "method": method, "rows": [], "n_matches": 0, "n_agents": 0,
                     "population": None, "basis": "matches", "rating_label": "rating", "level": 0.95}
@@ -242,32 +237,23 @@ def _heatmap(league: League, game_id: str, board: dict[str, Any], rows: Sequence
 
 # --- agents -----------------------------------------------------------------------------------------
 
-def _agent(session: Any, name: str) -> reg.Agent:
-    agent = reg.get_agent(session, name)
-    if agent is None:
-        raise NotFoundError(f"there is no agent {name!r}")
-    return agent
-
-
 def agent_view(league: League, name: str, *, viewer: Identity | None = None) -> dict[str, Any]:
     """An agent's page: its record, its versions, its placements (newest first), its win rate
     against each member of the base it was last placed against, its recent matches; the validation
     log and the forfeits only for its owner and administrators."""
     detail = agent_detail(league, name)
     private = viewer is not None and viewer.may_manage(detail["owner"])
+    game_id = detail["game_id"]
+    matches = [{"id": m["id"], "key": m["match_key"], "created_at": m["created_at"], "replay": m["replay"],
+                "seats": [{**seat, "forfeit": seat.get("forfeit")} for seat in m["seats"]]}
+               for m in detail["recent_matches"]]
     with league.reading() as session:
-        agent = _agent(session, name)
-        recent = reg.list_matches(session, agent.game_id, agent_id=agent.id)[-10:]
-        matches = [{"id": m.id, "key": m.match_key, "created_at": _stamp(m.created_at), "replay": bool(m.replay_path),
-                    "seats": [{"agent": s.agent.name, "team": s.team, "outcome": s.outcome, "forfeit": s.forfeit}
-                              for s in m.seats]} for m in reversed(recent)]
-        frozen = {m.agent.name: (m.meta or {}).get("rating") for p in reg.list_populations(session, game_id=agent.game_id)
-                  if p.frozen for m in p.members}
+        frozen = {member: rating for member, (rating, _) in frozen_ratings(session, game_id).items()}
     latest = detail["placements"][0] if detail["placements"] else None
     against = []
     if latest:
         for opponent, record in (latest.get("opponents") or {}).items():
-            against.append({"agent": opponent, "short": short_name(opponent, agent.game_id),
+            against.append({"agent": opponent, "short": short_name(opponent, game_id),
                             "rating": frozen.get(opponent), "matches": record["matches"],
                             "win_rate": record["score"] / record["matches"] if record["matches"] else None})
         against.sort(key=lambda r: (r["rating"] is None, r["rating"] or 0.0))
@@ -301,11 +287,9 @@ def job_view(league: League, job_id: int) -> dict[str, Any]:
         detail = job_detail(league, job_id)
     except ValueError:
         raise NotFoundError(f"there is no job {job_id}") from None
-    with league.reading() as session:
-        progress = reg.get_job(session, job_id).progress
     error = (detail["error"] or "").strip().splitlines()
     payload = detail["payload"] or {}
-    return {"id": detail["id"], "kind": detail["kind"], "state": detail["status"], "progress": progress,
+    return {"id": detail["id"], "kind": detail["kind"], "state": detail["status"], "progress": detail["progress"],
             "result": detail["result"], "error": error[-1] if error else None, "what": detail["what"],
             "game_id": detail["game_id"], "agent": payload.get("agent"), "attempts": detail["attempts"],
             "created_at": detail["created_at"], "started_at": detail["started_at"],

@@ -58,6 +58,14 @@ GAME_ID_PATTERN = re.compile(
     r"^(?P<name>[A-Za-z][A-Za-z0-9]*)-(?P<teams>\d+)T(?P<players>\d+)P-v(?P<version>\d+)$"
 )
 AGENT_NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:@+-]{0,127}$")
+
+
+def plain_name(name: str) -> bool:
+    """Whether ``name`` is an agent name without ``:`` (a series' or an owner's name: ``:`` marks
+    versions)."""
+    return bool(AGENT_NAME_PATTERN.match(name)) and ":" not in name
+
+
 MAX_SEED = 2**63 - 1  # seeds are stored as signed 64-bit integers
 _BATCH_ROWS = 500  # rows per INSERT or IN (...) list: far below SQLite's and PostgreSQL's bind limits
 # Agents of these kinds are code shipped with arena-league or a person; the others need weights.

@@ -15,13 +15,13 @@ import json
 import time
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Body, Depends, File, Form, Path, Query, Request, UploadFile
+from fastapi import APIRouter, Body, File, Form, Query, Request, UploadFile
 from fastapi.responses import Response, StreamingResponse
 from pydantic import BaseModel, Field
 
 from arena_league import league as ops
 from arena_league.league import Identity
-from arena_league.web.auth import optional_identity, required_identity
+from arena_league.web.deps import Method, RowId, Viewer, Writer, league_of
 
 __all__ = ["router"]
 
@@ -38,10 +38,6 @@ ERRORS: dict[int | str, dict[str, Any]] = {
         (422, "a request that does not fit this schema"), (429, "too many uploads lately"))}
 
 router = APIRouter(prefix="/api", responses=ERRORS)
-Viewer = Annotated[Identity | None, Depends(optional_identity)]
-Writer = Annotated[Identity, Depends(required_identity)]
-#: A row id: the database's 64-bit integers.
-RowId = Annotated[int, Path(ge=1, le=2**63 - 1, description="a row id")]
 #: Longest a progress stream stays open.
 EVENTS_SECONDS = 3600.0
 _EVENTS_POLL = 0.5
@@ -112,10 +108,6 @@ class ScheduleRequest(BaseModel):
     matches_per_pair: int = Field(10, ge=1, le=1000)
 
 
-def _league(request: Request) -> Any:
-    return request.app.state.league
-
-
 def _admin(who: Identity) -> None:
     if not who.admin:
         raise ops.ForbiddenError("only an administrator's token may do this")
@@ -128,17 +120,17 @@ def me(who: Writer) -> dict[str, Any]:
 
 @router.get("/games", response_model=list[Game], summary="every game, and its base populations")
 def games(request: Request) -> list[dict[str, Any]]:
-    return ops.games_view(_league(request))
+    return ops.games_view(league_of(request))
 
 
 @router.get("/games/{game}/leaderboard", summary="the game's leaderboard (the `leaderboard --json` document)",
             response_class=Response, responses={200: {"content": {"application/json": {"schema": {"type": "object"}}},
                                                       "description": "the board: rows with rating and rank intervals"}})
 def game_leaderboard(request: Request, game: str,
-                     method: Annotated[str, Query(pattern="^(bt|elo|openskill|nash|alpharank)$")] = "bt"
+                     method: Method = "bt"
                      ) -> Response:
     # computed once per state of the game, encoded once: a cached board is bytes off the shelf
-    return Response(request.app.state.boards.board_json(_league(request), game, method),
+    return Response(request.app.state.boards.board_json(league_of(request), game, method),
                     media_type="application/json")
 
 
@@ -146,7 +138,7 @@ def game_leaderboard(request: Request, game: str,
              summary="import the game's shipped base population (administrators)")
 def import_population(request: Request, game: str, who: Writer) -> dict[str, int]:
     _admin(who)
-    return {"job": ops.queue_import(_league(request), game)}
+    return {"job": ops.queue_import(league_of(request), game)}
 
 
 @router.post("/agents", response_model=Uploaded, status_code=202,
@@ -156,18 +148,18 @@ def upload(request: Request, who: Writer, game: Annotated[str, Form(description=
            file: Annotated[list[UploadFile], File(description="model.onnx (+ model.onnx.data), or manifest.json "
                                                                "+ weights.safetensors (+ README.md)")]
            ) -> dict[str, Any]:
-    return ops.upload_agent(_league(request), who, game, name, [(f.filename or "", f.file) for f in file])
+    return ops.upload_agent(league_of(request), who, game, name, [(f.filename or "", f.file) for f in file])
 
 
 @router.get("/agents/{name}", summary="an agent: status, reason, kind, owner, versions, placements")
 def agent(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
-    view = ops.agent_view(_league(request), name, viewer=viewer)
+    view = ops.agent_view(league_of(request), name, viewer=viewer)
     return {k: v for k, v in view.items() if k not in ("validation_log", "forfeits")}
 
 
 @router.get("/agents/{name}/log", summary="the validation log and forfeits (the owner and administrators)")
 def agent_log(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
-    return ops.agent_log(_league(request), name, viewer)
+    return ops.agent_log(league_of(request), name, viewer)
 
 
 @router.post("/agents/{name}/rank", response_model=Queued, status_code=202,
@@ -175,25 +167,25 @@ def agent_log(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
 def rank(request: Request, name: str, who: Writer, options: Annotated[RankRequest | None, Body()] = None
          ) -> dict[str, int]:
     options = options or RankRequest()
-    return {"job": ops.queue_rank(_league(request), name, budget=options.budget, seed=options.seed, who=who)}
+    return {"job": ops.queue_rank(league_of(request), name, budget=options.budget, seed=options.seed, who=who)}
 
 
 @router.post("/agents/{name}/reinstate", summary="let a suspended agent play again (administrators)")
 def reinstate(request: Request, name: str, who: Writer) -> dict[str, Any]:
     _admin(who)
-    return ops.reinstate_agent(_league(request), name)
+    return ops.reinstate_agent(league_of(request), name)
 
 
 @router.get("/jobs/{job_id}", response_model=JobState, summary="a job's state, progress and result")
 def job(request: Request, job_id: RowId) -> dict[str, Any]:
-    return ops.job_view(_league(request), job_id)
+    return ops.job_view(league_of(request), job_id)
 
 
 @router.get("/jobs/{job_id}/events", summary="a job's progress as server-sent events, until it ends",
             response_class=StreamingResponse,
             responses={200: {"content": {"text/event-stream": {}}, "description": "`progress` events, then `done`"}})
 async def job_events(request: Request, job_id: RowId) -> StreamingResponse:
-    league = _league(request)
+    league = league_of(request)
     first = await asyncio.to_thread(ops.job_view, league, job_id)  # 404 before the stream starts
 
     async def events() -> Any:
@@ -216,18 +208,18 @@ async def job_events(request: Request, job_id: RowId) -> StreamingResponse:
 
 @router.get("/matches/{match_id}", summary="a match: game, seats, outcome, whether it has a replay")
 def match(request: Request, match_id: RowId) -> dict[str, Any]:
-    return ops.match_view(_league(request), match_id)
+    return ops.match_view(league_of(request), match_id)
 
 
 @router.get("/matches/{match_id}/replay", summary="the match's recorded replay, as frames of its top-down scene")
 def match_replay(request: Request, match_id: RowId) -> dict[str, Any]:
-    return ops.match_replay(_league(request), match_id)
+    return ops.match_replay(league_of(request), match_id)
 
 
 @router.post("/matches/{match_id}/replay", response_model=Queued, status_code=202,
              summary="queue a job that plays the match again and records its replay")
 def record_replay(request: Request, match_id: RowId, who: Writer) -> dict[str, int]:
-    return {"job": ops.queue_replay(_league(request), match_id)}
+    return {"job": ops.queue_replay(league_of(request), match_id)}
 
 
 @router.get("/games/{game}/tree-catalog", summary="what a social tree of the game may hold: seats, schemes, "
@@ -244,33 +236,33 @@ def check_tree(tree: TreeSpec) -> dict[str, Any]:
 @router.post("/trees/verify", response_model=Queued, status_code=202,
              summary="queue the sampling verification of a social tree; its result paints every node")
 def verify_tree(request: Request, tree: TreeVerify, who: Writer) -> dict[str, int]:
-    return {"job": ops.queue_verify(_league(request), tree.game, tree.spec, samples=tree.samples, seed=tree.seed)}
+    return {"job": ops.queue_verify(league_of(request), tree.game, tree.spec, samples=tree.samples, seed=tree.seed)}
 
 
 @router.post("/trees/preview", response_model=Queued, status_code=202,
              summary="queue one recorded match of the game's scripted players under a social tree")
 def preview_tree(request: Request, tree: TreePreview, who: Writer) -> dict[str, int]:
-    return {"job": ops.queue_preview(_league(request), tree.game, tree.spec, seed=tree.seed)}
+    return {"job": ops.queue_preview(league_of(request), tree.game, tree.spec, seed=tree.seed)}
 
 
 @router.get("/trees/previews/{job_id}", summary="a finished preview's replay, as frames of its top-down scene")
 def tree_preview_replay(request: Request, job_id: RowId) -> dict[str, Any]:
-    return ops.preview_replay(_league(request), job_id)
+    return ops.preview_replay(league_of(request), job_id)
 
 
 @router.get("/trees", summary="saved social trees, newest first")
 def trees(request: Request, game: str | None = None, owner: str | None = None) -> list[dict[str, Any]]:
-    return ops.list_tree_views(_league(request), game_id=game, owner=owner)
+    return ops.list_tree_views(league_of(request), game_id=game, owner=owner)
 
 
 @router.post("/trees", status_code=201, summary="save a social tree (checked first); yours to delete")
 def save_tree(request: Request, tree: TreeSave, who: Writer) -> dict[str, Any]:
-    return ops.save_tree(_league(request), who, tree.name, tree.game, tree.spec)
+    return ops.save_tree(league_of(request), who, tree.name, tree.game, tree.spec)
 
 
 @router.get("/trees/{tree_id}", summary="a saved tree: its spec, and the same as YAML")
 def tree(request: Request, tree_id: RowId) -> dict[str, Any]:
-    return ops.tree_view(_league(request), tree_id)
+    return ops.tree_view(league_of(request), tree_id)
 
 
 @router.get("/trees/{tree_id}/download", summary="a saved tree as a YAML or JSON file for make(game, tree=...)",
@@ -278,32 +270,33 @@ def tree(request: Request, tree_id: RowId) -> dict[str, Any]:
             responses={200: {"content": {"application/yaml": {}, "application/json": {}}, "description": "the file"}})
 def tree_download(request: Request, tree_id: RowId,
                   format: Annotated[str, Query(pattern="^(yaml|json)$")] = "yaml") -> Response:
-    view = ops.tree_view(_league(request), tree_id)
+    view = ops.tree_view(league_of(request), tree_id)
     name = f"tree-{tree_id}.{format}"
-    return Response(ops.tree_text(view["spec"], format), media_type=f"application/{format}",
+    text = view["yaml"] if format == "yaml" else ops.tree_text(view["spec"], format)
+    return Response(text, media_type=f"application/{format}",
                     headers={"Content-Disposition": f'attachment; filename="{name}"'})
 
 
 @router.delete("/trees/{tree_id}", summary="delete a saved tree (its owner)")
 def delete_tree(request: Request, tree_id: RowId, who: Writer) -> dict[str, int]:
-    return ops.delete_saved_tree(_league(request), who, tree_id)
+    return ops.delete_saved_tree(league_of(request), who, tree_id)
 
 
 @router.get("/schedules", summary="recurring evaluations (administrators)")
 def schedules(request: Request, who: Writer) -> list[dict[str, Any]]:
     _admin(who)
-    return ops.list_schedules(_league(request))
+    return ops.list_schedules(league_of(request))
 
 
 @router.post("/schedules", status_code=201, summary="add a recurring evaluation (administrators)")
 def add_schedule(request: Request, who: Writer, schedule: ScheduleRequest) -> dict[str, Any]:
     _admin(who)
-    return ops.add_evaluation_schedule(_league(request), schedule.name, schedule.game, every=schedule.every,
+    return ops.add_evaluation_schedule(league_of(request), schedule.name, schedule.game, every=schedule.every,
                                        cron=schedule.cron, matches_per_pair=schedule.matches_per_pair)
 
 
 @router.delete("/schedules/{name}", summary="remove a recurring evaluation (administrators)")
 def remove_schedule(request: Request, name: str, who: Writer) -> dict[str, str]:
     _admin(who)
-    ops.remove_schedule(_league(request), name)
+    ops.remove_schedule(league_of(request), name)
     return {"removed": name}

@@ -35,6 +35,7 @@ from fastapi.staticfiles import StaticFiles
 from arena_league import league as ops
 from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
+from arena_league.web.deps import STATUS_OF, status_of
 
 __all__ = ["create_app"]
 
@@ -161,7 +162,6 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
                               "intervals, watch replays. Every write queues a job.")
     app.state.league = league
     app.state.boards = ops.LeaderboardCache()
-    app.state.workers = processes
     app.state.live_games = 0  # people playing in a browser now (see .play)
     app.include_router(api.router)
     app.include_router(pages.router)
@@ -192,17 +192,11 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
             return page
         return JSONResponse({"detail": message}, status_code=status, headers=headers)
 
-    @app.exception_handler(ops.NotFoundError)
-    async def not_found(request: Request, error: Exception) -> Response:
-        return respond(request, 404, str(error))
-
-    @app.exception_handler(ops.ForbiddenError)
-    async def forbidden(request: Request, error: Exception) -> Response:
-        return respond(request, 403, str(error))
-
-    @app.exception_handler(ops.RateLimitedError)
-    async def rate_limited(request: Request, error: Exception) -> Response:
-        return respond(request, 429, str(error), {"Retry-After": "3600"})
+    for kind in STATUS_OF:
+        @app.exception_handler(kind)
+        async def refused(request: Request, error: Exception) -> Response:
+            status = status_of(error)
+            return respond(request, status, str(error), {"Retry-After": "3600"} if status == 429 else None)
 
     @app.exception_handler(HTTPException)
     async def http_error(request: Request, error: HTTPException) -> Response:

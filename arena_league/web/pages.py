@@ -10,27 +10,19 @@ from pathlib import Path
 from typing import Annotated, Any
 from urllib.parse import urlparse
 
-from fastapi import APIRouter, Depends, File, Form, Query, Request, UploadFile
-from fastapi import Path as PathParameter
+from fastapi import APIRouter, File, Form, Request, UploadFile
 from fastapi.responses import HTMLResponse, RedirectResponse
 from fastapi.templating import Jinja2Templates
 
 from arena_league import league as ops
 from arena_league.league import Identity
-from arena_league.web.auth import COOKIE, optional_identity
+from arena_league.web.auth import COOKIE
+from arena_league.web.deps import Method, RowId, Viewer, league_of, status_of
 
 __all__ = ["router", "templates"]
 
 router = APIRouter(include_in_schema=False)
 templates = Jinja2Templates(directory=str(Path(__file__).parent / "templates"))
-Viewer = Annotated[Identity | None, Depends(optional_identity)]
-Method = Annotated[str, Query(pattern="^(bt|elo|openskill|nash|alpharank)$")]
-RowId = Annotated[int, PathParameter(ge=1, le=2**63 - 1)]
-
-
-def _league(request: Request) -> Any:
-    return request.app.state.league
-
 
 def _page(request: Request, template: str, view: Any, viewer: Identity | None, json_url: str, **extra: Any
           ) -> HTMLResponse:
@@ -67,19 +59,19 @@ def _signed_in(viewer: Identity | None, path: str) -> Identity | RedirectRespons
 
 @router.get("/index.json")
 def home_json(request: Request) -> dict[str, Any]:
-    return ops.home_view(_league(request))
+    return ops.home_view(league_of(request))
 
 
 @router.get("/", response_class=HTMLResponse)
 def home(request: Request, viewer: Viewer) -> HTMLResponse:
-    return _page(request, "index.html", ops.home_view(_league(request)), viewer, "/index.json")
+    return _page(request, "index.html", ops.home_view(league_of(request)), viewer, "/index.json")
 
 
 # --- games --------------------------------------------------------------------------------------
 
 def _game(request: Request, game: str, method: str, kind: str | None, owner: str | None, sort: str | None,
           viewer: Identity | None) -> dict[str, Any]:
-    return ops.game_view(_league(request), request.app.state.boards, game, method=method, kind=kind or None,
+    return ops.game_view(league_of(request), request.app.state.boards, game, method=method, kind=kind or None,
                          owner=owner or None, sort=sort or None, viewer=viewer)
 
 
@@ -101,12 +93,12 @@ def game_page(request: Request, game: str, viewer: Viewer, method: Method = "bt"
 
 @router.get("/agents/{name}.json")
 def agent_json(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
-    return ops.agent_view(_league(request), name, viewer=viewer)
+    return ops.agent_view(league_of(request), name, viewer=viewer)
 
 
 @router.get("/agents/{name}", response_class=HTMLResponse)
 def agent_page(request: Request, name: str, viewer: Viewer) -> HTMLResponse:
-    return _page(request, "agent.html", ops.agent_view(_league(request), name, viewer=viewer), viewer,
+    return _page(request, "agent.html", ops.agent_view(league_of(request), name, viewer=viewer), viewer,
                  f"/agents/{name}.json")
 
 
@@ -115,19 +107,19 @@ def rank(request: Request, name: str, viewer: Viewer) -> RedirectResponse:
     who = _signed_in(viewer, f"/agents/{name}")
     if isinstance(who, RedirectResponse):
         return who
-    return RedirectResponse(f"/jobs/{ops.queue_rank(_league(request), name, who=who)}", status_code=303)
+    return RedirectResponse(f"/jobs/{ops.queue_rank(league_of(request), name, who=who)}", status_code=303)
 
 
 # --- matches ------------------------------------------------------------------------------------
 
 @router.get("/matches/{match_id}.json")
 def match_json(request: Request, match_id: RowId) -> dict[str, Any]:
-    return ops.match_view(_league(request), match_id)
+    return ops.match_view(league_of(request), match_id)
 
 
 @router.get("/matches/{match_id}", response_class=HTMLResponse)
 def match_page(request: Request, match_id: RowId, viewer: Viewer) -> HTMLResponse:
-    return _page(request, "match.html", ops.match_view(_league(request), match_id), viewer,
+    return _page(request, "match.html", ops.match_view(league_of(request), match_id), viewer,
                  f"/matches/{match_id}.json")
 
 
@@ -136,27 +128,27 @@ def record_replay(request: Request, match_id: RowId, viewer: Viewer) -> Redirect
     who = _signed_in(viewer, f"/matches/{match_id}")
     if isinstance(who, RedirectResponse):
         return who
-    return RedirectResponse(f"/jobs/{ops.queue_replay(_league(request), match_id)}", status_code=303)
+    return RedirectResponse(f"/jobs/{ops.queue_replay(league_of(request), match_id)}", status_code=303)
 
 
 # --- jobs ---------------------------------------------------------------------------------------
 
 @router.get("/jobs/{job_id}.json")
 def job_json(request: Request, job_id: RowId) -> dict[str, Any]:
-    return ops.job_view(_league(request), job_id)
+    return ops.job_view(league_of(request), job_id)
 
 
 @router.get("/jobs/{job_id}", response_class=HTMLResponse)
 def job_page(request: Request, job_id: RowId, viewer: Viewer) -> HTMLResponse:
-    return _page(request, "job.html", ops.job_view(_league(request), job_id), viewer, f"/jobs/{job_id}.json")
+    return _page(request, "job.html", ops.job_view(league_of(request), job_id), viewer, f"/jobs/{job_id}.json")
 
 
 # --- social trees -------------------------------------------------------------------------------
 
 def _trees(request: Request, game: str | None, owner: str | None) -> dict[str, Any]:
-    league = _league(request)
+    league = league_of(request)
     return {"trees": ops.list_tree_views(league, game_id=game or None, owner=owner or None),
-            "games": [g["game_id"] for g in ops.games_view(league)], "filters": {"game": game, "owner": owner}}
+            "games": ops.game_ids(), "filters": {"game": game, "owner": owner}}
 
 
 @router.get("/trees.json")
@@ -172,26 +164,26 @@ def trees_page(request: Request, viewer: Viewer, game: str | None = None, owner:
 
 @router.get("/trees/new", response_class=HTMLResponse)
 def tree_new(request: Request, viewer: Viewer, game: str = "Crossroads-2T2P-v1") -> HTMLResponse:
-    ops.tree_catalog(game)  # an unknown game is a 400 naming the valid ones
+    ops.check_game(game)  # an unknown game is a 400 naming the valid ones
     return _page(request, "tree.html", {"game_id": game, "tree": None}, viewer,
                  f"/api/games/{game}/tree-catalog")
 
 
 @router.get("/trees/{tree_id}.json")
 def tree_json(request: Request, tree_id: RowId) -> dict[str, Any]:
-    return ops.tree_view(_league(request), tree_id)
+    return ops.tree_view(league_of(request), tree_id)
 
 
 @router.get("/trees/{tree_id}", response_class=HTMLResponse)
 def tree_page(request: Request, tree_id: RowId, viewer: Viewer) -> HTMLResponse:
-    view = ops.tree_view(_league(request), tree_id)
+    view = ops.tree_view(league_of(request), tree_id)
     return _page(request, "tree.html", {"game_id": view["game_id"], "tree": view}, viewer, f"/trees/{tree_id}.json")
 
 
 # --- submitting, signing in ---------------------------------------------------------------------
 
 def _submit_page(request: Request, viewer: Identity | None, **extra: Any) -> HTMLResponse:
-    games = [g["game_id"] for g in ops.games_view(_league(request))]
+    games = ops.game_ids()
     return _page(request, "submit.html", None, viewer, "/api/games", games=games, **extra)
 
 
@@ -207,11 +199,10 @@ def submit(request: Request, viewer: Viewer, game: Annotated[str, Form()], name:
     if isinstance(who, RedirectResponse):
         return who
     try:
-        queued = ops.upload_agent(_league(request), who, game, name, [(f.filename or "", f.file) for f in file])
+        queued = ops.upload_agent(league_of(request), who, game, name, [(f.filename or "", f.file) for f in file])
     except ops.USER_ERRORS as error:
         response = _submit_page(request, viewer, error=str(error), game=game, name=name)
-        response.status_code = 403 if isinstance(error, ops.ForbiddenError) else \
-            429 if isinstance(error, ops.RateLimitedError) else 400
+        response.status_code = status_of(error)
         return response
     return RedirectResponse(f"/jobs/{queued['job']}", status_code=303)
 
@@ -224,7 +215,7 @@ def signin_form(request: Request, viewer: Viewer, next: str = "/") -> HTMLRespon
 @router.post("/signin", response_model=None)
 def signin(request: Request, token: Annotated[str, Form()], next: Annotated[str, Form()] = "/"
            ) -> RedirectResponse | HTMLResponse:
-    identity = ops.authenticate(_league(request), token.strip())
+    identity = ops.authenticate(league_of(request), token.strip())
     if identity is None:
         response = _page(request, "signin.html", None, None, "/api/games", next=_local(next),
                          error="this token is not valid (unknown or revoked)")

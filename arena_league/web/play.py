@@ -24,7 +24,8 @@ from fastapi.responses import HTMLResponse
 
 from arena_league import league as ops
 from arena_league.web.auth import optional_identity, token_of
-from arena_league.web.pages import Viewer, _page
+from arena_league.web.deps import Viewer, league_of
+from arena_league.web.pages import _page
 
 __all__ = ["router"]
 
@@ -35,7 +36,7 @@ _POLICY, _TRY_LATER = 1008, 1013
 
 
 def _playable(request: Request) -> list[dict[str, Any]]:
-    return [g for g in ops.games_view(request.app.state.league)
+    return [g for g in ops.games_view(league_of(request))
             if g["teams"] == 2 and (g["base_shipped"] or g["base_imported"])]
 
 
@@ -51,8 +52,8 @@ def play_index_json(request: Request) -> dict[str, Any]:
 
 @router.get("/play/{game}", response_class=HTMLResponse)
 def play_page(request: Request, game: str, viewer: Viewer) -> HTMLResponse:
-    spec = ops.tree_catalog(game)  # an unknown game is a 400 naming the valid ones
-    return _page(request, "play.html", {"game_id": game, "seats": len(spec["agents"])}, viewer, "/play.json")
+    ops.check_game(game)  # an unknown game is a 400 naming the valid ones
+    return _page(request, "play.html", {"game_id": game}, viewer, "/play.json")
 
 
 @router.websocket("/ws/play/{game}")
@@ -75,7 +76,8 @@ async def play_socket(websocket: WebSocket, game: str) -> None:
 
 
 async def _session(websocket: WebSocket, league: Any, game: str, idle: float) -> None:
-    identity = optional_identity(websocket)  # type: ignore[arg-type]  # headers and cookies, as a request
+    # headers and cookies, as a request's; the token lookup reads the database: off the event loop
+    identity = await asyncio.to_thread(optional_identity, websocket)  # type: ignore[arg-type]
     if identity is None and token_of(websocket) is not None:  # type: ignore[arg-type]
         await _refuse(websocket, _POLICY, "this token is not valid (unknown or revoked); sign in again, or play "
                       "as a guest")
@@ -93,7 +95,7 @@ async def _session(websocket: WebSocket, league: Any, game: str, idle: float) ->
     next_tick: float | None = None
     try:
         while True:
-            pace = live.pace if live.playing else None
+            pace = live.pace
             if pace:
                 next_tick = next_tick or time.monotonic() + 1.0 / pace
                 wait = max(0.0, next_tick - time.monotonic())

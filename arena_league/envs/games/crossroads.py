@@ -124,7 +124,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import ActionControls, arrow_keys
+from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, body_cells, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
@@ -235,10 +235,9 @@ class CrossroadsControls(ActionControls):
     held."""
 
     def web(self) -> dict[str, Any]:
-        return {"input": "keys", "pace": self.PACE,
-                "keys": arrow_keys("forward", "turn_left", "backward", "turn_right"), "release": "noop",
-                "combine": None, "accepts": [],
-                "hint": "Hold Up (W) to drive, Down (S) to back up, Left and Right (A, D) to turn; let go to coast."}
+        return key_controls(arrow_keys("forward", "turn_left", "backward", "turn_right"), self.PACE,
+                            "Hold Up (W) to drive, Down (S) to back up, Left and Right (A, D) to turn; let go to "
+                            "coast.", release="noop")
 
 
 class CrossroadsRules(ReplayedMatch, GameRules):

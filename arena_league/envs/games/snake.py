@@ -166,7 +166,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from arena_league.envs import scene
-from arena_league.envs.controls import Controls, arrow_keys
+from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, cell_bounds
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 
@@ -887,8 +887,8 @@ class SnakeControls(Controls):
         return (HUMAN_KEYS[text] - rotation) % 4, None
 
     def web(self) -> dict[str, Any]:
-        return {"input": "keys", "pace": 6.0, "keys": arrow_keys("w", "a", "s", "d"), "release": None, "combine": None,
-                "accepts": [], "hint": "Arrow keys or W A S D turn your snake on the board as drawn; it keeps going."}
+        return key_controls(arrow_keys("w", "a", "s", "d"), 6.0,
+                            "Arrow keys or W A S D turn your snake on the board as drawn; it keeps going.")
 
 
 def heuristic_actions(obs: np.ndarray) -> np.ndarray:

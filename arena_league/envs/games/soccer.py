@@ -130,7 +130,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import ActionControls, arrow_keys
+from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.physics2d import BodyFields, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
@@ -700,9 +700,9 @@ class SoccerControls(ActionControls):
         return f"step {step}: move on the field as drawn ({names}; Enter repeats) > "
 
     def web(self) -> dict[str, Any]:
-        return {"input": "keys", "pace": self.PACE, "keys": arrow_keys("n", "w", "s", "e"), "release": "noop",
-                "combine": "nsew", "accepts": ["ne", "nw", "se", "sw"],
-                "hint": "Arrow keys or W A S D run on the field as drawn (two at once: diagonally); let go to stop."}
+        return key_controls(arrow_keys("n", "w", "s", "e"), self.PACE,
+                            "Arrow keys or W A S D run on the field as drawn (two at once: diagonally); let go to "
+                            "stop.", release="noop", combine="nsew", accepts=("ne", "nw", "se", "sw"))
 
 
 RULES = SoccerRules

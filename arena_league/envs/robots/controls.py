@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from arena_league.envs.controls import Controls, arrow_keys, ascii_topdown
+from arena_league.envs.controls import Controls, arrow_keys, ascii_topdown, key_controls
 from arena_league.envs.robots.gait import stand, trot
 
 if TYPE_CHECKING:
@@ -59,10 +59,9 @@ class RobotControls(Controls):
         return trot(obs, [[way.real, way.imag]])[0]
 
     def web(self) -> dict[str, Any]:
-        return {"input": "keys", "pace": 20.0, "keys": arrow_keys("w", "a", "s", "d"), "release": "x",
-                "combine": "wsad", "accepts": ["wa", "wd", "sa", "sd"],
-                "hint": "Arrow keys or W A S D walk your ant on the arena as drawn (two at once: diagonally); "
-                        "let go to stand."}
+        return key_controls(arrow_keys("w", "a", "s", "d"), 20.0,
+                            "Arrow keys or W A S D walk your ant on the arena as drawn (two at once: diagonally); "
+                            "let go to stand.", release="x", combine="wsad", accepts=("wa", "wd", "sa", "sd"))
 
     def parse(self, text: str) -> tuple[Any, str | None]:
         """``text`` (``<direction> [steps]``; Enter repeats the last) as ``(direction, keys, steps)``."""
