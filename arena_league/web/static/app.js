@@ -1,7 +1,106 @@
 // arena-league pages: sortable tables and a job's live progress. Plain JavaScript, no build step;
 // every page works without it (the server sorts with ?sort=, a job page refreshes itself).
+// It loads first on every page and shares its helpers as window.Arena: el, request, messageOf,
+// watchJob.
 (function () {
   "use strict";
+
+  /* An element: attributes (null, undefined and false left out, true as ""), then content, a
+     string, a node or a list of them. */
+  function el(tag, attributes, content) {
+    var node = document.createElement(tag);
+    Object.keys(attributes || {}).forEach(function (name) {
+      var value = attributes[name];
+      if (value === null || value === undefined || value === false) return;
+      node.setAttribute(name, value === true ? "" : String(value));
+    });
+    if (content === undefined || content === null) return node;
+    (Array.isArray(content) ? content : [content]).forEach(function (part) {
+      if (part === null || part === undefined || part === false) return;
+      node.appendChild(typeof part === "string" || typeof part === "number"
+        ? document.createTextNode(String(part)) : part);
+    });
+    return node;
+  }
+
+  /* The server's one-line {"detail"} of an answer that is not ok (FastAPI's lists joined), or
+     undefined when it sent none. */
+  function detailOf(data) {
+    var detail = data && data.detail;
+    if (typeof detail === "string") return detail;
+    if (Array.isArray(detail)) {
+      return detail.map(function (item) {
+        var where = Array.isArray(item.loc) ? item.loc.filter(function (part) { return part !== "body"; }).join(".") : "";
+        return (where ? where + ": " : "") + (item.msg || JSON.stringify(item));
+      }).join("; ");
+    }
+    if (detail !== undefined) return JSON.stringify(detail);
+    return undefined;
+  }
+
+  /* A JSON request on this site with the sign-in cookie; resolves with the parsed body, rejects
+     with an Error holding the server's one-line detail (error.detail: the detail alone, or the
+     body's text when it has none; error.status, error.statusText). */
+  function request(method, url, body) {
+    var init = { method: method, credentials: "same-origin", headers: { Accept: "application/json" } };
+    if (body !== undefined) {
+      init.headers["Content-Type"] = "application/json";
+      init.body = JSON.stringify(body);
+    }
+    return fetch(url, init).then(function (response) {
+      return response.text().then(function (text) {
+        var data = null;
+        try { data = text ? JSON.parse(text) : null; } catch (ignored) { data = null; }
+        if (!response.ok) {
+          var detail = detailOf(data);
+          var answered = "the server answered " + response.status + " " + response.statusText;
+          var error = new Error(detail === undefined ? answered : detail);
+          error.status = response.status;
+          error.statusText = response.statusText;
+          error.detail = detail !== undefined ? detail : text;
+          throw error;
+        }
+        return data;
+      });
+    });
+  }
+
+  function messageOf(error) {
+    return error && error.message ? error.message : String(error);
+  }
+
+  /* Follow the job id through its server-sent events (progress, then done, each the job's view);
+     onView sees every view on the way. Resolves with the finished view. When the stream fails,
+     one GET /api/jobs/ID decides: its view if the job has finished, else a rejection. */
+  function watchJob(id, onView) {
+    var url = "/api/jobs/" + encodeURIComponent(id);
+    function seen(view) {
+      if (onView) onView(view);
+      return view;
+    }
+    function lastLook() {
+      return request("GET", url).then(function (view) {
+        seen(view);
+        if (!view.finished) throw new Error("lost the progress of job " + id + " (it is " + view.state + ")");
+        return view;
+      });
+    }
+    if (!window.EventSource) return lastLook();
+    return new Promise(function (resolve, reject) {
+      var source = new EventSource(url + "/events");
+      source.addEventListener("progress", function (event) { seen(JSON.parse(event.data)); });
+      source.addEventListener("done", function (event) {
+        source.close();
+        resolve(seen(JSON.parse(event.data)));
+      });
+      source.onerror = function () {
+        source.close();
+        lastLook().then(resolve, reject);
+      };
+    });
+  }
+
+  window.Arena = { el: el, request: request, messageOf: messageOf, watchJob: watchJob };
 
   function cellValue(row, index, numeric) {
     var cell = row.cells[index];
@@ -38,12 +137,10 @@
 
   function followJob(box) {
     if (!window.EventSource) return;
-    var id = box.getAttribute("data-job");
     var state = box.querySelector('[data-role="state"]');
     var bar = box.querySelector('[data-role="progress"]');
     var count = box.querySelector('[data-role="count"]');
     var result = box.querySelector('[data-role="result"]');
-    var source = new EventSource("/api/jobs/" + id + "/events");
     function show(view) {
       box.setAttribute("data-state", view.state);
       state.textContent = view.state;
@@ -53,25 +150,14 @@
         count.textContent = view.progress.done + " / " + view.progress.total;
       }
       if (view.finished) {
-        if (view.result) {
-          var pre = document.createElement("pre");
-          pre.className = "log";
-          pre.textContent = JSON.stringify(view.result, null, 2);
-          result.replaceChildren(pre);
-        }
-        if (view.error) {
-          var error = document.createElement("p");
-          error.className = "reason";
-          error.setAttribute("data-role", "error");
-          error.textContent = view.error;
-          result.replaceChildren(error);
-        }
+        if (view.result) result.replaceChildren(el("pre", { "class": "log" }, JSON.stringify(view.result, null, 2)));
+        if (view.error) result.replaceChildren(el("p", { "class": "reason", "data-role": "error" }, view.error));
         if (view.state === "done" || view.state === "failed") bar.value = bar.max;
       }
     }
-    source.addEventListener("progress", function (event) { show(JSON.parse(event.data)); });
-    source.addEventListener("done", function (event) { show(JSON.parse(event.data)); source.close(); });
-    source.onerror = function () { source.close(); setTimeout(function () { window.location.reload(); }, 2000); };
+    watchJob(box.getAttribute("data-job"), show).catch(function () {
+      setTimeout(function () { window.location.reload(); }, 2000);
+    });
   }
 
   document.addEventListener("DOMContentLoaded", function () {

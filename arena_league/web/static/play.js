@@ -1,7 +1,8 @@
 /*
  * Arena league play page: a person plays a game against the base population over a WebSocket.
- * Plain JavaScript, no build step; frames are drawn with the replay player's painter
- * (window.ArenaReplay.paint, replay.js).
+ * Plain JavaScript, no build step; frames are drawn with the replay player's painter on a canvas
+ * it sizes (window.ArenaReplay.paint and sizeCanvas, replay.js); window.Arena (app.js) builds
+ * elements.
  *
  * The server's messages (arena_league.league.live): hello, match, frame, refused, end, error.
  * The page sends {"type": "next"} to start a match, {"type": "act", "text": ...} for a key or a
@@ -22,6 +23,8 @@
   var root = document.getElementById("play");
   if (!root) return;
   var game = root.getAttribute("data-game");
+  var el = window.Arena.el;
+  var LIMITS = { least: 240, share: 0.72, lowest: 160 }; // the canvas' height: see ArenaReplay.sizeCanvas
 
   function part(role) { return root.querySelector('[data-role="' + role + '"]'); }
 
@@ -31,6 +34,7 @@
   var bounds = [-1, -1, 1, 1];
   var shapes = [];
   var view = null;
+  var size = null; // the canvas' CSS size and device pixel ratio, from sizeCanvas
   var held = []; // keys held, oldest first: their answers
   var sent = null; // the answer the held keys last sent
   var matches = 0;
@@ -145,19 +149,11 @@
     var list = part("seats");
     list.textContent = "";
     seats.forEach(function (seat) {
-      var item = document.createElement("li");
-      item.setAttribute("data-seat", seat.seat);
-      item.setAttribute("data-seat-role", seat.role);
-      var swatch = document.createElement("span");
-      swatch.className = "swatch";
+      var swatch = el("span", { "class": "swatch" });
       swatch.style.background = seat.color;
-      item.appendChild(swatch);
-      var label = document.createElement("strong");
-      label.textContent = seat.label;
-      item.appendChild(label);
       var role = seat.role === "you" ? "you (" + seat.agent + ")" : seat.role + ": " + seat.agent;
-      item.appendChild(document.createTextNode(" team " + seat.team + ", " + role));
-      list.appendChild(item);
+      list.appendChild(el("li", { "data-seat": seat.seat, "data-seat-role": seat.role },
+        [swatch, el("strong", {}, seat.label), " team " + seat.team + ", " + role]));
     });
   }
 
@@ -182,23 +178,16 @@
 
   // --- drawing --------------------------------------------------------------------------------
   function resize() {
+    if (!window.ArenaReplay) return;
     var width = Math.max(200, Math.floor(canvas.parentNode.clientWidth));
-    var aspect = (bounds[3] - bounds[1]) / Math.max(1e-9, bounds[2] - bounds[0]);
-    var tallest = Math.max(240, (window.innerHeight || 800) * 0.72);
-    var height = Math.max(160, Math.min(tallest, Math.round(width * aspect)));
-    var dpr = window.devicePixelRatio || 1;
-    canvas.style.width = width + "px";
-    canvas.style.height = height + "px";
-    canvas.width = Math.round(width * dpr);
-    canvas.height = Math.round(height * dpr);
-    draw();
+    size = window.ArenaReplay.sizeCanvas(canvas, bounds, width, LIMITS);
+    draw(); // the bounds or the shapes may be new even when the size is not
   }
 
   function draw() {
     var context = canvas.getContext && canvas.getContext("2d");
-    if (!context || !window.ArenaReplay) return;
-    var dpr = window.devicePixelRatio || 1;
-    view = window.ArenaReplay.paint(context, dpr, canvas.width / dpr, canvas.height / dpr, bounds, shapes);
+    if (!context || !window.ArenaReplay || !size) return;
+    view = window.ArenaReplay.paint(context, size.dpr, size.width, size.height, bounds, shapes);
   }
 
   window.addEventListener("resize", resize);

@@ -14,9 +14,12 @@
  * events; the canvas: view. Keys (focus inside a player, or anywhere on a page with one
  * player): space plays or pauses, left and right arrows step back and forward.
  * Speed 1x shows 10 frames per second; playback stops on the last frame.
- * Players added to the page later can be started with window.ArenaReplay.mount(element).
+ * Players added to the page later can be started with window.ArenaReplay.mount(element), and
+ * stopped with window.ArenaReplay.unmount(element) before the element goes.
  * Other pages draw frames with the same painter: window.ArenaReplay.paint(context, dpr, width,
- * height, bounds, shapes) returns the view (fit(bounds, width, height): scale, x, y, toWorld).
+ * height, bounds, shapes) returns the view (scale, x, y, toWorld), on a canvas sized by
+ * window.ArenaReplay.sizeCanvas(canvas, bounds, width, limits).
+ * Needs window.Arena (app.js, loaded first): el, request.
  */
 (function () {
   "use strict";
@@ -24,17 +27,10 @@
   var FRAMES_PER_SECOND = 10;
   var SPEEDS = [0.25, 0.5, 1, 2, 4];
   var PADDING = 12; // CSS pixels between the world bounds and the canvas edge
+  var LIMITS = { least: 200, share: 0.7, lowest: 120 }; // see sizeCanvas
+  var el = window.Arena.el;
   var players = [];
   var lastUsed = null;
-
-  function el(tag, attributes, text) {
-    var node = document.createElement(tag);
-    Object.keys(attributes || {}).forEach(function (name) {
-      node.setAttribute(name, attributes[name]);
-    });
-    if (text !== undefined) node.textContent = text;
-    return node;
-  }
 
   function formatScore(value) {
     if (typeof value !== "number" || !isFinite(value)) return String(value);
@@ -65,7 +61,11 @@
     this.timer = null;
     this.cssWidth = 0;
     this.cssHeight = 0;
+    this.dpr = 1;
     this.eventsByStep = {};
+    this.observer = null;
+    this.onResize = null;
+    this.gone = false;
   }
 
   Player.prototype.load = function () {
@@ -77,24 +77,14 @@
       self.fail("no data-src attribute names the replay to show");
       return Promise.resolve();
     }
-    return fetch(src, { headers: { Accept: "application/json" }, credentials: "same-origin" })
-      .then(function (response) {
-        if (!response.ok) {
-          return response.text().then(function (body) {
-            var detail = body;
-            try {
-              var parsed = JSON.parse(body);
-              if (parsed && parsed.detail !== undefined) {
-                detail = typeof parsed.detail === "string" ? parsed.detail : JSON.stringify(parsed.detail);
-              }
-            } catch (ignored) { /* not JSON: show the text */ }
-            throw new Error("the server answered " + response.status + " " + response.statusText +
-              (detail ? ": " + String(detail).slice(0, 300) : ""));
-          });
-        }
-        return response.json();
+    return window.Arena.request("GET", src)
+      .catch(function (error) {
+        if (error.status === undefined) throw error; // not an answer of the server
+        throw new Error("the server answered " + error.status + " " + error.statusText +
+          (error.detail ? ": " + String(error.detail).slice(0, 300) : ""));
       })
       .then(function (doc) {
+        if (self.gone) return;
         if (!doc || !Array.isArray(doc.frames) || doc.frames.length === 0 || !doc.match) {
           throw new Error("the replay document has no frames to show");
         }
@@ -103,7 +93,7 @@
         self.root.setAttribute("data-state", "ready");
       })
       .catch(function (error) {
-        self.fail(error && error.message ? error.message : String(error));
+        if (!self.gone) self.fail(window.Arena.messageOf(error));
       });
   };
 
@@ -194,13 +184,16 @@
       if (self.playing) self.schedule();
     });
     self.seek.addEventListener("input", function () { self.show(Number(self.seek.value)); });
-    root.addEventListener("focusin", function () { lastUsed = self; });
-    root.addEventListener("pointerdown", function () { lastUsed = self; });
+    function used() { if (!self.gone) lastUsed = self; } // (root may outlive the player: unmount)
+    root.addEventListener("focusin", used);
+    root.addEventListener("pointerdown", used);
 
     if (typeof ResizeObserver === "function") {
-      new ResizeObserver(function () { self.resize(); }).observe(self.view);
+      self.observer = new ResizeObserver(function () { self.resize(); });
+      self.observer.observe(self.view);
     }
-    window.addEventListener("resize", function () { self.resize(); });
+    self.onResize = function () { self.resize(); };
+    window.addEventListener("resize", self.onResize);
 
     self.resize();
     self.show(0);
@@ -337,28 +330,41 @@
   // --- drawing -------------------------------------------------------------------------------
   Player.prototype.resize = function () {
     if (!this.doc) return;
-    var bounds = this.doc.bounds;
-    var width = Math.max(1, this.view.clientWidth || 480);
-    var aspect = (bounds[3] - bounds[1]) / Math.max(1e-9, bounds[2] - bounds[0]);
-    var tallest = Math.max(200, (window.innerHeight || 800) * 0.7);
-    var height = Math.max(120, Math.min(tallest, Math.round(width * aspect)));
-    var dpr = window.devicePixelRatio || 1;
-    if (width === this.cssWidth && height === this.cssHeight && dpr === this.dpr) return;
-    this.cssWidth = width;
-    this.cssHeight = height;
-    this.dpr = dpr;
-    this.canvas.style.width = width + "px";
-    this.canvas.style.height = height + "px";
-    this.canvas.width = Math.round(width * dpr);
-    this.canvas.height = Math.round(height * dpr);
+    var size = sizeCanvas(this.canvas, this.doc.bounds, Math.max(1, this.view.clientWidth || 480), LIMITS);
+    if (!size.changed) return;
+    this.cssWidth = size.width;
+    this.cssHeight = size.height;
+    this.dpr = size.dpr;
     this.draw();
   };
+
+  /* Size canvas to width CSS pixels and the height of the world rectangle bounds at that width,
+     held between limits.lowest and the larger of limits.least and limits.share of the window's
+     height; its pixels follow the device pixel ratio. Returns {width, height, dpr} in CSS pixels
+     and whether it changed (resizing a canvas clears it: redraw then). */
+  function sizeCanvas(canvas, bounds, width, limits) {
+    var aspect = (bounds[3] - bounds[1]) / Math.max(1e-9, bounds[2] - bounds[0]);
+    var tallest = Math.max(limits.least, (window.innerHeight || 800) * limits.share);
+    var height = Math.max(limits.lowest, Math.min(tallest, Math.round(width * aspect)));
+    var dpr = window.devicePixelRatio || 1;
+    var size = { width: width, height: height, dpr: dpr, changed: false };
+    var pixelsWide = Math.round(width * dpr);
+    var pixelsHigh = Math.round(height * dpr);
+    if (canvas.style.width === width + "px" && canvas.style.height === height + "px" &&
+        canvas.width === pixelsWide && canvas.height === pixelsHigh) return size;
+    canvas.style.width = width + "px";
+    canvas.style.height = height + "px";
+    canvas.width = pixelsWide;
+    canvas.height = pixelsHigh;
+    size.changed = true;
+    return size;
+  }
 
   Player.prototype.draw = function () {
     var canvas = this.canvas;
     var context = canvas.getContext && canvas.getContext("2d");
     if (!context || !this.doc) return;
-    paint(context, this.dpr || 1, this.cssWidth, this.cssHeight, this.doc.bounds,
+    paint(context, this.dpr, this.cssWidth, this.cssHeight, this.doc.bounds,
           this.doc.frames[this.frame].shapes || []);
   };
 
@@ -503,13 +509,28 @@
     return player;
   }
 
+  /* Stop the player of root (before root leaves the page): no timer, listener or observer stays. */
+  function unmount(root) {
+    var player = root && root.__arenaReplay;
+    if (!player) return;
+    player.gone = true;
+    player.pause();
+    players = players.filter(function (other) { return other !== player; });
+    if (lastUsed === player) lastUsed = null;
+    if (player.observer) player.observer.disconnect();
+    if (player.onResize) window.removeEventListener("resize", player.onResize);
+    player.observer = null;
+    player.onResize = null;
+    delete root.__arenaReplay;
+  }
+
   function mountAll() {
     var roots = document.querySelectorAll("div.replay-player[data-src]");
     for (var i = 0; i < roots.length; i++) mount(roots[i]);
   }
 
   document.addEventListener("keydown", onKey);
-  window.ArenaReplay = { mount: mount, mountAll: mountAll, paint: paint, fit: fit };
+  window.ArenaReplay = { mount: mount, unmount: unmount, paint: paint, sizeCanvas: sizeCanvas };
   if (document.readyState === "loading") {
     document.addEventListener("DOMContentLoaded", mountAll);
   } else {

@@ -17,33 +17,21 @@
  * verified-scheme; page controls example-NAME (example-default), undo, check (data-state
  * pending|ok|error), verify, samples, preview, seed, job (data-state), preview-result,
  * tree-name, save, saved, download-yaml, download-json, tree-link, spec, spec-format.
+ * Needs window.Arena (app.js, loaded first) and, for the preview, window.ArenaReplay (replay.js).
  */
 (function () {
   "use strict";
 
-  var TEAM_COLOURS = ["#dc3c32", "#326edc", "#32a050", "#e6aa28"];
+  var GREY = "#8a939c"; // an agent of no team
   var CHECK_DELAY_MS = 250;
-  var POLL_MS = 400;
   var UNDO_DEPTH = 60;
   var TREE_NAME = /^[A-Za-z0-9][A-Za-z0-9 ._-]{0,63}$/;
+  var el = window.Arena.el;
+  var request = window.Arena.request;
+  var messageOf = window.Arena.messageOf;
   var nextUid = 1;
 
   // --- small helpers ---------------------------------------------------------------------------
-  function el(tag, attributes, content) {
-    var node = document.createElement(tag);
-    Object.keys(attributes || {}).forEach(function (name) {
-      var value = attributes[name];
-      if (value === null || value === undefined || value === false) return;
-      node.setAttribute(name, value === true ? "" : String(value));
-    });
-    if (content === undefined || content === null) return node;
-    (Array.isArray(content) ? content : [content]).forEach(function (part) {
-      if (part === null || part === undefined || part === false) return;
-      node.appendChild(typeof part === "string" ? document.createTextNode(part) : part);
-    });
-    return node;
-  }
-
   function isObject(value) {
     return value !== null && typeof value === "object" && !Array.isArray(value);
   }
@@ -52,59 +40,12 @@
     return value === undefined ? undefined : JSON.parse(JSON.stringify(value));
   }
 
-  function detailOf(data, response) {
-    var detail = data && data.detail;
-    if (typeof detail === "string") return detail;
-    if (Array.isArray(detail)) {
-      return detail.map(function (item) {
-        var where = Array.isArray(item.loc) ? item.loc.filter(function (part) { return part !== "body"; }).join(".") : "";
-        return (where ? where + ": " : "") + (item.msg || JSON.stringify(item));
-      }).join("; ");
-    }
-    if (detail !== undefined) return JSON.stringify(detail);
-    return "the server answered " + response.status + " " + response.statusText;
-  }
-
-  /* A JSON request on this site with the sign-in cookie; resolves with the parsed body, rejects
-     with an Error holding the server's one-line detail. */
-  function request(method, url, body) {
-    var init = { method: method, credentials: "same-origin", headers: { Accept: "application/json" } };
-    if (body !== undefined) {
-      init.headers["Content-Type"] = "application/json";
-      init.body = JSON.stringify(body);
-    }
-    return fetch(url, init).then(function (response) {
-      return response.text().then(function (text) {
-        var data = null;
-        try { data = text ? JSON.parse(text) : null; } catch (ignored) { data = null; }
-        if (!response.ok) {
-          var error = new Error(detailOf(data, response));
-          error.status = response.status;
-          throw error;
-        }
-        return data;
-      });
-    });
-  }
-
-  function later(ms) {
-    return new Promise(function (resolve) { setTimeout(resolve, ms); });
-  }
-
-  /* Poll /api/jobs/ID until it finishes; onView sees every state on the way. */
-  function followJob(id, onView) {
-    function poll() {
-      return request("GET", "/api/jobs/" + id).then(function (view) {
-        onView(view);
-        if (view.finished) return view;
-        return later(POLL_MS).then(poll);
-      });
-    }
-    return poll();
-  }
-
-  function messageOf(error) {
-    return error && error.message ? error.message : String(error);
+  /* A status line: its data-state (the page's CSS colours it by that) and its content, text or a
+     list of text and nodes. */
+  function setStatus(line, state, content) {
+    line.hidden = false;
+    line.setAttribute("data-state", state);
+    line.replaceChildren.apply(line, Array.isArray(content) ? content : [content]);
   }
 
   // --- YAML, as yaml.safe_dump(sort_keys=False) writes a spec ----------------------------------
@@ -235,6 +176,8 @@
     this.checkSeq = 0;
     this.lastCheck = null;
     this.verified = null; // {spec: JSON text, result}
+    this.spec = null; // the tree as its spec, and that as JSON text: set by changed()
+    this.text = null;
     this.specFormat = "yaml";
     this.busy = {};
   }
@@ -277,6 +220,11 @@
   Editor.prototype.teamOf = function (agent) {
     var seat = this.catalog.agents.indexOf(agent);
     return seat < 0 ? -1 : this.catalog.teams[seat];
+  };
+
+  /* The team's colour as the server draws it (the catalog's colors), grey for no team. */
+  Editor.prototype.colourOf = function (team) {
+    return (team >= 0 && (this.catalog.colors || [])[team]) || GREY;
   };
 
   // --- page layout ---
@@ -385,38 +333,43 @@
     var self = this;
     self.catalog.agents.forEach(function (agent, seat) {
       var team = self.catalog.teams[seat];
-      teams.appendChild(el("span", { "class": "tree-swatch", style: "background:" + colourOf(team) },
+      teams.appendChild(el("span", { "class": "tree-swatch", style: "background:" + self.colourOf(team) },
         agent + " (team " + team + ")"));
     });
     return el("details", { "class": "tree-help" }, [el("summary", {}, "Schemes and teams"), list, teams]);
   };
-
-  function colourOf(team) {
-    return team >= 0 ? TEAM_COLOURS[team % TEAM_COLOURS.length] : "#8a939c";
-  }
 
   // --- state changes ---
   Editor.prototype.setTree = function (tree, remember) {
     if (remember && this.tree) this.remember();
     this.tree = tree;
     this.picked = null;
-    this.render();
     this.changed();
+    this.render();
+  };
+
+  /* One edit of the tree: remembered for undo, made by mutate, then the text, the check and the
+     cards follow; mutate may return [uid, role] of the control to focus after. The cards are drawn
+     after changed() serialised the tree, since they show the check and the verification of that
+     text. */
+  Editor.prototype.edit = function (mutate) {
+    this.remember();
+    var focus = mutate.call(this);
+    this.changed();
+    this.render();
+    if (focus) this.refocus(String(focus[0]), focus[1]);
   };
 
   Editor.prototype.remember = function () {
-    this.undo.push(JSON.stringify(toSpec(this.tree)));
+    this.undo.push(this.text);
     if (this.undo.length > UNDO_DEPTH) this.undo.shift();
     this.undoButton.disabled = false;
   };
 
   Editor.prototype.undoEdit = function () {
     if (!this.undo.length) return;
-    this.tree = fromSpec(JSON.parse(this.undo.pop()));
+    this.setTree(fromSpec(JSON.parse(this.undo.pop())), false);
     this.undoButton.disabled = !this.undo.length;
-    this.picked = null;
-    this.render();
-    this.changed();
   };
 
   Editor.prototype.loadExample = function (name) {
@@ -424,34 +377,31 @@
     if (spec) this.setTree(fromSpec(spec), true);
   };
 
-  /* After any edit: the text view, the verification paint, and a check soon. */
+  /* After any edit: the tree serialised (once: this.spec and its JSON text this.text), the text
+     view, and a check soon. The cards' verification paint is render's (or, for an edit made in
+     place, onInput's). */
   Editor.prototype.changed = function () {
     var self = this;
+    self.spec = toSpec(self.tree);
+    self.text = JSON.stringify(self.spec);
     self.showSpec();
-    self.paintVerification();
     self.markStale();
-    self.checkLine.setAttribute("data-state", "pending");
-    self.checkLine.className = "tree-check pending";
-    self.checkLine.textContent = "Checking\u2026";
+    setStatus(self.checkLine, "pending", "Checking\u2026");
     if (self.checkTimer) clearTimeout(self.checkTimer);
     self.checkTimer = setTimeout(function () { self.checkTimer = null; self.check(); }, CHECK_DELAY_MS);
   };
 
-  Editor.prototype.specText = function () {
-    return JSON.stringify(toSpec(this.tree));
-  };
-
   Editor.prototype.showSpec = function () {
-    var spec = toSpec(this.tree);
-    this.specPre.textContent = this.specFormat === "json" ? JSON.stringify(spec, null, 2) + "\n" : toYaml(spec);
+    this.specPre.textContent = this.specFormat === "json" ? JSON.stringify(this.spec, null, 2) + "\n"
+      : toYaml(this.spec);
   };
 
   // --- checking ---
   Editor.prototype.check = function () {
     var self = this;
     var seq = ++self.checkSeq;
-    var text = self.specText();
-    request("POST", "/api/trees/check", { game: self.game, spec: JSON.parse(text) }).then(function (answer) {
+    var text = self.text;
+    request("POST", "/api/trees/check", { game: self.game, spec: self.spec }).then(function (answer) {
       if (seq !== self.checkSeq) return;
       self.lastCheck = { spec: text, answer: answer };
       self.showCheck();
@@ -463,33 +413,25 @@
   };
 
   Editor.prototype.showCheck = function () {
-    var line = this.checkLine;
-    var answer = this.lastCheck && this.lastCheck.spec === this.specText() ? this.lastCheck.answer : null;
-    this.markInvalid(answer && !answer.ok ? answer.path : null);
+    var self = this;
+    var answer = self.lastCheck && self.lastCheck.spec === self.text ? self.lastCheck.answer : null;
+    self.markInvalid(answer && !answer.ok ? answer.path : null);
     if (!answer) return;
-    line.textContent = "";
     if (answer.ok) {
       var nodes = (answer.nodes || []).length;
-      line.setAttribute("data-state", "ok");
-      line.className = "tree-check ok";
-      line.appendChild(el("strong", {}, "ok"));
-      line.appendChild(document.createTextNode(" \u2014 the library builds this tree: " + nodes +
-        (nodes === 1 ? " rewarded node" : " rewarded nodes and leaves") + ", each of the " + this.catalog.agents.length +
-        " agents of " + this.game + " a leaf once."));
-    } else {
-      line.setAttribute("data-state", "error");
-      line.className = "tree-check error";
-      line.appendChild(el("strong", {}, "Not a valid tree: "));
-      line.appendChild(el("span", { "data-role": "check-message" }, answer.error));
-      if (answer.path && this.findPath(answer.path)) {
-        var self = this;
-        var path = answer.path;
-        var show = el("button", { type: "button", "class": "secondary link", "data-role": "show-error" }, "show " + path);
-        show.addEventListener("click", function () { self.showNode(path); });
-        line.appendChild(document.createTextNode(" "));
-        line.appendChild(show);
-      }
+      setStatus(self.checkLine, "ok", [el("strong", {}, "ok"), " \u2014 the library builds this tree: " + nodes +
+        (nodes === 1 ? " rewarded node" : " rewarded nodes and leaves") + ", each of the " + self.catalog.agents.length +
+        " agents of " + self.game + " a leaf once."]);
+      return;
     }
+    var parts = [el("strong", {}, "Not a valid tree: "), el("span", { "data-role": "check-message" }, answer.error)];
+    var path = answer.path;
+    if (path && self.findPath(path)) {
+      var show = el("button", { type: "button", "class": "secondary link", "data-role": "show-error" }, "show " + path);
+      show.addEventListener("click", function () { self.showNode(path); });
+      parts.push(" ", show);
+    }
+    setStatus(self.checkLine, "error", parts);
   };
 
   Editor.prototype.markInvalid = function (path) {
@@ -578,31 +520,24 @@
     if (target && target.focus) target.focus();
   };
 
-  function schemeSelect(current, schemes, role, label) {
-    var select = el("select", { "data-role": role, "aria-label": label });
+  /* A select with attributes, an option per choice ({value, doc, text: value when absent}) and
+     current selected; a current value not among the choices is added, named by unknown(current). */
+  function choiceSelect(attributes, choices, current, unknown) {
     var known = false;
-    schemes.forEach(function (scheme) {
-      if (scheme.name === current) known = true;
-      select.appendChild(el("option", { value: scheme.name, title: scheme.doc, selected: scheme.name === current },
-        scheme.name));
-    });
-    if (!known) select.appendChild(el("option", { value: current === undefined ? "" : current, selected: true },
-      current === undefined ? "(none)" : String(current)));
-    return select;
-  }
-
-  function rewardSelect(current, functions, role, label) {
-    var select = el("select", { "data-role": role, "aria-label": label });
-    var known = false;
-    functions.forEach(function (fn) {
-      if (fn.name === current) known = true;
-      select.appendChild(el("option", { value: fn.name, title: fn.doc, selected: fn.name === current }, fn.name));
+    var options = choices.map(function (choice) {
+      if (choice.value === current) known = true;
+      return el("option", { value: choice.value, title: choice.doc, selected: choice.value === current },
+        choice.text === undefined ? choice.value : choice.text);
     });
     if (!known) {
-      select.appendChild(el("option", { value: current === undefined ? "" : current, selected: true },
-        current === undefined ? "(scheme default)" : String(current) + " (not offered)"));
+      options.push(el("option", { value: current === undefined ? "" : current, selected: true }, unknown(current)));
     }
-    return select;
+    return el("select", attributes, options);
+  }
+
+  /* Choices of catalog entries ({name, doc}: schemes, reward functions), prefix before each name. */
+  function namedChoices(entries, prefix) {
+    return entries.map(function (entry) { return { value: (prefix || "") + entry.name, doc: entry.doc }; });
   }
 
   Editor.prototype.renderNode = function (node) {
@@ -611,7 +546,7 @@
     var isRoot = info.parent === null;
     var card = el("section", { "class": "tree-node scheme-" + node.scheme, "data-role": "node", "data-uid": node.uid,
       "data-path": info.path, "data-scheme": node.scheme, "aria-label": "node " + info.path });
-    if (self.dragging === node.uid || self.picked === node.uid) card.classList.add("moving");
+    if (self.picked === node.uid) card.classList.add("moving");
 
     // first row: grip, path, label, verdict, buttons; second row: the reward's fields
     var head = el("div", { "class": "tree-node-head" });
@@ -641,10 +576,14 @@
     card.appendChild(head);
 
     var fields = el("div", { "class": "tree-fields" });
-    fields.appendChild(el("label", {}, ["scheme ", schemeSelect(node.scheme, self.catalog.schemes, "scheme",
-      "scheme of node " + info.path)]));
-    fields.appendChild(el("label", {}, ["reward ", rewardSelect(node.reward, self.functionsOf(node.scheme), "reward",
-      "reward function of node " + info.path)]));
+    fields.appendChild(el("label", {}, ["scheme ", choiceSelect({ "data-role": "scheme",
+      "aria-label": "scheme of node " + info.path }, namedChoices(self.catalog.schemes), node.scheme,
+      function (current) { return current === undefined ? "(none)" : String(current); })]));
+    fields.appendChild(el("label", {}, ["reward ", choiceSelect({ "data-role": "reward",
+      "aria-label": "reward function of node " + info.path }, namedChoices(self.functionsOf(node.scheme)),
+      node.reward, function (current) {
+        return current === undefined ? "(scheme default)" : String(current) + " (not offered)";
+      })]));
     var fn = self.functionOf(node.scheme, node.reward);
     self.paramFields(node.params, fn).forEach(function (field) { fields.appendChild(field); });
     fields.appendChild(el("label", {}, ["scale ", el("input", { type: "number", step: "any", "class": "narrow",
@@ -717,25 +656,16 @@
       "aria-pressed": self.picked === leaf.uid ? "true" : "false",
       "aria-label": leaf.agent + (team >= 0 ? " (team " + team + ")" : "") + ": drag onto a node, or press Enter to move",
       title: "drag onto a node card, or press Enter and choose 'Move here'" });
-    chip.style.setProperty("--team", colourOf(team));
-    if (self.dragging === leaf.uid || self.picked === leaf.uid) chip.classList.add("moving");
+    chip.style.setProperty("--team", self.colourOf(team));
+    if (self.picked === leaf.uid) chip.classList.add("moving");
     chip.appendChild(el("span", { "class": "tree-leaf-dot", "aria-hidden": "true" }));
     chip.appendChild(el("span", { "class": "tree-leaf-name", "data-role": "leaf-name" }, leaf.agent));
     // its own reward: none, or an IS / NL function
-    var select = el("select", { "data-role": "leaf-reward", "aria-label": "own reward of " + leaf.agent,
-      title: "a reward of this agent alone (IS or NL)", draggable: "false" });
-    select.appendChild(el("option", { value: "" }, "no own reward"));
-    var current = leaf.own ? leaf.own.scheme + "/" + leaf.own.reward : "";
-    var known = current === "";
-    ["IS", "NL"].forEach(function (scheme) {
-      self.functionsOf(scheme).forEach(function (fn) {
-        var value = scheme + "/" + fn.name;
-        if (value === current) known = true;
-        select.appendChild(el("option", { value: value, title: fn.doc, selected: value === current }, value));
-      });
-    });
-    if (!known) select.appendChild(el("option", { value: current, selected: true }, current));
-    chip.appendChild(select);
+    var choices = [{ value: "", text: "no own reward" }].concat(namedChoices(self.functionsOf("IS"), "IS/"),
+      namedChoices(self.functionsOf("NL"), "NL/"));
+    chip.appendChild(choiceSelect({ "data-role": "leaf-reward", "aria-label": "own reward of " + leaf.agent,
+      title: "a reward of this agent alone (IS or NL)", draggable: "false" }, choices,
+      leaf.own ? leaf.own.scheme + "/" + leaf.own.reward : "", String));
     if (leaf.own) {
       chip.appendChild(el("label", { "class": "tree-leaf-scale" }, ["\u00d7", el("input", { type: "number", step: "any",
         "data-role": "leaf-scale", value: leaf.own.scale, "aria-label": "scale of " + leaf.agent + "'s own reward",
@@ -770,10 +700,8 @@
     var role = control.getAttribute("data-role");
     var info = this.itemOf(control);
     if (!info) return;
-    if (role === "leaf") {
-      if (event.target.closest("select, input, label")) return;
-      this.pick(this.picked === info.item.uid ? null : info.item.uid);
-    } else if (role === "grip") {
+    if (role === "leaf" || role === "grip") {
+      if (event.target.closest("select, input, label")) return; // a chip's own controls
       this.pick(this.picked === info.item.uid ? null : info.item.uid);
     } else if (role === "drop-here") {
       var moving = this.picked;
@@ -808,12 +736,11 @@
     var item = info.item;
     if (target.tagName === "SELECT") {
       if (!committed) return;
-      this.remember();
-      if (role === "scheme") this.setScheme(item, target.value);
-      else if (role === "reward") { item.reward = target.value; item.params = {}; }
-      else if (role === "leaf-reward") this.setLeafReward(item, target.value);
-      this.render();
-      this.changed();
+      this.edit(function () {
+        if (role === "scheme") this.setScheme(item, target.value);
+        else if (role === "reward") { item.reward = target.value; item.params = {}; }
+        else if (role === "leaf-reward") this.setLeafReward(item, target.value);
+      });
       return;
     }
     // text, number and checkbox fields change the model in place (no redraw: focus and caret stay)
@@ -828,6 +755,7 @@
     else return;
     if (committed) this.editing = null;
     this.changed();
+    this.paintVerification(); // not redrawn: the badges follow the text here
   };
 
   function numberOrRaw(input) {
@@ -867,36 +795,31 @@
   };
 
   Editor.prototype.addNode = function (node) {
-    this.remember();
-    var added = { kind: "node", uid: nextUid++, scheme: "NL", reward: "none", scale: 1, params: {}, board: 0,
-      name: "", children: [] };
-    node.children.push(added);
-    this.render();
-    this.changed();
-    this.refocus(String(added.uid), "scheme");
+    this.edit(function () {
+      var added = { kind: "node", uid: nextUid++, scheme: "NL", reward: "none", scale: 1, params: {}, board: 0,
+        name: "", children: [] };
+      node.children.push(added);
+      return [added.uid, "scheme"];
+    });
   };
 
   Editor.prototype.duplicate = function (info) {
     if (!info.parent) return;
-    this.remember();
-    var siblings = info.parent.children;
-    var copy = cloneItem(info.item);
-    siblings.splice(siblings.indexOf(info.item) + 1, 0, copy);
-    this.render();
-    this.changed();
-    this.refocus(String(copy.uid), "duplicate");
+    this.edit(function () {
+      var siblings = info.parent.children;
+      var copy = cloneItem(info.item);
+      siblings.splice(siblings.indexOf(info.item) + 1, 0, copy);
+      return [copy.uid, "duplicate"];
+    });
   };
 
   Editor.prototype.remove = function (info) {
     if (!info.parent) return;
-    this.remember();
-    var siblings = info.parent.children;
-    var at = siblings.indexOf(info.item);
-    var lifted = info.item.children || [];
-    Array.prototype.splice.apply(siblings, [at, 1].concat(lifted));
-    this.render();
-    this.changed();
-    this.refocus(String(info.parent.uid), "add-node");
+    this.edit(function () {
+      var siblings = info.parent.children;
+      Array.prototype.splice.apply(siblings, [siblings.indexOf(info.item), 1].concat(info.item.children || []));
+      return [info.parent.uid, "add-node"];
+    });
   };
 
   /* May the item uid go into the node targetUid? Not a leaf target, not itself, not its own descendant. */
@@ -914,13 +837,12 @@
     if (!this.canMove(uid, targetUid)) { this.render(); return false; }
     var moving = this.index[uid];
     var target = this.index[targetUid].item;
-    this.remember();
-    var siblings = moving.parent.children;
-    siblings.splice(siblings.indexOf(moving.item), 1);
-    target.children.push(moving.item);
-    this.render();
-    this.changed();
-    this.refocus(String(uid), moving.item.kind === "leaf" ? "leaf" : "grip");
+    this.edit(function () {
+      var siblings = moving.parent.children;
+      siblings.splice(siblings.indexOf(moving.item), 1);
+      target.children.push(moving.item);
+      return [uid, moving.item.kind === "leaf" ? "leaf" : "grip"];
+    });
     return true;
   };
 
@@ -1001,28 +923,23 @@
     this.move(uid, Number(card.getAttribute("data-uid")));
   };
 
+  /* The drag ended without a drop (a drop redraws the tree): unmark what was dragged. */
   Editor.prototype.endDrag = function () {
     this.treeArea.classList.remove("dragging");
     this.highlight(null);
-    if (this.dragging !== null) {
-      this.dragging = null;
-      this.render();
-    }
+    if (this.dragging === null) return;
+    var moving = this.treeArea.querySelector('[data-uid="' + this.dragging + '"]');
+    if (moving && this.dragging !== this.picked) moving.classList.remove("moving");
+    this.dragging = null;
   };
 
   // --- jobs: verify and preview ---
+  /* what: verify, preview or save; its button is off while it runs (and for a visitor). */
   Editor.prototype.setBusy = function (what, busy) {
     this.busy[what] = busy;
-    var button = what === "verify" ? this.verifyButton : this.previewButton;
+    var button = { verify: this.verifyButton, preview: this.previewButton, save: this.saveButton }[what];
     button.disabled = busy || !this.signedIn;
     button.setAttribute("aria-busy", busy ? "true" : "false");
-  };
-
-  Editor.prototype.jobStatus = function (state, text) {
-    this.jobLine.hidden = false;
-    this.jobLine.setAttribute("data-state", state);
-    this.jobLine.className = "tree-job " + state;
-    this.jobLine.textContent = text;
   };
 
   function progressText(what, view) {
@@ -1036,10 +953,10 @@
     var label = what === "verify" ? "Verification" : "Preview";
     self.jobKind = what;
     self.setBusy(what, true);
-    self.jobStatus("queued", label + ": queued\u2026");
+    setStatus(self.jobLine, "queued", label + ": queued\u2026");
     return request("POST", url, body).then(function (queued) {
-      return followJob(queued.job, function (view) {
-        if (!view.finished) self.jobStatus(view.state, progressText(label, view));
+      return window.Arena.watchJob(queued.job, function (view) {
+        if (!view.finished) setStatus(self.jobLine, view.state, progressText(label, view));
       }).then(function (view) {
         if (view.state !== "done") {
           throw new Error(view.error || ("the job ended " + view.state));
@@ -1051,7 +968,7 @@
       return done;
     }, function (error) {
       self.setBusy(what, false);
-      self.jobStatus("failed", label + " failed: " + messageOf(error));
+      setStatus(self.jobLine, "failed", label + " failed: " + messageOf(error));
       throw error;
     });
   };
@@ -1064,15 +981,15 @@
   Editor.prototype.runVerify = function () {
     var self = this;
     if (!self.signedIn || self.busy.verify) return;
-    var text = self.specText();
+    var text = self.text;
     var samples = parseInt(self.samplesInput.value, 10);
     if (!isFinite(samples)) samples = 64;
-    self.runJob("verify", "/api/trees/verify", { game: self.game, spec: JSON.parse(text), samples: samples,
+    self.runJob("verify", "/api/trees/verify", { game: self.game, spec: self.spec, samples: samples,
       seed: self.seed() }).then(function (done) {
       self.verified = { spec: text, result: done.result };
       var nodes = (done.result && done.result.nodes) || [];
       var off = nodes.filter(function (node) { return !node.ok; }).length;
-      self.jobStatus("done", off
+      setStatus(self.jobLine, "done", off
         ? "Verified: " + off + " of " + nodes.length + " nodes do not behave as declared (marked below)."
         : "Verified: every node (" + nodes.length + ") behaves as its declared scheme.");
       self.paintVerification();
@@ -1090,7 +1007,7 @@
       var owner = badge.closest("[data-uid]");
       if (owner) owner.classList.remove("verified-ok", "verified-mismatch");
     });
-    var current = self.verified && self.verified.spec === self.specText();
+    var current = self.verified && self.verified.spec === self.text;
     self.root.setAttribute("data-verified", current ? "yes" : "no");
     if (!current) return;
     ((self.verified.result && self.verified.result.nodes) || []).forEach(function (verdict) {
@@ -1115,19 +1032,19 @@
 
   /* After an edit, a verification shown in the job line no longer describes the tree. */
   Editor.prototype.markStale = function () {
-    var verifiedNow = this.verified && this.verified.spec === this.specText();
+    var verifiedNow = this.verified && this.verified.spec === this.text;
     if (this.jobKind === "verify" && this.jobLine.getAttribute("data-state") === "done" && !verifiedNow) {
-      this.jobStatus("stale", "The tree changed since it was verified; verify again to see its nodes' schemes.");
+      setStatus(this.jobLine, "stale",
+        "The tree changed since it was verified; verify again to see its nodes' schemes.");
     }
   };
 
   Editor.prototype.runPreview = function () {
     var self = this;
     if (!self.signedIn || self.busy.preview) return;
-    var spec = toSpec(self.tree);
-    self.runJob("preview", "/api/trees/preview", { game: self.game, spec: spec, seed: self.seed() })
+    self.runJob("preview", "/api/trees/preview", { game: self.game, spec: self.spec, seed: self.seed() })
       .then(function (done) {
-        self.jobStatus("done", "Preview ready: one match of the scripted players under this tree, below.");
+        setStatus(self.jobLine, "done", "Preview ready: one match of the scripted players under this tree, below.");
         self.showPreview(done.result);
       }, function () { /* shown by runJob */ });
   };
@@ -1135,9 +1052,9 @@
   Editor.prototype.showPreview = function (result) {
     var self = this;
     var area = self.previewArea;
-    Array.prototype.forEach.call(area.querySelectorAll(".replay-player"), function (old) {
-      if (old.__arenaReplay && old.__arenaReplay.pause) old.__arenaReplay.pause(); // stop an earlier preview
-    });
+    if (window.ArenaReplay) { // stop an earlier preview
+      Array.prototype.forEach.call(area.querySelectorAll(".replay-player"), window.ArenaReplay.unmount);
+    }
     area.textContent = "";
     area.hidden = false;
     area.appendChild(el("h2", {}, "Preview"));
@@ -1152,7 +1069,7 @@
       var team = self.catalog.teams[seat];
       var value = (result.rewards || [])[seat];
       var name = el("td", { "class": "name" }, el("span", { "class": "tree-swatch",
-        style: "background:" + colourOf(team) }, agent));
+        style: "background:" + self.colourOf(team) }, agent));
       body.appendChild(el("tr", {}, [name, el("td", {}, String(team)),
         el("td", { "class": "num" }, value === undefined ? "" : String(value))]));
     });
@@ -1172,50 +1089,33 @@
     if (!self.signedIn || self.busy.save) return;
     var name = self.nameInput.value.trim();
     if (!TREE_NAME.test(name)) {
-      self.savedStatus("error", name ? "A tree name is 1 to 64 letters, digits, spaces and . _ -, starting with a " +
-        "letter or digit." : "Give the tree a name to save it.");
+      setStatus(self.savedArea, "error", name ? "A tree name is 1 to 64 letters, digits, spaces and . _ -, " +
+        "starting with a letter or digit." : "Give the tree a name to save it.");
       self.nameInput.focus();
       return;
     }
-    self.busy.save = true;
-    self.saveButton.disabled = true;
-    self.savedStatus("pending", "Saving\u2026");
-    request("POST", "/api/trees", { name: name, game: self.game, spec: toSpec(self.tree) }).then(function (view) {
+    self.setBusy("save", true);
+    setStatus(self.savedArea, "pending", "Saving\u2026");
+    request("POST", "/api/trees", { name: name, game: self.game, spec: self.spec }).then(function (view) {
       self.showSaved(view, false);
     }, function (error) {
-      self.savedStatus("error", "Not saved: " + messageOf(error));
+      setStatus(self.savedArea, "error", "Not saved: " + messageOf(error));
     }).then(function () {
-      self.busy.save = false;
-      self.saveButton.disabled = !self.signedIn;
+      self.setBusy("save", false);
     });
   };
 
-  Editor.prototype.savedStatus = function (state, text) {
-    var area = this.savedArea;
-    area.hidden = false;
-    area.setAttribute("data-state", state);
-    area.className = "tree-saved " + state;
-    area.textContent = text;
-  };
-
   Editor.prototype.showSaved = function (view, loaded) {
-    var area = this.savedArea;
     var base = "/api/trees/" + view.id + "/download?format=";
-    area.hidden = false;
-    area.setAttribute("data-state", "saved");
-    area.className = "tree-saved saved";
-    area.setAttribute("data-tree", view.id);
-    area.textContent = "";
-    area.appendChild(document.createTextNode(loaded ? "Opened " : "Saved as "));
-    area.appendChild(el("a", { href: "/trees/" + view.id, "data-role": "tree-link" }, view.name));
-    area.appendChild(document.createTextNode(loaded ? " (saved by " + view.owner + "). Files: " : ". Files: "));
-    area.appendChild(el("a", { href: base + "yaml", "data-role": "download-yaml", download: "tree-" + view.id + ".yaml" },
-      "YAML"));
-    area.appendChild(document.createTextNode(" \u00b7 "));
-    area.appendChild(el("a", { href: base + "json", "data-role": "download-json", download: "tree-" + view.id + ".json" },
-      "JSON"));
-    area.appendChild(document.createTextNode(" \u2014 for make(\"" + view.game_id + "\", tree=\"tree-" + view.id +
-      ".yaml\") or arena-league verify --tree tree-" + view.id + ".yaml"));
+    this.savedArea.setAttribute("data-tree", view.id);
+    setStatus(this.savedArea, "saved", [loaded ? "Opened " : "Saved as ",
+      el("a", { href: "/trees/" + view.id, "data-role": "tree-link" }, view.name),
+      loaded ? " (saved by " + view.owner + "). Files: " : ". Files: ",
+      el("a", { href: base + "yaml", "data-role": "download-yaml", download: "tree-" + view.id + ".yaml" }, "YAML"),
+      " \u00b7 ",
+      el("a", { href: base + "json", "data-role": "download-json", download: "tree-" + view.id + ".json" }, "JSON"),
+      " \u2014 for make(\"" + view.game_id + "\", tree=\"tree-" + view.id + ".yaml\") or arena-league verify --tree " +
+        "tree-" + view.id + ".yaml"]);
   };
 
   function start() {
@@ -1225,7 +1125,6 @@
     root.__treeEditor.start();
   }
 
-  window.ArenaTrees = { toYaml: toYaml };
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
   else start();
 })();
