@@ -11,6 +11,7 @@ import json
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
+from pathlib import Path
 from typing import Any
 
 from rich.console import Console
@@ -168,7 +169,14 @@ def cmd_rank(args: argparse.Namespace) -> int:
 
     if args.league_wide and args.population:
         raise CommandError("give --population NAME or --league-wide, not both")
+    if (args.agent is None) == (args.members is None):
+        raise CommandError("give one agent to rank, or --members NAME_OR_PATH ... for a population's averaged "
+                           "ranking, not both")
     population = LEAGUE_WIDE if args.league_wide else args.population
+    if args.members is not None:
+        return _rank_members(args, population)
+    if args.game is not None:
+        raise CommandError("--game is for --members given as files; an agent's game is known from its name")
     with _league(args) as league, progress_bar(f"ranking {args.agent}", args.budget) as update:
         report = rank(league, args.agent, budget=args.budget, population=population, seed=args.seed,
                       target_half_width=args.half_width, backend=args.backend, progress=update, log=_log)
@@ -189,6 +197,30 @@ def cmd_rank(args: argparse.Namespace) -> int:
     if report.suspended:
         stderr.print(f"[bold red]suspended:[/] {escape(report.suspended)}; see `arena-league agent {report.agent}`",
                      highlight=False)
+    return 0
+
+
+def _rank_members(args: argparse.Namespace, population: str | None) -> int:
+    from arena_league.league.members import rank_members
+
+    with _league(args) as league, progress_bar("ranking the members", args.budget) as update:
+        report = rank_members(league, args.members, game_id=args.game, budget=args.budget, population=population,
+                              seed=args.seed, target_half_width=args.half_width, backend=args.backend,
+                              progress=update, log=_log)
+    if args.json:
+        emit_json(report.to_dict())
+        return 0
+    n = report.base_size + 1
+    stdout.print(f"{len(report.members)} members on {report.game_id} against {report.base} ({report.base_size} "
+                 f"agents), {report.matches} matches:")
+    for row in report.members:
+        stdout.print(f"  {row['agent']:<40} rank {row['rank']:>3} of {n} ({row['rank_best']} .. {row['rank_worst']}), "
+                     f"percentile {row['percentile']:.1f}", highlight=False)
+    level = round(report.level * 100)
+    stdout.print(f"  mean rank        {report.mean_rank:.1f} of {n}  ({level}% interval over members "
+                 f"{report.mean_rank_lower:.1f} .. {report.mean_rank_upper:.1f})")
+    stdout.print(f"  mean percentile  {report.mean_percentile:.1f}  ({report.mean_percentile_lower:.1f} .. "
+                 f"{report.mean_percentile_upper:.1f})")
     return 0
 
 
@@ -627,6 +659,35 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_experiment(args: argparse.Namespace) -> int:
+    from arena_league.league import experiments
+
+    def log(line: str) -> None:
+        if not args.json:
+            stderr.print(line, highlight=False)
+
+    if args.which == "crossroads-social":
+        if args.game is not None:
+            raise CommandError("crossroads-social runs on Crossroads-2T2P-v1 and takes no GAME; leave it out")
+        out = args.out or "experiments/crossroads-social"
+        report = experiments.crossroads_social(out, seeds=args.seeds, steps=args.steps or 300_000,
+                                               episodes=args.episodes, max_cycles=args.max_cycles, log=log)
+    else:
+        if args.game is None:
+            raise CommandError(f"name the game: `arena-league experiment baselines GAME`, one of "
+                               f"{', '.join(experiments.BASELINE_GAMES)}")
+        out = args.out or f"experiments/baselines-{args.game.split('-')[0].lower()}"
+        report = experiments.baselines(args.game, out, methods=args.methods, seeds=args.seeds,
+                                       steps=args.steps or 150_000, checkpoints=args.checkpoints,
+                                       budget=args.budget, max_cycles=args.max_cycles, log=log)
+    if args.json:
+        emit_json(report)
+        return 0
+    stdout.print((Path(out) / "README.md").read_text(), highlight=False, markup=False)
+    stdout.print(f"report: {Path(out) / experiments.REPORT_FILE}")
+    return 0
+
+
 def cmd_gc(args: argparse.Namespace) -> int:
     from arena_league.league import collect_garbage
 
@@ -706,8 +767,12 @@ def build_parser() -> argparse.ArgumentParser:
     _league_options(p)
     p.set_defaults(func=cmd_submit)
 
-    p = command("rank", "place an agent against its game's base population")
-    p.add_argument("agent", help="the agent's name (see `arena-league agents`)")
+    p = command("rank", "place an agent (or a population's members) against its game's base population")
+    p.add_argument("agent", nargs="?", default=None, help="the agent's name (see `arena-league agents`)")
+    p.add_argument("--members", nargs="+", default=None, metavar="NAME_OR_PATH",
+                   help="rank every member instead and report their mean rank and percentile with intervals: agent "
+                        "names, .onnx files, arena-policy folders, a population folder or a folder of agents")
+    p.add_argument("--game", default=None, help="--members given as files: their game (a population folder says it)")
     p.add_argument("--budget", type=_positive_int, default=200, help="at most this many matches (default 200)")
     p.add_argument("--population", default=None,
                    help="the base population NAME[:VERSION] (default: the game's own: the newest frozen one, or "
@@ -901,6 +966,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--hidden", type=_positive_int, nargs="+", default=None, help="actor hidden widths (default 64 64)")
     _json_option(p)
     p.set_defaults(func=cmd_train)
+
+    p = command("experiment", "the Arena paper's experiments: crossroads-social, baselines GAME")
+    p.add_argument("which", choices=("crossroads-social", "baselines"), help="which experiment")
+    p.add_argument("game", nargs="?", default=None,
+                   help="baselines: Crossroads-2T2P-v1 (blocking tree) or PushBox-2T2P-v1")
+    p.add_argument("--seeds", type=_non_negative_int, nargs="+", default=[0, 1, 2], help="training seeds (default 0 1 2)")
+    p.add_argument("--steps", type=_positive_int, default=None,
+                   help="env steps per run (default 300000 for crossroads-social, 150000 for baselines)")
+    p.add_argument("--episodes", type=_positive_int, default=50,
+                   help="crossroads-social: evaluation episodes per seed (default 50)")
+    p.add_argument("--methods", nargs="+", default=["dppo", "sp", "pbt", "cc", "cf"],
+                   choices=("dppo", "sp", "pbt", "cc", "cf"), help="baselines: the methods (default all five)")
+    p.add_argument("--checkpoints", type=_positive_int, default=6,
+                   help="baselines: log-spaced checkpoints placed against the base population (default 6)")
+    p.add_argument("--budget", type=_positive_int, default=40,
+                   help="baselines: placement matches per checkpoint (default 40)")
+    p.add_argument("--max-cycles", type=_positive_int, default=None, help="training episodes' length cap")
+    p.add_argument("--out", default=None, help="the report folder (default experiments/<experiment>)")
+    _json_option(p)
+    p.set_defaults(func=cmd_experiment)
 
     p = command("quickstart", "a league end to end: agents, round robin, ranking, leaderboard")
     p.add_argument("--game", default="Crossroads-2T2P-v1", help="the game (default Crossroads-2T2P-v1)")

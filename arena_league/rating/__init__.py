@@ -11,8 +11,19 @@ matrices; ratings know nothing of games or SQL.
 - :mod:`.population`: Arena's population performance, population vs population, effective
   diversity, intransitivity.
 - :mod:`.placement`: placing an entrant against a frozen base population, adaptively.
+- :mod:`.aggregate`: statistics over training runs (IQM, optimality gap, probability of
+  improvement, performance profiles) with seeded stratified bootstrap intervals.
 """
 
+from arena_league.rating.aggregate import (
+    AggregateInterval,
+    iqm,
+    optimality_gap,
+    performance_profile,
+    probability_of_improvement,
+    probability_of_improvement_matrix,
+    stratified_bootstrap_ci,
+)
 from arena_league.rating.alpharank import (
     AlphaRankSweep,
     ReducibleChainError,
@@ -74,6 +85,7 @@ __all__ = [
     "PLACEMENT_PRIOR_SD",
     "PSEUDO_COUNT",
     "AdaptivePlacement",
+    "AggregateInterval",
     "AlphaRankSweep",
     "BootstrapInterval",
     "BradleyTerryFit",
@@ -100,13 +112,19 @@ __all__ = [
     "fit_bradley_terry",
     "fixation_probability",
     "intransitivity",
+    "iqm",
     "nash_averaging",
     "nash_intervals",
     "openskill_ratings",
+    "optimality_gap",
+    "performance_profile",
     "place_entrant",
     "population_performance",
     "population_vs_population",
+    "probability_of_improvement",
+    "probability_of_improvement_matrix",
     "rank_intervals",
     "simulate_placement",
+    "stratified_bootstrap_ci",
     "zero_sum_value",
 ]

@@ -259,6 +259,9 @@ class CrossroadsRules(ReplayedMatch, GameRules):
         "active", "arrived", "target_distance", "velocity_to_target", "facing_target",
         "energy", "force", "speed", "outcome"})
     default_max_cycles: ClassVar[int] = 300
+    #: The crossing's measures in world units, for tools that read positions from the state.
+    geometry: ClassVar[dict[str, float]] = {"arm_length": ARM_LENGTH, "road_half_width": ROAD_HALF_WIDTH,
+                                            "agent_radius": AGENT_RADIUS, "top_speed": TOP_SPEED}
     summary: ClassVar[str] = "teams drive across a crossing to targets on the far side; physical collisions"
 
     n_actions = len(ACTION_MEANINGS)

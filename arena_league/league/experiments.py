@@ -1,0 +1,550 @@
+"""The Arena paper's experiments, reproduced with seeded runs and bootstrap intervals.
+
+Song et al., "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent
+Intelligence" (AAAI 2020) make two empirical claims; each has a function here that trains, measures
+and writes a report folder (``report.json``, plots, ``README.md``).
+
+Crossroads social-tree study (:func:`crossroads_social`)
+    The paper's three trees on Crossroads-2T2P-v1 (``CASE_STUDY_TREES`` of the game: ``all_IS``,
+    ``all_CL``, ``CL_under_CP``), each trained from scratch with independent learners, one per
+    seat (D-PPO, ``per="agent"``, so a seat can take a role of its own), for ``steps`` env steps
+    and several seeds. The trained agents then play ``episodes`` evaluation episodes in their
+    seats (actions sampled, as they were trained, from seeded uniforms), and these behaviour
+    measures are read from the game's state after every step. They were fixed before any result
+    was seen and are not tuned to favour a tree:
+
+    * ``collisions``: contacts begun per episode: a pair of active agents whose centres come
+      within ``2 * AGENT_RADIUS + CONTACT_TOLERANCE`` after being apart;
+    * ``centre_collisions``: those whose midpoint lies in the crossing's centre square
+      (``|x|, |y| <= ROAD_HALF_WIDTH``);
+    * ``mean_arrival_step`` and ``last_arrival_step``: the step at which each agent (and the
+      last agent) arrived, an agent that never arrives counting as ``max_cycles`` (censored);
+    * ``arrived_share``: the share of agents that arrived;
+    * ``blocking_steps``: per episode, the agent-steps in which an agent *blocks*: it is active,
+      nearly standing (speed below ``STANDING_SPEED`` of the top speed), inside the other team's
+      road strip (its lateral offset from that road's axis below ``ROAD_HALF_WIDTH``) and ahead of
+      an active agent of that team on its way (farther along that team's direction of travel),
+      while a teammate of its own is still active;
+    * ``blocking_share``: the share of episodes in which some agent blocks for at least
+      ``BLOCKING_MIN_STEPS`` steps.
+
+    Each measure is averaged over a seed's episodes; across seeds the report gives the mean and a
+    95% bootstrap interval (percentile, resampling seeds; with few seeds the interval is coarse).
+    A traffic jam can also put a standing agent on the other road: ``blocking_steps`` counts it,
+    which is why the report sets it beside the collisions and the arrival steps.
+
+Baselines by population performance (:func:`baselines`)
+    D-PPO, SP, PBT, CC and CF on one game and tree (Crossroads-2T2P-v1 with the blocking tree
+    ``CL_under_CP``; PushBox-2T2P-v1 with its default tree, the paper's), several seeds each, the
+    same env-step budget. At log-spaced checkpoints, the run's first learner is placed against
+    the game's frozen base population through the match engine (adaptive placement,
+    :class:`~arena_league.rating.AdaptivePlacement`, ``budget`` matches), giving its rank and
+    percentile; the run's episode reward is recorded at every iteration. The report holds both
+    curves per method and seed, the interquartile mean of the final percentile per method with a
+    stratified bootstrap interval, the probability-of-improvement matrix of the final
+    percentiles, and each signal's *ordering noise*: how often the order of two methods (by their
+    mean over seeds) flips between consecutive checkpoints, as a share of method pairs.
+
+Both are resumable: a training run already finished under ``out/runs`` is read back, not retrained.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from arena_league.envs import game_spec, make
+from arena_league.rating.aggregate import (
+    iqm,
+    probability_of_improvement_matrix,
+    stratified_bootstrap_ci,
+)
+
+__all__ = [
+    "BASELINES",
+    "BASELINE_GAMES",
+    "CROSSROADS",
+    "SOCIAL_MEASURES",
+    "baselines",
+    "crossroads_behaviour",
+    "crossroads_social",
+    "ordering_flips",
+]
+
+CROSSROADS = "Crossroads-2T2P-v1"
+#: The five baselines of the paper, as training schemes.
+BASELINES = ("dppo", "sp", "pbt", "cc", "cf")
+#: The games of the baselines experiment and the tree each is trained with (None: the game's default).
+BASELINE_GAMES: dict[str, str | None] = {CROSSROADS: "CL_under_CP", "PushBox-2T2P-v1": None}
+#: Centre distance beyond touching (2 radii) still counted as a contact, in world units.
+CONTACT_TOLERANCE = 0.05
+#: Below this share of the top speed an agent counts as standing.
+STANDING_SPEED = 0.2
+#: Steps of blocking that make an episode count in ``blocking_share``.
+BLOCKING_MIN_STEPS = 10
+SOCIAL_MEASURES = {
+    "collisions": "contacts begun per episode between active agents",
+    "centre_collisions": "contacts begun per episode in the crossing's centre square",
+    "mean_arrival_step": "mean step of arrival over agents (never arrived: max_cycles)",
+    "last_arrival_step": "step at which the last agent arrived (not all arrived: max_cycles)",
+    "arrived_share": "share of agents that arrived",
+    "blocking_steps": "agent-steps per episode spent standing in the other team's path while a teammate is active",
+    "blocking_share": f"share of episodes with an agent blocking for at least {BLOCKING_MIN_STEPS} steps",
+}
+REPORT_FILE = "report.json"
+LEVEL = 0.95
+
+
+def _say(log: Callable[[str], None] | None) -> Callable[[str], None]:
+    return log or (lambda line: None)
+
+
+def _write(out: Path, report: Mapping[str, Any]) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    (out / REPORT_FILE).write_text(json.dumps(report, indent=1, allow_nan=False) + "\n")
+
+
+def _check_budget(seeds: Sequence[int], steps: int, episodes_or_budget: int, what: str) -> list[int]:
+    seeds = [int(s) for s in seeds]
+    if not seeds or len(set(seeds)) != len(seeds):
+        raise ValueError(f"give one or more distinct seeds, got {seeds}")
+    if steps < 1:
+        raise ValueError(f"steps must be at least 1 env step, got {steps}")
+    if episodes_or_budget < 1:
+        raise ValueError(f"{what} must be at least 1, got {episodes_or_budget}")
+    return seeds
+
+
+def _interval(values: Sequence[float], seed: int, reps: int) -> dict[str, float]:
+    """Mean of per-seed values with a 95% percentile bootstrap interval over the seeds."""
+    a = np.asarray(values, dtype=np.float64)
+    if len(a) < 2:
+        return {"mean": float(a.mean()), "lower": float(a.mean()), "upper": float(a.mean())}
+    ci = stratified_bootstrap_ci(a[:, None], lambda s: s.mean(axis=(-2, -1)), reps=reps, level=LEVEL, rng=seed)
+    return {"mean": float(ci.point), "lower": float(ci.lower), "upper": float(ci.upper)}
+
+
+# --- the Crossroads social-tree study -------------------------------------------------------------
+
+def crossroads_behaviour(policies: Sequence[Any], tree: Any, episodes: int, seed: int, *,
+                         max_cycles: int | None = None) -> list[dict[str, float]]:
+    """Plays ``episodes`` episodes of Crossroads-2T2P-v1 with ``policies[i]`` in seat ``i`` (all
+    episodes in lockstep, one batched forward per policy and step) and returns each episode's
+    measures (:data:`SOCIAL_MEASURES`)."""
+    rules = game_spec(CROSSROADS).rules
+    geometry = rules.geometry  # type: ignore[attr-defined]
+    envs = [make(CROSSROADS, tree=tree, max_cycles=max_cycles) for _ in range(episodes)]
+    agents = list(envs[0].possible_agents)
+    n = len(agents)
+    if len(policies) != n:
+        raise ValueError(f"{CROSSROADS} has {n} seats; give one policy per seat, got {len(policies)}")
+    cycles = int(max_cycles or rules.default_max_cycles)  # type: ignore[attr-defined]
+    teams = np.repeat(np.arange(2), n // 2)
+    direction = np.array([[1.0, 0.0], [0.0, 1.0]])  # team 0 west -> east, team 1 south -> north
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
+    obs = [env.reset(seed=int(np.random.SeedSequence([seed, e]).generate_state(1)[0]))[0] for e, env in
+           enumerate(envs)]
+    states = [[] for _ in envs]
+    live = list(range(episodes))
+    recurrent = [p.initial_state(episodes) for p in policies]
+    while live:
+        actions = np.zeros((len(live), n), dtype=np.int64)
+        for seat, policy in enumerate(policies):
+            rows = np.stack([obs[e][agents[seat]] for e in live]).astype(np.float32)
+            state = None if recurrent[seat] is None else recurrent[seat][live]
+            act, new_state = policy.act(rows, rng.random((len(live), policy.spec.uniforms_per_seat)), None, state)
+            if new_state is not None:
+                recurrent[seat][live] = new_state
+            actions[:, seat] = np.asarray(act).reshape(len(live), -1)[:, 0]
+        still = []
+        for row, e in enumerate(live):
+            env = envs[e]
+            step = {a: int(actions[row, i]) for i, a in enumerate(agents) if a in env.agents}
+            obs[e], _, terminations, truncations, _ = env.step(step)
+            states[e].append(np.asarray(env.state(), dtype=np.float64))
+            if env.agents and not all(terminations.get(a) or truncations.get(a) for a in env.agents):
+                still.append(e)
+        live = still
+    L, V, R = geometry["arm_length"], geometry["top_speed"], geometry["agent_radius"]
+    return [_episode_measures(np.stack(s).reshape(len(s), n, -1), teams, direction, cycles, L, V, R,
+                              geometry["road_half_width"]) for s in states]
+
+
+def _episode_measures(state: np.ndarray, teams: np.ndarray, direction: np.ndarray, cycles: int, L: float,
+                      V: float, R: float, half_width: float) -> dict[str, float]:
+    """The measures of one episode from its states ``[steps, seats, 9]`` (world frame, scaled)."""
+    steps, n = state.shape[:2]
+    position, velocity, active = state[:, :, 0:2] * L, state[:, :, 2:4] * V, state[:, :, 8] > 0.5
+    # Contacts: pairs of active agents touching now and not at the step before.
+    gap = np.linalg.norm(position[:, :, None, :] - position[:, None, :, :], axis=-1)
+    both = active[:, :, None] & active[:, None, :]
+    touching = both & (gap <= 2 * R + CONTACT_TOLERANCE) & ~np.eye(n, dtype=bool)
+    begun = touching & ~np.concatenate([np.zeros_like(touching[:1]), touching[:-1]], axis=0)
+    pairs = np.triu(np.ones((n, n), dtype=bool), 1)
+    begun &= pairs
+    midpoint = 0.5 * (position[:, :, None, :] + position[:, None, :, :])
+    centre = (np.abs(midpoint) <= half_width).all(axis=-1)
+    # Arrival: the first step (1-based) at which a seat is no longer active.
+    arrived = ~active
+    first = np.where(arrived.any(axis=0), arrived.argmax(axis=0) + 1, cycles).astype(np.float64)
+    # Blocking: standing in the other team's road strip, ahead of an active agent of that team.
+    speed = np.linalg.norm(velocity, axis=-1)
+    blocking = np.zeros((steps, n), dtype=bool)
+    for seat in range(n):
+        mine, other = teams[seat], 1 - teams[seat]
+        d = direction[other]
+        lateral = d[0] * position[:, seat, 1] - d[1] * position[:, seat, 0]
+        progress = position[:, :, 0] * d[0] + position[:, :, 1] * d[1]
+        opponents = teams == other
+        behind = (active[:, opponents] & (progress[:, opponents] < progress[:, seat:seat + 1] - 2 * R)).any(axis=1)
+        mates = (teams == mine) & (np.arange(n) != seat)
+        blocking[:, seat] = (active[:, seat] & (speed[:, seat] < STANDING_SPEED * V) & (np.abs(lateral) < half_width)
+                             & behind & active[:, mates].any(axis=1))
+    return {"collisions": float(begun.sum()), "centre_collisions": float((begun & centre).sum()),
+            "mean_arrival_step": float(first.mean()),
+            "last_arrival_step": float(first.max() if arrived[-1].all() else cycles),
+            "arrived_share": float(arrived[-1].mean()), "blocking_steps": float(blocking.sum()),
+            "blocking_share": float((blocking.sum(axis=0) >= BLOCKING_MIN_STEPS).any())}
+
+
+def crossroads_social(out: str | Path, *, seeds: Sequence[int] = (0, 1, 2), steps: int = 300_000,
+                      episodes: int = 50, trees: Sequence[str] | None = None, max_cycles: int | None = None,
+                      reps: int = 2000, log: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Trains the paper's three Crossroads trees (D-PPO, one learner per seat) for ``steps`` env
+    steps per seed, measures the trained agents' behaviour over ``episodes`` episodes, and writes
+    ``report.json``, ``measures.png`` and ``README.md`` into ``out``; returns the report."""
+    from arena_league.envs import example_trees
+    from arena_league.policies.families import TorchPolicy
+    from arena_league.training.schemes import run_scheme
+
+    say = _say(log)
+    seeds = _check_budget(seeds, steps, episodes, "episodes")
+    case_trees = example_trees(CROSSROADS)
+    names = list(trees or case_trees)
+    unknown = [t for t in names if t not in case_trees]
+    if unknown:
+        raise ValueError(f"unknown tree(s) {', '.join(unknown)}; the case study's: {', '.join(case_trees)}")
+    out = Path(out)
+    started = time.perf_counter()
+    per_seed: dict[str, dict[str, list[float]]] = {}
+    for name in names:
+        per_seed[name] = {m: [] for m in SOCIAL_MEASURES}
+        for seed in seeds:
+            say(f"{name}, seed {seed}: training {steps:,} env steps (D-PPO, one learner per seat)")
+            snapshots = run_scheme("dppo", CROSSROADS, steps=steps, seed=seed, snapshot_every=None,
+                                   out_dir=out / "runs" / name, tree=case_trees[name], per="agent",
+                                   max_cycles=max_cycles)
+            final = max(s.steps for s in snapshots)
+            seats = sorted((s for s in snapshots if s.steps == final), key=lambda s: s.learner)
+            policies = [TorchPolicy(s.architecture, s.params, name=s.learner) for s in seats]
+            measured = crossroads_behaviour(policies, case_trees[name], episodes, seed, max_cycles=max_cycles)
+            for m in SOCIAL_MEASURES:
+                per_seed[name][m].append(float(np.mean([e[m] for e in measured])))
+            say(f"{name}, seed {seed}: " + ", ".join(f"{m} {per_seed[name][m][-1]:.2f}" for m in SOCIAL_MEASURES))
+    report = {"game": CROSSROADS, "seeds": seeds, "steps_per_run": int(steps),
+              "trees": {name: {m: _interval(v, 0, reps) for m, v in per_seed[name].items()} for name in names},
+              "scheme": "dppo (one learner per seat)", "episodes_per_seed": int(episodes),
+              "max_cycles": max_cycles, "level": LEVEL, "measures": SOCIAL_MEASURES, "per_seed": per_seed,
+              "tree_specs": {name: case_trees[name] for name in names},
+              "seconds": round(time.perf_counter() - started, 1)}
+    report["findings"] = social_findings(report)
+    _write(out, report)
+    _social_plot(report, out / "measures.png")
+    (out / "README.md").write_text(social_readme(report))
+    return report
+
+
+def _separated(a: Mapping[str, float], b: Mapping[str, float]) -> str:
+    """``"higher"``/``"lower"`` when ``a``'s interval lies wholly above/below ``b``'s, else ``"overlap"``."""
+    if a["lower"] > b["upper"]:
+        return "higher"
+    if a["upper"] < b["lower"]:
+        return "lower"
+    return "overlap"
+
+
+def social_findings(report: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """The paper's three claims, each checked by comparing two trees' intervals on the measure
+    that states it (fixed in advance; ``holds`` only where the intervals do not overlap)."""
+    trees = report["trees"]
+    checks = [
+        ("all_IS agents crash at the centre more than all_CL agents (traffic jam vs waiting)",
+         "all_IS", "all_CL", "centre_collisions", "higher"),
+        ("all_CL agents all get across sooner than all_IS agents (they wait for each other and cross)",
+         "all_CL", "all_IS", "last_arrival_step", "lower"),
+        ("CL_under_CP agents block the other team's road more than all_CL agents",
+         "CL_under_CP", "all_CL", "blocking_steps", "higher"),
+    ]
+    findings = []
+    for claim, a, b, measure, expected in checks:
+        if a not in trees or b not in trees:
+            continue
+        seen = _separated(trees[a][measure], trees[b][measure])
+        findings.append({"claim": claim, "measure": measure, "trees": [a, b], "expected": expected,
+                         "observed": seen, "holds": seen == expected})
+    return findings
+
+
+def _social_plot(report: Mapping[str, Any], path: Path) -> None:
+    from arena_league.training.curves import _pyplot, _save
+
+    plt = _pyplot()
+    measures = list(SOCIAL_MEASURES)
+    names = list(report["trees"])
+    fig, axes = plt.subplots(2, math.ceil(len(measures) / 2), figsize=(13, 6))
+    for ax, m in zip(axes.flat, measures):
+        means = [report["trees"][t][m]["mean"] for t in names]
+        low = [report["trees"][t][m]["mean"] - report["trees"][t][m]["lower"] for t in names]
+        high = [report["trees"][t][m]["upper"] - report["trees"][t][m]["mean"] for t in names]
+        ax.bar(names, means, yerr=[low, high], capsize=4, color=["tab:red", "tab:green", "tab:blue"][:len(names)])
+        for i, t in enumerate(names):
+            ax.plot([i] * len(report["per_seed"][t][m]), report["per_seed"][t][m], "k.", markersize=4)
+        ax.set_title(m, fontsize=9)
+        ax.tick_params(labelsize=8)
+    for ax in list(axes.flat)[len(measures):]:
+        ax.axis("off")
+    fig.suptitle(f"Crossroads-2T2P-v1: behaviour of trained agents by social tree ({len(report['seeds'])} seeds x "
+                 f"{report['steps_per_run']:,} env steps; bars: mean, whiskers: 95% bootstrap over seeds, dots: seeds)",
+                 fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def social_readme(report: Mapping[str, Any]) -> str:
+    names = list(report["trees"])
+    lines = ["# Crossroads social-tree study", "",
+             f"{report['game']}, trees {', '.join(names)}; {report['scheme']}; seeds {report['seeds']}, "
+             f"{report['steps_per_run']:,} env steps per run, {report['episodes_per_seed']} evaluation episodes per "
+             f"seed; {report['seconds']:,} s in all. Values: mean over seeds [95% bootstrap interval over seeds].",
+             "", "| measure | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+    for m in SOCIAL_MEASURES:
+        cells = [f"{report['trees'][t][m]['mean']:.2f} [{report['trees'][t][m]['lower']:.2f}, "
+                 f"{report['trees'][t][m]['upper']:.2f}]" for t in names]
+        lines.append(f"| {m} | " + " | ".join(cells) + " |")
+    lines += ["", "## The paper's claims at this budget", ""]
+    for f in report["findings"]:
+        verdict = "shown" if f["holds"] else f"not shown (intervals: {f['observed']})"
+        lines.append(f"* {f['claim']}: **{verdict}** ({f['measure']}, {f['trees'][0]} vs {f['trees'][1]})")
+    lines += ["", "## Measures", ""] + [f"* `{m}`: {text}" for m, text in SOCIAL_MEASURES.items()]
+    lines += ["", "![measures](measures.png)", ""]
+    return "\n".join(lines)
+
+
+# --- the five baselines by population performance -------------------------------------------------
+
+def _base_population(game_id: str, population: str) -> tuple[list[str], np.ndarray, dict[str, Any]]:
+    """The frozen base population's member names, ratings and policies (loaded once)."""
+    from arena_league.league.populations import shipped_population
+    from arena_league.matchmaking import AgentRef
+
+    folder = shipped_population(game_id, population)
+    if folder is None:
+        raise ValueError(f"{game_id} ships no base population {population!r}, which this experiment ranks against; "
+                         f"build one first (`arena-league population build {game_id}`)")
+    manifest = json.loads((folder / "population.json").read_text())
+    members = manifest["members"]
+    names = [m["name"] for m in members]
+    ratings = np.array([m["metadata"]["rating"] for m in members], dtype=np.float64)
+    policies = {m["name"]: AgentRef.parse(f"arena-policy:{folder / m['artifact']}", game_id).load() for m in members}
+    return names, ratings, policies
+
+
+def _place(game_id: str, entrant: Any, names: list[str], ratings: np.ndarray, policies: Mapping[str, Any],
+           budget: int, seed: int, first_match_id: int) -> dict[str, float]:
+    """Adaptive placement of ``entrant`` (a policy) against the base; its rank and percentile."""
+    from arena_league.matchmaking import play_matches
+    from arena_league.matchmaking.selection import play_adaptive
+    from arena_league.policies.threads import torch_threads
+    from arena_league.rating import AdaptivePlacement
+
+    chooser = AdaptivePlacement(ratings, budget=budget, target_half_width=0.0)
+    agents = {**policies, "entrant": entrant}
+    with torch_threads(1):
+        play_adaptive("entrant", names, chooser, lambda specs: play_matches(specs, agents), game_id,
+                      league_seed=seed, first_match_id=first_match_id, max_matches=budget + 1)
+    p = chooser.placement
+    return {"rank": int(p.rank), "rank_best": int(p.rank_best), "rank_worst": int(p.rank_worst),
+            "percentile": float(p.percentile), "percentile_lower": float(p.percentile_lower),
+            "percentile_upper": float(p.percentile_upper), "rating": float(p.rating), "matches": int(chooser.matches)}
+
+
+def checkpoint_steps(steps: int, checkpoints: int, iteration_steps: int) -> list[int]:
+    """``checkpoints`` log-spaced env-step marks ending at ``steps`` (distinct, at least one
+    iteration apart where the budget allows)."""
+    if checkpoints < 1:
+        raise ValueError(f"checkpoints must be at least 1, got {checkpoints}")
+    first = min(steps, max(iteration_steps, steps // 2 ** (checkpoints - 1)))
+    marks = np.unique(np.geomspace(first, steps, checkpoints).round().astype(np.int64))
+    return [int(m) for m in marks]
+
+
+def ordering_flips(curves: Mapping[str, Sequence[float]]) -> float:
+    """The share of (method pair, consecutive checkpoints) in which the pair's order flips."""
+    methods = list(curves)
+    values = np.array([curves[m] for m in methods], dtype=np.float64)
+    if len(methods) < 2 or values.shape[1] < 2:
+        return 0.0
+    flips = total = 0
+    for i in range(len(methods)):
+        for j in range(i + 1, len(methods)):
+            sign = np.sign(values[i] - values[j])
+            flips += int((sign[1:] * sign[:-1] < 0).sum())
+            total += len(sign) - 1
+    return flips / total
+
+
+def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELINES, seeds: Sequence[int] = (0, 1, 2),
+              steps: int = 200_000, checkpoints: int = 6, budget: int = 40, population: str = "base-v1",
+              max_cycles: int | None = None, reps: int = 2000,
+              log: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Trains every method of ``methods`` on ``game_id`` (the paper's tree for it) for ``steps``
+    env steps per seed, places the run's first learner against the game's frozen base population
+    at log-spaced checkpoints, and writes ``report.json``, ``curves.png`` and ``README.md`` into
+    ``out``; returns the report."""
+    from arena_league.envs import example_trees
+    from arena_league.policies.families import TorchPolicy
+    from arena_league.training.schemes import run_scheme
+
+    say = _say(log)
+    if game_id not in BASELINE_GAMES:
+        raise ValueError(f"the baselines experiment runs on {' or '.join(BASELINE_GAMES)}, not {game_id!r}")
+    seeds = _check_budget(seeds, steps, budget, "budget")
+    methods = list(methods)
+    unknown = [m for m in methods if m not in BASELINES]
+    if unknown or not methods:
+        raise ValueError(f"unknown method(s) {', '.join(unknown) or '(none given)'}; the paper's: {', '.join(BASELINES)}")
+    tree_name = BASELINE_GAMES[game_id]
+    tree = example_trees(game_id)[tree_name] if tree_name else None
+    out = Path(out)
+    started = time.perf_counter()
+    names, ratings, base = _base_population(game_id, population)
+    marks = checkpoint_steps(steps, checkpoints, 1024)
+    runs: dict[str, list[dict[str, Any]]] = {}
+    for method in methods:
+        runs[method] = []
+        for seed in seeds:
+            run_started = time.perf_counter()
+            say(f"{method}, seed {seed}: training {steps:,} env steps, checkpoints at {marks}")
+            history: list[dict[str, Any]] = []
+            curve_file = out / "runs" / method / f"curve-seed{seed}.json"
+
+            def record(trainer: Any, row: Mapping[str, Any], history: list = history) -> None:
+                history.append({"env_steps": int(row["env_steps"]), "episode_return": row.get("episode_return")})
+
+            snapshots = run_scheme(method, game_id, steps=steps, seed=seed, snapshot_every=None,
+                                   out_dir=out / "runs" / method, callback=record, tree=tree, max_cycles=max_cycles,
+                                   snapshot_at=marks)
+            if history:
+                curve_file.write_text(json.dumps(history))
+            elif curve_file.exists():
+                history = json.loads(curve_file.read_text())
+            first_learner = min(s.learner for s in snapshots)
+            ours = sorted((s for s in snapshots if s.learner == first_learner and s.steps > 0), key=lambda s: s.steps)
+            points = []
+            for k, snap in enumerate(ours):
+                placed = _place(game_id, TorchPolicy(snap.architecture, snap.params, name="entrant"), names, ratings,
+                                base, budget, seed, first_match_id=(k + 1) * 100_000)
+                reward = [h["episode_return"] for h in history
+                          if h["env_steps"] <= snap.steps and h["episode_return"] is not None]
+                points.append({"env_steps": int(snap.steps), "episode_reward": reward[-1] if reward else None,
+                               **placed})
+            runs[method].append({"seed": seed, "learner": first_learner, "history": history, "checkpoints": points,
+                                 "seconds": round(time.perf_counter() - run_started, 1)})
+            last = points[-1]
+            say(f"{method}, seed {seed}: final rank {last['rank']} of {len(names) + 1}, percentile "
+                f"{last['percentile']:.0f} ({last['percentile_lower']:.0f} .. {last['percentile_upper']:.0f})")
+    report = _baselines_report(game_id, tree_name, population, len(names), seeds, steps, budget, marks, runs, reps)
+    report["seconds"] = round(time.perf_counter() - started, 1)
+    report["max_cycles"] = max_cycles
+    _write(out, report)
+    _baselines_plot(report, out / "curves.png")
+    (out / "README.md").write_text(baselines_readme(report))
+    return report
+
+
+def _baselines_report(game_id: str, tree_name: str | None, population: str, base_size: int, seeds: list[int],
+                      steps: int, budget: int, marks: list[int], runs: Mapping[str, list[dict[str, Any]]],
+                      reps: int) -> dict[str, Any]:
+    final = {m: np.array([[r["checkpoints"][-1]["percentile"]] for r in rs]) for m, rs in runs.items()}
+    rng = np.random.default_rng(0)  # one generator through every interval of the report
+    summary = {}
+    for method, scores in final.items():
+        ci = stratified_bootstrap_ci(scores, iqm, reps=reps, level=LEVEL, rng=rng)
+        summary[method] = {"iqm_final_percentile": float(ci.point), "lower": float(ci.lower), "upper": float(ci.upper),
+                           "final_rank_mean": float(np.mean([r["checkpoints"][-1]["rank"] for r in runs[method]]))}
+
+    def mean_curve(method: str, key: str) -> list[float]:
+        rows = [[np.nan if c[key] is None else c[key] for c in r["checkpoints"]] for r in runs[method]]
+        return np.nanmean(np.array(rows, dtype=np.float64), axis=0).tolist()
+
+    curves = {key: {m: mean_curve(m, key) for m in runs} for key in ("episode_reward", "percentile")}
+    finite = {key: {m: c for m, c in per.items() if np.all(np.isfinite(c))} for key, per in curves.items()}
+    noise = {key: {"ordering_flips": ordering_flips(per), "methods": list(per)} for key, per in finite.items()}
+    return {"game": game_id, "tree": tree_name or "default", "population": population, "base_size": base_size,
+            "methods": list(runs), "seeds": seeds, "steps_per_run": int(steps), "placement_budget": int(budget),
+            "checkpoints": marks, "level": LEVEL, "final": summary,
+            "probability_of_improvement": probability_of_improvement_matrix(final),
+            "noise": noise, "mean_curves": curves, "runs": runs}
+
+
+def _baselines_plot(report: Mapping[str, Any], path: Path) -> None:
+    from arena_league.training.curves import _pyplot, _save
+
+    plt = _pyplot()
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    for i, (method, runs) in enumerate(report["runs"].items()):
+        colour = f"C{i}"
+        for r in runs:
+            h = [(p["env_steps"], p["episode_return"]) for p in r["history"] if p["episode_return"] is not None]
+            if h:
+                top.plot(*zip(*h), color=colour, alpha=0.35, linewidth=0.8)
+            c = r["checkpoints"]
+            bottom.plot([p["env_steps"] for p in c], [p["percentile"] for p in c], color=colour, alpha=0.35,
+                        linewidth=0.8)
+        bottom.plot(report["checkpoints"][-len(report["mean_curves"]["percentile"][method]):],
+                    report["mean_curves"]["percentile"][method], color=colour, linewidth=2.2, marker="o", label=method)
+        top.plot([], [], color=colour, label=method)
+    top.set_ylabel("episode reward (per iteration)")
+    bottom.set_ylabel(f"percentile in {report['population']}")
+    bottom.set_xlabel("env steps")
+    bottom.set_ylim(-2, 102)
+    for ax in (top, bottom):
+        ax.set_xscale("log")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="best")
+    top.set_title(f"{report['game']} ({report['tree']} tree): episode reward (above) and population performance "
+                  f"(below), {len(report['seeds'])} seeds", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def baselines_readme(report: Mapping[str, Any]) -> str:
+    methods = report["methods"]
+    lines = [f"# The five baselines on {report['game']} by population performance", "",
+             f"Tree: {report['tree']}; methods {', '.join(methods)}; seeds {report['seeds']}; "
+             f"{report['steps_per_run']:,} env steps per run; at checkpoints {report['checkpoints']} the run's first "
+             f"learner is placed against {report['population']} ({report['base_size']} agents) with "
+             f"{report['placement_budget']} adaptive matches; {report['seconds']:,} s in all.", "",
+             "| method | IQM of final percentile [95% CI] | mean final rank |", "|---|---|---|"]
+    for m in methods:
+        f = report["final"][m]
+        lines.append(f"| {m} | {f['iqm_final_percentile']:.1f} [{f['lower']:.1f}, {f['upper']:.1f}] | "
+                     f"{f['final_rank_mean']:.1f} of {report['base_size'] + 1} |")
+    lines += ["", "Probability of improvement (row beats column, final percentile):", "",
+              "| | " + " | ".join(methods) + " |", "|---|" + "---|" * len(methods)]
+    for a in methods:
+        lines.append(f"| {a} | " + " | ".join(f"{report['probability_of_improvement'][a][b]:.2f}" for b in methods)
+                     + " |")
+    noise = report["noise"]
+    lines += ["", "Ordering noise (share of method pairs whose order flips between consecutive checkpoints; "
+              "lower is a steadier signal):", "",
+              f"* episode reward: {noise['episode_reward']['ordering_flips']:.2f}",
+              f"* population performance (percentile): {noise['percentile']['ordering_flips']:.2f}",
+              "", "![curves](curves.png)", ""]
+    return "\n".join(lines)
