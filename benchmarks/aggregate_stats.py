@@ -4,10 +4,12 @@ Prints one JSON document: for a score table of ``--runs`` runs x ``--tasks`` tas
 methods), the seconds each implementation takes for the IQM interval and for the probability-of-
 improvement interval, both with ``--reps`` stratified bootstrap resamples (percentile intervals),
 their point estimates and intervals side by side, and whether the same seed gave the same interval
-twice. rliable's interval needs its ``library`` module, which imports ``arch``; where that does not
-import (arch 7 with pandas 3), the peer's side says why instead of a figure.
+twice. rliable's interval needs its ``library`` module and ``arch`` older than 8 (arch 8 no longer
+takes the ``random_state`` rliable passes), and arch 7 does not import with pandas 3; where the peer
+cannot run, its side says why instead of a figure. A virtual environment where it runs:
 
-    python benchmarks/aggregate_stats.py [--runs 10] [--tasks 8] [--reps 2000]
+    python -m venv /tmp/rlenv && /tmp/rlenv/bin/pip install "pandas<3" "arch<8" rliable scipy
+    PYTHONPATH=. /tmp/rlenv/bin/python benchmarks/aggregate_stats.py [--runs 10] [--tasks 8] [--reps 2000]
 """
 
 from __future__ import annotations

@@ -45,7 +45,8 @@ Baselines by population performance (:func:`baselines`)
     percentiles, and each signal's *ordering noise*: how often the order of two methods (by their
     mean over seeds) flips between consecutive checkpoints, as a share of method pairs.
 
-Both are resumable: a training run already finished under ``out/runs`` is read back, not retrained.
+Both are resumable: a training run already finished under ``out/runs`` is read back, not retrained
+(and the baselines' placements of its checkpoints, kept beside it, are not played again).
 """
 
 from __future__ import annotations
@@ -446,10 +447,17 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
                 history = json.loads(curve_file.read_text())
             first_learner = min(s.learner for s in snapshots)
             ours = sorted((s for s in snapshots if s.learner == first_learner and s.steps > 0), key=lambda s: s.steps)
+            placements_file = out / "runs" / method / f"placements-seed{seed}.json"
+            key = {"population": population, "budget": budget, "steps": [s.steps for s in ours]}
+            saved = json.loads(placements_file.read_text()) if placements_file.exists() else {}
+            placements = saved.get("placements") if saved.get("key") == key else None
+            if placements is None:
+                placements = [_place(game_id, TorchPolicy(snap.architecture, snap.params, name="entrant"), names,
+                                     ratings, base, budget, seed, first_match_id=(k + 1) * 100_000)
+                              for k, snap in enumerate(ours)]
+                placements_file.write_text(json.dumps({"key": key, "placements": placements}))
             points = []
-            for k, snap in enumerate(ours):
-                placed = _place(game_id, TorchPolicy(snap.architecture, snap.params, name="entrant"), names, ratings,
-                                base, budget, seed, first_match_id=(k + 1) * 100_000)
+            for snap, placed in zip(ours, placements):
                 reward = [h["episode_return"] for h in history
                           if h["env_steps"] <= snap.steps and h["episode_return"] is not None]
                 points.append({"env_steps": int(snap.steps), "episode_reward": reward[-1] if reward else None,
@@ -479,12 +487,18 @@ def _baselines_report(game_id: str, tree_name: str | None, population: str, base
         summary[method] = {"iqm_final_percentile": float(ci.point), "lower": float(ci.lower), "upper": float(ci.upper),
                            "final_rank_mean": float(np.mean([r["checkpoints"][-1]["rank"] for r in runs[method]]))}
 
-    def mean_curve(method: str, key: str) -> list[float]:
-        rows = [[np.nan if c[key] is None else c[key] for c in r["checkpoints"]] for r in runs[method]]
-        return np.nanmean(np.array(rows, dtype=np.float64), axis=0).tolist()
+    def mean_curve(method: str, key: str) -> list[float | None]:
+        """The mean over seeds at each checkpoint (None where no seed has a value, e.g. no episode
+        had finished yet)."""
+        rows = np.array([[np.nan if c[key] is None else c[key] for c in r["checkpoints"]] for r in runs[method]],
+                        dtype=np.float64)
+        seen = np.isfinite(rows).any(axis=0)
+        sums = np.where(np.isfinite(rows), rows, 0.0).sum(axis=0)
+        means = sums / np.maximum(np.isfinite(rows).sum(axis=0), 1)
+        return [float(m) if ok else None for m, ok in zip(means, seen)]
 
     curves = {key: {m: mean_curve(m, key) for m in runs} for key in ("episode_reward", "percentile")}
-    finite = {key: {m: c for m, c in per.items() if np.all(np.isfinite(c))} for key, per in curves.items()}
+    finite = {key: {m: c for m, c in per.items() if all(v is not None for v in c)} for key, per in curves.items()}
     noise = {key: {"ordering_flips": ordering_flips(per), "methods": list(per)} for key, per in finite.items()}
     return {"game": game_id, "tree": tree_name or "default", "population": population, "base_size": base_size,
             "methods": list(runs), "seeds": seeds, "steps_per_run": int(steps), "placement_budget": int(budget),

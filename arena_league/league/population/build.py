@@ -163,6 +163,15 @@ RECIPES: dict[str, Recipe] = {
                      scheme_steps={"sp": 1_200_000, "cc": 600_000},
                      early_snapshots=6, warm_runs=1, warm_start={"steps": 100_000, "rounds": 5, "epochs": 6},
                      warm_steps=240_000, warm_overrides={"hidden": (128, 128)}),
+    # AirHockey: like Soccer, a learner that only meets itself may learn to guard and never score,
+    # so SP meets the random agent in half its episodes; the warm-started runs (a short and a long
+    # imitation of the heuristic) set the top, the runs from scratch the ladder below.
+    "AirHockey": Recipe(steps=150_000, snapshots=12, hidden=(64, 64),
+                        per_scheme={"pbt": {"population_size": 4},
+                                    "sp": {"fixed_opponents": ("scripted:random",), "fixed_share": 0.5}},
+                        early_snapshots=4, warm_runs=2,
+                        warm_start=({"steps": 20_000}, {"steps": 100_000, "rounds": 5, "epochs": 6}),
+                        warm_steps=100_000, warm_overrides={"hidden": (128, 128)}),
     "GoBang": Recipe(steps=600_000, snapshots=16, hidden=(8,), common={"learning_rate": 1e-3},
                      per_scheme={"pbt": {"population_size": 4}}),
     # Sumo: members sample their torques (continuous snapshots carry their learned std), so a run
