@@ -13,6 +13,7 @@ from arena_league.envs.games import crossroads as game
 from arena_league.league.experiments import (
     BASELINES,
     _episode_measures,
+    _finite,
     checkpoint_steps,
     crossroads_behaviour,
     ordering_flips,
@@ -72,6 +73,8 @@ def test_behaviour_of_the_heuristic_is_deterministic_and_plausible():
 
 
 def test_checkpoints_and_ordering_flips():
+    # an iteration without a finished episode has no return, whichever way its trainer says so
+    assert _finite(float("nan")) is None and _finite(None) is None and _finite(2) == 2.0
     assert checkpoint_steps(200_000, 6, 1024) == [6250, 12500, 25000, 50000, 100000, 200000]
     assert checkpoint_steps(2048, 4, 1024)[-1] == 2048
     assert ordering_flips({"a": [1, 2, 3], "b": [0, 1, 2]}) == 0.0

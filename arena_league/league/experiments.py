@@ -375,6 +375,12 @@ def _place(game_id: str, entrant: Any, names: list[str], ratings: np.ndarray, po
             "percentile_upper": float(p.percentile_upper), "rating": float(p.rating), "matches": int(chooser.matches)}
 
 
+def _finite(value: Any) -> float | None:
+    """An iteration's episode return, or None when it has none (no episode finished: some trainers
+    say None, CF's says NaN)."""
+    return None if value is None or not math.isfinite(float(value)) else float(value)
+
+
 def checkpoint_steps(steps: int, checkpoints: int, iteration_steps: int) -> list[int]:
     """``checkpoints`` log-spaced env-step marks ending at ``steps`` (distinct, at least one
     iteration apart where the budget allows)."""
@@ -436,15 +442,20 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
             curve_file = out / "runs" / method / f"curve-seed{seed}.json"
 
             def record(trainer: Any, row: Mapping[str, Any], history: list = history) -> None:
-                history.append({"env_steps": int(row["env_steps"]), "episode_return": row.get("episode_return")})
+                history.append({"env_steps": int(row["env_steps"]), "episode_return": _finite(row.get("episode_return"))})
 
             snapshots = run_scheme(method, game_id, steps=steps, seed=seed, snapshot_every=None,
                                    out_dir=out / "runs" / method, callback=record, tree=tree, max_cycles=max_cycles,
                                    snapshot_at=marks)
+            train_seconds: float | None = round(time.perf_counter() - run_started, 1)
             if history:
-                curve_file.write_text(json.dumps(history))
-            elif curve_file.exists():
-                history = json.loads(curve_file.read_text())
+                curve_file.write_text(json.dumps({"history": history, "train_seconds": train_seconds}))
+            elif curve_file.exists():  # read back: its history and the time its training took then
+                saved_curve = json.loads(curve_file.read_text())
+                if isinstance(saved_curve, list):  # the first format: the history alone
+                    saved_curve = {"history": saved_curve, "train_seconds": None}
+                history = [{**h, "episode_return": _finite(h["episode_return"])} for h in saved_curve["history"]]
+                train_seconds = saved_curve["train_seconds"]
             first_learner = min(s.learner for s in snapshots)
             ours = sorted((s for s in snapshots if s.learner == first_learner and s.steps > 0), key=lambda s: s.steps)
             placements_file = out / "runs" / method / f"placements-seed{seed}.json"
@@ -463,6 +474,7 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
                 points.append({"env_steps": int(snap.steps), "episode_reward": reward[-1] if reward else None,
                                **placed})
             runs[method].append({"seed": seed, "learner": first_learner, "history": history, "checkpoints": points,
+                                 "train_seconds": train_seconds,
                                  "seconds": round(time.perf_counter() - run_started, 1)})
             last = points[-1]
             say(f"{method}, seed {seed}: final rank {last['rank']} of {len(names) + 1}, percentile "
@@ -544,7 +556,8 @@ def baselines_readme(report: Mapping[str, Any]) -> str:
              f"Tree: {report['tree']}; methods {', '.join(methods)}; seeds {report['seeds']}; "
              f"{report['steps_per_run']:,} env steps per run; at checkpoints {report['checkpoints']} the run's first "
              f"learner is placed against {report['population']} ({report['base_size']} agents) with "
-             f"{report['placement_budget']} adaptive matches; {report['seconds']:,} s in all.", "",
+             f"{report['placement_budget']} adaptive matches; {report['seconds']:,} s in this call (runs and "
+             f"placements kept under `runs/` from earlier calls are read back, not redone).", "",
              "| method | IQM of final percentile [95% CI] | mean final rank |", "|---|---|---|"]
     for m in methods:
         f = report["final"][m]
