@@ -118,8 +118,12 @@ def test_baselines_end_to_end_at_a_tiny_budget(capsys, tmp_path):
 
 
 def test_experiment_errors_are_one_line_with_the_fix(capsys, tmp_path):
-    code, _, err = run(capsys, "experiment", "baselines", "PushBox-2T2P-v1", "--out", tmp_path)
+    code, _, err = run(capsys, "experiment", "baselines", "PushBox-2T2P-v1", "--out", tmp_path / "pushbox")
     assert code == 2 and "ships no base population" in err and "population build PushBox-2T2P-v1" in err
+    assert not (tmp_path / "pushbox").exists()  # nothing written by a command that could not start
+    (tmp_path / "file").write_text("")
+    code, _, err = run(capsys, "experiment", "crossroads-social", "--out", tmp_path / "file" / "report")
+    assert code == 2 and "cannot write the report folder" in err and "--out" in err
     code, _, err = run(capsys, "experiment", "baselines", "--out", tmp_path)
     assert code == 2 and "name the game" in err
     code, _, err = run(capsys, "experiment", "baselines", "Snake-2T2P-v1", "--out", tmp_path)

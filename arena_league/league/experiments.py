@@ -111,6 +111,16 @@ def _write(out: Path, report: Mapping[str, Any]) -> None:
     (out / REPORT_FILE).write_text(json.dumps(report, indent=1, allow_nan=False) + "\n")
 
 
+def _report_folder(out: str | Path) -> Path:
+    """``out``, made now: a folder that cannot be written fails before any training, not after."""
+    out = Path(out)
+    try:
+        (out / "runs").mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ValueError(f"cannot write the report folder {out} ({error.strerror}); give another with --out") from None
+    return out
+
+
 def _check_budget(seeds: Sequence[int], steps: int, episodes_or_budget: int, what: str) -> list[int]:
     seeds = [int(s) for s in seeds]
     if not seeds or len(set(seeds)) != len(seeds):
@@ -231,7 +241,7 @@ def crossroads_social(out: str | Path, *, seeds: Sequence[int] = (0, 1, 2), step
     unknown = [t for t in names if t not in case_trees]
     if unknown:
         raise ValueError(f"unknown tree(s) {', '.join(unknown)}; the case study's: {', '.join(case_trees)}")
-    out = Path(out)
+    out = _report_folder(out)
     started = time.perf_counter()
     per_seed: dict[str, dict[str, list[float]]] = {}
     for name in names:
@@ -428,9 +438,9 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
         raise ValueError(f"unknown method(s) {', '.join(unknown) or '(none given)'}; the paper's: {', '.join(BASELINES)}")
     tree_name = BASELINE_GAMES[game_id]
     tree = example_trees(game_id)[tree_name] if tree_name else None
-    out = Path(out)
     started = time.perf_counter()
     names, ratings, base = _base_population(game_id, population)
+    out = _report_folder(out)
     marks = checkpoint_steps(steps, checkpoints, 1024)
     runs: dict[str, list[dict[str, Any]]] = {}
     for method in methods:
