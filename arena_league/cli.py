@@ -659,6 +659,11 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+#: The paper's five baselines (``league.experiments.BASELINES``, named here so that building the
+#: parser imports no training code).
+_BASELINES = ("dppo", "sp", "pbt", "cc", "cf")
+
+
 def cmd_experiment(args: argparse.Namespace) -> int:
     from arena_league.league import experiments
 
@@ -976,8 +981,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="env steps per run (default 300000 for crossroads-social, 150000 for baselines)")
     p.add_argument("--episodes", type=_positive_int, default=50,
                    help="crossroads-social: evaluation episodes per seed (default 50)")
-    p.add_argument("--methods", nargs="+", default=["dppo", "sp", "pbt", "cc", "cf"],
-                   choices=("dppo", "sp", "pbt", "cc", "cf"), help="baselines: the methods (default all five)")
+    p.add_argument("--methods", nargs="+", default=list(_BASELINES), choices=_BASELINES,
+                   help="baselines: the methods (default all five)")
     p.add_argument("--checkpoints", type=_positive_int, default=6,
                    help="baselines: log-spaced checkpoints placed against the base population (default 6)")
     p.add_argument("--budget", type=_positive_int, default=40,

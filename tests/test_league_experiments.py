@@ -156,3 +156,9 @@ def test_rank_members_averages_the_population(capsys, home, tmp_path):
     assert code == 2 and "not both" in err
     code, _, err = run(capsys, "rank", "--members", "nobody-here")
     assert code == 2 and "neither a path nor an agent" in err
+
+
+def test_the_command_offers_the_papers_baselines():
+    from arena_league.cli import _BASELINES
+
+    assert _BASELINES == BASELINES

@@ -303,9 +303,9 @@ def social_findings(report: Mapping[str, Any]) -> list[dict[str, Any]]:
 
 
 def _social_plot(report: Mapping[str, Any], path: Path) -> None:
-    from arena_league.training.curves import _pyplot, _save
+    from arena_league.training.curves import pyplot, save_figure
 
-    plt = _pyplot()
+    plt = pyplot()
     measures = list(SOCIAL_MEASURES)
     names = list(report["trees"])
     fig, axes = plt.subplots(2, math.ceil(len(measures) / 2), figsize=(13, 6))
@@ -324,7 +324,7 @@ def _social_plot(report: Mapping[str, Any], path: Path) -> None:
                  f"{report['steps_per_run']:,} env steps; bars: mean, whiskers: 95% bootstrap over seeds, dots: seeds)",
                  fontsize=9)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def social_readme(report: Mapping[str, Any]) -> str:
@@ -416,6 +416,45 @@ def ordering_flips(curves: Mapping[str, Sequence[float]]) -> float:
     return flips / total
 
 
+def _train_run(method: str, game_id: str, seed: int, steps: int, marks: list[int], tree: Any,
+               max_cycles: int | None, folder: Path) -> tuple[list[Any], list[dict[str, Any]], float | None]:
+    """Trains one run (or reads it back from ``folder``): its snapshots, its episode return per
+    iteration and the seconds its training took (None when not known)."""
+    from arena_league.training.schemes import run_scheme
+
+    started = time.perf_counter()
+    history: list[dict[str, Any]] = []
+
+    def record(trainer: Any, row: Mapping[str, Any]) -> None:
+        history.append({"env_steps": int(row["env_steps"]), "episode_return": _finite(row.get("episode_return"))})
+
+    snapshots = run_scheme(method, game_id, steps=steps, seed=seed, snapshot_every=None, out_dir=folder,
+                           callback=record, tree=tree, max_cycles=max_cycles, snapshot_at=marks)
+    curve_file = folder / f"curve-seed{seed}.json"
+    if history:
+        seconds = round(time.perf_counter() - started, 1)
+        curve_file.write_text(json.dumps({"history": history, "train_seconds": seconds}))
+        return snapshots, history, seconds
+    saved = json.loads(curve_file.read_text()) if curve_file.exists() else {"history": [], "train_seconds": None}
+    return snapshots, saved["history"], saved["train_seconds"]
+
+
+def _placements(game_id: str, snapshots: list[Any], names: list[str], ratings: np.ndarray,
+                base: Mapping[str, Any], budget: int, seed: int, population: str, path: Path) -> list[dict[str, Any]]:
+    """Each snapshot placed against the base (kept in ``path``, and read back from it when the
+    same snapshots were placed against the same base with the same budget)."""
+    from arena_league.policies.families import TorchPolicy
+
+    key = {"population": population, "budget": budget, "steps": [s.steps for s in snapshots]}
+    saved = json.loads(path.read_text()) if path.exists() else {}
+    if saved.get("key") == key:
+        return saved["placements"]
+    placements = [_place(game_id, TorchPolicy(snap.architecture, snap.params, name="entrant"), names, ratings, base,
+                         budget, seed, first_match_id=(k + 1) * 100_000) for k, snap in enumerate(snapshots)]
+    path.write_text(json.dumps({"key": key, "placements": placements}))
+    return placements
+
+
 def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELINES, seeds: Sequence[int] = (0, 1, 2),
               steps: int = 200_000, checkpoints: int = 6, budget: int = 40, population: str = "base-v1",
               max_cycles: int | None = None, reps: int = 2000,
@@ -425,8 +464,6 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
     at log-spaced checkpoints, and writes ``report.json``, ``curves.png`` and ``README.md`` into
     ``out``; returns the report."""
     from arena_league.envs import example_trees
-    from arena_league.policies.families import TorchPolicy
-    from arena_league.training.schemes import run_scheme
 
     say = _say(log)
     if game_id not in BASELINE_GAMES:
@@ -445,38 +482,16 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
     runs: dict[str, list[dict[str, Any]]] = {}
     for method in methods:
         runs[method] = []
+        folder = out / "runs" / method
         for seed in seeds:
             run_started = time.perf_counter()
             say(f"{method}, seed {seed}: training {steps:,} env steps, checkpoints at {marks}")
-            history: list[dict[str, Any]] = []
-            curve_file = out / "runs" / method / f"curve-seed{seed}.json"
-
-            def record(trainer: Any, row: Mapping[str, Any], history: list = history) -> None:
-                history.append({"env_steps": int(row["env_steps"]), "episode_return": _finite(row.get("episode_return"))})
-
-            snapshots = run_scheme(method, game_id, steps=steps, seed=seed, snapshot_every=None,
-                                   out_dir=out / "runs" / method, callback=record, tree=tree, max_cycles=max_cycles,
-                                   snapshot_at=marks)
-            train_seconds: float | None = round(time.perf_counter() - run_started, 1)
-            if history:
-                curve_file.write_text(json.dumps({"history": history, "train_seconds": train_seconds}))
-            elif curve_file.exists():  # read back: its history and the time its training took then
-                saved_curve = json.loads(curve_file.read_text())
-                if isinstance(saved_curve, list):  # the first format: the history alone
-                    saved_curve = {"history": saved_curve, "train_seconds": None}
-                history = [{**h, "episode_return": _finite(h["episode_return"])} for h in saved_curve["history"]]
-                train_seconds = saved_curve["train_seconds"]
+            snapshots, history, train_seconds = _train_run(method, game_id, seed, steps, marks, tree, max_cycles,
+                                                           folder)
             first_learner = min(s.learner for s in snapshots)
             ours = sorted((s for s in snapshots if s.learner == first_learner and s.steps > 0), key=lambda s: s.steps)
-            placements_file = out / "runs" / method / f"placements-seed{seed}.json"
-            key = {"population": population, "budget": budget, "steps": [s.steps for s in ours]}
-            saved = json.loads(placements_file.read_text()) if placements_file.exists() else {}
-            placements = saved.get("placements") if saved.get("key") == key else None
-            if placements is None:
-                placements = [_place(game_id, TorchPolicy(snap.architecture, snap.params, name="entrant"), names,
-                                     ratings, base, budget, seed, first_match_id=(k + 1) * 100_000)
-                              for k, snap in enumerate(ours)]
-                placements_file.write_text(json.dumps({"key": key, "placements": placements}))
+            placements = _placements(game_id, ours, names, ratings, base, budget, seed, population,
+                                     folder / f"placements-seed{seed}.json")
             points = []
             for snap, placed in zip(ours, placements):
                 reward = [h["episode_return"] for h in history
@@ -530,9 +545,9 @@ def _baselines_report(game_id: str, tree_name: str | None, population: str, base
 
 
 def _baselines_plot(report: Mapping[str, Any], path: Path) -> None:
-    from arena_league.training.curves import _pyplot, _save
+    from arena_league.training.curves import pyplot, save_figure
 
-    plt = _pyplot()
+    plt = pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
     for i, (method, runs) in enumerate(report["runs"].items()):
         colour = f"C{i}"
@@ -557,7 +572,7 @@ def _baselines_plot(report: Mapping[str, Any], path: Path) -> None:
     top.set_title(f"{report['game']} ({report['tree']} tree): episode reward (above) and population performance "
                   f"(below), {len(report['seeds'])} seeds", fontsize=9)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def baselines_readme(report: Mapping[str, Any]) -> str:

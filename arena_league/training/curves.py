@@ -32,7 +32,8 @@ import numpy as np
 
 from arena_league.training.schemes import ENV_OPTIONS, Snapshot, json_safe, run_scheme
 
-__all__ = ["TrainingReport", "evaluate_learners", "performance_figure", "plot_curves", "reward_figure", "train"]
+__all__ = ["TrainingReport", "evaluate_learners", "performance_figure", "plot_curves", "pyplot", "reward_figure",
+           "save_figure", "train"]
 
 #: The default reference population: the game's built-in scripted agents.
 DEFAULT_REFERENCE = ("scripted:random", "scripted:heuristic")
@@ -176,8 +177,8 @@ def plot_curves(report: TrainingReport, report_dir: str | Path) -> dict[str, Pat
     """Write ``episode_reward.png``, ``population_performance.png`` and ``curves.json``."""
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
-    plots = {"episode_reward": _save(reward_figure(report), report_dir / REWARD_PLOT),
-             "population_performance": _save(performance_figure(report), report_dir / PERFORMANCE_PLOT),
+    plots = {"episode_reward": save_figure(reward_figure(report), report_dir / REWARD_PLOT),
+             "population_performance": save_figure(performance_figure(report), report_dir / PERFORMANCE_PLOT),
              "curves": report_dir / CURVES_FILE}
     report.plots = plots
     plots["curves"].write_text(json.dumps(report.as_dict(), indent=1, allow_nan=False) + "\n")
@@ -194,7 +195,7 @@ def reward_figure(report: TrainingReport) -> Any:
     finished an episode shows the ticks and a note saying so instead of an empty plot. A warm
     start is shaded (see :func:`performance_figure`).
     """
-    plt = _pyplot()
+    plt = pyplot()
     steps = np.array([h["env_steps"] for h in report.history], dtype=float)
     returns = np.array([np.nan if h.get("episode_return") is None else h["episode_return"] for h in report.history],
                        dtype=float)
@@ -227,7 +228,7 @@ def performance_figure(report: TrainingReport) -> Any:
     With a warm start, both plots shade it as the span ``[-w, 0]`` of its ``w`` imitation env
     steps: the curves' env steps count RL only, which begins where the warm start ends.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 4))
     _mark_warm_start(ax, report)
     eval_steps = np.array([e["env_steps"] for e in report.evaluations], dtype=float)
@@ -242,7 +243,8 @@ def performance_figure(report: TrainingReport) -> Any:
     return fig
 
 
-def _pyplot() -> Any:
+def pyplot() -> Any:
+    """matplotlib's pyplot on the Agg backend (files only, no display), imported on first use."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -275,7 +277,7 @@ def _label(fig: Any, ax: Any, ylabel: str, title: str, report: TrainingReport) -
     fig.tight_layout()
 
 
-def _save(fig: Any, path: Path) -> Path:
+def save_figure(fig: Any, path: Path) -> Path:
     """Write ``fig`` to ``path`` as PNG and close it."""
     import matplotlib.pyplot as plt
 
