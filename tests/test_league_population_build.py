@@ -66,7 +66,7 @@ def test_build_resumes_freezes_and_registers_frozen(trained, tmp_path, monkeypat
     n_agents = report.candidates + 2
     round_robin = n_agents * (n_agents - 1)  # two matches per pair
     assert report.matches_reused == 128
-    assert report.matches_played == round_robin - 128 + 20  # the rest, and best vs worst
+    assert report.matches_played == round_robin - 128 + 40  # the rest, best vs worst and vs the heuristic
     assert report.stage == "register" and report.population == "base-t:1"
 
     # the manifest: members with provenance and rating intervals, the population's figures
@@ -84,6 +84,7 @@ def test_build_resumes_freezes_and_registers_frozen(trained, tmp_path, monkeypat
     figures = manifest["provenance"]["figures"]
     assert figures["spread"] == pytest.approx(ratings[-1] - ratings[0], abs=0.2)
     assert figures["best_vs_worst_matches"] == 20 and 0 <= figures["best_vs_worst_win_rate"] <= 1
+    assert figures["best_vs_heuristic_matches"] == 20 and 0 <= figures["best_vs_heuristic_win_rate"] <= 1
     assert 1 <= figures["random_rank"] <= 9 and sum(figures["schemes"].values()) == 8
     assert set(manifest["provenance"]["criteria"]) == set(build_module.CRITERIA)
     assert "Bradley-Terry spread" in (out / "README.md").read_text()
@@ -111,6 +112,49 @@ def test_build_resumes_freezes_and_registers_frozen(trained, tmp_path, monkeypat
     again = build(work, out, league=league)
     assert again.matches_played == 0 and again.population == "base-t:1"
     assert again.members == report.members
+
+
+def test_a_second_population_keeps_the_first_and_adds_search_agents(trained, tmp_path, monkeypatch):
+    """base-v2 from base-v1's members and built-in search agents: nothing trained, the members rated
+    again, the search members frozen without artifacts, imported as scripted agents; the newest
+    shipped population becomes the game's default base."""
+    from arena_league.league import populations
+
+    work, _ = trained
+    shipped = tmp_path / "checkpoints" / GAME
+    first = build(work, shipped / "base-t1").out_dir
+    ladder = ["search-w2-r1-h4", "search-w4-r2-h8-e0.2"]
+    second = build_population(GAME, size=8, name="base-t2", schemes=[], base=first, scripted=ladder, seed=0,
+                              work_dir=tmp_path / "work2", out_dir=shipped / "base-t2", verify_matches=20,
+                              bootstrap_rounds=20)
+    assert second.trained == [] and second.candidates == 8 + 2
+    manifest = json.loads((shipped / "base-t2" / "population.json").read_text())
+    build_record = manifest["provenance"]["build"]
+    assert build_record["base"]["name"] == "base-t" and build_record["scripted"] == ladder
+    kept = {m["name"].split(".", 1)[1] for m in json.loads((shipped / "base-t1" / "population.json").read_text())
+            ["members"]}
+    scripted = [m for m in manifest["members"] if m["kind"] == "scripted"]
+    assert {m["agent_metadata"]["scripted"] for m in scripted} <= set(ladder)
+    assert all(m["artifact"] is None and m["metadata"]["scheme"] == "search" for m in scripted)
+    assert {m["name"].split(".", 1)[1] for m in manifest["members"] if m["kind"] != "scripted"} <= kept
+    assert sum(len(p.member_names) for p in load_bundles(shipped / "base-t2")) + len(scripted) == 8
+    readme = (shipped / "base-t2" / "README.md").read_text()
+    assert "the 8 members of `base-t`" in readme and "best member vs the heuristic" in readme
+    for m in manifest["members"]:  # every member loads, learned or built in
+        assert build_module.member_policy(shipped / "base-t2", m, GAME) is not None
+
+    # shipped beside base-t1, base-t2 is the newest: a fresh league ranks against it by default,
+    # its search members registered as scripted agents
+    monkeypatch.setattr(populations, "SHIPPED_POPULATIONS", tmp_path / "checkpoints")
+    assert populations.shipped_populations(GAME) == [shipped / "base-t1", shipped / "base-t2"]
+    league = open_home(tmp_path / "league")
+    assert populations.game_population(league, GAME) == "base-t2:1"
+    label, names, _ = base_population(league, GAME, "someone")
+    assert label == "base-t2:1" and len(names) == 8
+    with league.reading() as session:
+        population = get_population(session, "base-t2")
+        kinds = {m.agent.name: m.agent.kind for m in population.members}
+    assert sorted(n for n, k in kinds.items() if k == "scripted") == sorted(m["name"] for m in scripted)
 
 
 def test_out_dir_of_another_build_is_not_overwritten(trained, tmp_path):

@@ -71,9 +71,10 @@ def quickstart(league: League, game_id: str = "Crossroads-2T2P-v1", *, matches_p
     say(f"league home: {league.home}")
     names = ensure_scripted_agents(league, game_id)
     population = None
-    if base and shipped_population(game_id) is not None:
-        population, _ = ensure_population(league, game_id, "base-v1")
-        say(f"base population {population} from {shipped_population(game_id)}")
+    shipped = shipped_population(game_id) if base else None
+    if shipped is not None:
+        population, _ = ensure_population(league, game_id, shipped.name)
+        say(f"base population {population} from {shipped}")
     entrant = None
     example = EXAMPLE_SUBMISSIONS.get(game_id)
     if example is not None and example.exists():

@@ -7,7 +7,8 @@ bootstrap interval over its members (seeded, percentile method).
 
 A member is named by an agent already in the league, or by a path: an ONNX file, an arena-policy
 folder (one holding ``manifest.json``), a frozen population folder (``population.json``: its
-members' artifacts), or a folder of such files and folders. Paths are submitted first
+members' artifacts; built-in search members have none and are left out), or a folder of such files
+and folders. Paths are submitted first
 (:func:`~arena_league.league.service.submit`, validated as every submission is) under the name
 ``<folder>.<member>``; the same bytes submitted before keep the agent they already have.
 """
@@ -70,8 +71,9 @@ def member_sources(item: str) -> tuple[list[tuple[Path, str]], str | None]:
         return [(path, _member_name(path.parent.name or "members", path.stem))], None
     if (path / _POPULATION).is_file():
         manifest = json.loads((path / _POPULATION).read_text())
+        # built-in members (search agents) carry no artifact and are the league's own: not entrants
         found = [(path / m["artifact"], _member_name(path.name, Path(m["artifact"]).name))
-                 for m in manifest.get("members", [])]
+                 for m in manifest.get("members", []) if m.get("artifact")]
         return found, manifest.get("game_id")
     if (path / _MANIFEST).is_file():
         return [(path, _member_name(path.parent.name or "members", path.name))], None

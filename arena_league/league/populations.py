@@ -4,9 +4,9 @@ A population is named and versioned per game: ``base-v1:1`` of GoBang and ``base
 are two populations, and ``name`` alone means the newest version of that name in the game.
 
 The population an entrant is ranked against by default is the game's **base**
-(:func:`game_population`): the newest frozen population of the game in the league, or, when the
-league has none, the one shipped with the package under ``checkpoints/<game>/base-v1/``, imported
-on first use. Imports are idempotent by content: importing a folder whose files are byte for byte
+(:func:`game_population`): the newest population shipped with the package for the game
+(``checkpoints/<game>/base-v2/`` where it exists, else ``base-v1``), imported on first use, or the
+league's newest frozen population of the game when that is newer (built or imported later). Imports are idempotent by content: importing a folder whose files are byte for byte
 those of a population already imported for that game returns that population (the address of the
 folder, as the artifact store computes it, is kept in its provenance under ``imported_from``).
 
@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import functools
 import json
+import re
 import shutil
 import tempfile
 from dataclasses import dataclass
@@ -60,6 +61,7 @@ __all__ = [
     "require_population",
     "shipped_member_names",
     "shipped_population",
+    "shipped_populations",
 ]
 
 POPULATION_MANIFEST = "population.json"
@@ -116,24 +118,41 @@ def require_population(session: Any, game_id: str, population: str) -> reg.Popul
     return found
 
 
-def shipped_population(game_id: str, name: str = "base-v1") -> Path | None:
-    """The folder of the population ``name`` shipped for ``game_id``, or None."""
+def shipped_populations(game_id: str) -> list[Path]:
+    """The folders of the populations shipped for ``game_id``, oldest first (``base-v1``, ``base-v2``, ...)."""
+    def version(folder: Path) -> tuple[int, str]:
+        digits = re.findall(r"\d+", folder.name)
+        return (int(digits[-1]) if digits else 0, folder.name)
+
+    root = SHIPPED_POPULATIONS / game_id
+    found = [p.parent for p in root.glob(f"*/{POPULATION_MANIFEST}")] if root.is_dir() else []
+    return sorted(found, key=version)
+
+
+def shipped_population(game_id: str, name: str | None = None) -> Path | None:
+    """The folder of the population ``name`` shipped for ``game_id`` (default: the newest shipped),
+    or None."""
+    if name is None:
+        found = shipped_populations(game_id)
+        return found[-1] if found else None
     folder = SHIPPED_POPULATIONS / game_id / name
     return folder if (folder / POPULATION_MANIFEST).is_file() else None
 
 
 def game_population(league: League, game_id: str, *, import_shipped: bool = True) -> str | None:
     """``name:version`` of the population entrants of ``game_id`` are ranked against by default:
-    the newest frozen population of the game in the league, else the shipped ``base-v1``
-    (imported now, unless ``import_shipped`` is False: importing validates every member, which a
-    web request must not do), else None."""
+    the newest population shipped for the game (imported now when the league lacks it, unless
+    ``import_shipped`` is False: importing validates every member, which a web request must not
+    do), or the league's newest frozen population of the game when that came later; else None."""
+    shipped = shipped_population(game_id) if import_shipped else None
     with league.reading() as session:
         frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
-        if frozen:
+        if shipped is None or any(p.name == shipped.name for p in frozen):
+            if not frozen:
+                return None
             newest = max(frozen, key=lambda p: (p.created_at, p.id))
             return f"{newest.name}:{newest.version}"
-    folder = shipped_population(game_id) if import_shipped else None
-    return import_population(league, folder) if folder is not None else None
+    return import_population(league, shipped)
 
 
 def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
@@ -385,10 +404,12 @@ def export_population(league: League, population: str, destination: str | Path, 
     return dest
 
 
-def queue_import(league: League, game_id: str, population: str = "base-v1") -> int:
-    """Queue the import of a population shipped with arena-league for ``game_id`` (its members are
-    validated: agent code, run by a worker, never by the caller); returns the job id."""
-    name, version = _parse_label(population)
+def queue_import(league: League, game_id: str, population: str | None = None) -> int:
+    """Queue the import of a population shipped with arena-league for ``game_id`` (default: the
+    newest shipped; its members are validated: agent code, run by a worker, never by the caller);
+    returns the job id."""
+    newest = shipped_population(game_id)
+    name, version = _parse_label(population if population is not None else (newest.name if newest else "base-v1"))
     if version is not None or shipped_population(game_id, name) is None:
         raise ValueError(f"no population {population!r} is shipped for {game_id}; the shipped ones lie under "
                          f"checkpoints/<game>/<name>/ (e.g. base-v1)")

@@ -9,13 +9,23 @@ population. Both agents here are pure functions of their inputs, so they need no
   action_type)`` (documented in each game's manual). Should it ever name an illegal action, a
   random legal one is played instead.
 
-Refer to them as ``scripted:random`` / ``scripted:heuristic`` (:func:`scripted_policy`); the
-registry stores them as the small JSON descriptor of :func:`scripted_descriptor`.
+Games whose observation holds the whole state (GoBang) also offer **search** agents over their own
+rules (``RULES.search``), named with their budget: ``search-w8-r4-h30-e0.1`` searches the 8 moves
+the heuristic likes best, playing 4 rollouts of at most 30 more moves from each, the rollouts'
+moves the heuristic's but for a random one with probability 0.1 (``-e`` may be left out: 0). Their
+randomness comes from the engine's uniforms, so a match replays exactly; the budget is bounded
+(:data:`SEARCH_LIMITS`) so that no descriptor can ask for an unbounded search.
+
+Refer to them as ``scripted:random`` / ``scripted:heuristic`` / ``scripted:search-w8-r4-h30``
+(:func:`scripted_policy`); the registry stores them as the small JSON descriptor of
+:func:`scripted_descriptor`.
 """
 
 from __future__ import annotations
 
 import json
+import re
+from typing import Any
 
 import numpy as np
 
@@ -24,10 +34,49 @@ from arena_league.policies.policy import ActionSpec, Policy, legal_mask, sample_
 from arena_league.policies.spaces import game_action_spec
 
 SCRIPTED_NAMES: tuple[str, ...] = ("random", "heuristic")
+#: The search agents' budgets: bounds of each field, and of the rollouts' total work
+#: (``width * rollouts * horizon``, stones played per move searched).
+SEARCH_LIMITS: dict[str, int] = {"width": 16, "rollouts": 16, "horizon": 40, "work": 2048}
+_SEARCH_NAME = re.compile(r"search-w(\d{1,3})-r(\d{1,3})-h(\d{1,3})(?:-e(0|0\.\d{1,3}|1))?")
 #: Prefix of a scripted agent's reference, e.g. ``scripted:heuristic``.
 SCRIPTED_PREFIX = "scripted:"
 #: The ``format`` field of a scripted agent's JSON descriptor.
 SCRIPTED_FORMAT = "arena-scripted"
+
+
+def search_budget(name: str) -> dict[str, Any] | None:
+    """The budget of search agent ``name`` (``search-w8-r4-h30-e0.1``, with or without the
+    ``scripted:`` prefix): ``{"width", "rollouts", "horizon", "epsilon"}``; None when ``name`` is not
+    a search agent's; raises ValueError, naming the bound, when a field is out of bounds."""
+    found = _SEARCH_NAME.fullmatch(name.removeprefix(SCRIPTED_PREFIX))
+    if found is None:
+        return None
+    width, rollouts, horizon = (int(found.group(k)) for k in (1, 2, 3))
+    budget = {"width": width, "rollouts": rollouts, "horizon": horizon, "epsilon": float(found.group(4) or 0.0)}
+    for field in ("width", "rollouts", "horizon"):
+        if not 1 <= budget[field] <= SEARCH_LIMITS[field]:
+            raise ValueError(f"search agent {name!r}: {field} must be from 1 to {SEARCH_LIMITS[field]}, "
+                             f"not {budget[field]}")
+    if width * rollouts * horizon > SEARCH_LIMITS["work"]:
+        raise ValueError(f"search agent {name!r}: width x rollouts x horizon is {width * rollouts * horizon}, "
+                         f"over the bound of {SEARCH_LIMITS['work']}; ask for a smaller budget")
+    return budget
+
+
+def is_scripted_name(name: str) -> bool:
+    """Whether ``name`` (without the prefix) names a built-in agent: random, heuristic or a search
+    agent within its bounds."""
+    try:
+        return name in SCRIPTED_NAMES or search_budget(name) is not None
+    except ValueError:
+        return False
+
+
+def _unknown(name: str) -> ValueError:
+    return ValueError(f"unknown scripted agent {name!r}; built-in agents: "
+                      + ", ".join(SCRIPTED_PREFIX + n for n in SCRIPTED_NAMES)
+                      + f", and, for games with a search agent, {SCRIPTED_PREFIX}search-wW-rR-hH[-eE] "
+                        "(e.g. search-w8-r4-h30-e0.1)")
 
 
 class RandomPolicy(Policy):
@@ -86,24 +135,47 @@ class HeuristicPolicy(Policy):
         return actions, None
 
 
+class SearchPolicy(Policy):
+    """The game's search agent (``RULES.search``) at one budget; its randomness is the first of each
+    seat's uniforms."""
+
+    def __init__(self, game_id: str, spec: ActionSpec, name: str, budget: dict[str, Any]) -> None:
+        search = game_spec(game_id).rules.search
+        if search is None:
+            raise ValueError(f"{game_id} has no search agent (its observation does not hold the whole state); "
+                             f"play scripted:heuristic or scripted:random there")
+        self.spec = spec
+        self.name = name
+        self.budget = budget
+        self._search = search
+
+    def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
+            state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+        uniforms = np.asarray(uniforms, dtype=np.float64)
+        first = uniforms if uniforms.ndim == 1 else uniforms[:, 0]
+        obs = np.asarray(obs, dtype=np.float32)[:, : self.spec.obs_dim]
+        return np.asarray(self._search(obs, first, **self.budget), dtype=np.int64), None
+
+
 def scripted_policy(name: str, game_id: str, action_type: str | None = None) -> Policy:
-    """The built-in scripted agent ``name`` (``"random"`` or ``"heuristic"``, with or without the
-    ``scripted:`` prefix) for ``game_id``."""
+    """The built-in scripted agent ``name`` (``"random"``, ``"heuristic"`` or a search agent such as
+    ``"search-w8-r4-h30"``, with or without the ``scripted:`` prefix) for ``game_id``."""
     bare = name.removeprefix(SCRIPTED_PREFIX)
     spec = game_action_spec(game_id, action_type)
     if bare == "random":
         return RandomPolicy(spec)
     if bare == "heuristic":
         return HeuristicPolicy(game_id, spec)
-    raise ValueError(f"unknown scripted agent {name!r}; built-in agents: "
-                     + ", ".join(SCRIPTED_PREFIX + n for n in SCRIPTED_NAMES))
+    budget = search_budget(bare)
+    if budget is not None:
+        return SearchPolicy(game_id, spec, bare, budget)
+    raise _unknown(name)
 
 
 def scripted_descriptor(name: str) -> bytes:
     """The canonical JSON bytes that stand for scripted agent ``name`` in the artifact store
     (the same name always gives the same bytes, hence the same content address)."""
     bare = name.removeprefix(SCRIPTED_PREFIX)
-    if bare not in SCRIPTED_NAMES:
-        raise ValueError(f"unknown scripted agent {name!r}; built-in agents: "
-                         + ", ".join(SCRIPTED_PREFIX + n for n in SCRIPTED_NAMES))
+    if bare not in SCRIPTED_NAMES and search_budget(bare) is None:
+        raise _unknown(name)
     return json.dumps({"format": SCRIPTED_FORMAT, "name": bare}, sort_keys=True).encode() + b"\n"

@@ -70,6 +70,15 @@ blocking the opponent's five comes next, then open and closed fours, threes, and
 opponent's lines weighted 0.9 (blocking) and a small pull toward the centre. It beats uniformly
 random play essentially always. It reads only the observation and assumes five in a row.
 
+Search agent (``scripted:search-wW-rR-hH[-eE]``, :func:`rollout_moves`): a Monte-Carlo rollout
+search over these rules. The ``W`` cells the heuristic scores highest are its candidates (a winning
+cell is played at once); from each it plays ``R`` games on, both sides the heuristic but for a
+random empty cell with probability ``E``, for at most ``H`` more stones, and plays the candidate
+whose rollouts the side to move wins most (1 a win, 0.5 undecided, 0 a loss). ``R=1, E=0`` sees
+exactly how the heuristic would answer, so it beats the heuristic every time; larger ``R`` and
+``E`` > 0 average over less predictable opponents. Its draws come from a generator seeded by the
+seat's uniform, so a match replays exactly.
+
 Game kwargs: ``size`` (board side, default 15, at least ``n_in_row``), ``n_in_row`` (default 5).
 
 Batched engine
@@ -138,7 +147,7 @@ LINES: tuple[tuple[int, int], ...] = ((0, 1), (1, 0), (1, 1), (1, -1))
 N_SCALARS = 5
 
 # Heuristic line values by (stones in the line through the cell, open ends 0/1/2); five wins.
-_WIN_VALUE = 1.0e6
+WIN_VALUE = 1.0e6
 _LINE_VALUE = np.array([
     [0.0, 0.0, 0.0],        # 0 stones (unused)
     [0.0, 2.0, 10.0],       # 1
@@ -430,13 +439,11 @@ def _rays(size: int, reach: int) -> np.ndarray:
     return _ray_table(size, reach)
 
 
-def heuristic_moves(own: np.ndarray, opponent: np.ndarray, n_in_row: int = 5) -> np.ndarray:
-    """The heuristic's cell for each of N boards given ``bool[N, size * size]`` stone planes.
-
-    Every empty cell scores, over the 4 lines through it, the value of the line its own stone
-    would make plus 0.9 times the value of the line the opponent's would make (what a block
-    denies), with a tiny pull toward the centre; the best cell wins (lowest index on ties).
-    """
+def line_values(own: np.ndarray, opponent: np.ndarray, n_in_row: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """``(attack, threat)``, each ``float64[N, size * size]`` for N boards given ``bool[N, size * size]``
+    stone planes: over the 4 lines through each empty cell, the value of the line the side's own
+    stone there would make (``attack``, five or more :data:`WIN_VALUE`) and the value of the line the
+    opponent's would make (``threat``); ``-inf`` on occupied cells."""
     n, n_cells = own.shape
     size = round(float(np.sqrt(n_cells)))
     rays = _rays(size, n_in_row - 1)  # [cells, reach, 8], the sentinel past the edge
@@ -456,13 +463,90 @@ def heuristic_moves(own: np.ndarray, opponent: np.ndarray, n_in_row: int = 5) ->
         run += running
     length = 1 + run[..., :4] + run[..., 4:]  # [N, 2, cells, 4 lines]
     value = _LINE_VALUE[np.minimum(length, 4), open_end[..., :4].astype(np.int64) + open_end[..., 4:]]
-    value[length >= n_in_row] = _WIN_VALUE
-    score = value[:, 0].sum(axis=2) + _BLOCK_WEIGHT * value[:, 1].sum(axis=2)
+    value[length >= n_in_row] = WIN_VALUE
+    value = value.sum(axis=3)  # [N, 2, cells]
+    value[np.broadcast_to(~empty[:, None, :n_cells], value.shape)] = -np.inf
+    return value[:, 0], value[:, 1]
+
+
+@cache
+def _centre_pull(n_cells: int) -> np.ndarray:
+    size = round(float(np.sqrt(n_cells)))
     rows, cols = np.divmod(np.arange(n_cells), size)
     centre = (size - 1) / 2.0
-    score -= 1e-3 * np.maximum(np.abs(rows - centre), np.abs(cols - centre))
-    score[~empty[:, :n_cells]] = -np.inf
-    return score.argmax(axis=1).astype(np.int64)
+    return 1e-3 * np.maximum(np.abs(rows - centre), np.abs(cols - centre))
+
+
+def heuristic_scores(own: np.ndarray, opponent: np.ndarray, n_in_row: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """``(score, attack)``: the heuristic's score of every cell (``attack + 0.9 * threat`` of
+    :func:`line_values`, less a tiny pull toward the centre; ``-inf`` on occupied cells) and the
+    attack values (a cell of value :data:`WIN_VALUE` or more wins at once)."""
+    attack, threat = line_values(own, opponent, n_in_row)
+    return attack + _BLOCK_WEIGHT * threat - _centre_pull(own.shape[1]), attack
+
+
+def heuristic_moves(own: np.ndarray, opponent: np.ndarray, n_in_row: int = 5) -> np.ndarray:
+    """The heuristic's cell for each of N boards given ``bool[N, size * size]`` stone planes.
+
+    Every empty cell scores, over the 4 lines through it, the value of the line its own stone
+    would make plus 0.9 times the value of the line the opponent's would make (what a block
+    denies), with a tiny pull toward the centre; the best cell wins (lowest index on ties).
+    """
+    return heuristic_scores(own, opponent, n_in_row)[0].argmax(axis=1).astype(np.int64)
+
+
+def rollout_moves(own: np.ndarray, opponent: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int,
+                  horizon: int, epsilon: float, n_in_row: int = 5) -> np.ndarray:
+    """A Monte-Carlo rollout search for each of N boards (the side to move owns ``own``).
+
+    The ``width`` cells the heuristic scores highest are the candidates (a winning cell is played
+    at once). From each, ``rollouts`` games are played on, both sides following the heuristic but
+    for a uniformly random empty cell with probability ``epsilon``, for at most ``horizon`` more
+    stones; a rollout scores 1 when the side to move wins it, 0 when it loses, 0.5 when it is
+    undecided. The candidate with the best mean is played (the heuristic's order breaks ties).
+    With ``rollouts=1, epsilon=0`` the search sees exactly how the heuristic would answer. All the
+    rollouts of a board step together (one scoring per stone played); their random draws come from
+    a generator seeded by the board's first uniform, so a match replays exactly.
+    """
+    own = np.asarray(own, dtype=bool)
+    opponent = np.asarray(opponent, dtype=bool)
+    moves = np.zeros(len(own), dtype=np.int64)
+    for b in range(len(own)):
+        score, attack = heuristic_scores(own[b:b + 1], opponent[b:b + 1], n_in_row)
+        legal = int(np.isfinite(score[0]).sum())
+        candidates = np.argsort(-score[0], kind="stable")[:min(width, legal)]
+        if candidates.size == 0 or attack[0, candidates[0]] >= WIN_VALUE or candidates.size == 1:
+            moves[b] = candidates[0] if candidates.size else 0
+            continue
+        rng = np.random.default_rng(int(float(uniforms[b]) * 2 ** 53))
+        n = candidates.size * rollouts
+        planes = np.zeros((n, 2, own.shape[1]), dtype=bool)  # [rollout, side to move now / the other]
+        planes[:, 0] = opponent[b]
+        planes[:, 1] = own[b]
+        planes[np.arange(n), 1, np.repeat(candidates, rollouts)] = True
+        result = np.full(n, 0.5)
+        live = np.arange(n)
+        mover_is_us = False
+        for _ in range(horizon):
+            if live.size == 0:
+                break
+            score, attack = heuristic_scores(planes[live, 0], planes[live, 1], n_in_row)
+            cells = score.argmax(axis=1)
+            if epsilon > 0:
+                wild = np.flatnonzero(rng.random(live.size) < epsilon)
+                for j in wild:
+                    empty = np.flatnonzero(np.isfinite(score[j]))
+                    cells[j] = empty[rng.integers(empty.size)]
+            playable = np.isfinite(score[np.arange(live.size), cells])
+            wins = playable & (attack[np.arange(live.size), cells] >= WIN_VALUE)
+            planes[live[playable], 0, cells[playable]] = True
+            result[live[wins]] = 1.0 if mover_is_us else 0.0
+            live = live[~wins & playable]
+            planes[live] = planes[live, ::-1]
+            mover_is_us = not mover_is_us
+        value = result.reshape(candidates.size, rollouts).mean(axis=1)
+        moves[b] = candidates[int(np.argmax(value))]
+    return moves
 
 
 class GoBangRules(GameRules):
@@ -636,20 +720,35 @@ class GoBangRules(GameRules):
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float32)
-        n_cells = (obs.shape[1] - N_SCALARS) // 2
-        size = round(float(np.sqrt(n_cells)))
-        if size * size != n_cells or obs.shape[1] != 2 * n_cells + N_SCALARS:
-            raise ValueError(f"GoBang heuristic: observations of {obs.shape[1]} floats are not GoBang's "
-                             "(2 * size * size + 5)")
-        own = obs[:, :n_cells] > 0.5
-        opponent = obs[:, n_cells:2 * n_cells] > 0.5
+        own, opponent, movers = _planes(obs, "heuristic")
         # seats not to move get the first empty cell (legal, and ignored by the rules)
         actions = (~(own | opponent)).argmax(axis=1).astype(np.int64)
-        movers = np.flatnonzero(obs[:, 2 * n_cells] > 0.5)
         if movers.size:
             actions[movers] = heuristic_moves(own[movers], opponent[movers])
         return actions
+
+    @staticmethod
+    def search(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
+               epsilon: float) -> np.ndarray:
+        """:func:`rollout_moves` for the seats to move (the others get the first empty cell)."""
+        own, opponent, movers = _planes(obs, "search")
+        actions = (~(own | opponent)).argmax(axis=1).astype(np.int64)
+        if movers.size:
+            actions[movers] = rollout_moves(own[movers], opponent[movers], np.asarray(uniforms)[movers],
+                                            width=width, rollouts=rollouts, horizon=horizon, epsilon=epsilon)
+        return actions
+
+
+def _planes(obs: np.ndarray, agent: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The own and opponent stone planes of GoBang observations (``bool[N, cells]`` each) and the
+    indices of the seats to move."""
+    obs = np.asarray(obs, dtype=np.float32)
+    n_cells = (obs.shape[1] - N_SCALARS) // 2
+    size = round(float(np.sqrt(n_cells)))
+    if size * size != n_cells or obs.shape[1] != 2 * n_cells + N_SCALARS:
+        raise ValueError(f"GoBang {agent}: observations of {obs.shape[1]} floats are not GoBang's "
+                         "(2 * size * size + 5)")
+    return obs[:, :n_cells] > 0.5, obs[:, n_cells:2 * n_cells] > 0.5, np.flatnonzero(obs[:, 2 * n_cells] > 0.5)
 
 
 RULES = GoBangRules

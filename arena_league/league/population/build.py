@@ -8,8 +8,11 @@ as the base population new agents are ranked against. :func:`build_population` m
    once through :func:`arena_league.training.run_scheme`, saving every learner every
    ``steps / snapshots`` env steps, so that each run leaves a ladder of snapshots from weak
    (early) to strong (late);
-2. **candidates**: every snapshot (evenly thinned per learner down to ``max_candidates``), plus
-   the built-in ``scripted:random`` and ``scripted:heuristic`` agents as references;
+2. **candidates**: every snapshot (evenly thinned per learner down to ``max_candidates``), the
+   members of an earlier population (``base``: a ``base-v2`` keeps what ``base-v1`` holds) and
+   built-in agents (``scripted``: search agents at several budgets, the top rungs where training
+   cannot reach above the heuristic), plus the built-in ``scripted:random`` and
+   ``scripted:heuristic`` agents as references;
 3. **round robin**: every pair of candidates meets ``matches_per_pair`` times, seats balanced,
    on the batched match engine (torch agents of one architecture stacked into one forward);
 4. **rate**: Bradley-Terry over the round robin (Elo scale);
@@ -17,7 +20,8 @@ as the base population new agents are ranked against. :func:`build_population` m
    the strongest, differing in whom they beat (:mod:`arena_league.league.population.selection`);
 6. **figures**: the members' ratings with bootstrap intervals (over the matches among members
    and the scripted references), the Bradley-Terry spread, the best member against the worst
-   (``verify_matches`` extra matches), the random agent's rank, the schemes present, the
+   (``verify_matches`` extra matches), the best member against the heuristic (as many; the
+   population's headroom, :data:`HEADROOM`), the random agent's rank, the schemes present, the
    effective diversity, each checked against the issue's criteria (:data:`CRITERIA`);
 7. **freeze**: ``out_dir`` (default ``checkpoints/<game>/<name>/``) gets ``population.json``
    (readable by :func:`arena_league.league.populations.import_population`), one arena-policy
@@ -38,6 +42,9 @@ Layout of a frozen population::
     README.md              provenance and figures for people
     mlp-0.safetensors      stacked bundle: tensor <param> of shape [P, ...], header metadata naming members
     agents/<member>/       manifest.json + weights.safetensors (an arena-policy folder per member)
+
+A built-in member (a search agent) has no artifact: its entry names the agent (``kind`` ``scripted``,
+``agent_metadata.scripted``) and its budget, and :func:`member_policy` loads any member.
 """
 
 from __future__ import annotations
@@ -98,6 +105,12 @@ CRITERIA: dict[str, tuple[str, str, float]] = {
     "random_in_bottom_5_percent": ("random_bottom_share", "<=", 0.05),
     "three_schemes": ("n_schemes", ">=", 3),
 }
+#: A population with headroom: its best member beats the scripted heuristic in this share of matches
+#: at least (the newest population of every game must; ``base-v1`` of a game that ships a newer one
+#: is kept for comparability).
+HEADROOM: tuple[str, str, float] = ("best_vs_heuristic_win_rate", ">=", 0.60)
+#: The scheme recorded for a built-in (scripted) member.
+SCRIPTED_SCHEME = "search"
 _REFERENCES = ("random", "heuristic")
 
 Progress = Callable[[str, int, int], None]
@@ -144,6 +157,16 @@ class Recipe:
         return {"hidden": tuple(self.hidden), **dict(self.common), **dict(self.per_scheme.get(scheme, {}))}
 
 
+# The ant games: members sample their torques (continuous snapshots carry their learned std), so a
+# run from scratch (std 1) flails about as well as the random agent and falls below the floor. The
+# warm-started runs copy the heuristic (60,000 imitation steps each) and differ in the floor of
+# their std: from the copy's own error (near the heuristic's level) to 0.67 (just above random),
+# a ladder of about 800 Elo in Sumo.
+_ANT_DUEL = Recipe(steps=60_000, snapshots=8, hidden=(64, 64), per_scheme={"pbt": {"population_size": 4}},
+                   early_snapshots=6, warm_runs=5,
+                   warm_start=tuple({"steps": 60_000, "min_log_std": floor} for floor in (-4.0, -2.3, -1.6, -1.0, -0.4)),
+                   warm_steps=30_000)
+
 #: Per game (the name before the layout): budgets sized for a 2-core machine, many snapshots per
 #: run (early ones are weak, late ones strong), and small actors.
 RECIPES: dict[str, Recipe] = {
@@ -178,16 +201,10 @@ RECIPES: dict[str, Recipe] = {
                         warm_steps=100_000, warm_overrides={"hidden": (128, 128)}),
     "GoBang": Recipe(steps=600_000, snapshots=16, hidden=(8,), common={"learning_rate": 1e-3},
                      per_scheme={"pbt": {"population_size": 4}}),
-    # Sumo: members sample their torques (continuous snapshots carry their learned std), so a run
-    # from scratch (std 1) flails about as well as the random agent and falls below the floor. The
-    # warm-started runs copy the heuristic (60,000 imitation steps each) and differ in the floor of
-    # their std: from the copy's own error (near the heuristic's level) to 0.67 (just above random),
-    # a ladder of about 800 Elo.
-    "Sumo": Recipe(steps=60_000, snapshots=8, hidden=(64, 64),
-                   per_scheme={"pbt": {"population_size": 4}}, early_snapshots=6,
-                   warm_runs=5, warm_start=tuple({"steps": 60_000, "min_log_std": floor}
-                                                 for floor in (-4.0, -2.3, -1.6, -1.0, -0.4)),
-                   warm_steps=30_000),
+    "Sumo": _ANT_DUEL,
+    # RunToGoal and YouShallNotPass: the same ants, the same ladder of std floors as Sumo.
+    "RunToGoal": _ANT_DUEL,
+    "YouShallNotPass": _ANT_DUEL,
     "Snake": Recipe(steps=80_000, snapshots=10, hidden=(64, 64),
                     per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}},
                     warm_runs=1, warm_start={"steps": 100_000, "rounds": 5, "epochs": 6}, warm_steps=40_000,
@@ -224,6 +241,8 @@ class Candidate:
     params: dict[str, torch.Tensor]
     warm_start: str | None = None
     """The agent its run imitated before RL (``scripted:heuristic``), or None (from scratch)."""
+    scripted: str | None = None
+    """A built-in agent's name (``search-w8-r4-h30``; no architecture, no weights), or None."""
 
 
 @dataclass
@@ -248,6 +267,8 @@ class MemberRecord:
     bundle_index: int
     warm_start: str | None = None
     """The agent its run imitated before RL, or None (trained from scratch)."""
+    scripted: str | None = None
+    """A built-in member's agent name (it has no artifact), or None."""
 
 
 @dataclass
@@ -278,6 +299,10 @@ class PopulationFigures:
     """Of the members' logit payoff meta-game (Balduzzi et al. 2018): 0 when transitive."""
     round_robin_matches: int
     """Matches among members and references the ratings come from."""
+    best_vs_heuristic_matches: int = 0
+    best_vs_heuristic_win_rate: float = float("nan")
+    """Share of those matches the best member won against the scripted heuristic (:data:`HEADROOM`)."""
+    best_vs_heuristic_score: float = float("nan")
 
 
 @dataclass
@@ -326,7 +351,8 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
                      scheme_options: Mapping[str, Mapping[str, Any]] | None = None, max_candidates: int = 240,
                      floor_margin: float = 50.0, bootstrap_rounds: int = 200, batch_size: int = 256,
                      overwrite: bool = False, stop_after: str | None = None, progress: Progress | None = None,
-                     log: Callable[[str], None] | None = None) -> BuildReport:
+                     log: Callable[[str], None] | None = None, base: str | Path | None = None,
+                     scripted: Sequence[str] = ()) -> BuildReport:
     """Train, rate, select and freeze a base population of ``game_id`` (see the module docstring).
 
     Args:
@@ -366,6 +392,10 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
             ``"freeze"``); the report says how far it got.
         progress: called as ``progress(stage, done, total)``.
         log: called with a line per build step.
+        base: a frozen population folder of ``game_id`` whose members join the candidates (rated
+            again with the others; ``schemes=[]`` trains nothing new).
+        scripted: built-in agents that join the candidates (``search-w8-r4-h30-e0.1``; see
+            :mod:`arena_league.policies.scripted`), scheme ``search``, their budget in their name.
     """
     from arena_league.envs import game_spec
 
@@ -383,8 +413,11 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         raise ValueError("matches_per_pair and verify_matches must be at least 1")
     recipe = recipe_for(game_id)
     schemes = list(schemes) if schemes is not None else list(default_schemes(game_id))
-    if not schemes or len(set(schemes)) != len(schemes):
-        raise ValueError(f"schemes must be distinct scheme names, got {schemes!r}")
+    if (not schemes and base is None and not scripted) or len(set(schemes)) != len(schemes):
+        raise ValueError(f"schemes must be distinct scheme names (none only with a base or scripted members), "
+                         f"got {schemes!r}")
+    extra = _base_candidates(Path(base), game_id) if base is not None else []
+    extra += _scripted_candidates(game_id, scripted)
     steps = _steps_per_scheme(schemes, steps_per_scheme, recipe)
     n_runs = _runs_per_scheme(schemes, runs_per_scheme)
     n_warm = _runs_per_scheme(schemes, recipe.warm_runs if warm_runs_per_scheme is None else warm_runs_per_scheme,
@@ -445,6 +478,11 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     # 2-3. candidates and the round robin
     clock = time.perf_counter()
     candidates = _thin([s for scheme in schemes for s in snapshots_by_scheme[scheme]], max_candidates)
+    clash = sorted({c.key for c in candidates} & {c.key for c in extra})
+    if clash:
+        raise ValueError(f"trained snapshots and the base's members share keys ({', '.join(clash[:3])}); train "
+                         "with another seed or build from another base")
+    candidates += extra
     report.candidates = len(candidates)
     if len(candidates) < size:
         say(f"only {len(candidates)} snapshots for {size} members: every candidate will be a member; "
@@ -497,10 +535,11 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     warm_build = {"runs_per_scheme": n_warm, "steps_per_scheme": warm_steps,
                   "warm_start": imitation[0] if len(imitation) == 1 else imitation} \
         if any(n_warm.values()) else None
+    origin = _origin(base, scripted)
     build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest,
-                         n_runs, warm_build)
+                         n_runs, warm_build, origin)
     _freeze(out, report, members, build_id, overwrite, recipe, matches_per_pair, verify_matches, n_snapshots,
-            max_candidates, scheme_options, n_runs, warm_build)
+            max_candidates, scheme_options, n_runs, warm_build, origin)
     report.out_dir = str(out)
     report.seconds["freeze"] = round(time.perf_counter() - clock, 1)
     report.stage = "freeze"
@@ -592,10 +631,72 @@ def _thin(candidates: list[Candidate], limit: int) -> list[Candidate]:
     return kept
 
 
+def _base_candidates(folder: Path, game_id: str) -> list[Candidate]:
+    """The members of the frozen population at ``folder`` as candidates (keys and records as built)."""
+    path = folder / "population.json"
+    if not path.is_file():
+        raise ValueError(f"base {folder} holds no population.json; give a frozen population folder such as "
+                         f"checkpoints/{game_id}/base-v1")
+    manifest = json.loads(path.read_text())
+    if manifest.get("game_id") != game_id:
+        raise ValueError(f"base {folder} is a population of {manifest.get('game_id')}, not of {game_id}")
+    weights = {member: (arch, params) for arch, members, stacked in _bundles(folder)
+               for member, params in zip(members, stacked)}
+    prefix = f"{manifest['name']}."
+    candidates = []
+    for entry in manifest["members"]:
+        meta = entry["metadata"]
+        key = entry["name"].removeprefix(prefix).rsplit("@", 1)[0]
+        scripted = (entry.get("agent_metadata") or {}).get("scripted") if entry.get("kind") == "scripted" else None
+        arch, params = weights.get(entry["name"], (None, {}))
+        if scripted is None and arch is None:
+            raise ValueError(f"base {folder}: member {entry['name']} is in no bundle; the folder is damaged")
+        candidates.append(Candidate(key, meta["scheme"], int(meta["steps"]), int(meta["seed"]), meta["learner"],
+                                    arch, dict(params), meta.get("warm_start"), scripted))
+    return candidates
+
+
+def _scripted_candidates(game_id: str, names: Sequence[str]) -> list[Candidate]:
+    """Built-in agents (search agents at their budgets) as candidates of scheme :data:`SCRIPTED_SCHEME`."""
+    from arena_league.policies.scripted import SCRIPTED_PREFIX, scripted_policy
+
+    bare = [n.removeprefix(SCRIPTED_PREFIX) for n in names]
+    if len(set(bare)) != len(bare) or set(bare) & set(_REFERENCES):
+        raise ValueError(f"scripted members must be distinct and not the references {_REFERENCES}, got {list(names)}")
+    for n in bare:
+        scripted_policy(n, game_id)  # unknown names, bad budgets and games without search fail here
+    return [Candidate(n, SCRIPTED_SCHEME, 0, 0, n, None, {}, None, n) for n in bare]
+
+
+def _origin(base: str | Path | None, scripted: Sequence[str]) -> dict[str, Any] | None:
+    """Where candidates other than trained snapshots came from, for the provenance."""
+    if base is None and not scripted:
+        return None
+    origin: dict[str, Any] = {"scripted": [n.removeprefix("scripted:") for n in scripted]}
+    if base is not None:
+        manifest = json.loads((Path(base) / "population.json").read_text())
+        origin["base"] = {"name": manifest["name"], "version": manifest.get("version", 1),
+                          "build_id": manifest.get("provenance", {}).get("build", {}).get("build_id"),
+                          "members": len(manifest["members"]), "path": str(base)}
+    return origin
+
+
+def member_policy(folder: str | Path, entry: Mapping[str, Any], game_id: str) -> Any:
+    """The policy of one member (an entry of ``population.json``): its artifact, or the built-in
+    agent it names."""
+    from arena_league.policies import load_policy
+    from arena_league.policies.scripted import scripted_policy
+
+    if entry.get("kind") == "scripted":
+        return scripted_policy(entry["agent_metadata"]["scripted"], game_id)
+    return load_policy(Path(folder) / entry["artifact"], game_id)
+
+
 def _policies(game_id: str, candidates: list[Candidate]) -> dict[str, Any]:
     from arena_league.policies.scripted import scripted_policy
 
-    policies: dict[str, Any] = {c.key: TorchPolicy(c.architecture, c.params, name=c.key) for c in candidates}
+    policies: dict[str, Any] = {c.key: scripted_policy(c.scripted, game_id) if c.scripted else
+                                TorchPolicy(c.architecture, c.params, name=c.key) for c in candidates}
     for ref in _REFERENCES:
         policies[ref] = scripted_policy(ref, game_id)
     return policies
@@ -667,8 +768,10 @@ def _figures(game_id: str, members: list[Candidate], keys: list[str], counts: An
     n = len(members)
     member_ratings = fit.rating[:n]
     best, worst = int(np.argmax(member_ratings)), int(np.argmin(member_ratings))
-    wins, draws, played = _best_vs_worst(game_id, members[best].key, members[worst].key, policies, seed,
-                                         verify_matches, batch_size, work, digest, report)
+    wins, draws, played = _duel(game_id, members[best].key, members[worst].key, policies, seed, verify_matches,
+                                batch_size, work, digest, report, 1 << 40)
+    h_wins, h_draws, h_played = _duel(game_id, members[best].key, "heuristic", policies, seed, verify_matches,
+                                      batch_size, work, digest, report, 1 << 41)
     random_rating, heuristic_rating = float(fit.rating[n]), float(fit.rating[n + 1])
     below_random = int((member_ratings < random_rating).sum())
     schemes: dict[str, int] = {}
@@ -683,21 +786,24 @@ def _figures(game_id: str, members: list[Candidate], keys: list[str], counts: An
         random_bottom_share=round((below_random + 1) / (n + 1), 4), heuristic_rating=round(heuristic_rating, 1),
         heuristic_rank=1 + int((member_ratings > heuristic_rating).sum()), schemes=dict(sorted(schemes.items())),
         n_schemes=len(schemes), effective_diversity=round(effective_diversity(member_payoff), 4),
-        round_robin_matches=round(sub.n_matches))
+        round_robin_matches=round(sub.n_matches), best_vs_heuristic_matches=h_played,
+        best_vs_heuristic_win_rate=round(h_wins / h_played, 4),
+        best_vs_heuristic_score=round((h_wins + 0.5 * h_draws) / h_played, 4))
     return figures, fit
 
 
-def _best_vs_worst(game_id: str, best: str, worst: str, policies: Mapping[str, Any], seed: int, n: int,
-                   batch_size: int, work: Path, digest: str, report: BuildReport) -> tuple[int, int, int]:
-    """(wins, draws, matches) of ``best`` against ``worst`` over ``n`` matches, seats alternating."""
-    path = work / "matches" / digest / f"verify-{hashlib.sha256(f'{best}|{worst}|{n}'.encode()).hexdigest()[:12]}.json"
+def _duel(game_id: str, best: str, worst: str, policies: Mapping[str, Any], seed: int, n: int, batch_size: int,
+          work: Path, digest: str, report: BuildReport, first_match_id: int) -> tuple[int, int, int]:
+    """(wins, draws, matches) of ``best`` against ``worst`` over ``n`` matches, seats alternating,
+    with match ids from ``first_match_id`` (past any round robin's, so they never share its seeds)."""
+    tag = hashlib.sha256(f"{best}|{worst}|{n}".encode()).hexdigest()[:12]
+    path = work / "matches" / digest / f"verify-{tag}.json"
     seatings = [(best, worst) if k % 2 == 0 else (worst, best) for k in range(n)]
     if path.exists():
         scores = json.loads(path.read_text())["scores"]
         report.matches_reused += len(scores)
     else:
-        # match ids after any round robin's, so these matches never share seeds with it
-        scores = play_seatings(game_id, seatings, policies, seed, 1 << 40, batch_size)
+        scores = play_seatings(game_id, seatings, policies, seed, first_match_id, batch_size)
         _write_json(path, {"best": best, "worst": worst, "scores": scores})
         report.matches_played += len(scores)
     best_scores = [s if k % 2 == 0 else 1.0 - s for k, s in enumerate(scores)]
@@ -715,8 +821,9 @@ def _member_records(name: str, game_id: str, members: list[Candidate], fit: Any)
         records.append(MemberRecord(
             name=member_name(name, m.key, game_id), key=m.key, scheme=m.scheme, steps=m.steps, seed=m.seed,
             learner=m.learner, rating=round(float(rating[i]), 1), rating_lower=round(float(fit.lower[i]), 1),
-            rating_upper=round(float(fit.upper[i]), 1), rank=int(rank[i]), artifact=f"agents/{m.key}",
-            bundle="", bundle_index=-1, warm_start=m.warm_start))
+            rating_upper=round(float(fit.upper[i]), 1), rank=int(rank[i]),
+            artifact="" if m.scripted else f"agents/{m.key}", bundle="", bundle_index=-1, warm_start=m.warm_start,
+            scripted=m.scripted))
     return records
 
 
@@ -738,12 +845,14 @@ def member_name(population: str, key: str, game_id: str) -> str:
 
 def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, int], seed: int, snapshots: int,
               size: int, matches_per_pair: int, digest: str, runs: Mapping[str, int],
-              warm: Mapping[str, Any] | None = None) -> str:
+              warm: Mapping[str, Any] | None = None, origin: Mapping[str, Any] | None = None) -> str:
     parts: list[Any] = [game_id, name, schemes, dict(steps), seed, snapshots, size, matches_per_pair, digest]
     if any(n != 1 for n in runs.values()):
         parts.append(dict(runs))
     if warm:
         parts.append(_jsonable(warm))
+    if origin:
+        parts.append({**origin, "base": {k: v for k, v in (origin.get("base") or {}).items() if k != "path"}})
     identity = json.dumps(parts)
     return hashlib.sha256(identity.encode()).hexdigest()[:16]
 
@@ -753,7 +862,7 @@ def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, i
 def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: str, overwrite: bool,
             recipe: Recipe, matches_per_pair: int, verify_matches: int, snapshots: int, max_candidates: int,
             scheme_options: Mapping[str, Mapping[str, Any]] | None, runs: Mapping[str, int],
-            warm: Mapping[str, Any] | None = None) -> None:
+            warm: Mapping[str, Any] | None = None, origin: Mapping[str, Any] | None = None) -> None:
     manifest_path = out / "population.json"
     if manifest_path.exists() and not overwrite:
         existing = json.loads(manifest_path.read_text()).get("provenance", {}).get("build", {}).get("build_id")
@@ -768,7 +877,8 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
     # one stacked bundle per architecture, members in rating order (weakest first)
     groups: dict[Architecture, list[Candidate]] = {}
     for m in sorted(members, key=lambda m: records[m.key].rating):
-        groups.setdefault(m.architecture, []).append(m)
+        if not m.scripted:
+            groups.setdefault(m.architecture, []).append(m)
     bundles = []
     for k, (arch, group) in enumerate(groups.items()):
         file = f"{arch.family}-{k}.safetensors"
@@ -785,6 +895,9 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
     entries = []
     for record in sorted(report.members, key=lambda r: r.rating):
         member = by_key[record.key]
+        if member.scripted:
+            entries.append(_scripted_entry(record, report.name))
+            continue
         provenance = {"scheme": record.scheme, "game": report.game_id, "steps": record.steps, "seed": record.seed,
                       "learner": record.learner, "population": report.name, "rating": record.rating,
                       "rating_interval": [record.rating_lower, record.rating_upper],
@@ -818,6 +931,7 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
                                  "common": _jsonable(recipe.common),
                                  "per_scheme": _jsonable(recipe.per_scheme)},
                       "scheme_options": _jsonable(scheme_options or {}), "warm_runs": _jsonable(warm),
+                      **({"base": origin.get("base"), "scripted": origin["scripted"]} if origin else {}),
                       "code": _code_version()},
             "figures": figures, "criteria": report.criteria, "passed": report.passed,
             "rating": "Bradley-Terry (Elo scale, members' mean 1000) over the round robin among members and the "
@@ -832,6 +946,21 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
         shutil.rmtree(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     os.replace(staging, out)
+
+
+def _scripted_entry(record: MemberRecord, population: str) -> dict[str, Any]:
+    """The ``population.json`` entry of a built-in member: no artifact, its name and budget instead."""
+    from arena_league.policies.scripted import search_budget
+
+    assert record.scripted is not None
+    budget = search_budget(record.scripted)
+    metadata = {"rating": record.rating, "rating_lower": record.rating_lower, "rating_upper": record.rating_upper,
+                "rank": record.rank, "scheme": record.scheme, "steps": record.steps, "seed": record.seed,
+                "learner": record.learner, "warm_start": None, "budget": budget}
+    return {"name": record.name, "kind": "scripted", "artifact": None, "format": "scripted",
+            "bundle": "", "bundle_index": -1, "metadata": metadata,
+            "agent_metadata": {"scripted": record.scripted, "scheme": record.scheme, "population": population,
+                               "budget": budget}}
 
 
 def _register(league: Any, out: Path, name: str, member_names: list[str]) -> str:
@@ -849,9 +978,14 @@ def _register(league: Any, out: Path, name: str, member_names: list[str]) -> str
 def load_bundles(folder: str | Path, *, compute_dtype: torch.dtype = torch.float64) -> list[StackedPolicy]:
     """The stacked bundles of a frozen population folder, as :class:`StackedPolicy` objects whose
     ``member_names`` are the members' agent names (one batched forward for a whole family)."""
-    folder = Path(folder)
+    return [StackedPolicy(arch, params, names=members, compute_dtype=compute_dtype)
+            for arch, members, params in _bundles(Path(folder))]
+
+
+def _bundles(folder: Path) -> list[tuple[Architecture, list[str], list[dict[str, torch.Tensor]]]]:
+    """Each stacked bundle of a frozen population: its architecture, member names and their weights."""
     manifest = json.loads((folder / "population.json").read_text())
-    policies = []
+    found = []
     for bundle in manifest.get("bundles", []):
         tensors = load_file(str(folder / bundle["file"]))
         arch = manifest_architecture({"family": bundle["family"], "sizes": bundle["sizes"],
@@ -861,9 +995,26 @@ def load_bundles(folder: str | Path, *, compute_dtype: torch.dtype = torch.float
             if param not in tensors or tuple(tensors[param].shape) != (len(members), *shape):
                 raise ValueError(f"{folder / bundle['file']}: tensor {param} is missing or not [{len(members)}, "
                                  f"{', '.join(map(str, shape))}]; the bundle does not match population.json")
-        params = [{p: tensors[p][i] for p in arch.parameter_shapes()} for i in range(len(members))]
-        policies.append(StackedPolicy(arch, params, names=members, compute_dtype=compute_dtype))
-    return policies
+        found.append((arch, members, [{p: tensors[p][i] for p in arch.parameter_shapes()} for i in range(len(members))]))
+    return found
+
+
+def _candidates_line(build: Mapping[str, Any]) -> str:
+    """Where a build's candidates came from, in words."""
+    parts = []
+    base, scripted = build.get("base"), build.get("scripted") or []
+    trained = build["candidates"] - (base or {}).get("members", 0) - len(scripted)
+    if trained or not (base or scripted):
+        parts.append(f"{trained} snapshots of the runs above")
+    if base:
+        parts.append(f"the {base['members']} members of `{base['name']}` (build {base['build_id']}), rated again "
+                     "with the others")
+    if scripted:
+        parts.append(f"{len(scripted)} built-in search agents over the game's own rules (scheme `search`; the "
+                     f"budget is in the name, `search-wW-rR-hH-eE`: W candidate moves, R rollouts of at most H "
+                     f"moves each, random moves in them with probability E): "
+                     + ", ".join(f"`{n}`" for n in scripted))
+    return f"{build['candidates']}: " + "; ".join(parts)
 
 
 def population_readme(manifest: Mapping[str, Any]) -> str:
@@ -873,7 +1024,7 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     game, name = manifest["game_id"], manifest["name"]
     runs = build.get("runs_per_scheme", {})
     steps = ", ".join(f"{s} {n:,}" + (f" (x{runs[s]} seeds)" if runs.get(s, 1) > 1 else "")
-                      for s, n in build["steps_per_scheme"].items())
+                      for s, n in build["steps_per_scheme"].items()) or "none (this build trained nothing)"
     criteria_rows = "\n".join(
         f"| {criterion.replace('_', ' ')} | {figure} {comparison} {threshold:g} | {figures.get(figure)} | "
         f"{'yes' if prov['criteria'].get(criterion) else 'NO'} |"
@@ -910,7 +1061,9 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
                     if warm else "")
                  + f"snapshots={build['snapshots_per_run']}, seed={build['seed']}, "
                  f"matches_per_pair={build['matches_per_pair']}, max_candidates={build['max_candidates']}"
-                 + (f", scheme_options={build['scheme_options']!r}" if build["scheme_options"] else "") + ")")
+                 + (f", scheme_options={build['scheme_options']!r}" if build["scheme_options"] else "")
+                 + (f", base={build['base']['path']!r}" if build.get("base") else "")
+                 + (f", scripted={build['scripted']!r}" if build.get("scripted") else "") + ")")
     reproduce = "from arena_league.league.population.build import build_population\n    " + reproduce
     return f"""# {name}: the base population of {game}
 
@@ -923,8 +1076,8 @@ Built by `arena_league.league.population.build.build_population` (code {build['c
 * schemes and env steps per run: {steps}; seed {build['seed']}; {build['snapshots_per_run']} snapshots per run
   (early snapshots are weak, late ones strong){early}; actors: MLP, hidden {build['recipe']['hidden']}{wide};
   recipe overrides {json.dumps(build['recipe']['per_scheme'])}; build options {options}.
-{warm_line}* candidates: {build['candidates']} snapshots plus the scripted `random` and `heuristic` agents, in a round
-  robin of {build['matches_per_pair']} matches per pair (seats balanced).
+{warm_line}* candidates: {_candidates_line(build)}, plus the scripted `random` and `heuristic` agents as
+  references, in a round robin of {build['matches_per_pair']} matches per pair (seats balanced).
 * selection: {len(manifest['members'])} candidates spanning the rating range above the random agent,
   preferring, among candidates of similar rating, those whose results against the others differ most.
 * ratings: {prov['rating']}. Every member's scheme, env steps, seed, learner, rating and interval are in
@@ -937,6 +1090,7 @@ Built by `arena_league.league.population.build.build_population` (code {build['c
 | members | {figures.get('size')} ({n_warm} from warm-started runs) |
 | Bradley-Terry spread (best - worst) | {figures.get('spread')} Elo |
 | best member vs worst ({figures.get('best_vs_worst_matches')} matches) | wins {figures.get('best_vs_worst_win_rate')}, score {figures.get('best_vs_worst_score')} |
+| best member vs the heuristic ({figures.get('best_vs_heuristic_matches', 0)} matches; headroom: wins >= {HEADROOM[2]:g}) | wins {figures.get('best_vs_heuristic_win_rate', 'not measured')}, score {figures.get('best_vs_heuristic_score', 'not measured')} |
 | random agent | rating {figures.get('random_rating')}, rank {figures.get('random_rank')} of {figures.get('size', 0) + 1} |
 | heuristic agent | rating {figures.get('heuristic_rating')}, rank {figures.get('heuristic_rank')} of {figures.get('size', 0) + 1} |
 | effective diversity | {figures.get('effective_diversity')} |
