@@ -581,10 +581,12 @@ def _build_population(args: argparse.Namespace, league) -> int:
     def log(line: str) -> None:
         stderr.print(line, highlight=False)
 
-    report = build_population(game, size=args.size, name=args.name or "base-v1", schemes=args.schemes,
+    schemes = [] if args.schemes == ["none"] else args.schemes
+    report = build_population(game, size=args.size, name=args.name or "base-v1", schemes=schemes,
                               steps_per_scheme=args.steps, runs_per_scheme=args.runs,
                               warm_runs_per_scheme=args.warm_runs, seed=args.seed, work_dir=args.work_dir,
-                              out_dir=args.out_dir, league=league, log=log)
+                              out_dir=args.out_dir, league=league, log=log, base=args.base,
+                              scripted=args.scripted or ())
     document = report.to_dict()
     if args.json:
         emit_json(document)
@@ -921,7 +923,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--game", default=None, help="list: only this game's; export: the population's game")
     p.add_argument("--name", default=None, help="build / import: the population's name (default base-v1)")
     p.add_argument("--size", type=_positive_int, default=100, help="build: members (default 100)")
-    p.add_argument("--schemes", nargs="+", default=None, help="build: training schemes (default per game)")
+    p.add_argument("--schemes", nargs="+", default=None,
+                   help="build: training schemes (default per game; 'none' trains nothing, with --base or --scripted)")
+    p.add_argument("--base", default=None, metavar="FOLDER",
+                   help="build: a frozen population whose members join the candidates (base-v2 from base-v1)")
+    p.add_argument("--scripted", nargs="+", default=None, metavar="AGENT",
+                   help="build: built-in agents that join the candidates, e.g. search-w8-r4-h30-e0.1 (GoBang)")
     p.add_argument("--steps", type=_positive_int, default=None, help="build: env steps per scheme run")
     p.add_argument("--runs", type=_positive_int, default=1, help="build: runs (seeds) of each scheme from scratch")
     p.add_argument("--warm-runs", type=_non_negative_int, default=None,

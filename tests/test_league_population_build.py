@@ -124,19 +124,22 @@ def test_a_second_population_keeps_the_first_and_adds_search_agents(trained, tmp
     shipped = tmp_path / "checkpoints" / GAME
     first = build(work, shipped / "base-t1").out_dir
     ladder = ["search-w2-r1-h4", "search-w4-r2-h8-e0.2"]
-    second = build_population(GAME, size=8, name="base-t2", schemes=[], base=first, scripted=ladder, seed=0,
-                              work_dir=tmp_path / "work2", out_dir=shipped / "base-t2", verify_matches=20,
-                              bootstrap_rounds=20)
-    assert second.trained == [] and second.candidates == 8 + 2
+    top = [{"scheme": "sp", "steps": 128, **TINY, "fixed_opponents": ["scripted:heuristic"], "fixed_share": 1.0}]
+    second = build_population(GAME, size=8, name="base-t2", schemes=[], base=first, scripted=ladder, top_runs=top,
+                              seed=0, snapshots=1, work_dir=tmp_path / "work2", out_dir=shipped / "base-t2",
+                              verify_matches=20, bootstrap_rounds=20)
+    assert second.trained == ["sp-seed1000"] and second.candidates == 8 + 2 + 1  # the top run's one snapshot
     manifest = json.loads((shipped / "base-t2" / "population.json").read_text())
     build_record = manifest["provenance"]["build"]
     assert build_record["base"]["name"] == "base-t" and build_record["scripted"] == ladder
+    assert build_record["top_runs"] == top and "top_runs=" in (shipped / "base-t2" / "README.md").read_text()
     kept = {m["name"].split(".", 1)[1] for m in json.loads((shipped / "base-t1" / "population.json").read_text())
             ["members"]}
     scripted = [m for m in manifest["members"] if m["kind"] == "scripted"]
     assert {m["agent_metadata"]["scripted"] for m in scripted} <= set(ladder)
     assert all(m["artifact"] is None and m["metadata"]["scheme"] == "search" for m in scripted)
-    assert {m["name"].split(".", 1)[1] for m in manifest["members"] if m["kind"] != "scripted"} <= kept
+    assert {m["name"].split(".", 1)[1] for m in manifest["members"] if m["kind"] != "scripted"} <= \
+        kept | {"sp-s1000-sp-128@" + GAME}
     assert sum(len(p.member_names) for p in load_bundles(shipped / "base-t2")) + len(scripted) == 8
     readme = (shipped / "base-t2" / "README.md").read_text()
     assert "the 8 members of `base-t`" in readme and "best member vs the heuristic" in readme
@@ -258,6 +261,17 @@ def test_a_ladder_of_warm_starts_gives_each_warm_run_its_own(tmp_path):
     taken = [json.loads((tmp_path / "w" / "runs" / f"sp-seed{k}" / "run.json").read_text())["request"]["warm_start"]
              for k in (1, 2, 3)]
     assert [(w["steps"], w["rounds"]) for w in taken] == [(400, 2), (64, 1), (400, 2)]
+
+
+@pytest.mark.parametrize("top, error, words", [
+    ([{"scheme": "sp"}], ValueError, "positive number of steps"),
+    ([{"scheme": "nope", "steps": 10}], ValueError, "needs a scheme"),
+    ([{"scheme": "sp", "steps": 10, "warm_start": {"stepz": 5}}], TypeError, "stepz"),
+])
+def test_bad_top_runs_are_refused_before_training(tmp_path, top, error, words):
+    with pytest.raises(error, match=words):
+        build(tmp_path / "w", tmp_path / "o", top_runs=top)
+    assert not (tmp_path / "w" / "runs").exists()
 
 
 def test_bad_warm_start_is_refused_before_training(tmp_path):

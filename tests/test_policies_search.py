@@ -65,6 +65,19 @@ def test_rollout_search_replays_exactly_and_plays_legal_cells():
     assert gobang.rollout_moves(own, opponent, np.zeros(1), width=4, rollouts=2, horizon=6, epsilon=0.5)[0] == 116
 
 
+def test_rollouts_that_fill_the_board_end_undecided():
+    """Two empty cells on a board where no line can reach five, and only random rollout moves: the
+    rollouts fill the board and stop undecided."""
+    rows, cols = np.divmod(np.arange(225), 15)
+    own = (((cols + 2 * rows) // 2) % 2 == 0)[None]  # runs of at most two stones in every direction
+    opponent = ~own
+    own[0, [223, 224]] = opponent[0, [223, 224]] = False
+    attack, threat = gobang.line_values(own, opponent)
+    assert max(attack[0, 223:].max(), threat[0, 223:].max()) < gobang.WIN_VALUE
+    move = gobang.rollout_moves(own, opponent, np.full(1, 0.5), width=2, rollouts=4, horizon=10, epsilon=1.0)
+    assert move[0] in (223, 224)
+
+
 def test_the_exact_rollout_search_beats_the_heuristic_from_either_seat():
     agents = {"search": scripted_policy("search-w6-r1-h30", GAME), "heuristic": scripted_policy("heuristic", GAME)}
     seatings = [("search", "heuristic"), ("heuristic", "search")]

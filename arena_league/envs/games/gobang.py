@@ -536,7 +536,8 @@ def rollout_moves(own: np.ndarray, opponent: np.ndarray, uniforms: np.ndarray, *
                 wild = np.flatnonzero(rng.random(live.size) < epsilon)
                 for j in wild:
                     empty = np.flatnonzero(np.isfinite(score[j]))
-                    cells[j] = empty[rng.integers(empty.size)]
+                    if empty.size:  # a full board has none: the rollout ends undecided below
+                        cells[j] = empty[rng.integers(empty.size)]
             playable = np.isfinite(score[np.arange(live.size), cells])
             wins = playable & (attack[np.arange(live.size), cells] >= WIN_VALUE)
             planes[live[playable], 0, cells[playable]] = True
