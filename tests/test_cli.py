@@ -117,7 +117,7 @@ def test_leaderboard_html_and_methods(capsys, league_args, tmp_path):
 
 def test_quickstart_ranks_against_the_shipped_base_population(capsys, league_args):
     code, doc = run(capsys, "quickstart", "--game", GAME, "--matches-per-pair", "2", *league_args, "--json")
-    assert code == 0 and doc["population"] == "base-v1:1"
+    assert code == 0 and doc["population"] == "base-v2:1"  # GoBang's newest shipped population
     code, listing = run(capsys, "population", "list", *league_args, "--json")
     assert listing["populations"][0]["members"] == 100 and listing["populations"][0]["frozen"]
 

@@ -31,17 +31,29 @@ def test_rank_with_no_options_places_against_the_shipped_base_population(capsys,
                              "--json")
     assert code == 0 and submitted["status"] == "active"
     code, placed, err = run(capsys, "rank", "alice", "--budget", "40", "--json")
-    assert code == 0 and placed["base"] == "base-v1:1" and placed["base_size"] == 100
+    # the newest population shipped for the game: base-v2, whose top rungs are search agents
+    assert code == 0 and placed["base"] == "base-v2:1" and placed["base_size"] == 100
     assert placed["matches"] <= 40 and placed["lower"] <= placed["rating"] <= placed["upper"]
-    assert "against base-v1:1 (100 agents), at most 40 matches" in err
+    assert "against base-v2:1 (100 agents), at most 40 matches" in err
     # the import happened once: a second ranking uses the same population, no new version
     code, again, _ = run(capsys, "rank", "alice", "--budget", "20", "--json")
     code, listed, _ = run(capsys, "population", "list", "--json")
-    assert again["base"] == "base-v1:1" and [p["version"] for p in listed["populations"]] == [1]
+    assert again["base"] == "base-v2:1" and [(p["name"], p["version"]) for p in listed["populations"]] == \
+        [("base-v2", 1)]
     code, board, _ = run(capsys, "leaderboard", GAME, "--json")
     rows = {row["agent"]: row for row in board["rows"]}
     assert code == 0 and len(rows) == 101 and rows["alice"]["status"] == "placed"
     assert rows["alice"]["rating"] == pytest.approx(again["rating"])  # the board repeats the placement
+
+
+def test_a_league_holding_base_v1_ranks_against_the_newer_shipped_base_v2(capsys, home, tmp_path):
+    code, doc, _ = run(capsys, "population", "import", ROOT / "checkpoints" / GAME / "base-v1", "--json")
+    assert code == 0 and doc["imported"] == "base-v1:1"
+    run(capsys, "submit", gobang_agent(tmp_path / "a"), "--game", GAME, "--name", "alice", "--json")
+    code, placed, err = run(capsys, "rank", "alice", "--budget", "10", "--json")
+    assert code == 0 and placed["base"] == "base-v2:1" and "against base-v2:1" in err
+    code, placed, _ = run(capsys, "rank", "alice", "--budget", "10", "--population", "base-v1", "--json")
+    assert code == 0 and placed["base"] == "base-v1:1"  # the older one, when asked for
 
 
 def test_population_versions_count_per_game_and_imports_are_idempotent(capsys, home, tmp_path):

@@ -212,7 +212,7 @@ RECIPES: dict[str, Recipe] = {
     # a million steps at a low learning rate (on a 16-core machine such runs beat the heuristic in 78
     # to 88% of 40 matches after 0.75 to 1.05 M steps).
     "RunToGoal": dataclasses.replace(_ANT_DUEL, top_runs=(
-        {"scheme": "sp", "steps": 1_000_000, "warm_start": {"steps": 60_000, "min_log_std": -4.0},
+        {"scheme": "sp", "steps": 2_000_000, "warm_start": {"steps": 60_000, "min_log_std": -4.0},
          "fixed_opponents": ("scripted:heuristic",), "fixed_share": 1.0, "learning_rate": 1e-4, "anneal_lr": False,
          "ent_coef": 0.0},)),
     "YouShallNotPass": _ANT_DUEL,
@@ -1043,6 +1043,17 @@ def _bundles(folder: Path) -> list[tuple[Architecture, list[str], list[dict[str,
     return found
 
 
+def _members_line(manifest: Mapping[str, Any], figures: Mapping[str, Any]) -> str:
+    """How many members, and what made them, in words."""
+    schemes = dict(figures.get("schemes", {}))
+    searchers = schemes.pop(SCRIPTED_SCHEME, 0)
+    line = f"{len(manifest['members'])} agents"
+    if searchers:
+        return f"{line}: {len(manifest['members']) - searchers} that {len(schemes)} training schemes produced and " \
+               f"{searchers} built-in search agents above them"
+    return f"{line} that {len(schemes)} training schemes produced"
+
+
 def _candidates_line(build: Mapping[str, Any]) -> str:
     """Where a build's candidates came from, in words."""
     parts = []
@@ -1115,7 +1126,7 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     reproduce = "from arena_league.league.population.build import build_population\n    " + reproduce
     return f"""# {name}: the base population of {game}
 
-{len(manifest['members'])} agents that {len(figures.get('schemes', {}))} training schemes produced, frozen as
+{_members_line(manifest, figures)}, frozen as
 the base population new {game} agents are ranked against (after Arena, Song et al., AAAI 2020).
 Built by `arena_league.league.population.build.build_population` (code {build['code']}).
 
