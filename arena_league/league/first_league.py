@@ -1,7 +1,7 @@
 """A whole league on the embedded default, end to end: the workflow ``arena-league quickstart`` runs.
 
 1. the league home (SQLite under ``ARENA_LEAGUE_HOME``) and the game's scripted agents;
-2. where the game ships a base population (``checkpoints/<game>/base-v1``), its import;
+2. where the game ships a base population (``checkpoints/<game>/base-vN``), the newest one's import;
 3. for Crossroads, the example ONNX submission under ``submissions/``, validated and registered;
 4. a round robin among the scripted agents;
 5. the example ranked against the base population (or, without one, against the league's agents);

@@ -1057,13 +1057,19 @@ def _members_line(manifest: Mapping[str, Any], figures: Mapping[str, Any]) -> st
 def _candidates_line(build: Mapping[str, Any]) -> str:
     """Where a build's candidates came from, in words."""
     parts = []
-    base, scripted = build.get("base"), build.get("scripted") or []
+    base, scripted, top = build.get("base"), build.get("scripted") or [], build.get("top_runs") or []
     trained = build["candidates"] - (base or {}).get("members", 0) - len(scripted)
     if trained or not (base or scripted):
-        parts.append(f"{trained} snapshots of the runs above")
-    for run in build.get("top_runs") or []:
+        parts.append(f"{trained} snapshots of the runs above" if build["schemes"] else
+                     f"{trained} snapshots of the top runs")
+    kinds: dict[str, int] = {}
+    for run in top:  # identical top runs (other seeds) said once
+        kinds[json.dumps(run)] = kinds.get(json.dumps(run), 0) + 1
+    for text, count in kinds.items():
+        run = json.loads(text)
         options = {k: v for k, v in run.items() if k not in ("scheme", "steps")}
-        parts.append(f"the snapshots of a top run ({run['scheme']}, {run['steps']:,} env steps, {json.dumps(options)})")
+        parts.append(f"{'a top run' if count == 1 else f'{count} top runs (seeds from seed + 1000)'} of "
+                     f"{run['scheme']} for {run['steps']:,} env steps, {json.dumps(options)}")
     if base:
         parts.append(f"the {base['members']} members of `{base['name']}` (build {base['build_id']}), rated again "
                      "with the others")
@@ -1082,7 +1088,8 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     game, name = manifest["game_id"], manifest["name"]
     runs = build.get("runs_per_scheme", {})
     steps = ", ".join(f"{s} {n:,}" + (f" (x{runs[s]} seeds)" if runs.get(s, 1) > 1 else "")
-                      for s, n in build["steps_per_scheme"].items()) or "none (this build trained nothing)"
+                      for s, n in build["steps_per_scheme"].items()) or \
+        ("none besides the top runs below" if build.get("top_runs") else "none (this build trained nothing)")
     criteria_rows = "\n".join(
         f"| {criterion.replace('_', ' ')} | {figure} {comparison} {threshold:g} | {figures.get(figure)} | "
         f"{'yes' if prov['criteria'].get(criterion) else 'NO'} |"
