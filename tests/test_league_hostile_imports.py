@@ -242,5 +242,6 @@ def test_shipped_population_imports_through_the_gate_and_rank_works(capsys, home
     assert code == 0 and doc["imported"] == "base-v1:1", err
     code, _, err = run(capsys, "submit", gobang_agent(tmp_path / "a"), "--game", GAME, "--name", "alice")
     assert code == 0, err
-    code, placed, err = run(capsys, "rank", "alice", "--budget", "20", "--json")
+    # the imported base-v1, named (by default a league ranks against the newest shipped, base-v2)
+    code, placed, err = run(capsys, "rank", "alice", "--budget", "20", "--population", "base-v1", "--json")
     assert code == 0 and placed["base"] == "base-v1:1" and placed["base_size"] == 100, err

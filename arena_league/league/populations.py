@@ -4,9 +4,10 @@ A population is named and versioned per game: ``base-v1:1`` of GoBang and ``base
 are two populations, and ``name`` alone means the newest version of that name in the game.
 
 The population an entrant is ranked against by default is the game's **base**
-(:func:`game_population`): the newest population shipped with the package for the game
-(``checkpoints/<game>/base-v2/`` where it exists, else ``base-v1``), imported on first use, or the
-league's newest frozen population of the game when that is newer (built or imported later). Imports are idempotent by content: importing a folder whose files are byte for byte
+(:func:`game_population`): the league's newest frozen population of the game, or, when the league
+has none or only shipped ones the package has since superseded, the newest population shipped with
+the package for the game (``checkpoints/<game>/base-v2/`` where it exists, else ``base-v1``),
+imported on first use. Imports are idempotent by content: importing a folder whose files are byte for byte
 those of a population already imported for that game returns that population (the address of the
 folder, as the artifact store computes it, is kept in its provenance under ``imported_from``).
 
@@ -141,18 +142,18 @@ def shipped_population(game_id: str, name: str | None = None) -> Path | None:
 
 def game_population(league: League, game_id: str, *, import_shipped: bool = True) -> str | None:
     """``name:version`` of the population entrants of ``game_id`` are ranked against by default:
-    the newest population shipped for the game (imported now when the league lacks it, unless
-    ``import_shipped`` is False: importing validates every member, which a web request must not
-    do), or the league's newest frozen population of the game when that came later; else None."""
-    shipped = shipped_population(game_id) if import_shipped else None
+    the league's newest frozen population of the game, unless that is a shipped population the
+    package has since superseded (``base-v1`` where ``base-v2`` is shipped) or there is none: then
+    the newest population shipped for the game, imported now (unless ``import_shipped`` is False:
+    importing validates every member, which a web request must not do); else None."""
+    shipped = shipped_populations(game_id) if import_shipped else []
+    superseded = {folder.name for folder in shipped[:-1]}  # shipped populations with a newer one shipped
     with league.reading() as session:
         frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
-        if shipped is None or any(p.name == shipped.name for p in frozen):
-            if not frozen:
-                return None
-            newest = max(frozen, key=lambda p: (p.created_at, p.id))
+        newest = max(frozen, key=lambda p: (p.created_at, p.id)) if frozen else None
+        if newest is not None and newest.name not in superseded:
             return f"{newest.name}:{newest.version}"
-    return import_population(league, shipped)
+    return import_population(league, shipped[-1]) if shipped else None
 
 
 def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:

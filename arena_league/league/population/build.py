@@ -149,6 +149,8 @@ class Recipe:
     scheme_steps: Mapping[str, int] = field(default_factory=dict)
     """Env steps of one scheme's runs from scratch where they differ from ``steps`` (``{"sp": 1_000_000}``:
     a learner that first has to find the goal against a fixed opponent needs longer)."""
+    floor_margin: float = 50.0
+    """Members are rated at least this far above the random agent (Elo) while enough candidates are."""
     top_runs: Sequence[Mapping[str, Any]] = ()
     """Runs for the top of the population, each with its own options: ``{"scheme": "sp", "steps":
     1_000_000, "warm_start": {...}, "fixed_opponents": ("scripted:heuristic",), ...}``. A learner
@@ -208,10 +210,13 @@ RECIPES: dict[str, Recipe] = {
     "GoBang": Recipe(steps=600_000, snapshots=16, hidden=(8,), common={"learning_rate": 1e-3},
                      per_scheme={"pbt": {"population_size": 4}}),
     "Sumo": _ANT_DUEL,
-    # RunToGoal: Sumo's ladder, and for the top a copy of the heuristic that then races it alone for
-    # a million steps at a low learning rate (on a 16-core machine such runs beat the heuristic in 78
-    # to 88% of 40 matches after 0.75 to 1.05 M steps).
-    "RunToGoal": dataclasses.replace(_ANT_DUEL, top_runs=(
+    # RunToGoal: Sumo's ladder, and for the top a copy of the heuristic that then races it alone at a
+    # low learning rate (such runs beat the heuristic in 78 to 88% of 40 matches after 0.75 to 1.05 M
+    # steps). Built on 2026-11-26: with a 1 M-step top run the ladder spread 660 Elo; with 2 M, 843,
+    # but with members from 50 Elo above the random agent the best beat the worst in 179 of 200
+    # matches (16 draws: a near-random racer blocks as often as it falls), so members start 100 Elo
+    # above it (833 Elo, 182 of 200).
+    "RunToGoal": dataclasses.replace(_ANT_DUEL, floor_margin=100.0, top_runs=(
         {"scheme": "sp", "steps": 2_000_000, "warm_start": {"steps": 60_000, "min_log_std": -4.0},
          "fixed_opponents": ("scripted:heuristic",), "fixed_share": 1.0, "learning_rate": 1e-4, "anneal_lr": False,
          "ent_coef": 0.0},)),
@@ -360,7 +365,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
                      work_dir: str | Path | None = None, out_dir: str | Path | None = None, league: Any = None,
                      matches_per_pair: int = 2, verify_matches: int = 200, snapshots: int | None = None,
                      scheme_options: Mapping[str, Mapping[str, Any]] | None = None, max_candidates: int = 240,
-                     floor_margin: float = 50.0, bootstrap_rounds: int = 200, batch_size: int = 256,
+                     floor_margin: float | None = None, bootstrap_rounds: int = 200, batch_size: int = 256,
                      overwrite: bool = False, stop_after: str | None = None, progress: Progress | None = None,
                      log: Callable[[str], None] | None = None, base: str | Path | None = None,
                      scripted: Sequence[str] = (), top_runs: Sequence[Mapping[str, Any]] | None = None
@@ -396,7 +401,8 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         scheme_options: overrides of ``run_scheme`` per scheme, over the recipe's.
         max_candidates: trained snapshots that enter the round robin at most (evenly thinned per
             learner, its first and last kept).
-        floor_margin: members must be rated this far above the random agent while enough are.
+        floor_margin: members must be rated this far above the random agent while enough are
+            (default: the recipe's, 50 Elo unless it says otherwise).
         bootstrap_rounds: bootstrap rounds of the rating intervals.
         batch_size: matches in flight on the engine.
         overwrite: replace an ``out_dir`` that holds a population built with other arguments.
@@ -528,8 +534,9 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     np.fill_diagonal(payoff, np.nan)
     n_trained = len(candidates)
     random_index = keys.index("random")
+    margin = float(recipe.floor_margin if floor_margin is None else floor_margin)
     chosen = select_spanning(ratings[:n_trained], payoff[:n_trained], size,
-                             floor=float(ratings[random_index]) + floor_margin)
+                             floor=float(ratings[random_index]) + margin)
     say(f"selected {len(chosen)} of {n_trained} candidates (random agent rated {ratings[random_index]:.0f}, "
         f"candidates {ratings[:n_trained].min():.0f} .. {ratings[:n_trained].max():.0f})")
     report.seconds["select"] = round(time.perf_counter() - clock, 1)
@@ -558,9 +565,9 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         if any(n_warm.values()) else None
     origin = _origin(base, scripted, top)
     build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest,
-                         n_runs, warm_build, origin)
+                         n_runs, warm_build, origin, margin)
     _freeze(out, report, members, build_id, overwrite, recipe, matches_per_pair, verify_matches, n_snapshots,
-            max_candidates, scheme_options, n_runs, warm_build, origin)
+            max_candidates, scheme_options, n_runs, warm_build, origin, margin)
     report.out_dir = str(out)
     report.seconds["freeze"] = round(time.perf_counter() - clock, 1)
     report.stage = "freeze"
@@ -888,7 +895,8 @@ def member_name(population: str, key: str, game_id: str) -> str:
 
 def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, int], seed: int, snapshots: int,
               size: int, matches_per_pair: int, digest: str, runs: Mapping[str, int],
-              warm: Mapping[str, Any] | None = None, origin: Mapping[str, Any] | None = None) -> str:
+              warm: Mapping[str, Any] | None = None, origin: Mapping[str, Any] | None = None,
+              floor_margin: float = 50.0) -> str:
     parts: list[Any] = [game_id, name, schemes, dict(steps), seed, snapshots, size, matches_per_pair, digest]
     if any(n != 1 for n in runs.values()):
         parts.append(dict(runs))
@@ -896,6 +904,8 @@ def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, i
         parts.append(_jsonable(warm))
     if origin:
         parts.append({**origin, "base": {k: v for k, v in (origin.get("base") or {}).items() if k != "path"}})
+    if floor_margin != 50.0:
+        parts.append({"floor_margin": floor_margin})
     identity = json.dumps(parts)
     return hashlib.sha256(identity.encode()).hexdigest()[:16]
 
@@ -905,7 +915,8 @@ def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, i
 def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: str, overwrite: bool,
             recipe: Recipe, matches_per_pair: int, verify_matches: int, snapshots: int, max_candidates: int,
             scheme_options: Mapping[str, Mapping[str, Any]] | None, runs: Mapping[str, int],
-            warm: Mapping[str, Any] | None = None, origin: Mapping[str, Any] | None = None) -> None:
+            warm: Mapping[str, Any] | None = None, origin: Mapping[str, Any] | None = None,
+            floor_margin: float = 50.0) -> None:
     manifest_path = out / "population.json"
     if manifest_path.exists() and not overwrite:
         existing = json.loads(manifest_path.read_text()).get("provenance", {}).get("build", {}).get("build_id")
@@ -968,6 +979,7 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
             "build": {"build_id": build_id, "schemes": report.schemes, "steps_per_scheme": report.steps_per_scheme,
                       "runs_per_scheme": dict(runs), "seed": report.seed, "snapshots_per_run": snapshots, "candidates": report.candidates,
                       "max_candidates": max_candidates, "matches_per_pair": matches_per_pair,
+                      "floor_margin": floor_margin,
                       "verify_matches": verify_matches,
                       "recipe": {"hidden": list(recipe.hidden), "early_snapshots": recipe.early_snapshots,
                                  "warm_overrides": _jsonable(recipe.warm_overrides),
@@ -1129,7 +1141,9 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
                  + (f", scheme_options={build['scheme_options']!r}" if build["scheme_options"] else "")
                  + (f", base={build['base']['path']!r}" if build.get("base") else "")
                  + (f", scripted={build['scripted']!r}" if build.get("scripted") else "")
-                 + (f", top_runs={build['top_runs']!r}" if build.get("top_runs") else "") + ")")
+                 + (f", top_runs={build['top_runs']!r}" if build.get("top_runs") else "")
+                 + (f", floor_margin={build['floor_margin']!r}" if build.get("floor_margin", 50.0) != 50.0 else "")
+                 + ")")
     reproduce = "from arena_league.league.population.build import build_population\n    " + reproduce
     return f"""# {name}: the base population of {game}
 
@@ -1144,7 +1158,7 @@ Built by `arena_league.league.population.build.build_population` (code {build['c
   recipe overrides {json.dumps(build['recipe']['per_scheme'])}; build options {options}.
 {warm_line}* candidates: {_candidates_line(build)}, plus the scripted `random` and `heuristic` agents as
   references, in a round robin of {build['matches_per_pair']} matches per pair (seats balanced).
-* selection: {len(manifest['members'])} candidates spanning the rating range above the random agent,
+* selection: {len(manifest['members'])} candidates spanning the rating range from {build.get('floor_margin', 50.0):g} Elo above the random agent,
   preferring, among candidates of similar rating, those whose results against the others differ most.
 * ratings: {prov['rating']}. Every member's scheme, env steps, seed, learner, rating and interval are in
   `population.json` and in its `agents/<member>/manifest.json`.
