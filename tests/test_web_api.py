@@ -179,12 +179,12 @@ def test_a_placement_is_queued_streams_its_progress_and_lands_on_the_board(serve
                     final = json.loads(line[6:])
                     break
     assert events[0] == "progress" and events[-1] == "done" and final["state"] == "done", final
-    assert final["result"]["base"] == "base-v1:1" and final["result"]["matches"] > 0
+    assert final["result"]["base"] == "base-v2:1" and final["result"]["matches"] > 0
     with server.client() as client:
         board = board_with(client, "climber")
         page = client.get(f"/games/{GAME}.json").json()
     row = next(r for r in board["rows"] if r["agent"] == "climber")
-    assert board["population"] == "base-v1:1" and row["status"] == "placed" and row["rating"] is not None
+    assert board["population"] == "base-v2:1" and row["status"] == "placed" and row["rating"] is not None
     assert next(r for r in page["rows"] if r["agent"] == "climber")["owner"] == "alice"
     with server.client(alice) as client:
         assert next(r for r in client.get(f"/games/{GAME}.json").json()["rows"] if r["agent"] == "climber")["mine"]
