@@ -16,28 +16,17 @@ import json
 import time
 from pathlib import Path
 
-from arena_league.league.population.build import HEADROOM, member_policy
+from arena_league.league.population.build import HEADROOM, best_against_heuristic
 from arena_league.league.populations import SHIPPED_POPULATIONS
-from arena_league.matchmaking import play_matches, specs_for_seatings
-from arena_league.policies.scripted import scripted_policy
-from arena_league.policies.threads import torch_threads
 
 
 def headroom(folder: Path, matches: int, seed: int) -> dict:
     manifest = json.loads((folder / "population.json").read_text())
-    game = manifest["game_id"]
-    best = max(manifest["members"], key=lambda m: m["metadata"]["rating"])
-    agents = {"best": member_policy(folder, best, game), "heuristic": scripted_policy("heuristic", game)}
-    seatings = [("best", "heuristic") if k % 2 == 0 else ("heuristic", "best") for k in range(matches)]
     started = time.perf_counter()
-    with torch_threads(1):
-        results = play_matches(specs_for_seatings(game, seatings, seed, 0), agents, backend="inprocess",
-                               batch_size=min(256, matches))
-    scores = [r.team_scores()[s.index("best")] for s, r in zip(seatings, results)]
-    wins, draws = sum(s == 1.0 for s in scores), sum(s == 0.5 for s in scores)
+    best, wins, draws = best_against_heuristic(folder, matches, seed)
     recorded = manifest["provenance"]["figures"].get(HEADROOM[0])
-    return {"game": game, "population": manifest["name"], "best": best["name"], "matches": matches, "wins": wins,
-            "draws": draws, "losses": matches - wins - draws, "win_rate": round(wins / matches, 4),
+    return {"game": manifest["game_id"], "population": manifest["name"], "best": best, "matches": matches,
+            "wins": wins, "draws": draws, "losses": matches - wins - draws, "win_rate": round(wins / matches, 4),
             "headroom": wins / matches >= HEADROOM[2], "recorded_win_rate": recorded,
             "seconds": round(time.perf_counter() - started, 1)}
 

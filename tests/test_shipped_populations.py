@@ -16,6 +16,7 @@ from arena_league.league.population.build import (
     CRITERIA,
     HEADROOM,
     SCRIPTED_SCHEME,
+    best_against_heuristic,
     load_bundles,
     member_policy,
 )
@@ -107,8 +108,6 @@ def test_best_member_beats_worst_and_random_in_fresh_matches(folder):
 def test_newest_population_has_headroom_above_the_heuristic(folder):
     """The best member against the scripted heuristic, replayed (20 fresh matches, seats balanced),
     and as the build recorded it over its own matches."""
-    from arena_league.matchmaking import play_matches, specs_for_seatings
-
     manifest = _manifest(folder)
     game = manifest["game_id"]
     if game in WITHOUT_HEADROOM:
@@ -116,11 +115,5 @@ def test_newest_population_has_headroom_above_the_heuristic(folder):
     figure, _, threshold = HEADROOM
     recorded = manifest["provenance"]["figures"].get(figure)  # builds before the figure existed lack it
     assert recorded is None or recorded >= threshold
-    best = max(manifest["members"], key=lambda m: m["metadata"]["rating"])
-    agents = {"best": member_policy(folder, best, game), "heuristic": scripted_policy("heuristic", game)}
-    seatings = [("best", "heuristic"), ("heuristic", "best")] * 10
-    specs = specs_for_seatings(game, seatings, league_seed=54321, first_match_id=0)
-    with torch_threads(1):
-        results = play_matches(specs, agents, backend="inprocess", batch_size=len(specs))
-    wins = [result.team_scores()[seats.index("best")] == 1.0 for seats, result in zip(seatings, results)]
-    assert np.mean(wins) >= threshold, wins
+    _, won, _ = best_against_heuristic(folder, 20, seed=54321)
+    assert won / 20 >= threshold, won

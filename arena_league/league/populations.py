@@ -409,8 +409,10 @@ def queue_import(league: League, game_id: str, population: str | None = None) ->
     """Queue the import of a population shipped with arena-league for ``game_id`` (default: the
     newest shipped; its members are validated: agent code, run by a worker, never by the caller);
     returns the job id."""
-    newest = shipped_population(game_id)
-    name, version = _parse_label(population if population is not None else (newest.name if newest else "base-v1"))
+    if population is None:
+        newest = shipped_population(game_id)
+        population = newest.name if newest is not None else "base-v1"
+    name, version = _parse_label(population)
     if version is not None or shipped_population(game_id, name) is None:
         raise ValueError(f"no population {population!r} is shipped for {game_id}; the shipped ones lie under "
                          f"checkpoints/<game>/<name>/ (e.g. base-v1)")

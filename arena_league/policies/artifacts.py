@@ -722,7 +722,7 @@ def _read_json_agent(path: Path, size: int, limits: ArtifactLimits) -> AgentArti
         raise CorruptArtifactError(f"{error}; an agent file is ONNX, or JSON naming a scripted agent") from None
     if isinstance(document, dict) and document.get("format") == SCRIPTED_FORMAT:
         name = document.get("name")
-        if not isinstance(name, str) or not is_scripted_name(name):
+        if not is_scripted_name(name):
             raise ArtifactError(f"{path} names scripted agent {name!r}; built-in agents: {', '.join(SCRIPTED_NAMES)} "
                                 "and, where the game has one, search-wW-rR-hH[-eE] within its bounds")
         return AgentArtifact("scripted", {"scripted.json": scripted_descriptor(name)}, str(path))
@@ -911,7 +911,7 @@ def unpack_artifact(blob: bytes, limits: ArtifactLimits = DEFAULT_LIMITS, source
         except CorruptArtifactError:
             document = None
         if isinstance(document, dict) and document.get("format") == SCRIPTED_FORMAT and \
-                isinstance(document.get("name"), str) and is_scripted_name(document["name"]):
+                is_scripted_name(document.get("name")):
             return AgentArtifact("scripted", {"scripted.json": scripted_descriptor(document["name"])}, source)
         raise ArtifactError(f"{source} is JSON but not a scripted agent descriptor")
     return AgentArtifact("onnx", {"model.onnx": bytes(blob)}, source)

@@ -63,9 +63,11 @@ def search_budget(name: str) -> dict[str, Any] | None:
     return budget
 
 
-def is_scripted_name(name: str) -> bool:
+def is_scripted_name(name: Any) -> bool:
     """Whether ``name`` (without the prefix) names a built-in agent: random, heuristic or a search
-    agent within its bounds."""
+    agent within its bounds (anything but a string does not)."""
+    if not isinstance(name, str):
+        return False
     try:
         return name in SCRIPTED_NAMES or search_budget(name) is not None
     except ValueError:

@@ -531,6 +531,7 @@ def rollout_moves(own: np.ndarray, opponent: np.ndarray, uniforms: np.ndarray, *
             if live.size == 0:
                 break
             score, attack = heuristic_scores(planes[live, 0], planes[live, 1], n_in_row)
+            rows = np.arange(live.size)
             cells = score.argmax(axis=1)
             if epsilon > 0:
                 wild = np.flatnonzero(rng.random(live.size) < epsilon)
@@ -538,8 +539,8 @@ def rollout_moves(own: np.ndarray, opponent: np.ndarray, uniforms: np.ndarray, *
                     empty = np.flatnonzero(np.isfinite(score[j]))
                     if empty.size:  # a full board has none: the rollout ends undecided below
                         cells[j] = empty[rng.integers(empty.size)]
-            playable = np.isfinite(score[np.arange(live.size), cells])
-            wins = playable & (attack[np.arange(live.size), cells] >= WIN_VALUE)
+            playable = np.isfinite(score[rows, cells])
+            wins = playable & (attack[rows, cells] >= WIN_VALUE)
             planes[live[playable], 0, cells[playable]] = True
             result[live[wins]] = 1.0 if mover_is_us else 0.0
             live = live[~wins & playable]

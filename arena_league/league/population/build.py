@@ -57,6 +57,7 @@ import os
 import shutil
 import subprocess
 import time
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -112,6 +113,10 @@ CRITERIA: dict[str, tuple[str, str, float]] = {
 HEADROOM: tuple[str, str, float] = ("best_vs_heuristic_win_rate", ">=", 0.60)
 #: The scheme recorded for a built-in (scripted) member.
 SCRIPTED_SCHEME = "search"
+#: Members are rated at least this far above the random agent (Elo) unless a recipe says otherwise.
+DEFAULT_FLOOR_MARGIN = 50.0
+#: Top run ``r`` of a build seeded ``seed`` trains with seed ``seed + TOP_RUN_SEEDS + r``.
+TOP_RUN_SEEDS = 1000
 _REFERENCES = ("random", "heuristic")
 
 Progress = Callable[[str, int, int], None]
@@ -149,7 +154,7 @@ class Recipe:
     scheme_steps: Mapping[str, int] = field(default_factory=dict)
     """Env steps of one scheme's runs from scratch where they differ from ``steps`` (``{"sp": 1_000_000}``:
     a learner that first has to find the goal against a fixed opponent needs longer)."""
-    floor_margin: float = 50.0
+    floor_margin: float = DEFAULT_FLOOR_MARGIN
     """Members are rated at least this far above the random agent (Elo) while enough candidates are."""
     top_runs: Sequence[Mapping[str, Any]] = ()
     """Runs for the top of the population, each with its own options: ``{"scheme": "sp", "steps":
@@ -437,8 +442,10 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     if (not schemes and base is None and not scripted and not top) or len(set(schemes)) != len(schemes):
         raise ValueError(f"schemes must be distinct scheme names (none only with a base, scripted members or top runs), "
                          f"got {schemes!r}")
-    extra = _base_candidates(Path(base), game_id) if base is not None else []
-    extra += _scripted_candidates(game_id, scripted)
+    base_manifest = _base_manifest(Path(base), game_id) if base is not None else None
+    scripted = _scripted_names(game_id, scripted)
+    extra = _base_candidates(Path(base), base_manifest) if base_manifest is not None else []
+    extra += [Candidate(n, SCRIPTED_SCHEME, 0, 0, n, None, {}, None, n) for n in scripted]
     steps = _steps_per_scheme(schemes, steps_per_scheme, recipe)
     n_runs = _runs_per_scheme(schemes, runs_per_scheme)
     n_warm = _runs_per_scheme(schemes, recipe.warm_runs if warm_runs_per_scheme is None else warm_runs_per_scheme,
@@ -472,7 +479,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         [(scheme, seed + r, None, None) for scheme in schemes for r in range(n_runs[scheme])]
     runs += [(scheme, seed + n_runs[scheme] + r, imitation[r % len(imitation)], None)
              for scheme in schemes for r in range(n_warm[scheme])]
-    runs += [(run["scheme"], seed + 1000 + r, run.get("warm_start"), run) for r, run in enumerate(top)]
+    runs += [(run["scheme"], seed + TOP_RUN_SEEDS + r, run.get("warm_start"), run) for r, run in enumerate(top)]
     for k, (scheme, run_seed, rung, own) in enumerate(runs):
         warm = bool(rung)
         overrides = {**recipe.overrides(scheme), **dict((scheme_options or {}).get(scheme, {}))}
@@ -563,7 +570,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     warm_build = {"runs_per_scheme": n_warm, "steps_per_scheme": warm_steps,
                   "warm_start": imitation[0] if len(imitation) == 1 else imitation} \
         if any(n_warm.values()) else None
-    origin = _origin(base, scripted, top)
+    origin = _origin(base, base_manifest, scripted, top)
     build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest,
                          n_runs, warm_build, origin, margin)
     _freeze(out, report, members, build_id, overwrite, recipe, matches_per_pair, verify_matches, n_snapshots,
@@ -659,8 +666,8 @@ def _thin(candidates: list[Candidate], limit: int) -> list[Candidate]:
     return kept
 
 
-def _base_candidates(folder: Path, game_id: str) -> list[Candidate]:
-    """The members of the frozen population at ``folder`` as candidates (keys and records as built)."""
+def _base_manifest(folder: Path, game_id: str) -> dict[str, Any]:
+    """The ``population.json`` of the base population at ``folder``, which must be ``game_id``'s."""
     path = folder / "population.json"
     if not path.is_file():
         raise ValueError(f"base {folder} holds no population.json; give a frozen population folder such as "
@@ -668,6 +675,11 @@ def _base_candidates(folder: Path, game_id: str) -> list[Candidate]:
     manifest = json.loads(path.read_text())
     if manifest.get("game_id") != game_id:
         raise ValueError(f"base {folder} is a population of {manifest.get('game_id')}, not of {game_id}")
+    return manifest
+
+
+def _base_candidates(folder: Path, manifest: Mapping[str, Any]) -> list[Candidate]:
+    """The members of the frozen population at ``folder`` as candidates (keys and records as built)."""
     weights = {member: (arch, params) for arch, members, stacked in _bundles(folder)
                for member, params in zip(members, stacked)}
     prefix = f"{manifest['name']}."
@@ -684,8 +696,9 @@ def _base_candidates(folder: Path, game_id: str) -> list[Candidate]:
     return candidates
 
 
-def _scripted_candidates(game_id: str, names: Sequence[str]) -> list[Candidate]:
-    """Built-in agents (search agents at their budgets) as candidates of scheme :data:`SCRIPTED_SCHEME`."""
+def _scripted_names(game_id: str, names: Sequence[str]) -> list[str]:
+    """The built-in agents that join the candidates (search agents at their budgets), without the
+    ``scripted:`` prefix, checked before any training."""
     from arena_league.policies.scripted import SCRIPTED_PREFIX, scripted_policy
 
     bare = [n.removeprefix(SCRIPTED_PREFIX) for n in names]
@@ -693,7 +706,7 @@ def _scripted_candidates(game_id: str, names: Sequence[str]) -> list[Candidate]:
         raise ValueError(f"scripted members must be distinct and not the references {_REFERENCES}, got {list(names)}")
     for n in bare:
         scripted_policy(n, game_id)  # unknown names, bad budgets and games without search fail here
-    return [Candidate(n, SCRIPTED_SCHEME, 0, 0, n, None, {}, None, n) for n in bare]
+    return bare
 
 
 def _top_runs(runs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
@@ -716,15 +729,13 @@ def _top_runs(runs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     return checked
 
 
-def _origin(base: str | Path | None, scripted: Sequence[str], top: Sequence[Mapping[str, Any]] = ()
-            ) -> dict[str, Any] | None:
+def _origin(base: str | Path | None, manifest: Mapping[str, Any] | None, scripted: list[str],
+            top: Sequence[Mapping[str, Any]]) -> dict[str, Any] | None:
     """Where candidates other than the schemes' runs came from, for the provenance."""
-    if base is None and not scripted and not top:
+    if manifest is None and not scripted and not top:
         return None
-    origin: dict[str, Any] = {"scripted": [n.removeprefix("scripted:") for n in scripted],
-                              "top_runs": _jsonable(list(top))}
-    if base is not None:
-        manifest = json.loads((Path(base) / "population.json").read_text())
+    origin: dict[str, Any] = {"scripted": scripted, "top_runs": _jsonable(list(top))}
+    if manifest is not None:
         origin["base"] = {"name": manifest["name"], "version": manifest.get("version", 1),
                           "build_id": manifest.get("provenance", {}).get("build", {}).get("build_id"),
                           "members": len(manifest["members"]), "path": str(base)}
@@ -740,6 +751,20 @@ def member_policy(folder: str | Path, entry: Mapping[str, Any], game_id: str) ->
     if entry.get("kind") == "scripted":
         return scripted_policy(entry["agent_metadata"]["scripted"], game_id)
     return load_policy(Path(folder) / entry["artifact"], game_id)
+
+
+def best_against_heuristic(folder: str | Path, matches: int, seed: int) -> tuple[str, int, int]:
+    """(best member's name, wins, draws) of a frozen population's best member (highest frozen
+    rating) against the scripted heuristic in ``matches`` fresh matches, seats alternating, match
+    ids from 0 under league seed ``seed``: the population's headroom (:data:`HEADROOM`), replayed."""
+    from arena_league.policies.scripted import scripted_policy
+
+    manifest = json.loads((Path(folder) / "population.json").read_text())
+    game = manifest["game_id"]
+    best = max(manifest["members"], key=lambda m: m["metadata"]["rating"])
+    policies = {"best": member_policy(folder, best, game), "heuristic": scripted_policy("heuristic", game)}
+    seatings = [("best", "heuristic") if k % 2 == 0 else ("heuristic", "best") for k in range(matches)]
+    return best["name"], *_tally(play_seatings(game, seatings, policies, seed, 0, min(256, matches)))
 
 
 def _policies(game_id: str, candidates: list[Candidate]) -> dict[str, Any]:
@@ -856,8 +881,14 @@ def _duel(game_id: str, best: str, worst: str, policies: Mapping[str, Any], seed
         scores = play_seatings(game_id, seatings, policies, seed, first_match_id, batch_size)
         _write_json(path, {"best": best, "worst": worst, "scores": scores})
         report.matches_played += len(scores)
-    best_scores = [s if k % 2 == 0 else 1.0 - s for k, s in enumerate(scores)]
-    return sum(s == 1.0 for s in best_scores), sum(s == 0.5 for s in best_scores), n
+    return (*_tally(scores), n)
+
+
+def _tally(scores: Sequence[float]) -> tuple[int, int]:
+    """(wins, draws) of the agent seated first in the even matches and second in the odd ones, from
+    team 0's scores."""
+    own = [s if k % 2 == 0 else 1.0 - s for k, s in enumerate(scores)]
+    return sum(s == 1.0 for s in own), sum(s == 0.5 for s in own)
 
 
 def _member_records(name: str, game_id: str, members: list[Candidate], fit: Any) -> list[MemberRecord]:
@@ -896,7 +927,7 @@ def member_name(population: str, key: str, game_id: str) -> str:
 def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, int], seed: int, snapshots: int,
               size: int, matches_per_pair: int, digest: str, runs: Mapping[str, int],
               warm: Mapping[str, Any] | None = None, origin: Mapping[str, Any] | None = None,
-              floor_margin: float = 50.0) -> str:
+              floor_margin: float = DEFAULT_FLOOR_MARGIN) -> str:
     parts: list[Any] = [game_id, name, schemes, dict(steps), seed, snapshots, size, matches_per_pair, digest]
     if any(n != 1 for n in runs.values()):
         parts.append(dict(runs))
@@ -904,7 +935,7 @@ def _build_id(game_id: str, name: str, schemes: list[str], steps: Mapping[str, i
         parts.append(_jsonable(warm))
     if origin:
         parts.append({**origin, "base": {k: v for k, v in (origin.get("base") or {}).items() if k != "path"}})
-    if floor_margin != 50.0:
+    if floor_margin != DEFAULT_FLOOR_MARGIN:
         parts.append({"floor_margin": floor_margin})
     identity = json.dumps(parts)
     return hashlib.sha256(identity.encode()).hexdigest()[:16]
@@ -916,7 +947,7 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
             recipe: Recipe, matches_per_pair: int, verify_matches: int, snapshots: int, max_candidates: int,
             scheme_options: Mapping[str, Mapping[str, Any]] | None, runs: Mapping[str, int],
             warm: Mapping[str, Any] | None = None, origin: Mapping[str, Any] | None = None,
-            floor_margin: float = 50.0) -> None:
+            floor_margin: float = DEFAULT_FLOOR_MARGIN) -> None:
     manifest_path = out / "population.json"
     if manifest_path.exists() and not overwrite:
         existing = json.loads(manifest_path.read_text()).get("provenance", {}).get("build", {}).get("build_id")
@@ -1074,13 +1105,10 @@ def _candidates_line(build: Mapping[str, Any]) -> str:
     if trained or not (base or scripted):
         parts.append(f"{trained} snapshots of the runs above" if build["schemes"] else
                      f"{trained} snapshots of the top runs")
-    kinds: dict[str, int] = {}
-    for run in top:  # identical top runs (other seeds) said once
-        kinds[json.dumps(run)] = kinds.get(json.dumps(run), 0) + 1
-    for text, count in kinds.items():
+    for text, count in Counter(json.dumps(run) for run in top).items():  # identical top runs said once
         run = json.loads(text)
         options = {k: v for k, v in run.items() if k not in ("scheme", "steps")}
-        parts.append(f"{'a top run' if count == 1 else f'{count} top runs (seeds from seed + 1000)'} of "
+        parts.append(f"{'a top run' if count == 1 else f'{count} top runs (seeds from seed + {TOP_RUN_SEEDS})'} of "
                      f"{run['scheme']} for {run['steps']:,} env steps, {json.dumps(options)}")
     if base:
         parts.append(f"the {base['members']} members of `{base['name']}` (build {base['build_id']}), rated again "
@@ -1142,7 +1170,7 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
                  + (f", base={build['base']['path']!r}" if build.get("base") else "")
                  + (f", scripted={build['scripted']!r}" if build.get("scripted") else "")
                  + (f", top_runs={build['top_runs']!r}" if build.get("top_runs") else "")
-                 + (f", floor_margin={build['floor_margin']!r}" if build.get("floor_margin", 50.0) != 50.0 else "")
+                 + (f", floor_margin={build['floor_margin']!r}" if build.get("floor_margin", DEFAULT_FLOOR_MARGIN) != DEFAULT_FLOOR_MARGIN else "")
                  + ")")
     reproduce = "from arena_league.league.population.build import build_population\n    " + reproduce
     return f"""# {name}: the base population of {game}
@@ -1158,7 +1186,7 @@ Built by `arena_league.league.population.build.build_population` (code {build['c
   recipe overrides {json.dumps(build['recipe']['per_scheme'])}; build options {options}.
 {warm_line}* candidates: {_candidates_line(build)}, plus the scripted `random` and `heuristic` agents as
   references, in a round robin of {build['matches_per_pair']} matches per pair (seats balanced).
-* selection: {len(manifest['members'])} candidates spanning the rating range from {build.get('floor_margin', 50.0):g} Elo above the random agent,
+* selection: {len(manifest['members'])} candidates spanning the rating range from {build.get('floor_margin', DEFAULT_FLOOR_MARGIN):g} Elo above the random agent,
   preferring, among candidates of similar rating, those whose results against the others differ most.
 * ratings: {prov['rating']}. Every member's scheme, env steps, seed, learner, rating and interval are in
   `population.json` and in its `agents/<member>/manifest.json`.
