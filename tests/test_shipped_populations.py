@@ -34,7 +34,7 @@ REQUIRED = {"Crossroads-2T2P-v1", "GoBang-2T1P-v1", "RunToGoal-2T1P-v1", "Snake-
 NEWEST = sorted({shipped_population(p.parent.name) for p in SHIPPED})
 #: Games whose newest population still lacks headroom, and why (each must get a population that has it).
 WITHOUT_HEADROOM = {
-    "Snake-2T2P-v1": "base-v1's best member draws level with the heuristic; no base-v2 yet",
+    "Snake-2T2P-v1": "base-v1's best member wins 92 of 200 against the heuristic; no base-v2 yet",
 }
 
 
@@ -104,14 +104,13 @@ def test_best_member_beats_worst_and_random_in_fresh_matches(folder):
     assert np.mean(score["worst"]) >= 0.75 and np.mean(score["random"]) >= 0.75, score
 
 
-@pytest.mark.parametrize("folder", NEWEST, ids=lambda p: f"{p.parent.name}/{p.name}")
+@pytest.mark.parametrize("folder", [
+    pytest.param(f, marks=pytest.mark.xfail(strict=True, reason=WITHOUT_HEADROOM[f.parent.name]))
+    if f.parent.name in WITHOUT_HEADROOM else f for f in NEWEST], ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_newest_population_has_headroom_above_the_heuristic(folder):
     """The best member against the scripted heuristic, replayed (20 fresh matches, seats balanced),
     and as the build recorded it over its own matches."""
     manifest = _manifest(folder)
-    game = manifest["game_id"]
-    if game in WITHOUT_HEADROOM:
-        pytest.xfail(WITHOUT_HEADROOM[game])
     figure, _, threshold = HEADROOM
     recorded = manifest["provenance"]["figures"].get(figure)  # builds before the figure existed lack it
     assert recorded is None or recorded >= threshold
