@@ -75,6 +75,24 @@ def test_seats_swap_every_episode_and_results_are_tracked():
     assert record["pool_size"] == 1 and sum(sp.pool.games) > 0
 
 
+def test_learner_teams_weight_the_roles_in_turn():
+    sp = SelfPlay(line_race, SMALL, seed=0, learner_teams=[0, 1, 1, 1])
+    episodes = sp.collector.collect(sp.learners, 64).episodes
+    by_env: dict[int, list[int]] = {}
+    for episode in episodes:
+        by_env.setdefault(episode.env_index, []).append(int(np.flatnonzero(episode.controllers == 0)[0]))
+    for k, seats in by_env.items():  # env k's episode e: team learner_teams[(k + e) mod 4]
+        assert seats == [[0, 1, 1, 1][(k + e) % 4] for e in range(len(seats))]
+    played = [s for seats in by_env.values() for s in seats]
+    assert played.count(1) > 2 * played.count(0) > 0
+
+
+@pytest.mark.parametrize("teams", [[], [0, 2], [True, 0], "01", 1])
+def test_learner_teams_refuse_what_is_no_team_list(teams):
+    with pytest.raises(ValueError, match="learner_teams must"):
+        SelfPlay(line_race, SMALL, seed=0, learner_teams=teams)
+
+
 def test_self_play_improves_and_beats_its_first_snapshot():
     sp = SelfPlay(line_race, SMALL, seed=1, opponent_sampling="pfsp_hard", pool_every=3)
     returns = [sp.iterate()["episode_return"] for _ in range(12)]

@@ -5,7 +5,10 @@ Toolkit for Multi-Agent Intelligence", AAAI 2020). One PPO learner plays one tea
 every other team is played by a frozen snapshot of the learner drawn from its *pool* (the learner's
 parameters are added to the pool every ``pool_every`` updates; the initial ones are its first
 member). Seats are swapped per episode: env ``k``'s episode ``e`` gives the learner team
-``(k + e) mod n_teams``, so the learner plays every team in turn.
+``(k + e) mod n_teams``, so the learner plays every team in turn. In a game whose roles differ
+(YouShallNotPass: a runner and a blocker), ``learner_teams`` weights them: the learner plays team
+``learner_teams[(k + e) mod len(learner_teams)]``, so ``(0, 1, 1, 1)`` gives the blocker three
+episodes of every four.
 
 Opponent sampling (``opponent_sampling``):
 
@@ -169,6 +172,8 @@ class SelfPlay(TrainerBase):
         fixed_opponents: agent references (``scripted:random``, ``arena-policy:folder``,
             ``onnx:file.onnx``) that play a share ``fixed_share`` of the episodes.
         fixed_share: the share of episodes against a fixed opponent, in [0, 1].
+        learner_teams: the teams the learner plays, in turn (a team may repeat, to weight it);
+            None: every team in turn.
         architecture: the actor's family and sizes (default from ``config``).
         total_steps: env steps of the run, for learning-rate annealing.
         log: called with a line per iteration.
@@ -179,8 +184,8 @@ class SelfPlay(TrainerBase):
     def __init__(self, env_fn: Callable[[], Any], config: PPOConfig | None = None, seed: int = 0, *,
                  opponent_sampling: str = "pfsp_hard", pfsp_p: float = 2.0, pool_every: int = 5,
                  pool_size: int = 64, win_rate_step: float = 0.05, fixed_opponents: Sequence[str] = (),
-                 fixed_share: float = 0.0, architecture: Architecture | None = None,
-                 total_steps: int | None = None, log: Callable[[str], None] | None = None) -> None:
+                 fixed_share: float = 0.0, learner_teams: Sequence[int] | None = None,
+                 architecture: Architecture | None = None, total_steps: int | None = None, log: Callable[[str], None] | None = None) -> None:
         if isinstance(fixed_opponents, str):
             fixed_opponents = (fixed_opponents,)
         if not 0.0 <= float(fixed_share) <= 1.0:
@@ -196,6 +201,7 @@ class SelfPlay(TrainerBase):
         self.opponent_rng = np.random.default_rng(np.random.SeedSequence([seed, 3]))
         self.team_of = np.asarray(probe.rules.team_of, dtype=np.int64)
         self.n_teams = int(probe.rules.n_teams)
+        self.learner_teams = self._learner_teams(learner_teams, self.n_teams, probe.game_id)
         self.learners = [Learner(self.architecture, self.config, seed, name="sp")]
         self.opponent_sampling = opponent_sampling
         self.pfsp_p = pfsp_p
@@ -207,6 +213,17 @@ class SelfPlay(TrainerBase):
         self.fixed_rates = RunningScores(win_rate_step, len(self.fixed))
         self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating,
                                           opponents=self._pool_opponents(), on_episode=self._record)
+
+    @staticmethod
+    def _learner_teams(teams: Sequence[int] | None, n_teams: int, game_id: str) -> tuple[int, ...]:
+        if teams is None:
+            return tuple(range(n_teams))
+        listed = isinstance(teams, Sequence) and not isinstance(teams, (str, bytes))
+        if not listed or not teams or any(isinstance(t, bool) or not isinstance(t, (int, np.integer)) or not 0 <= t < n_teams
+                            for t in teams):
+            raise ValueError(f"learner_teams must list team indices 0..{n_teams - 1} of {game_id} (a team may "
+                             f"repeat to weight it), e.g. [0, 1, 1, 1]; got {teams!r}")
+        return tuple(int(t) for t in teams)
 
     # --- opponents --------------------------------------------------------------------------------
     @staticmethod
@@ -227,9 +244,9 @@ class SelfPlay(TrainerBase):
                              for i in range(len(self.pool))]
 
     def _seating(self, env_index: int, episode: int) -> tuple[np.ndarray, np.ndarray]:
-        """The learner's team swaps every episode; a fixed opponent (a share ``fixed_share`` of the
-        episodes) or one sampled snapshot plays the other teams."""
-        learner_team = (env_index + episode) % self.n_teams
+        """The learner's team follows ``learner_teams`` episode by episode; a fixed opponent (a share
+        ``fixed_share`` of the episodes) or one sampled snapshot plays the other teams."""
+        learner_team = self.learner_teams[(env_index + episode) % len(self.learner_teams)]
         if self.fixed and self.opponent_rng.random() < self.fixed_share:
             index = int(self.opponent_rng.integers(len(self.fixed)))
             owner = -1
