@@ -226,6 +226,13 @@ RECIPES: dict[str, Recipe] = {
          "fixed_opponents": ("scripted:heuristic",), "fixed_share": 1.0, "learning_rate": 1e-4, "anneal_lr": False,
          "ent_coef": 0.0},)),
     "YouShallNotPass": _ANT_DUEL,
+    # PushBox: Sumo's ladder (four schemes: CC joins in a team game), and for the top two copies of
+    # the heuristic that then race it at a constant learning rate (on a 16-core machine such runs
+    # beat the heuristic in 64 to 80% of 40 matches after 0.5 to 0.7 M steps; at 1e-4, or with a
+    # centralised critic, they stayed at 40 to 60%).
+    "PushBox": dataclasses.replace(_ANT_DUEL, top_runs=tuple(
+        {"scheme": "sp", "steps": 800_000, "warm_start": {"steps": 60_000, "min_log_std": -4.0},
+         "fixed_opponents": ("scripted:heuristic",), "fixed_share": 1.0, "anneal_lr": False} for _ in range(2))),
     "Snake": Recipe(steps=80_000, snapshots=10, hidden=(64, 64),
                     per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}},
                     warm_runs=1, warm_start={"steps": 100_000, "rounds": 5, "epochs": 6}, warm_steps=40_000,
