@@ -98,8 +98,10 @@ Measures
 
 Episode end
     A goal (the puck entirely past a goal line inside the mouth) ends the match: the scoring team
-    wins, own goals included. A match cut at ``max_cycles`` (default 300 steps, 30 s of play) is a
-    draw. ``team_result``: 1 win, 0.5 draw, 0 loss.
+    wins, own goals included. A match cut at ``max_cycles`` (default 300 steps, 30 s of play) goes
+    to the team that kept the puck in the other team's half for more of its steps (territory, as
+    judges score a bout that ends without a fall; steps with the puck exactly on the centre line
+    count for neither), a draw when both counts are equal. ``team_result``: 1 win, 0.5 draw, 0 loss.
 
 Default social tree
     Root CP ``win_loss`` (scale 100) over one CL ``team_progress`` node (scale 10) per team; each
@@ -327,11 +329,11 @@ class AirHockeyRules(ReplayedMatch, GameRules):
          "outcome"}
     )
     default_max_cycles: ClassVar[int] = 300
-    # The same layout of the observation and the state, the same result and tree as Soccer's:
+    # The same layout of the observation and the state, the same events and tree as Soccer's:
     _pos, _vel, _observation_map = SoccerRules._pos, SoccerRules._vel, SoccerRules._observation_map
-    state, team_result, events = SoccerRules.state, SoccerRules.team_result, SoccerRules.events
+    state, events = SoccerRules.state, SoccerRules.events
     default_tree = SoccerRules.__dict__["default_tree"]
-    summary: ClassVar[str] = "Mallets strike a sliding puck at the other goal, each in its own half (pymunk; first goal wins)"
+    summary: ClassVar[str] = "Mallets strike a sliding puck at the other goal, each in its own half (pymunk; first goal wins, else territory)"
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
         if (n_teams, players_per_team) not in self.layouts:
@@ -364,9 +366,12 @@ class AirHockeyRules(ReplayedMatch, GameRules):
         self.obs_dim = 15 + 4 * (n - 1)
         self.state_dim = 4 * n + 6
         self.score = np.zeros(2, dtype=np.int64)
+        #: steps that ended with the puck in team 0's half (x < 0) and in team 1's (x > 0)
+        self.puck_steps = np.zeros(2, dtype=np.int64)
 
         # +1 for team 0, -1 for team 1: the x sign of each seat's frame
         self._team_sign = np.where(self.team_of == 0, 1.0, -1.0)
+        self._first_seats = np.array([int(np.flatnonzero(self.team_of == t)[0]) for t in range(2)])
         # unit thrust of every move in the seat frame (x + iy): the matrices turn it into the world
         self._moves = np.ascontiguousarray(_MOVE_DIRECTIONS).view(np.complex128).reshape(-1)
         self._move_energy = (_MOVE_DIRECTIONS**2).sum(axis=1)
@@ -528,6 +533,7 @@ class AirHockeyRules(ReplayedMatch, GameRules):
         self.measures.active[:] = True
         self.measures.outcome[:] = 0.0
         self.score[:] = 0
+        self.puck_steps[:] = 0
         self.game_over = False
         self._events = []
 
@@ -585,7 +591,10 @@ class AirHockeyRules(ReplayedMatch, GameRules):
             self.measures.outcome[:] = np.where(self.team_of == scorer, 1.0, -1.0)
             self.game_over = True
             self._events = [{"kind": "goal", "team": scorer}]
-        elif self._events:
+            return
+        if puck_x != 0.0:
+            self.puck_steps[int(puck_x > 0.0)] += 1
+        if self._events:
             self._events = []
 
     def observe(self) -> np.ndarray:
@@ -614,8 +623,14 @@ class AirHockeyRules(ReplayedMatch, GameRules):
 
     def finish(self) -> None:
         self._record("finish")
-        # a match cut at max_cycles without a goal is a draw
-        self.measures.outcome[:] = 0.0
+        # a match cut at max_cycles without a goal goes on territory: the team that kept the puck in
+        # the other half longer wins, equal counts draw
+        pressure = int(np.sign(self.puck_steps[1] - self.puck_steps[0]))  # +1: team 0 pressed
+        self.measures.outcome[:] = pressure * self._team_sign
+
+    def team_result(self) -> np.ndarray:
+        # the goal's or the territory's outcome, the same for every seat of a team: +1 win, 0 draw, -1 loss
+        return (self.measures.outcome[self._first_seats] + 1.0) / 2.0
 
     # --- tools ---------------------------------------------------------------------------------
     def place(self, mallet_xy: np.ndarray, puck_xy: np.ndarray, mallet_velocity: np.ndarray | None = None,
