@@ -56,6 +56,16 @@ def test_a_league_holding_base_v1_ranks_against_the_newer_shipped_base_v2(capsys
     assert code == 0 and placed["base"] == "base-v1:1"  # the older one, when asked for
 
 
+def test_a_shipped_population_named_for_rank_is_imported_on_first_use(capsys, home, tmp_path):
+    run(capsys, "submit", gobang_agent(tmp_path / "a"), "--game", GAME, "--name", "alice", "--json")
+    code, placed, err = run(capsys, "rank", "alice", "--budget", "10", "--population", "base-v1", "--json")
+    assert code == 0 and placed["base"] == "base-v1:1" and "against base-v1:1" in err
+    code, listed, _ = run(capsys, "population", "list", "--json")
+    assert [(p["name"], p["version"]) for p in listed["populations"]] == [("base-v1", 1)]
+    code, _, err = run(capsys, "rank", "alice", "--budget", "10", "--population", "base-v9")
+    assert code == 2 and "no population 'base-v9'" in err and "population build" in err
+
+
 def test_population_versions_count_per_game_and_imports_are_idempotent(capsys, home, tmp_path):
     labels = []
     for game in ("Snake-2T2P-v1", "GoBang-2T1P-v1"):

@@ -40,7 +40,7 @@ from arena_league.league.leaderboards import (
     compute_leaderboard,
     population_leaderboard,
 )
-from arena_league.league.populations import game_population, require_population
+from arena_league.league.populations import ensure_population, game_population, require_population
 from arena_league.matchmaking import (
     AgentRef,
     MatchResult,
@@ -635,8 +635,9 @@ def base_population(league: League, game_id: str, entrant: str, population: str 
                     ) -> tuple[str, list[str], np.ndarray | None]:
     """The base an entrant is ranked against: the population ``name`` or ``name:version`` of the
     game (its members' stored ratings when it is frozen with ratings), by default the game's own
-    (:func:`~arena_league.league.populations.game_population`). ``population="league"`` takes
-    every other active agent of the game instead. Returns (label, names, ratings or None)."""
+    (:func:`~arena_league.league.populations.game_population`); a named population the league lacks
+    but the package ships is imported first. ``population="league"`` takes every other active agent
+    of the game instead. Returns (label, names, ratings or None)."""
     if population is None:
         population = game_population(league, game_id)
         if population is None:
@@ -647,6 +648,7 @@ def base_population(league: League, game_id: str, entrant: str, population: str 
         with league.reading() as session:
             names = [a.name for a in reg.list_agents(session, game_id=game_id, status="active") if a.name != entrant]
         return "all active agents", names, None
+    population, _ = ensure_population(league, game_id, population)
     with league.reading() as session:
         found = require_population(session, game_id, population)
         members = [(m.agent.name, (m.meta or {}).get("rating")) for m in found.members]
@@ -707,8 +709,9 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
     """Place ``agent`` against its game's base population with adaptive opponent choice, storing
     every match; the rating has a 95% interval, the rank and percentile their intervals.
 
-    The base is the game's own population by default (the shipped ``base-v1``, imported on first
-    use, or the newest frozen one), or ``population`` (``name[:version]``), or, with
+    The base is the game's own population by default (the league's newest frozen one, or the newest
+    shipped, imported on first use), or ``population`` (``name[:version]``; a shipped one is
+    imported on first use too), or, with
     ``population="league"``, every other active agent of the game: those are first rated by a
     round robin of :data:`BASE_ROUND_ROBIN_PER_PAIR` matches for each pair that never met, which
     counts against ``budget`` and is announced through ``log`` before it starts."""
