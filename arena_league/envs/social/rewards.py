@@ -150,6 +150,15 @@ def _zeros_for(node: NodeView) -> np.ndarray:
     return zeros
 
 
+def _shared(node: NodeView, value: float) -> np.ndarray:
+    """``value`` for every agent of the node, as a new array (ones times the value: the same
+    numbers as ``np.full``, for less work on the hot path)."""
+    ones = node.memory.get("_ones")
+    if ones is None:
+        ones = node.memory["_ones"] = np.ones(len(node.agents))
+    return ones * value
+
+
 def _per_group(values: np.ndarray, node: NodeView) -> np.ndarray:
     """Sum per child group of per-agent values of the node's agents."""
     return np.bincount(node.group, weights=values, minlength=node.n_groups)
@@ -316,6 +325,8 @@ def _ranking(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
 @register_reward("resource_share", "CP", needs=("resource_gain",))
 def _resource_share(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """Share of a limited resource: a child's take this step minus the children's mean take."""
+    if not ctx.measures.resource_gain.any():
+        return _zeros_for(node)  # most steps nobody takes anything: every share is 0
     gains = _per_group(ctx.measures.resource_gain[node.agents], node)
     return _zero_sum(gains)[node.group]
 
@@ -344,7 +355,7 @@ def _team_target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray
     """The group's mean progress toward the targets of its members, shared by all."""
     a = node.agents
     progress = ctx.previous["target_distance"][a] - ctx.measures.target_distance[a]
-    return np.full(len(a), progress.sum() / len(a))
+    return _shared(node, progress.sum() / len(a))
 
 
 @register_reward("team_living_longer", "CL", needs=("active",), needs_previous=("active",))
