@@ -56,6 +56,8 @@ def _rollout(game_id: str, action_type: str, game_kwargs: dict, steps: int = 300
     ("Soccer-2T1P-v1", "continuous", {}),
     ("AirHockey-2T2P-v1", "discrete", {}),
     ("AirHockey-2T1P-v1", "continuous", {}),
+    ("FightForFood-2T2P-v1", "discrete", {}),
+    ("FightForFood-4T1P-v1", "continuous", {"food": 8}),
 ])
 def test_direct_and_public_paths_give_bit_identical_trajectories(game_id, action_type, game_kwargs,
                                                                    monkeypatch):
