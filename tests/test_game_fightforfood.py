@@ -534,7 +534,7 @@ def test_default_tree_verifies_as_declared(game_id):
 
     report = verify(game_id, samples=16)
     assert report.ok, [(v.path, v.declared, v.verified) for v in report.nodes]
-    assert [v.verified for v in report.nodes][0] == "CP"
+    assert report.nodes[0].path == "root" and report.nodes[0].verified == "CP"
 
 
 # --- picture, controls, replay scene ----------------------------------------------------------------

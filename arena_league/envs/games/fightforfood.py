@@ -116,15 +116,18 @@ Heuristic
     From the observation alone. For every pellet still there it compares the seat's distance with
     the nearest other agent's (teammates count, so that teammates split the food), and heads for
     the pellet of least ``d_own + 2 * max(0, d_own - d_other + 0.1)``: the nearest one it reaches
-    first, else the least contested; it steers at full thrust, damping its sideways drift. It does
-    not shove rivals on purpose.
+    first, else the least contested. Distances are judged from where every body will be after the
+    step (pymunk moves a body by its present velocity before the thrust acts; judged from where
+    they are, a seat between two pellets turns from one to the other every step). It steers at
+    full thrust, damping its sideways drift, and does not shove rivals on purpose.
 
 Game kwargs
     ``food`` (int in [4, 24], a multiple of the number of teams, default 12), ``start_jitter``
     (float in [0, 0.5], default 0.3).
 
 Playing it (``arena-league play``)
-    A coarse text view of the top-down picture (team digits, ``#`` walls, ``o`` food). A move is an
+    A coarse text view of the top-down picture (team digits, ``o`` food; the view's edge is the
+    pen's). A move is an
     action's number or name, a compass direction *on the pen as drawn* (``E`` = right, whichever
     seat you play: the move is turned into your seat frame for you); Enter repeats the last move.
     In a browser, the arrow keys or W A S D (two at once: diagonally). Discrete actions only.
