@@ -351,7 +351,7 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         self._pellet_c = work[self._pellet_at: self._present_at].view(np.complex128)
         self._present = work[self._present_at: self._eaten_at]
         self._eaten = work[self._eaten_at: self._left_at]
-        self._thrust_length = np.zeros((n, 1))  # a thrust's length, at least 1: its scale-back
+        self._thrust_length = np.zeros(n)  # a thrust's length, then at least 1: its scale-back
         self._force_array = np.zeros(2 * self._n_bodies)
         self._link = space_link(_STATE_FIELDS, work, _FORCE_FIELDS, self._force_array)
         # applied force of every body (zero for the static body), in the world frame
@@ -388,7 +388,8 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         self._nearest_flat = np.zeros(n, dtype=np.intp)
         self._row_start = np.arange(n, dtype=np.intp) * food
         self._to_target_c = np.zeros(n, dtype=np.complex128)
-        self._along_c = np.zeros(n, dtype=np.complex128)  # v * conj(d): its real part is v . d
+        self._along_c = np.zeros(n, dtype=np.complex128)  # conj(v) * d: its real part is v . d
+        self._along = self._along_c.real
         self._gained = False  # whether resource_gain holds a non-zero value to clear
         m = self.measures
         m.speed, m.force = self._norms[:n], self._norms[n:]
@@ -584,31 +585,31 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         m = self.measures
         np.dot(self._matrix, self._work, out=self._linear)
         np.abs(self._measure_vectors_c, out=self._norms)
-        self._diff.take(self._nearest_flat, out=self._to_target_c)
+        to_target = self._diff.take(self._nearest_flat, out=self._to_target_c)
         # Re(conj(v) * d) is the dot product of the velocity v and the way d to the pellet
-        np.multiply(self._velocity_conj_c, self._to_target_c, out=self._along_c)
+        np.multiply(self._velocity_conj_c, to_target, out=self._along_c)
         distance = np.maximum(m.target_distance, 1e-9) if touching_allowed else m.target_distance
-        np.divide(self._along_c.real, distance, out=m.velocity_to_target)
+        np.divide(self._along, distance, out=m.velocity_to_target)
 
     def step(self, actions: np.ndarray) -> None:
         self._record("step", actions.copy())
-        work = self._work
         energy = self.measures.energy
+        thrust = self._thrust_c
         if self.action_type == "discrete":
-            self._moves.take(actions, out=self._thrust_c)
+            self._moves.take(actions, out=thrust)
             self._move_energy.take(actions, out=energy)
         else:
             self._thrust[:] = actions
-            length = np.abs(self._thrust_c)
+            length = np.abs(thrust, out=self._thrust_length)
             np.square(length, out=energy)
             np.minimum(energy, 1.0, out=energy)
             # a thrust longer than 1 is scaled back to length 1
-            np.maximum(length, 1.0, out=self._thrust_length[:, 0])
-            np.divide(self._thrust, self._thrust_length, out=self._thrust)
+            np.maximum(length, 1.0, out=length)
+            np.divide(thrust, length, out=thrust)
         self._v_before_c[:] = self._agent_vel_c
 
         # thrust against a linear drag; pymunk clears the forces after every step
-        np.dot(self._force_matrix, work, out=self._force_array)
+        np.dot(self._force_matrix, self._work, out=self._force_array)
         link = self._link
         link.write_bodies()
         link.step(DT)

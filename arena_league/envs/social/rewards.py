@@ -325,7 +325,7 @@ def _ranking(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
 @register_reward("resource_share", "CP", needs=("resource_gain",))
 def _resource_share(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """Share of a limited resource: a child's take this step minus the children's mean take."""
-    if not ctx.measures.resource_gain.any():
+    if not np.count_nonzero(ctx.measures.resource_gain):
         return _zeros_for(node)  # most steps nobody takes anything: every share is 0
     gains = _per_group(ctx.measures.resource_gain[node.agents], node)
     return _zero_sum(gains)[node.group]
