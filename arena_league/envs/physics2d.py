@@ -52,6 +52,8 @@ import pymunk.batch
 from pymunk.batch import BodyFields
 
 __all__ = [
+    "COMPASS_MOVES",
+    "COMPASS_MOVE_NAMES",
     "DIRECT_AVAILABLE",
     "FORCE_PUBLIC_API",
     "SPARE_CELLS",
@@ -60,6 +62,13 @@ __all__ = [
     "body_cells",
     "space_link",
 ]
+
+#: The 2D games' discrete moves, in the seat frame: noop, then a unit thrust counter-clockwise from
+#: ``+x`` (E), 45 degrees apart.
+COMPASS_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
+COMPASS_MOVES = np.array([(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)])
+COMPASS_MOVES[np.abs(COMPASS_MOVES) < 1e-12] = 0.0
+COMPASS_MOVES.flags.writeable = False
 
 #: Set to True to make every link created afterwards use pymunk's public API only.
 FORCE_PUBLIC_API = False

@@ -165,7 +165,7 @@ from arena_league.envs.games.soccer import (
     SoccerControls,
     SoccerRules,
 )
-from arena_league.envs.physics2d import BodyFields, space_link
+from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, COMPASS_MOVES, BodyFields, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half width of the table (inner faces of the rails); its half length, the observation scales and
@@ -215,12 +215,6 @@ _PUCK_FILTER = pymunk.ShapeFilter(categories=PUCK, mask=pymunk.ShapeFilter.ALL_M
 #: up to about 4, and only a pile-up pushes a body faster, which is clipped).
 VELOCITY_BOUND = 2.0
 
-#: Discrete moves in the seat frame (noop, then counter-clockwise from +x).
-_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
-_MOVE_DIRECTIONS = np.array(
-    [(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)], dtype=np.float64
-)
-_MOVE_DIRECTIONS[np.abs(_MOVE_DIRECTIONS) < 1e-12] = 0.0
 
 DEFAULT_GOAL_WIDTH = 1.2
 _GAME_KWARGS = {"goal_width": (0.6, 2.8, DEFAULT_GOAL_WIDTH), "kickoff_jitter": (0.0, 0.5, 0.3)}
@@ -360,9 +354,9 @@ class AirHockeyRules(ReplayedMatch, GameRules):
         self.goal_half_width = settings["goal_width"] / 2
         self.kickoff_jitter = settings["kickoff_jitter"]
         n = self.n_agents
-        self.n_actions = len(_MOVE_NAMES)
+        self.n_actions = len(COMPASS_MOVE_NAMES)
         self.act_dim = 2
-        self.action_meanings = _MOVE_NAMES
+        self.action_meanings = COMPASS_MOVE_NAMES
         self.obs_dim = 15 + 4 * (n - 1)
         self.state_dim = 4 * n + 6
         self.score = np.zeros(2, dtype=np.int64)
@@ -373,8 +367,8 @@ class AirHockeyRules(ReplayedMatch, GameRules):
         self._team_sign = np.where(self.team_of == 0, 1.0, -1.0)
         self._first_seats = np.array([int(np.flatnonzero(self.team_of == t)[0]) for t in range(2)])
         # unit thrust of every move in the seat frame (x + iy): the matrices turn it into the world
-        self._moves = np.ascontiguousarray(_MOVE_DIRECTIONS).view(np.complex128).reshape(-1)
-        self._move_energy = (_MOVE_DIRECTIONS**2).sum(axis=1)
+        self._moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
+        self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
         self._rails = _rail_segments(self.goal_half_width)
         self._barriers = _barrier_segments(self.goal_half_width)
         self._goal_line = HALF_LENGTH + PUCK_RADIUS

@@ -157,7 +157,7 @@ import pymunk
 from arena_league.envs import scene
 from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
-from arena_league.envs.physics2d import BodyFields, space_link
+from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, COMPASS_MOVES, BodyFields, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half side of the pen (inner faces of the walls).
@@ -195,12 +195,6 @@ VELOCITY_UNIT = 3.0
 #: speed; only a pile-up can push a body faster, and that is clipped).
 VELOCITY_BOUND = 2.0
 
-#: Discrete moves in the seat frame (noop, then counter-clockwise from +x, 45 degrees apart).
-_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
-_MOVE_DIRECTIONS = np.array(
-    [(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)], dtype=np.float64
-)
-_MOVE_DIRECTIONS[np.abs(_MOVE_DIRECTIONS) < 1e-12] = 0.0
 
 DEFAULT_FOOD = 12
 _FOOD_RANGE = (4, 24)
@@ -290,16 +284,16 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         self.food = int(food)
         self.start_jitter = float(jitter)
         n = self.n_agents
-        self.n_actions = len(_MOVE_NAMES)
+        self.n_actions = len(COMPASS_MOVE_NAMES)
         self.act_dim = 2
-        self.action_meanings = _MOVE_NAMES
+        self.action_meanings = COMPASS_MOVE_NAMES
         self.obs_dim = 6 + n_teams + 3 * self.food + 4 * (n - 1)
         self.state_dim = 4 * n + 3 * self.food + n_teams + 1
 
         self._turns = _turns(n_teams)
         # unit thrust of every move in the seat frame (x + iy): the matrices turn it into the world
-        self._moves = np.ascontiguousarray(_MOVE_DIRECTIONS).view(np.complex128).reshape(-1)
-        self._move_energy = (_MOVE_DIRECTIONS**2).sum(axis=1)
+        self._moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
+        self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
         # which pellet each team sees in each slot: within a group, its own image first
         groups = np.arange(self.food // n_teams)[:, None] * n_teams
         self._slot_pellet = np.stack([(groups + (np.arange(n_teams) + t) % n_teams).reshape(-1)

@@ -132,7 +132,7 @@ import pymunk
 from arena_league.envs import scene
 from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
-from arena_league.envs.physics2d import BodyFields, space_link
+from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, COMPASS_MOVES, BodyFields, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half length and half width of the field (inner faces of the walls).
@@ -165,13 +165,6 @@ VELOCITY_UNIT = 3.0
 #: Bound of the velocity cells, in units of VELOCITY_UNIT (6 m/s, four times an agent's top speed;
 #: only a pile-up can push a body faster, and that is clipped).
 VELOCITY_BOUND = 2.0
-
-#: Discrete moves in the seat frame (noop, then counter-clockwise from +x).
-_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
-_MOVE_DIRECTIONS = np.array(
-    [(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)], dtype=np.float64
-)
-_MOVE_DIRECTIONS[np.abs(_MOVE_DIRECTIONS) < 1e-12] = 0.0
 
 #: Each move seen mirrored in x (E <-> W): a seat of team 1 and the field as drawn.
 _MIRRORED_MOVE = np.array([0, 5, 4, 3, 2, 1, 8, 7, 6])
@@ -260,9 +253,9 @@ class SoccerRules(ReplayedMatch, GameRules):
         self.goal_half_width = settings["goal_width"] / 2
         self.kickoff_jitter = settings["kickoff_jitter"]
         n = self.n_agents
-        self.n_actions = len(_MOVE_NAMES)
+        self.n_actions = len(COMPASS_MOVE_NAMES)
         self.act_dim = 2
-        self.action_meanings = _MOVE_NAMES
+        self.action_meanings = COMPASS_MOVE_NAMES
         self.obs_dim = 15 + 4 * (n - 1)
         self.state_dim = 4 * n + 6
         self.score = np.zeros(2, dtype=np.int64)
@@ -271,10 +264,10 @@ class SoccerRules(ReplayedMatch, GameRules):
         self._team_sign = np.where(self.team_of == 0, 1.0, -1.0)
         self._frame = np.stack([self._team_sign, np.ones(n)], axis=1)  # (n, 2) multiplies x, y
         # world-frame unit thrust of every (team, move), flattened: row team * 9 + move
-        moves_world = _MOVE_DIRECTIONS[None] * np.array([[[1.0, 1.0]], [[-1.0, 1.0]]])
+        moves_world = COMPASS_MOVES[None] * np.array([[[1.0, 1.0]], [[-1.0, 1.0]]])
         self._moves_world = np.ascontiguousarray(moves_world.reshape(-1, 2)).view(np.complex128).reshape(-1)
-        self._move_row_offset = self.team_of * len(_MOVE_NAMES)
-        self._move_energy = (_MOVE_DIRECTIONS**2).sum(axis=1)
+        self._move_row_offset = self.team_of * len(COMPASS_MOVE_NAMES)
+        self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
         self._walls = _wall_segments(_field_outline(self.goal_half_width))
         self._goal_line = HALF_LENGTH + BALL_RADIUS
         self._tiny = np.full(n, 1e-9)
