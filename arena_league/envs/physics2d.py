@@ -59,6 +59,8 @@ __all__ = [
     "SPARE_CELLS",
     "BodyFields",
     "SpaceLink",
+    "add_discs",
+    "add_walls",
     "body_cells",
     "space_link",
 ]
@@ -69,6 +71,34 @@ COMPASS_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
 COMPASS_MOVES = np.array([(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)])
 COMPASS_MOVES[np.abs(COMPASS_MOVES) < 1e-12] = 0.0
 COMPASS_MOVES.flags.writeable = False
+
+
+
+def add_walls(space: pymunk.Space, segments: Any, radius: float, elasticity: float, friction: float) -> None:
+    """Static segments (``((x0, y0), (x1, y1))`` each) of one radius and material, added in order."""
+    walls = []
+    for a, b in segments:
+        seg = pymunk.Segment(space.static_body, a, b, radius)
+        seg.elasticity = elasticity
+        seg.friction = friction
+        walls.append(seg)
+    space.add(*walls)
+
+
+def add_discs(space: pymunk.Space, centres: Any, mass: float, radius: float, elasticity: float,
+              friction: float) -> list[pymunk.Body]:
+    """Discs that do not rotate (an agent, a mallet), one per centre, added in order; their bodies."""
+    bodies = []
+    for xy in centres:
+        body = pymunk.Body(mass, float("inf"))
+        body.position = float(xy[0]), float(xy[1])
+        shape = pymunk.Circle(body, radius)
+        shape.elasticity = elasticity
+        shape.friction = friction
+        space.add(body, shape)
+        bodies.append(body)
+    return bodies
+
 
 #: Set to True to make every link created afterwards use pymunk's public API only.
 FORCE_PUBLIC_API = False

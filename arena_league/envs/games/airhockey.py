@@ -165,7 +165,7 @@ from arena_league.envs.games.soccer import (
     SoccerControls,
     SoccerRules,
 )
-from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, COMPASS_MOVES, BodyFields, space_link
+from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, COMPASS_MOVES, BodyFields, add_discs, space_link
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half width of the table (inner faces of the rails); its half length, the observation scales and
@@ -486,15 +486,7 @@ class AirHockeyRules(ReplayedMatch, GameRules):
             seg.filter = _BARRIER_FILTER
             statics.append(seg)
         space.add(*statics)
-        self._mallets = []
-        for xy in mallet_xy:
-            body = pymunk.Body(MALLET_MASS, float("inf"))
-            body.position = float(xy[0]), float(xy[1])
-            shape = pymunk.Circle(body, MALLET_RADIUS)
-            shape.elasticity = ELASTICITY["mallet"]
-            shape.friction = FRICTION["mallet"]
-            space.add(body, shape)
-            self._mallets.append(body)
+        self._mallets = add_discs(space, mallet_xy, MALLET_MASS, MALLET_RADIUS, ELASTICITY["mallet"], FRICTION["mallet"])
         puck = pymunk.Body(PUCK_MASS, pymunk.moment_for_circle(PUCK_MASS, 0.0, PUCK_RADIUS))
         puck.position = float(puck_xy[0]), float(puck_xy[1])
         puck.velocity = puck_velocity

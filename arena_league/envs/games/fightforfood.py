@@ -157,7 +157,14 @@ import pymunk
 from arena_league.envs import scene
 from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
-from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, COMPASS_MOVES, BodyFields, space_link
+from arena_league.envs.physics2d import (
+    COMPASS_MOVE_NAMES,
+    COMPASS_MOVES,
+    BodyFields,
+    add_discs,
+    add_walls,
+    space_link,
+)
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half side of the pen (inner faces of the walls).
@@ -478,22 +485,9 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         space.collision_slop = COLLISION_SLOP
         edge = HALF_SIZE + WALL_RADIUS
         corners = [(-edge, -edge), (edge, -edge), (edge, edge), (-edge, edge)]
-        walls = []
-        for k in range(4):
-            seg = pymunk.Segment(space.static_body, corners[k], corners[(k + 1) % 4], WALL_RADIUS)
-            seg.elasticity = ELASTICITY["wall"]
-            seg.friction = FRICTION
-            walls.append(seg)
-        space.add(*walls)
-        self._agents = []
-        for xy in agent_xy:
-            body = pymunk.Body(AGENT_MASS, float("inf"))
-            body.position = float(xy[0]), float(xy[1])
-            shape = pymunk.Circle(body, AGENT_RADIUS)
-            shape.elasticity = ELASTICITY["agent"]
-            shape.friction = FRICTION
-            space.add(body, shape)
-            self._agents.append(body)
+        add_walls(space, [(corners[k], corners[(k + 1) % 4]) for k in range(4)], WALL_RADIUS, ELASTICITY["wall"],
+                  FRICTION)
+        self._agents = add_discs(space, agent_xy, AGENT_MASS, AGENT_RADIUS, ELASTICITY["agent"], FRICTION)
         self.space = space
         self._link.bind(space)
         if self._link.body_ids != [body.id for body in self._agents] + [space.static_body.id]:

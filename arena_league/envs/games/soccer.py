@@ -132,7 +132,14 @@ import pymunk
 from arena_league.envs import scene
 from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
-from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, COMPASS_MOVES, BodyFields, space_link
+from arena_league.envs.physics2d import (
+    COMPASS_MOVE_NAMES,
+    COMPASS_MOVES,
+    BodyFields,
+    add_discs,
+    add_walls,
+    space_link,
+)
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half length and half width of the field (inner faces of the walls).
@@ -388,22 +395,8 @@ class SoccerRules(ReplayedMatch, GameRules):
         space = pymunk.Space()
         space.damping = SPACE_DAMPING
         space.collision_slop = COLLISION_SLOP
-        walls = []
-        for a, b in self._walls:
-            seg = pymunk.Segment(space.static_body, a, b, WALL_RADIUS)
-            seg.elasticity = ELASTICITY["wall"]
-            seg.friction = FRICTION
-            walls.append(seg)
-        space.add(*walls)
-        self._agents = []
-        for xy in agent_xy:
-            body = pymunk.Body(AGENT_MASS, float("inf"))
-            body.position = float(xy[0]), float(xy[1])
-            shape = pymunk.Circle(body, AGENT_RADIUS)
-            shape.elasticity = ELASTICITY["agent"]
-            shape.friction = FRICTION
-            space.add(body, shape)
-            self._agents.append(body)
+        add_walls(space, self._walls, WALL_RADIUS, ELASTICITY["wall"], FRICTION)
+        self._agents = add_discs(space, agent_xy, AGENT_MASS, AGENT_RADIUS, ELASTICITY["agent"], FRICTION)
         ball = pymunk.Body(BALL_MASS, pymunk.moment_for_circle(BALL_MASS, 0.0, BALL_RADIUS))
         ball.position = float(ball_xy[0]), float(ball_xy[1])
         shape = pymunk.Circle(ball, BALL_RADIUS)
