@@ -38,7 +38,7 @@ from arena_league.envs.rendering import TEAM_COLOURS
 if TYPE_CHECKING:
     from arena_league.envs.core import GameRules
 
-__all__ = ["ActionControls", "Controls", "arrow_keys", "ascii_topdown", "key_controls"]
+__all__ = ["ActionControls", "CompassControls", "Controls", "arrow_keys", "ascii_topdown", "key_controls"]
 
 
 class Controls(ABC):
@@ -154,6 +154,35 @@ class ActionControls(Controls):
         keys = {str(i): str(i) for i in range(min(10, len(meanings)))}
         return key_controls(keys, self.PACE,
                             "keys " + ", ".join(f"{i} {m}" for i, m in enumerate(meanings[:10])) + " (the last holds)")
+
+
+class CompassControls(ActionControls):
+    """Compass moves (noop, E, NE, ... SE) on the view as drawn (E = right), turned into the seat's
+    frame by :meth:`seat_move`; in a browser, the arrow keys or W A S D, two at once diagonally.
+    Subclasses name what the person moves (:attr:`move`) and how the keys do it (:attr:`key_hint`)."""
+
+    #: The prompt's verb: what a move does on the view as drawn.
+    move = "move on the view as drawn"
+    #: The browser's hint for the keys.
+    key_hint = "Arrow keys or W A S D move on the view as drawn (two at once: diagonally); let go to stop."
+
+    def seat_move(self, action: int) -> int:
+        """The move ``action`` (as drawn) in the seat's own frame."""
+        return action
+
+    def parse(self, text: str) -> tuple[int | None, str | None]:
+        action, problem = super().parse(text)
+        if problem is None and text != "":
+            action = self.seat_move(action)
+        return action, problem
+
+    def prompt(self, step: int) -> str:
+        names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
+        return f"step {step}: {self.move} ({names}; Enter repeats) > "
+
+    def web(self) -> dict[str, Any]:
+        return key_controls(arrow_keys("n", "w", "s", "e"), self.PACE, self.key_hint, release="noop", combine="nsew",
+                            accepts=("ne", "nw", "se", "sw"))
 
 
 def key_controls(keys: dict[str, str], pace: float, hint: str, *, release: str | None = None,

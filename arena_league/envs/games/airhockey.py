@@ -156,7 +156,6 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import arrow_keys, key_controls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.games.soccer import (
     HALF_LENGTH,
@@ -798,15 +797,9 @@ class AirHockeyControls(SoccerControls):
     """Compass moves of one's mallet on the table as drawn (E = right), mirrored for the team that
     sees the table flipped (Soccer's moves)."""
 
-    def prompt(self, step: int) -> str:
-        names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
-        return f"step {step}: move your mallet on the table as drawn ({names}; Enter repeats) > "
-
-    def web(self) -> dict[str, Any]:
-        return key_controls(arrow_keys("n", "w", "s", "e"), self.PACE,
-                            "Arrow keys or W A S D slide your mallet on the table as drawn (two at once: "
-                            "diagonally); let go to stop pushing.", release="noop", combine="nsew",
-                            accepts=("ne", "nw", "se", "sw"))
+    move = "move your mallet on the table as drawn"
+    key_hint = ("Arrow keys or W A S D slide your mallet on the table as drawn (two at once: diagonally); let go "
+                "to stop pushing.")
 
 
 RULES = AirHockeyRules

@@ -155,7 +155,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
+from arena_league.envs.controls import CompassControls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
@@ -819,25 +819,18 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         return np.where(length < 1e-6, 0, move).astype(np.int64)
 
 
-class FightForFoodControls(ActionControls):
+class FightForFoodControls(CompassControls):
     """Compass moves on the pen as drawn (E = right), turned into the seat's frame."""
 
-    def parse(self, text: str) -> tuple[int | None, str | None]:
-        action, problem = super().parse(text)
-        if problem is None and text != "" and action != 0:
-            # the seat's frame is the world turned back by its team's turn: so is the move
-            shift = 8 * int(self.rules.team_of[self.seat]) // self.rules.n_teams
-            action = 1 + (action - 1 - shift) % 8
-        return action, problem
+    move = "move on the pen as drawn"
+    key_hint = "Arrow keys or W A S D run on the pen as drawn (two at once: diagonally); let go to stop pushing."
 
-    def prompt(self, step: int) -> str:
-        names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
-        return f"step {step}: move on the pen as drawn ({names}; Enter repeats) > "
-
-    def web(self) -> dict[str, Any]:
-        return key_controls(arrow_keys("n", "w", "s", "e"), self.PACE,
-                            "Arrow keys or W A S D run on the pen as drawn (two at once: diagonally); let go to "
-                            "stop pushing.", release="noop", combine="nsew", accepts=("ne", "nw", "se", "sw"))
+    def seat_move(self, action: int) -> int:
+        if action == 0:
+            return action
+        # the seat's frame is the world turned back by its team's turn: so is the move
+        shift = 8 * int(self.rules.team_of[self.seat]) // self.rules.n_teams
+        return 1 + (action - 1 - shift) % 8
 
 
 RULES = FightForFoodRules

@@ -130,7 +130,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
+from arena_league.envs.controls import CompassControls
 from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
@@ -671,24 +671,15 @@ class SoccerRules(ReplayedMatch, GameRules):
         return np.where(length < 0.3, 0, move).astype(np.int64)
 
 
-class SoccerControls(ActionControls):
+class SoccerControls(CompassControls):
     """Compass moves on the field as drawn (E = right), mirrored for the team that sees the field
     flipped."""
 
-    def parse(self, text: str) -> tuple[int | None, str | None]:
-        action, problem = super().parse(text)
-        if problem is None and text != "" and int(self.rules.team_of[self.seat]) == 1:
-            action = int(_MIRRORED_MOVE[action])
-        return action, problem
+    move = "move on the field as drawn"
+    key_hint = "Arrow keys or W A S D run on the field as drawn (two at once: diagonally); let go to stop."
 
-    def prompt(self, step: int) -> str:
-        names = ", ".join(f"{i} {m}" for i, m in enumerate(self.meanings()))
-        return f"step {step}: move on the field as drawn ({names}; Enter repeats) > "
-
-    def web(self) -> dict[str, Any]:
-        return key_controls(arrow_keys("n", "w", "s", "e"), self.PACE,
-                            "Arrow keys or W A S D run on the field as drawn (two at once: diagonally); let go to "
-                            "stop.", release="noop", combine="nsew", accepts=("ne", "nw", "se", "sw"))
+    def seat_move(self, action: int) -> int:
+        return int(_MIRRORED_MOVE[action]) if int(self.rules.team_of[self.seat]) == 1 else action
 
 
 RULES = SoccerRules
