@@ -10,7 +10,7 @@ import pickle
 
 import numpy as np
 import pytest
-from physics2d_traces import assert_replays_bit_for_bit
+from physics2d_matches import assert_replays_bit_for_bit, heuristic_against_random, play
 
 from arena_league.envs import make
 from arena_league.envs.games.airhockey import (
@@ -60,16 +60,6 @@ def puck(r: AirHockeyRules) -> np.ndarray:
 def mallets(r: AirHockeyRules) -> np.ndarray:
     """Every mallet's world ``x, y``."""
     return r.state()[: 4 * r.n_agents].reshape(-1, 4)[:, :2].astype(np.float64) / POSITION_SCALE
-
-
-def play(r: AirHockeyRules, policy, max_cycles: int = 300) -> int:
-    """Step until the rules end the match or max_cycles; returns the number of steps."""
-    for t in range(max_cycles):
-        r.step(policy(r))
-        if r.game_over:
-            return t + 1
-    r.finish()
-    return max_cycles
 
 
 def still(r: AirHockeyRules) -> np.ndarray:
@@ -405,18 +395,7 @@ def test_heuristic_beats_a_random_team_over_40_matches(players, action_type):
     wins = losses = 0
     for seed in range(40):
         heuristic_team = seed % 2  # play both sides
-        r = AirHockeyRules(2, players, action_type)
-        r.reset(seed)
-        rng = np.random.default_rng(1000 + seed)
-        random_seats = np.flatnonzero(r.team_of != heuristic_team)
-
-        def policy(r, random_seats=random_seats, rng=rng):
-            actions = AirHockeyRules.heuristic(r.observe(), action_type)
-            for seat in random_seats:
-                actions[seat] = r.random_action(int(seat), rng)
-            return actions
-
-        play(r, policy, max_cycles=AirHockeyRules.default_max_cycles)
+        r = heuristic_against_random(AirHockeyRules, 2, players, action_type, seed, heuristic_team)
         result = r.team_result()[heuristic_team]
         wins += result == 1.0
         losses += result == 0.0

@@ -10,7 +10,7 @@ import pickle
 
 import numpy as np
 import pytest
-from physics2d_traces import assert_replays_bit_for_bit
+from physics2d_matches import assert_replays_bit_for_bit, heuristic_against_random, play
 
 from arena_league.envs import make
 from arena_league.envs.games.fightforfood import (
@@ -54,16 +54,6 @@ def far_food(r: FightForFoodRules) -> np.ndarray:
 
 def still(r: FightForFoodRules) -> np.ndarray:
     return np.zeros(r.n_agents, dtype=np.int64)
-
-
-def play(r: FightForFoodRules, policy, max_cycles: int = 300) -> int:
-    """Step until the rules end the match or max_cycles; returns the number of steps."""
-    for t in range(max_cycles):
-        r.step(policy(r))
-        if r.game_over:
-            return t + 1
-    r.finish()
-    return max_cycles
 
 
 def positions(r: FightForFoodRules) -> np.ndarray:
@@ -385,18 +375,7 @@ def test_heuristic_beats_random_teams_over_40_matches(teams, players, action_typ
     firsts = eaten = 0
     for seed in range(40):
         heuristic_team = seed % teams  # every seat of the layout in turn
-        r = FightForFoodRules(teams, players, action_type)
-        r.reset(seed)
-        rng = np.random.default_rng(1000 + seed)
-        random_seats = np.flatnonzero(r.team_of != heuristic_team)
-
-        def policy(r, random_seats=random_seats, rng=rng):
-            actions = FightForFoodRules.heuristic(r.observe(), action_type)
-            for seat in random_seats:
-                actions[seat] = r.random_action(int(seat), rng)
-            return actions
-
-        play(r, policy, max_cycles=FightForFoodRules.default_max_cycles)
+        r = heuristic_against_random(FightForFoodRules, teams, players, action_type, seed, heuristic_team)
         firsts += r.team_result()[heuristic_team] == teams - 1
         eaten += r.food_eaten[heuristic_team]
     # the random teams stumble on a pellet now and then; the heuristic takes nearly all of them

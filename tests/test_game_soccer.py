@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from physics2d_traces import assert_replays_bit_for_bit
+from physics2d_matches import assert_replays_bit_for_bit, heuristic_against_random, play
 
 from arena_league.envs import make
 from arena_league.envs.games.soccer import (
@@ -32,16 +32,6 @@ def far_corners(n: int) -> np.ndarray:
     """Agent positions out of the way of play, near the side walls."""
     xs = np.linspace(-2.5, 2.5, n)
     return np.stack([xs, np.where(np.arange(n) % 2 == 0, 2.0, -2.0)], axis=1)
-
-
-def play(r: SoccerRules, policy, max_cycles: int = 300) -> int:
-    """Step until the rules end the match or max_cycles; returns the number of steps."""
-    for t in range(max_cycles):
-        r.step(policy(r))
-        if r.game_over:
-            return t + 1
-    r.finish()
-    return max_cycles
 
 
 # --- goals ----------------------------------------------------------------------------------------
@@ -238,18 +228,7 @@ def test_heuristic_beats_a_random_team_in_most_matches(players, action_type):
     wins = losses = 0
     for seed in range(20):
         heuristic_team = seed % 2  # play both sides
-        r = SoccerRules(2, players, action_type)
-        r.reset(seed)
-        rng = np.random.default_rng(1000 + seed)
-        random_seats = np.flatnonzero(r.team_of != heuristic_team)
-
-        def policy(r, random_seats=random_seats, rng=rng):
-            actions = SoccerRules.heuristic(r.observe(), action_type)
-            for seat in random_seats:
-                actions[seat] = r.random_action(int(seat), rng)
-            return actions
-
-        play(r, policy, max_cycles=SoccerRules.default_max_cycles)
+        r = heuristic_against_random(SoccerRules, 2, players, action_type, seed, heuristic_team)
         result = r.team_result()[heuristic_team]
         wins += result == 1.0
         losses += result == 0.0

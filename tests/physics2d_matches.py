@@ -1,5 +1,6 @@
-"""The determinism check the 2D physics games share: from the same seed, the same actions give
-bit-identical observations, states and measures, whatever the rules instance played before."""
+"""What the 2D physics games' tests share: playing a match out, the heuristic against random
+teams, and the determinism check (from the same seed, the same actions give bit-identical
+observations, states and measures, whatever the rules instance played before)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,36 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
+
+
+def play(r: Any, policy: Callable[[Any], np.ndarray], max_cycles: int = 300) -> int:
+    """Step until the rules end the match or max_cycles; returns the number of steps."""
+    for t in range(max_cycles):
+        r.step(policy(r))
+        if r.game_over:
+            return t + 1
+    r.finish()
+    return max_cycles
+
+
+def heuristic_against_random(rules_cls: Any, teams: int, players: int, action_type: str, seed: int,
+                             heuristic_team: int) -> Any:
+    """A match of ``rules_cls`` from ``seed``, played to its end (or its default ``max_cycles``):
+    ``heuristic_team`` plays the heuristic, every other seat random actions drawn from
+    ``1000 + seed``. Returns the finished rules."""
+    r = rules_cls(teams, players, action_type)
+    r.reset(seed)
+    rng = np.random.default_rng(1000 + seed)
+    random_seats = np.flatnonzero(r.team_of != heuristic_team)
+
+    def policy(r: Any) -> np.ndarray:
+        actions = rules_cls.heuristic(r.observe(), action_type)
+        for seat in random_seats:
+            actions[seat] = r.random_action(int(seat), rng)
+        return actions
+
+    play(r, policy, max_cycles=rules_cls.default_max_cycles)
+    return r
 
 
 def trace(r: Any, seed: int, steps: int, measures: Sequence[str]) -> list[np.ndarray]:
