@@ -218,9 +218,9 @@ class SelfPlay(TrainerBase):
     def _learner_teams(teams: Sequence[int] | None, n_teams: int, game_id: str) -> tuple[int, ...]:
         if teams is None:
             return tuple(range(n_teams))
-        listed = isinstance(teams, Sequence) and not isinstance(teams, (str, bytes))
-        team = lambda t: not isinstance(t, bool) and isinstance(t, (int, np.integer)) and 0 <= t < n_teams  # noqa: E731
-        if not listed or not teams or not all(team(t) for t in teams):
+        listed = isinstance(teams, Sequence) and not isinstance(teams, (str, bytes)) and len(teams) > 0
+        if not listed or not all(isinstance(t, (int, np.integer)) and not isinstance(t, bool) and 0 <= t < n_teams
+                                 for t in teams):
             raise ValueError(f"learner_teams must list team indices 0..{n_teams - 1} of {game_id} (a team may "
                              f"repeat to weight it), e.g. [0, 1, 1, 1]; got {teams!r}")
         return tuple(int(t) for t in teams)
