@@ -111,6 +111,20 @@ def test_a_stacked_call_that_kills_the_child_is_replayed_member_by_member(tmp_pa
     assert process_sandbox(limits).starts >= 3
 
 
+def test_trusted_agents_are_not_held_to_the_call_budget(tmp_path):
+    # a submitted agent and a trusted one (a base member) of one architecture: their stacked call is
+    # stopped; run apart, only the submitted one is held to the budget, so only it forfeits
+    game_id = "Crossroads-2T4P-v1"
+    refs = {name: AgentRef("arena-policy", str(mlp_folder(tmp_path, game_id, seed, hidden=(2048, 2048))), game_id,
+                           sandboxed=name == "submitted") for name, seed in (("submitted", 1), ("base", 2))}
+    refs["script"] = AgentRef("scripted", "heuristic", game_id)
+    results = play_matches(specs_for_seatings(game_id, round_robin(list(refs), 4)), refs,
+                           sandbox_limits=SandboxLimits(call_seconds=1e-6), forfeit_limit=1)
+    assert len(results) == 12
+    assert {agent for r in results for agent, _ in r.forfeits} == {"submitted"}
+    assert all(not r.forfeits for r in results if "submitted" not in r.seats)
+
+
 def test_a_stacked_call_that_raises_is_run_member_by_member_in_the_child(tmp_path, monkeypatch):
     # the child's own logic, run here: a stacked forward that runs out of memory is retried member by
     # member, so only the member that fails alone is blamed and the other's rows get their actions

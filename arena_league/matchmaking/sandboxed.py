@@ -7,6 +7,10 @@ cross between two processes twice. So the whole lockstep loop runs in the child 
 loaded (submitted and trusted alike), each unit's call marked and guarded
 (:meth:`~arena_league.policies.sandbox.InferenceSandbox.run`), and results stream back as matches
 end. The parent only watches: a call that runs past its budget is stopped by killing the child.
+The budget binds the calls of units with a submitted (``sandboxed``) agent; trusted agents (the
+built-in scripts, base members) are not held to it here, as they are not when they play outside
+the sandbox, so the league's own agents never forfeit for the time a budget sized for submissions
+allows.
 
 What an agent's failure costs is the same as in the step-by-step path:
 
@@ -27,7 +31,6 @@ What an agent's failure costs is the same as in the step-by-step path:
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -64,6 +67,7 @@ def play_in_sandbox(game_id: str, specs: Sequence[MatchSpec], agents: Mapping[st
     refs = dict.fromkeys(agents.values())
     handles = sandbox.load({ref.key: ref.sandbox_source() for ref in refs})
     loaded = {seat: ref.key for seat, ref in agents.items()}
+    timed = sorted(seat for seat, ref in agents.items() if ref.sandboxed)
     limit = forfeit_allowance(forfeit_limit, agents)
     play = _Play(specs, team_of, limit, on_result)
     for seat, key in list(loaded.items()):  # an agent that cannot be loaded loses each match without a step
@@ -78,7 +82,7 @@ def play_in_sandbox(game_id: str, specs: Sequence[MatchSpec], agents: Mapping[st
         play.round_started()
         try:
             sandbox.run(_play_task, (game_id, [(i, specs[i]) for i in pending], loaded, batch_size,
-                                     dict(env_kwargs or {}), recording, play.allowance(), sorted(apart)),
+                                     dict(env_kwargs or {}), recording, play.allowance(), sorted(apart), timed),
                         on_message=play.receive, on_tick=heartbeat, what="a call")
             break  # what has no result now was skipped: its agents were past their forfeits
         except SandboxDied as death:
@@ -185,18 +189,27 @@ class _Apart(Policy):
 
 def _play_task(child: Any, emit: Callable[[Any], None], game_id: str, indexed: list[tuple[int, MatchSpec]],
                loaded: Mapping[str, str], batch_size: int, env_kwargs: dict[str, Any],
-               recording: MatchRecording | None, allowance: Mapping[str, float], apart: list[str]) -> None:
+               recording: MatchRecording | None, allowance: Mapping[str, float], apart: list[str],
+               timed: list[str]) -> None:
     """Runs in the sandbox child: plays ``indexed`` (spec index, spec) with the child's agents,
-    every unit call guarded, emitting the units, each match's start (with the step) and result."""
+    every unit call guarded (held to the call budget when the unit holds a seat of ``timed``),
+    emitting the units, each match's start (with the step) and result."""
     wrapped: dict[str, Policy] = {}
     for key in set(loaded.values()):
         policy = child.policies[key]
         wrapped[key] = _Apart(policy) if key in apart else policy
     policies = {seat: wrapped[key] for seat, key in loaded.items()}
-    guard = functools.partial(child.guarded, limit=largest_batch(game_id))
+    limit = largest_batch(game_id)
+    timed_units: list[bool] = []
+
+    def guard(index: int, *call: Any) -> tuple[Any, Any, dict[int, str]]:
+        return child.guarded(index, *call, limit=limit, timed=timed_units[index])
+
     runner = LockstepRunner(game_id, policies, batch_size=batch_size, env_kwargs=env_kwargs, recording=recording,
                             guard=guard)
-    emit(("units", runner.unit_agents()))
+    units = runner.unit_agents()
+    timed_units.extend(any(seat in timed for seat in unit) for unit in units)
+    emit(("units", units))
     specs = [spec for _, spec in indexed]
     awaiting: dict[MatchSpec, list[int]] = {}
 

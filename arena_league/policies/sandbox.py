@@ -542,10 +542,10 @@ class _Child:
         self.policies: dict[str, Policy] = {}
         self.baseline: dict[str, int] = {}  # agent -> the child's resident KiB before it was loaded
 
-    def _mark(self, index: int, rows: int = 0) -> None:
+    def _mark(self, index: int, rows: int = 0, timed: bool = True) -> None:
         self.progress[0] = float(index)
         self.progress[3] = float(rows)
-        self.progress[1] = time.monotonic()
+        self.progress[1] = time.monotonic() if timed else 0.0
 
     def _unmark(self) -> None:
         self.progress[1] = 0.0
@@ -608,20 +608,22 @@ class _Child:
             self._unmark()
 
     def guarded(self, index: int, group: Any, obs: np.ndarray, uniforms: np.ndarray, owners: np.ndarray,
-                mask: np.ndarray | None, state: np.ndarray | None, *, limit: int | None = None
+                mask: np.ndarray | None, state: np.ndarray | None, *, limit: int | None = None, timed: bool = True
                 ) -> tuple[Any, Any, dict[int, str]]:
         """One call of ``group`` (a stacked or single policy unit: ``.policy``, ``.stacked``,
         ``.act(obs, uniforms, owners, mask, state)``), marked as call ``index`` while it runs, in
         chunks of at most ``limit`` rows: ``(actions, next_state, failures)``, where failures names
         the owners (positions in the unit) whose call failed (an error, invalid actions or state)
-        and why; their rows are not valid."""
+        and why; their rows are not valid. An untimed call (``timed=False``: a unit of trusted
+        agents only) is marked but not held to the call budget."""
         n = len(obs)
         if limit is not None and n > limit:
             parts = [self.guarded(index, group, obs[i: i + limit], uniforms[i: i + limit], owners[i: i + limit],
                                   None if mask is None else mask[i: i + limit],
-                                  None if state is None else state[i: i + limit]) for i in range(0, n, limit)]
+                                  None if state is None else state[i: i + limit], timed=timed)
+                     for i in range(0, n, limit)]
             return _joined(parts, n)
-        self._mark(index, n)
+        self._mark(index, n, timed)
         try:
             actions, next_state = group.act(obs, uniforms, owners, mask, state)
         except Exception as error:
