@@ -195,3 +195,18 @@ def test_mis_declared_custom_function_is_caught():
         assert not report.ok
     finally:
         unregister_reward("my_team_bonus", "CL")
+
+
+def test_sibling_team_nodes_are_computed_in_one_call_with_the_same_rewards():
+    # each team's CL team_target is one call on the hot path; the rewards are those node by node
+    # (the verification path), bit for bit; a nested node of the same reward stays apart
+    nested = {"scheme": "CL", "reward": "team_target", "scale": 1, "children": [TEAMS["children"][0]] + [
+        {"scheme": "CL", "reward": "team_target", "scale": 1, "children": ["player_2", "player_3"]}]}
+    for tree, calls in ((TEAMS, 3), (nested, 4)):
+        env = make_line_race(tree=tree)
+        assert len(env.tree.plan) == calls
+        env.reset(seed=4)
+        for step in range(6):
+            env.step({a: (step + k) % 3 for k, a in enumerate(env.agents)})
+            per_node = np.zeros((len(env.tree.nodes), env.tree.n_agents))
+            assert env.tree.rewards(env._ctx).tobytes() == env.tree.rewards(env._ctx, per_node).tobytes()

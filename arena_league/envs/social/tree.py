@@ -249,24 +249,39 @@ class SocialTree:
 
 
 def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float]]:
-    plan: list[tuple[Any, NodeView, dict[str, Any], float]] = []
+    """The calls of a step: IS leaves of one reward computed in one call (every agent once), as are
+    sibling nodes of a reward with a grouped form (each team's CL node), which takes the place of
+    the first of them (each agent's reward is summed in the same order as node by node)."""
+    plan: list[tuple[Any, NodeView, dict[str, Any], float] | None] = []
     fused: dict[tuple, list[SocialNode]] = {}
+    siblings: dict[tuple, list[tuple[int, SocialNode]]] = {}
     for node in nodes:
         if node.scale == 0.0 or (node.scheme == "NL" and node.reward.name == "none"):
             continue  # pays nothing, ever
+        key = (node.scheme, node.reward.name, json.dumps(node.params, sort_keys=True, default=str), node.scale)
         if node.scheme == "IS":
-            key = (node.reward.name, json.dumps(node.params, sort_keys=True, default=str), node.scale)
             fused.setdefault(key, []).append(node)
-        else:
-            plan.append((node.reward.fn, node.view, node.params, node.scale))
+            continue
+        if node.reward.grouped is not None:
+            siblings.setdefault(key, []).append((len(plan), node))
+        plan.append((node.reward.fn, node.view, node.params, node.scale))
+    for placed in siblings.values():
+        group = [node for _, node in placed]
+        agents = np.concatenate([n.agents for n in group])
+        if len(group) > 1 and len(np.unique(agents)) == len(agents):  # disjoint: one call
+            view = NodeView(agents, np.repeat(np.arange(len(group)), [len(n.agents) for n in group]), len(group))
+            plan[placed[0][0]] = (group[0].reward.grouped, view, group[0].params, group[0].scale)
+            for place, _ in placed[1:]:
+                plan[place] = None
+    calls = [entry for entry in plan if entry is not None]
     for group in fused.values():
         agents = np.concatenate([n.agents for n in group])
         if len(group) > 1 and len(np.unique(agents)) == len(agents):
             view = NodeView(agents, np.arange(len(agents)), len(agents))
-            plan.append((group[0].reward.fn, view, group[0].params, group[0].scale))
+            calls.append((group[0].reward.fn, view, group[0].params, group[0].scale))
         else:
-            plan += [(n.reward.fn, n.view, n.params, n.scale) for n in group]
-    return plan
+            calls += [(n.reward.fn, n.view, n.params, n.scale) for n in group]
+    return calls
 
 
 def _functions(scheme: str) -> list[str]:
