@@ -164,7 +164,14 @@ from arena_league.envs.games.soccer import (
     SoccerControls,
     SoccerRules,
 )
-from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, COMPASS_MOVES, BodyFields, add_discs, space_link
+from arena_league.envs.physics2d import (
+    COMPASS_MOVE_NAMES,
+    COMPASS_MOVES,
+    BodyFields,
+    add_discs,
+    checked_kwargs,
+    space_link,
+)
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half width of the table (inner faces of the rails); its half length, the observation scales and
@@ -335,18 +342,7 @@ class AirHockeyRules(ReplayedMatch, GameRules):
         if action_type not in self.action_types:
             raise ValueError(f"AirHockey action_type {action_type!r} is not offered; valid: "
                              f"{', '.join(self.action_types)}")
-        unknown = sorted(set(kwargs) - set(_GAME_KWARGS))
-        if unknown:
-            raise ValueError(f"AirHockey got unknown game kwargs {unknown}; valid: "
-                             + ", ".join(f"{k} (float in [{lo}, {hi}], default {d})"
-                                         for k, (lo, hi, d) in _GAME_KWARGS.items()))
-        settings = {}
-        for key, (lo, hi, default) in _GAME_KWARGS.items():
-            value = kwargs.get(key, default)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
-                raise ValueError(f"AirHockey {key} must be a number in [{lo}, {hi}] (default {default}), "
-                                 f"not {value!r}")
-            settings[key] = float(value)
+        settings = checked_kwargs("AirHockey", kwargs, _GAME_KWARGS)
         super().__init__(n_teams, players_per_team, action_type)
         self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
         self._calls = []

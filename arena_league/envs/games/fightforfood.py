@@ -163,9 +163,11 @@ from arena_league.envs.physics2d import (
     BodyFields,
     add_discs,
     add_walls,
+    checked_kwargs,
     space_link,
 )
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
+from arena_league.envs.social import team_tree
 
 #: Half side of the pen (inner faces of the walls).
 HALF_SIZE = 3.0
@@ -269,22 +271,13 @@ class FightForFoodRules(ReplayedMatch, GameRules):
             raise ValueError(f"FightForFood action_type {action_type!r} is not offered; valid: "
                              f"{', '.join(self.action_types)}")
         low, high = _FOOD_RANGE
-        food_doc = f"food (int in [{low}, {high}], a multiple of the number of teams, default {DEFAULT_FOOD})"
-        jitter_doc = f"start_jitter (float in [{_JITTER_RANGE[0]}, {_JITTER_RANGE[1]}], default {_JITTER_RANGE[2]})"
-        unknown = sorted(set(kwargs) - {"food", "start_jitter"})
-        if unknown:
-            raise ValueError(f"FightForFood got unknown game kwargs {unknown}; valid: {food_doc}, {jitter_doc}")
-        food = kwargs.get("food", DEFAULT_FOOD)
-        if (isinstance(food, bool) or not isinstance(food, (int, np.integer)) or not low <= food <= high
-                or food % n_teams):
+        settings = checked_kwargs("FightForFood", kwargs, {"food": (low, high, DEFAULT_FOOD, int),
+                                                           "start_jitter": _JITTER_RANGE})
+        food, jitter = settings["food"], settings["start_jitter"]
+        if food % n_teams:
             raise ValueError(f"FightForFood food must be an int in [{low}, {high}] and a multiple of the number of "
                              f"teams ({n_teams} in {n_teams}T{players_per_team}P), so that every team's side gets "
                              f"the same pellets; not {food!r}")
-        jitter = kwargs.get("start_jitter", _JITTER_RANGE[2])
-        if isinstance(jitter, bool) or not isinstance(jitter, (int, float)) or not (
-                _JITTER_RANGE[0] <= jitter <= _JITTER_RANGE[1]):
-            raise ValueError(f"FightForFood start_jitter must be a number in [{_JITTER_RANGE[0]}, {_JITTER_RANGE[1]}] "
-                             f"(default {_JITTER_RANGE[2]}), not {jitter!r}")
         super().__init__(n_teams, players_per_team, action_type)
         self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
         self._calls = []
@@ -770,16 +763,7 @@ class FightForFoodRules(ReplayedMatch, GameRules):
     # --- social tree and scripted play ---------------------------------------------------------
     @classmethod
     def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        def leaf(seat: int) -> dict:
-            return {"agent": f"player_{seat}", "scheme": "IS", "reward": "target", "scale": 1}
-
-        if players_per_team == 1:
-            children: list = [leaf(t) for t in range(n_teams)]
-        else:
-            children = [{"scheme": "CL", "reward": "team_target", "scale": 10,
-                         "children": [leaf(t * players_per_team + p) for p in range(players_per_team)]}
-                        for t in range(n_teams)]
-        return {"scheme": "CP", "reward": "resource_share", "scale": 100, "children": children}
+        return team_tree(n_teams, players_per_team, "resource_share")
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:

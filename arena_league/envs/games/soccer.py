@@ -138,6 +138,7 @@ from arena_league.envs.physics2d import (
     BodyFields,
     add_discs,
     add_walls,
+    checked_kwargs,
     space_link,
 )
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
@@ -243,17 +244,7 @@ class SoccerRules(ReplayedMatch, GameRules):
             raise ValueError(f"Soccer has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
         if action_type not in self.action_types:
             raise ValueError(f"Soccer action_type {action_type!r} is not offered; valid: {', '.join(self.action_types)}")
-        unknown = sorted(set(kwargs) - set(_GAME_KWARGS))
-        if unknown:
-            raise ValueError(f"Soccer got unknown game kwargs {unknown}; valid: "
-                             + ", ".join(f"{k} (float in [{lo}, {hi}], default {d})"
-                                         for k, (lo, hi, d) in _GAME_KWARGS.items()))
-        settings = {}
-        for key, (lo, hi, default) in _GAME_KWARGS.items():
-            value = kwargs.get(key, default)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
-                raise ValueError(f"Soccer {key} must be a number in [{lo}, {hi}] (default {default}), not {value!r}")
-            settings[key] = float(value)
+        settings = checked_kwargs("Soccer", kwargs, _GAME_KWARGS)
         super().__init__(n_teams, players_per_team, action_type)
         self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
         self._calls = []

@@ -8,10 +8,11 @@ from arena_league.envs.social.rewards import (
     RewardContext,
     RewardFunction,
     lookup_reward,
+    register_grouped,
     register_reward,
     unregister_reward,
 )
-from arena_league.envs.social.tree import SocialNode, SocialTree, TreeSpecError, load_tree_spec
+from arena_league.envs.social.tree import SocialNode, SocialTree, TreeSpecError, load_tree_spec, team_tree
 
 __all__ = [
     "REWARD_FUNCTIONS",
@@ -24,6 +25,8 @@ __all__ = [
     "TreeSpecError",
     "load_tree_spec",
     "lookup_reward",
+    "register_grouped",
     "register_reward",
+    "team_tree",
     "unregister_reward",
 ]

@@ -284,6 +284,23 @@ def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[
     return calls
 
 
+def team_tree(n_teams: int, players_per_team: int, root: str, *, team: str = "team_target", leaf: str = "target",
+              root_scale: float = 100, team_scale: float = 10, leaf_scale: float = 1) -> dict[str, Any]:
+    """The tree spec of the Arena paper's convention: CP ``root`` over a CL ``team`` node per team
+    (when a team has two or more players) over an IS ``leaf`` per agent; with one player a team,
+    the leaves sit under the root."""
+    def leaf_of(seat: int) -> dict[str, Any]:
+        return {"agent": f"player_{seat}", "scheme": "IS", "reward": leaf, "scale": leaf_scale}
+
+    if players_per_team == 1:
+        children: list[dict[str, Any]] = [leaf_of(t) for t in range(n_teams)]
+    else:
+        children = [{"scheme": "CL", "reward": team, "scale": team_scale,
+                     "children": [leaf_of(t * players_per_team + p) for p in range(players_per_team)]}
+                    for t in range(n_teams)]
+    return {"scheme": "CP", "reward": root, "scale": root_scale, "children": children}
+
+
 def _functions(scheme: str) -> list[str]:
     from arena_league.envs.social.rewards import REWARD_FUNCTIONS
 
