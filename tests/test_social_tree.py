@@ -200,8 +200,8 @@ def test_mis_declared_custom_function_is_caught():
 def test_sibling_team_nodes_are_computed_in_one_call_with_the_same_rewards():
     # each team's CL team_target is one call on the hot path; the rewards are those node by node
     # (the verification path), bit for bit; a nested node of the same reward stays apart
-    nested = {"scheme": "CL", "reward": "team_target", "scale": 1, "children": [TEAMS["children"][0]] + [
-        {"scheme": "CL", "reward": "team_target", "scale": 1, "children": ["player_2", "player_3"]}]}
+    nested = {"scheme": "CL", "reward": "team_target", "scale": 1, "children": [
+        TEAMS["children"][0], {"scheme": "CL", "reward": "team_target", "scale": 1, "children": ["player_2", "player_3"]}]}
     for tree, calls in ((TEAMS, 3), (nested, 4)):
         env = make_line_race(tree=tree)
         assert len(env.tree.plan) == calls
