@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{game_id} {action_type}: {rows[-1]['steps_per_s']} steps/s", file=sys.stderr)
     peers = [pettingzoo_peer(name, args.seconds) for name in ("knights_archers_zombies_v11", "pistonball_v6")]
     fastest_peer = max(p["steps_per_s"] for p in peers)
-    physics = [r for r in rows if r["game_id"].split("-")[0] in ("Crossroads", "Soccer", "AirHockey", "FightForFood")]  # the 2D ones
+    physics = [r for r in rows if r["game_id"].split("-")[0] in ("Crossroads", "Soccer", "AirHockey", "FightForFood", "BlowBlow", "Tennis")]  # the 2D ones
     document = {
         "benchmark": "env_throughput",
         "machine": {"python": platform.python_version(), "cpu": platform.processor() or platform.machine(),

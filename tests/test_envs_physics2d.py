@@ -58,6 +58,10 @@ def _rollout(game_id: str, action_type: str, game_kwargs: dict, steps: int = 300
     ("AirHockey-2T1P-v1", "continuous", {}),
     ("FightForFood-2T2P-v1", "discrete", {}),
     ("FightForFood-4T1P-v1", "continuous", {"food": 8}),
+    ("Tennis-2T2P-v1", "discrete", {}),
+    ("Tennis-2T1P-v1", "continuous", {"points": 3}),
+    ("BlowBlow-2T2P-v1", "discrete", {}),
+    ("BlowBlow-2T1P-v1", "continuous", {"platform_radius": 2.5}),
 ])
 def test_direct_and_public_paths_give_bit_identical_trajectories(game_id, action_type, game_kwargs,
                                                                    monkeypatch):

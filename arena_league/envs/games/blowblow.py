@@ -1,0 +1,910 @@
+"""BlowBlow: agents push each other off a round platform, by shoving or by blowing (pymunk physics).
+
+One of the competitive games of the Arena platform (Song et al., "Arena: A General Evaluation
+Platform and Building Toolkit for Multi-Agent Intelligence", AAAI 2020): agents stand on a
+platform; each must stay on it and push the opponents off it, by shoving them or by blowing at
+them. Ids: ``BlowBlow-2T1P-v1``, ``BlowBlow-2T2P-v1``.
+
+Platform
+    A round platform of radius ``R`` (``platform_radius``, default 3) centred on the origin, with
+    no walls: beyond its edge is the void.
+
+Bodies and physics
+    Agents are circles of radius 0.25 and mass 1 that do not rotate. Collisions are solved by pymunk
+    (Chipmunk2D), one ``space.step`` of ``dt = 0.1`` per env step, with little rebound
+    (restitution 0.25 between agents; friction 0.09). Every body loses half its velocity per second
+    (space damping 0.5); an agent's thrust of at most 5 is opposed by a drag of ``2 * velocity``,
+    which caps its speed at about 1.86 units/s. Two agents pushing head on at full thrust stand
+    still; one that comes at a rival from the side moves it off its line.
+
+Heading and blowing
+    Every agent has a heading, a unit vector: the direction of its last thrust of at least a tenth
+    of full strength (every discrete move sets it), toward the other team at the start. A blow
+    sends a puff of air of momentum 1.2 along the heading into a cone of half-angle 30 degrees and
+    range 2.5: momentum is conserved, so the blower recoils by 1.2 against its heading, and the
+    nearest other agent on the platform (teammates too) whose centre lies in the cone catches the
+    share ``1 - d / 2.5`` of the puff (``d`` the distance between the two centres): an impulse of
+    ``1.2 * (1 - d / 2.5)`` straight away from the blower's centre. It shields whoever stands
+    behind it; the rest of the puff is carried off by the air. The impulses are given during the
+    step's physics (as forces over ``dt``), so pymunk's solver answers them: a rival pushed into a
+    third agent shoves it. An agent may blow when it is on the platform and 6 steps have passed
+    since its last blow (the cooldown); otherwise the blow does nothing. Blows are made together,
+    from the positions before the step. A blow leaves nothing in flight, so nothing but the
+    cooldown limits it, and a step with blows costs little more than one without.
+
+Falling
+    After each physics step, an agent whose centre lies farther than ``R`` from the platform's
+    centre falls and is out for the rest of the match: it stays where it fell, collides with
+    nothing, and its actions are ignored.
+
+Symmetry and the start
+    Team 1 stands where team 0 stands turned by half a turn about the centre: team 0 at
+    ``(-0.45 R, 0)`` (1P) or ``(-0.45 R, 0.25 R)`` and ``(-0.45 R, -0.25 R)`` (2P), each jittered
+    by up to ``start_jitter`` in both coordinates; team 1's seat ``k`` on the image of team 0's seat
+    ``k``. Every heading starts toward the other team (``+x`` in the seat frame). Every draw comes
+    from the match seed.
+
+Seat frame
+    Each seat sees the platform, and acts, in its own frame: the world frame for team 0, the world
+    turned by half a turn (``x -> -x``, ``y -> -y``) for team 1. In its own frame every seat starts
+    on the ``x < 0`` side facing ``+x``, so one policy can play either seat, and a seat of team 1
+    sees in the turned match exactly what the seat of team 0 it stands for sees.
+
+Actions
+    Discrete (default), 10 actions: the compass moves, directions in the seat frame (``E`` = ``+x``
+    = toward the other team at the start, ``N`` = ``+y``), each a thrust of full strength, then a
+    blow along the heading (with no thrust that step):
+    ``0 noop, 1 E, 2 NE, 3 N, 4 NW, 5 W, 6 SW, 7 S, 8 SE, 9 blow``.
+    Continuous: ``[fx, fy, blow]`` in [-1, 1]: the thrust in the seat frame as a fraction of full
+    strength (a vector longer than 1 is scaled back to length 1), and a blow when ``blow > 0``,
+    along the heading as this thrust sets it (so a seat may run and blow at once).
+
+Observation (``float32``, seat frame; positions divided by ``R``, velocities by 3)
+    ========== =============== =====================================================================
+    cell       bounds          meaning
+    ========== =============== =====================================================================
+    0          [0, 1]          own on-platform flag: 1 while the seat is on the platform. A seat
+                               that fell sees every cell 0
+    1          [0, 1]          ``R / 4`` (the platform's size: positions are in units of ``R``)
+    2-3        [-1, 1]         own position ``x, y``
+    4-5        [-2, 2]         own velocity ``vx, vy``
+    6-7        [-1, 1]         own heading (a unit vector)
+    8          [0, 1]          own cooldown: steps left before the seat may blow again, over 6
+    9 ..       8 cells each    every other seat, the teammate first (2P), then the opponents in
+                               seat order: on-platform flag [0, 1], position relative to the seat
+                               (other - own) [-2, 2] x 2, velocity [-2, 2] x 2, heading [-1, 1] x 2,
+                               cooldown [0, 1]; all 8 are 0 once that seat fell
+    ========== =============== =====================================================================
+
+    ``obs_dim = 8 * n_agents + 1``: 17 for 2T1P, 33 for 2T2P.
+
+    Bounds: a seat on the platform has its centre within ``R`` of the centre (falls are judged
+    after every step), so its position lies in [-1, 1] and its differences to the others' in [-2,
+    2]. Velocities are bounded by 2 (6 units/s, three times an agent's top speed; only a pile-up,
+    a blow and its recoil together push an agent that fast); a cell beyond its bounds is clipped to
+    them. These bounds are the env's observation space.
+
+Global state (``float32``, world frame, same scales)
+    per seat ``flag, x, y, vx, vy, heading x, heading y, cooldown``: ``state_dim = 8 * n_agents``; a
+    seat that fell is all 0. Bounds as for the observation's own cells.
+
+Measures
+    ``active`` and ``alive`` (the seat is on the platform), ``target_distance`` (distance from the
+    seat's centre to its target: its opponent in 2T1P; in 2T2P the opponent it marks, the one
+    straight ahead of it at the start, across the platform, and from the step after that one fell
+    the other opponent), ``velocity_to_target`` (the seat's velocity along the direction to it), ``facing_target``
+    (cosine of the angle between the seat's heading and the direction to it), ``energy`` (squared
+    thrust length, 0..1: 1 for every discrete move, 0 for noop and blow), ``force``
+    (magnitude of the contact force on the seat this step: the impulse pymunk's solver applied to
+    it, from other agents, divided by ``dt``; a blow's impulses are not contacts), ``speed`` and
+    ``outcome`` (+1 win, -1 loss, 0 draw; 0 until the match ends). A seat that fell keeps the target
+    distance and facing of the step it fell; its speed and force are 0. Events: ``{"kind": "blow",
+    "seat": i, "target": j}`` (``j`` the seat it hit, or None) and ``{"kind": "fall", "seat": i}``.
+
+Episode end
+    The match ends when a team has no agent left on the platform: the other team wins, and when the
+    last agents of both teams fall on the same step it is a draw. A match cut at ``max_cycles``
+    (default 300 steps, 30 s of play) goes to the team with more agents on the platform; with as
+    many, to the team whose agents on the platform stand nearer the centre on average (as a judge
+    gives a bout to the wrestler who holds the middle of the ring), a draw when both means are
+    equal (within ``1e-6``: mirrored play stays mirrored up to rounding). ``team_result``: 1 win,
+    0.5 draw, 0 loss.
+
+Default social tree
+    Root CP ``win_loss`` (scale 100); each agent leaf is IS ``target`` (scale 1: progress toward the
+    opponent it marks, whom it must reach to push). With two players a team, the root's children
+    are one CL ``team_target`` node (scale 10: the team's mean progress toward its members' marked
+    opponents) per team over its two leaves; with one, the leaves themselves.
+
+Heuristic
+    From the observation alone. It picks the opponent on the platform that is nearest once its
+    distance to the edge is counted twice, and pushes it straight away from the centre (away from
+    the seat when the rival stands at the centre): it runs to a spot on the centre's side of the
+    rival, going round it when the rival stands in the way, then charges through it radially
+    outward. It blows (instead of moving, in the discrete variant) when it is ready, the rival lies
+    within 2 and within 25 degrees of its heading, the blow would push the rival outward, and the
+    recoil leaves the seat well inside the edge. Within 0.6 of the edge it turns back toward the
+    centre, and it damps its sideways drift.
+
+Game kwargs
+    ``platform_radius`` (float in [2, 4], default 3), ``start_jitter`` (float in [0, 0.5], default
+    0.3).
+
+Playing it (``arena-league play``)
+    A coarse text view of the top-down picture (team digits, ``*`` a blow or an agent that fell; the
+    view's edge is the void beyond the platform's). A move is an action's number or name, a
+    compass direction *on the platform as drawn* (``E`` = right, whichever seat you play: the move
+    is turned into your seat frame for you), or ``b`` to blow along your heading (the direction of
+    your last move); Enter repeats the last move. In a browser, the arrow keys or W A S D (two at
+    once: diagonally) and the space bar (or B) to blow. Discrete actions only.
+
+Rendering
+    A top-down picture of the platform (400 pixels wide): the void, the platform with its edge, the
+    cones of the last step's blows, the agents on it in their teams' colours with a tick along
+    their heading, and those that fell, darkened, where they fell. ``render_mode="rgb_array"``
+    returns it; ``"human"`` shows it in a window.
+
+Copies
+    The rules pickle and copy (``pickle``, ``copy.deepcopy``) by playing the match again from its
+    seed and the actions (and ``place`` calls) since, as pymunk's contact caches cannot be copied;
+    a copy goes on bit for bit as the original does.
+
+Replay scene
+    The platform (a disc over the dark ground far below), every agent (discs, faded once it fell)
+    with an arrow along its heading, the last step's blows (arrows across their range) and the
+    agents left on the platform per team (text): entities ``platform``, ``agent/<seat>``,
+    ``blows``, ``score``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+import pymunk
+
+from arena_league.envs import scene
+from arena_league.envs.controls import CompassControls, arrow_keys, key_controls
+from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
+from arena_league.envs.physics2d import (
+    COMPASS_MOVE_NAMES,
+    COMPASS_MOVES,
+    BodyFields,
+    add_discs,
+    checked_kwargs,
+    space_link,
+)
+from arena_league.envs.rendering import TEAM_COLOURS, Canvas
+from arena_league.envs.social import team_tree
+
+AGENT_RADIUS = 0.25
+AGENT_MASS = 1.0
+#: Physics step per env step (seconds).
+DT = 0.1
+#: Fraction of its velocity a body keeps after one second (pymunk ``Space.damping``).
+SPACE_DAMPING = 0.5
+#: Full thrust of an agent, and the drag coefficient opposing its velocity.
+THRUST = 5.0
+AGENT_DRAG = 2.0
+#: An agent's top speed, where full thrust meets drag and damping (about 1.86 units/s).
+AGENT_TOP_SPEED = THRUST / (AGENT_DRAG - AGENT_MASS * np.log(SPACE_DAMPING))
+#: A thrust shorter than this fraction of full strength leaves the heading as it was.
+HEADING_MIN_THRUST = 0.1
+#: Momentum of a blow's puff (the blower's recoil), the reach of its cone (between centres) and the
+#: cone's half-angle.
+BLOW_IMPULSE = 1.2
+BLOW_RANGE = 2.5
+BLOW_HALF_ANGLE = math.radians(30.0)
+#: Steps from a blow until the seat may blow again.
+BLOW_COOLDOWN = 6
+#: Overlap pymunk tolerates between touching bodies (its default, 0.1, is large at this scale).
+COLLISION_SLOP = 0.01
+#: Contact restitution and friction are the products of the two shapes' values: 0.25 and 0.09.
+ELASTICITY = 0.5
+FRICTION = 0.3
+#: Observation scales: positions are divided by the platform's radius, velocities by VELOCITY_UNIT.
+VELOCITY_UNIT = 3.0
+#: Bound of the velocity cells, in units of VELOCITY_UNIT (6 units/s, three times an agent's top
+#: speed; only a pile-up, a blow and its recoil together push an agent faster, and that is clipped).
+VELOCITY_BOUND = 2.0
+
+#: Mean distances from the centre this close count as equal when a cut match is judged (mirrored
+#: play stays mirrored up to the solver's rounding).
+CENTRE_TIE = 1e-6
+
+DEFAULT_PLATFORM_RADIUS = 3.0
+_GAME_KWARGS = {"platform_radius": (2.0, 4.0, DEFAULT_PLATFORM_RADIUS), "start_jitter": (0.0, 0.5, 0.3)}
+
+#: Start spots of team 0 in units of the platform's radius (team 1's are turned), per players per team.
+_FORMATIONS = {
+    1: ((-0.45, 0.0),),
+    2: ((-0.45, 0.25), (-0.45, -0.25)),
+}
+#: The discrete blow action, after the compass moves.
+_BLOW = len(COMPASS_MOVE_NAMES)
+#: Cells of the observation: the seat's own, then per other seat.
+_OWN_CELLS, _OTHER_CELLS = 9, 8
+_COS_HALF_ANGLE = math.cos(BLOW_HALF_ANGLE)
+#: A seat that fell collides with nothing.
+_GONE_FILTER = pymunk.ShapeFilter(categories=0, mask=0)
+
+#: Body fields the physics link reads after every step, and writes before it.
+_STATE_FIELDS = BodyFields.POSITION | BodyFields.VELOCITY
+_FORCE_FIELDS = BodyFields.FORCE
+
+
+class BlowBlowRules(ReplayedMatch, GameRules):
+    """BlowBlow on a pymunk platform; see the module docstring for the manual."""
+
+    name: ClassVar[str] = "BlowBlow"
+    version: ClassVar[int] = 1
+    layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2))
+    action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
+    measures_provided: ClassVar[frozenset[str]] = frozenset(
+        {"active", "alive", "target_distance", "velocity_to_target", "facing_target", "energy", "force", "speed",
+         "outcome"}
+    )
+    default_max_cycles: ClassVar[int] = 300
+    summary: ClassVar[str] = ("Agents push each other off a round platform, shoving or blowing (pymunk; last team "
+                              "on the platform wins)")
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
+        if (n_teams, players_per_team) not in self.layouts:
+            valid = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
+            raise ValueError(f"BlowBlow has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
+        if action_type not in self.action_types:
+            raise ValueError(f"BlowBlow action_type {action_type!r} is not offered; valid: "
+                             f"{', '.join(self.action_types)}")
+        settings = checked_kwargs("BlowBlow", kwargs, _GAME_KWARGS)
+        super().__init__(n_teams, players_per_team, action_type)
+        self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
+        self._calls = []
+        self.platform_radius = settings["platform_radius"]
+        self.start_jitter = settings["start_jitter"]
+        n = self.n_agents
+        self._discrete = action_type == "discrete"
+        self.n_actions = _BLOW + 1
+        self.act_dim = 3
+        self.action_meanings = (*COMPASS_MOVE_NAMES, "blow")
+        self.obs_dim = _OWN_CELLS + _OTHER_CELLS * (n - 1)
+        self.state_dim = _OTHER_CELLS * n
+        # the seat frame of team 1 is the world turned by half a turn: every vector times -1
+        self._sign = np.where(self.team_of == 0, 1.0, -1.0)
+        moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
+        self._move_table = np.append(moves, 0j)  # the moves, then the blow: no thrust
+        self._energy_table = np.abs(self._move_table) ** 2
+        self._sets_heading_table = self._energy_table > 0.0
+        self._obs_low, self._obs_high = (np.tile(b.astype(np.float64), (n, 1)) for b in self.observation_bounds())
+        self._state_low, self._state_high = (b.astype(np.float64) for b in self.state_bounds())
+        self._layout_work_vector()
+        self.space: pymunk.Space | None = None
+        self._events: list[dict] = []
+
+    # --- construction --------------------------------------------------------------------------
+    def _layout_work_vector(self) -> None:
+        """One float64 vector holds everything a step reads, and one matrix product of it gives the
+        measures' linear parts and every observation at once (few numpy calls: the hot path is
+        Python-bound); another gives the forces the physics link writes. Results land in
+        preallocated arrays, seen through views made here.
+
+        Layout of the work vector: ``[x, y, vx, vy]`` of every seat (written in place by the physics
+        link), spare room, then per seat (world frame, ``x, y`` each) its heading, its velocity
+        before the step, its thrust as a fraction of full strength and the impulse its blows and
+        those it caught give it this step; the step from which each seat may blow again, the step
+        count and a constant 1.
+        """
+        n = self.n_agents
+        # pymunk's batch array grows (reallocates) when fewer than 3 free slots are left: leave 8
+        self._heading_at = 4 * n + 8
+        self._v_before_at = self._heading_at + 2 * n
+        self._thrust_at = self._v_before_at + 2 * n
+        self._impulse_at = self._thrust_at + 2 * n
+        self._ready_at = self._impulse_at + 2 * n
+        self._step_at = self._ready_at + n
+        self._one_at = self._step_at + 1
+        work = np.zeros(self._one_at + 1)
+        work[self._one_at] = 1.0
+        self._work = work
+        # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
+        agents_c = work[: 4 * n].view(np.complex128)
+        self._agent_pos_c = agents_c[0::2]
+        self._agent_vel_c = agents_c[1::2]
+        self._heading_c = work[self._heading_at: self._v_before_at].view(np.complex128)
+        self._v_before_c = work[self._v_before_at: self._thrust_at].view(np.complex128)
+        self._thrust_c = work[self._thrust_at: self._impulse_at].view(np.complex128)
+        self._impulse_c = work[self._impulse_at: self._ready_at].view(np.complex128)
+        self._force_array = np.zeros(2 * n)
+        self._link = space_link(_STATE_FIELDS, work, _FORCE_FIELDS, self._force_array)
+        # the opponent each seat marks at the start: the one straight ahead, across the platform
+        # (team 0's seat k stands opposite team 1's seat 1 - k)
+        p = self.players_per_team
+        self._marked_at_start = [int(1 - self.team_of[i]) * p + (p - 1 - i % p) for i in range(n)]
+        # forces: thrust against a linear drag, and this step's impulses spread over the step
+        F = np.zeros((2 * n, len(work)))
+        for i in range(n):
+            for axis in range(2):
+                F[2 * i + axis, 4 * i + 2 + axis] = -AGENT_DRAG
+                F[2 * i + axis, self._thrust_at + 2 * i + axis] = THRUST
+                F[2 * i + axis, self._impulse_at + 2 * i + axis] = 1.0 / DT
+        self._force_matrix = F
+        # measures then observations (n * obs_dim rows), one product per step; the rows of what a
+        # seat that fell shows, and of what it sees, are zeroed in the match's copy
+        self._measure_rows = 2 * 5 * n
+        self._full_matrix = np.concatenate([self._measure_map(), self._observation_map()])
+        self._matrix = self._full_matrix.copy()
+        self._linear = np.zeros(len(self._matrix))
+        linear_c = self._linear[: self._measure_rows].view(np.complex128)
+        self._position_c = linear_c[:n]  # every seat's position, as of the last product
+        self._obs_rows = self._linear[self._measure_rows:].reshape(n, self.obs_dim)
+        self._obs_work = np.zeros((n, self.obs_dim))
+        self._to_target_c = linear_c[n: 2 * n]
+        self._velocity_heading_conj = linear_c[3 * n:].reshape(2, n)
+        self._norm_source = linear_c[: 4 * n]
+        self._norms = np.zeros(4 * n)  # distance from the centre, to the target, contact force, speed
+        self._radius = self._norms[:n]
+        self._along_c = np.zeros((2, n), dtype=np.complex128)
+        self._along_real = self._along_c.real
+        self._along = np.zeros((2, n))  # velocity and heading along the way to the target
+        m = self.measures
+        m.velocity_to_target, m.facing_target = self._along[0], self._along[1]
+        m.target_distance, m.force = self._norms[n: 2 * n], self._norms[2 * n: 3 * n]
+        m.speed = self._norms[3 * n:]
+        self._kept_distance = np.zeros(n)
+        self._kept_facing = np.zeros(n)
+        # step buffers
+        self._move_xy = np.zeros((n, 2))
+        self._move_c = self._move_xy.view(np.complex128).reshape(n)
+        self._move_length = np.zeros(n)
+        self._turns_heading = np.zeros(n, dtype=bool)
+        # per seat, the rows of the matrix to zero once it fell: its position (its radius, by which
+        # falls are judged, reads 0 from then on), its own observation row and its cells in the
+        # others'
+        self._seat_rows = []
+        for seat in range(n):
+            first = self._measure_rows + seat * self.obs_dim
+            rows = [2 * seat, 2 * seat + 1, *range(first, first + self.obs_dim)]
+            for i in range(n):
+                if i != seat:
+                    cell = _OWN_CELLS + _OTHER_CELLS * self._other_seats(i).index(seat)
+                    rows += [self._measure_rows + i * self.obs_dim + cell + c for c in range(_OTHER_CELLS)]
+            self._seat_rows.append(np.array(rows, dtype=np.intp))
+        self._full_state_matrix = self._state_map()
+
+    def _measure_map(self) -> np.ndarray:
+        """The linear parts of the measures as one matrix over the work vector.
+
+        Rows, read as complex numbers: every seat's position; its way to its target (marked opponent
+        - own; :meth:`_retarget` points it at the other opponent once the marked one fell); its
+        contact force, the impulse the solver added
+        beyond damping, drag, thrust and blows (Chipmunk integrates ``v' = v * damping**dt + f / m
+        * dt`` before it solves the contacts), divided by ``dt``; its velocity conjugated; its
+        heading conjugated (their products with the way to the target give dot products).
+        """
+        n = self.n_agents
+        M = np.zeros((self._measure_rows, len(self._work)))
+        keep = SPACE_DAMPING**DT - AGENT_DRAG * DT / AGENT_MASS
+        force, velocity, heading = 4 * n, 6 * n, 8 * n
+        for i in range(n):
+            self._retarget(M, i, self._marked_at_start[i])
+            for axis, conj in ((0, 1.0), (1, -1.0)):
+                M[2 * i + axis, 4 * i + axis] = 1.0
+                row = force + 2 * i + axis
+                M[row, 4 * i + 2 + axis] = AGENT_MASS / DT
+                M[row, self._v_before_at + 2 * i + axis] = -keep * AGENT_MASS / DT
+                M[row, self._thrust_at + 2 * i + axis] = -THRUST
+                M[row, self._impulse_at + 2 * i + axis] = -1.0 / DT
+                M[velocity + 2 * i + axis, 4 * i + 2 + axis] = conj
+                M[heading + 2 * i + axis, self._heading_at + 2 * i + axis] = conj
+        return M
+
+    def _retarget(self, matrix: np.ndarray, seat: int, target: int) -> None:
+        """Point the rows of ``seat``'s way to its target, in ``matrix``, at the seat ``target``."""
+        rows = slice(2 * (self.n_agents + seat), 2 * (self.n_agents + seat) + 2)
+        matrix[rows] = 0.0
+        for axis in range(2):
+            matrix[rows.start + axis, 4 * target + axis] = 1.0
+            matrix[rows.start + axis, 4 * seat + axis] = -1.0
+
+    def _other_seats(self, seat: int) -> list[int]:
+        """The other seats in observation order: teammates, then the opponents (seat order each)."""
+        team = int(self.team_of[seat])
+        return ([j for j in range(self.n_agents) if j != seat and self.team_of[j] == team]
+                + [j for j in range(self.n_agents) if self.team_of[j] != team])
+
+    def _seat_cells(self, rows: np.ndarray, seat: int, frame: float, relative_to: int | None) -> None:
+        """Eight cells about ``seat`` from the work vector: flag, position (relative to the seat
+        ``relative_to``, if any), velocity, heading and cooldown, turned by ``frame`` (+1 or -1)."""
+        ps, vs = frame / self.platform_radius, frame / VELOCITY_UNIT
+        rows[0, self._one_at] = 1.0
+        for axis in range(2):
+            rows[1 + axis, 4 * seat + axis] += ps
+            if relative_to is not None:
+                rows[1 + axis, 4 * relative_to + axis] -= ps
+            rows[3 + axis, 4 * seat + 2 + axis] = vs
+            rows[5 + axis, self._heading_at + 2 * seat + axis] = frame
+        rows[7, self._ready_at + seat] = 1.0 / BLOW_COOLDOWN
+        rows[7, self._step_at] = -1.0 / BLOW_COOLDOWN
+
+    def _observation_map(self) -> np.ndarray:
+        """The observations of every seat as one matrix over the work vector."""
+        n = self.n_agents
+        A = np.zeros((n, self.obs_dim, len(self._work)))
+        for i in range(n):
+            frame = float(self._sign[i])
+            own = np.zeros((_OTHER_CELLS, len(self._work)))
+            self._seat_cells(own, i, frame, None)
+            A[i, 0] = own[0]
+            A[i, 1, self._one_at] = self.platform_radius / 4.0
+            A[i, 2: _OWN_CELLS] = own[1:]
+            for m, j in enumerate(self._other_seats(i)):
+                first = _OWN_CELLS + _OTHER_CELLS * m
+                self._seat_cells(A[i, first: first + _OTHER_CELLS], j, frame, i)
+        return A.reshape(n * self.obs_dim, len(self._work))
+
+    def _state_map(self) -> np.ndarray:
+        """The global state as one matrix over the work vector (world frame)."""
+        S = np.zeros((self.state_dim, len(self._work)))
+        for i in range(self.n_agents):
+            self._seat_cells(S[_OTHER_CELLS * i: _OTHER_CELLS * (i + 1)], i, 1.0, None)
+        return S
+
+    def _build_space(self, agent_xy: np.ndarray) -> None:
+        # A fresh space each match: no cached contacts survive from the previous one, so a seed
+        # gives the same match whatever was played before.
+        space = pymunk.Space()
+        space.damping = SPACE_DAMPING
+        space.collision_slop = COLLISION_SLOP
+        self._agents = add_discs(space, agent_xy, AGENT_MASS, AGENT_RADIUS, ELASTICITY, FRICTION)
+        self.space = space
+        self._link.bind(space)
+        if self._link.body_ids != [body.id for body in self._agents]:
+            raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; BlowBlow supports "
+                               "pymunk 7 (pip install 'pymunk>=7,<8')")
+        self._link.read_bodies()
+
+    # --- the match -----------------------------------------------------------------------------
+    def reset(self, seed: int) -> None:
+        self._record_reset(seed)
+        self.rng = np.random.default_rng(seed)
+        jitter = self.start_jitter
+        spots = np.asarray(_FORMATIONS[self.players_per_team], dtype=np.float64) * self.platform_radius
+        team0 = spots + self.rng.uniform(-jitter, jitter, spots.shape)
+        self._build_space(np.concatenate([team0, -team0]))
+        n = self.n_agents
+        work = self._work
+        work[self._heading_at: self._one_at] = 0.0
+        self._heading_c[:] = self._sign  # toward the other team: +x in every seat frame
+        self._step_count = 0
+        self._ready = [0] * n  # the step from which each seat may blow again (a copy of the work's)
+        self._blew = False  # whether the impulse cells hold this step's blows, to be cleared
+        self._on = np.ones(n, dtype=bool)
+        self._seats_on = list(range(n))
+        self._others_on = [[j for j in range(n) if j != i] for i in range(n)]  # per seat, the others on
+        self._team_on = np.full(self.n_teams, self.players_per_team)
+        self._turn = self._sign + 0j  # seat frame -> world; 0 once the seat fell (no thrust)
+        self._marked = list(self._marked_at_start)
+        self._kept = np.zeros(n, dtype=bool)  # seats whose target measures stay as they fell
+        self._any_fallen = False
+        np.copyto(self._matrix, self._full_matrix)
+        self._state_matrix = self._full_state_matrix.copy()
+        m = self.measures
+        m.active[:] = True
+        m.alive[:] = True
+        m.outcome[:] = 0.0
+        self.game_over = False
+        self._events = []
+        self._measure_still_state()
+
+    def _measure_still_state(self) -> None:
+        """Measures of the bodies as they stand, with no step behind them (no force, no effort)."""
+        self._v_before_c[:] = self._agent_vel_c
+        self._thrust_c[:] = 0.0
+        self._impulse_c[:] = 0.0
+        self._blew = False
+        self.measures.energy[:] = 0.0
+        self._update_measures()
+        self.measures.force[:] = 0.0
+
+    def step(self, actions: np.ndarray) -> None:
+        self._record("step", actions.copy())
+        if self._events:
+            self._events = []
+        energy = self.measures.energy
+        move = self._move_c
+        turns = self._turns_heading
+        discrete = self._discrete
+        if discrete:
+            self._move_table.take(actions, out=move)
+            self._energy_table.take(actions, out=energy)
+            self._sets_heading_table.take(actions, out=turns)
+            asked = actions.tolist()
+            blowing = max(asked) == _BLOW
+        else:
+            self._move_xy[:] = actions[:, 0:2]
+            length = np.abs(move, out=self._move_length)
+            np.square(length, out=energy)
+            np.minimum(energy, 1.0, out=energy)
+            np.greater_equal(length, HEADING_MIN_THRUST, out=turns)
+            asked = actions[:, 2].tolist()
+            blowing = max(asked) > 0.0
+        if self._any_fallen:  # a seat that fell neither thrusts nor turns
+            np.multiply(energy, self._on, out=energy)
+            np.logical_and(turns, self._on, out=turns)
+        # the thrust in the world frame; a long enough one sets the heading
+        thrust = np.multiply(move, self._turn, out=self._thrust_c)
+        if discrete:  # every move is of full strength
+            np.copyto(self._heading_c, thrust, where=turns)
+        else:
+            np.divide(thrust, length, out=self._heading_c, where=turns)
+            if max(length.tolist()) > 1.0:  # a thrust longer than 1 is scaled back to length 1
+                np.maximum(length, 1.0, out=length)
+                np.divide(thrust, length, out=thrust)
+        if self._blew:
+            self._impulse_c.fill(0.0)
+            self._blew = False
+        if blowing:
+            self._blow(asked)
+        self._v_before_c[:] = self._agent_vel_c
+
+        # thrust against a linear drag, and the blows; pymunk clears the forces after every step
+        np.dot(self._force_matrix, self._work, out=self._force_array)
+        link = self._link
+        link.write_bodies()
+        link.step(DT)
+        link.read_bodies()
+
+        self._step_count += 1
+        self._work[self._step_at] = self._step_count
+        self._update_measures()
+        # (a seat that fell has its radius rows zeroed; a Python max is cheaper than numpy's)
+        if max(self._radius.tolist()) > self.platform_radius:
+            self._fall()
+
+    def _blow(self, asked: list) -> None:
+        """Every seat that asks to blow (``asked``: its action, or its blow cell) and may: the puff's
+        impulse on the nearest agent in its cone, and the blower's recoil."""
+        discrete = self._discrete
+        step, ready, on = self._step_count, self._ready, self._on
+        positions = headings = None
+        impulses = self._impulse_c
+        for seat, asking in enumerate(asked):
+            if (asking != _BLOW if discrete else asking <= 0.0) or step < ready[seat] or not on[seat]:
+                continue
+            if positions is None:  # (a few seats: Python's complex numbers are cheaper than numpy's)
+                positions, headings = self._position_c.tolist(), self._heading_c.tolist()
+            ready[seat] = step + BLOW_COOLDOWN
+            self._work[self._ready_at + seat] = ready[seat]
+            heading = headings[seat]
+            impulses[seat] -= BLOW_IMPULSE * heading
+            here, backward = positions[seat], heading.conjugate()
+            target, nearest, toward = None, BLOW_RANGE, 0j
+            for other in self._others_on[seat]:
+                way = positions[other] - here
+                along = (way * backward).real  # the way's length along the heading
+                if along <= 0.0:
+                    continue
+                distance = abs(way)
+                # in the cone: within range, and within the half-angle of the heading
+                if distance < nearest and along >= _COS_HALF_ANGLE * distance:
+                    target, nearest, toward = other, distance, way
+            if target is not None:
+                impulses[target] += BLOW_IMPULSE * (1.0 - nearest / BLOW_RANGE) * toward / nearest
+            self._events.append({"kind": "blow", "seat": seat, "target": target})
+            self._blew = True
+
+    def _update_measures(self) -> None:
+        """One product gives the positions, the ways to the targets, the contact forces, the
+        velocities and headings (and every observation); one abs their lengths; the velocity and
+        heading along the way to the target follow."""
+        m = self.measures
+        np.dot(self._matrix, self._work, out=self._linear)
+        np.abs(self._norm_source, out=self._norms)
+        # Re(conj(v) * d) is the dot product of the vectors v and d
+        np.multiply(self._velocity_heading_conj, self._to_target_c, out=self._along_c)
+        np.divide(self._along_real, m.target_distance, out=self._along)
+        if self._any_fallen:
+            np.copyto(m.target_distance, self._kept_distance, where=self._kept)
+            np.copyto(m.facing_target, self._kept_facing, where=self._kept)
+
+    def _fall(self) -> None:
+        """Seats whose centre left the platform are out; the match ends when a team has none left."""
+        m = self.measures
+        radius = self._radius.tolist()
+        for seat in [s for s in self._seats_on if radius[s] > self.platform_radius]:
+            self._on[seat] = False
+            self._seats_on.remove(seat)
+            for others in self._others_on:
+                if seat in others:
+                    others.remove(seat)
+            m.active[seat] = m.alive[seat] = False
+            self._team_on[self.team_of[seat]] -= 1
+            body = self._agents[seat]
+            for shape in body.shapes:
+                shape.filter = _GONE_FILTER
+            body.velocity = 0.0, 0.0  # it stays where it fell
+            self._agent_vel_c[seat] = 0.0
+            self._turn[seat] = 0.0
+            self._matrix[self._seat_rows[seat]] = 0.0
+            self._linear[self._seat_rows[seat]] = 0.0  # this step's observations too
+            self._state_matrix[_OTHER_CELLS * seat: _OTHER_CELLS * (seat + 1)] = 0.0
+            self._kept[seat] = True
+            self._kept_distance[seat] = m.target_distance[seat]
+            self._kept_facing[seat] = m.facing_target[seat]
+            self._events.append({"kind": "fall", "seat": seat})
+        self._any_fallen = True
+        if (self._team_on == 0).any():
+            self.game_over = True
+            self._set_outcome()
+            return
+        # who marked a seat that fell marks its teammate still on the platform, from the next step
+        for seat in range(self.n_agents):
+            if self._on[seat] and not self._on[self._marked[seat]]:
+                team = self.team_of[self._marked[seat]]
+                self._marked[seat] = next(j for j in self._seats_on if self.team_of[j] == team)
+                self._retarget(self._matrix, seat, self._marked[seat])
+
+    def _set_outcome(self) -> None:
+        self.measures.outcome[:] = 2.0 * self.team_result()[self.team_of] - 1.0
+
+    def observe(self) -> np.ndarray:
+        # the product was taken with the measures; two ufuncs clip faster than np.clip
+        clipped = np.minimum(self._obs_rows, self._obs_high, out=self._obs_work)
+        return np.maximum(clipped, self._obs_low, out=clipped).astype(np.float32)
+
+    def state(self) -> np.ndarray:
+        state = self._state_matrix @ self._work
+        return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        v = VELOCITY_BOUND
+        return cell_bounds((0, 1, 2), (-1, 1, 2), (-v, v, 2), (-1, 1, 2), (0, 1, 1),
+                           *[run for _ in range(self.n_agents - 1)
+                             for run in ((0, 1, 1), (-2, 2, 2), (-v, v, 2), (-1, 1, 2), (0, 1, 1))])
+
+    def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        v = VELOCITY_BOUND
+        return cell_bounds(*[run for _ in range(self.n_agents)
+                             for run in ((0, 1, 1), (-1, 1, 2), (-v, v, 2), (-1, 1, 2), (0, 1, 1))])
+
+    def finish(self) -> None:
+        self._record("finish")
+        # a match cut at max_cycles goes to the team with more agents on the platform, then to the
+        # one nearer the centre on average
+        self._set_outcome()
+
+    def team_result(self) -> np.ndarray:
+        on = self._team_on
+        if on[0] != on[1]:
+            return np.where(on == on.max(), 1.0, 0.0)
+        if on[0] == 0:
+            return np.array([0.5, 0.5])  # both teams' last agents fell on one step
+        radius = np.abs(self._agent_pos_c)
+        mean = np.array([radius[(self.team_of == t) & self._on].mean() for t in range(self.n_teams)])
+        if abs(mean[0] - mean[1]) <= CENTRE_TIE:
+            return np.array([0.5, 0.5])
+        return np.where(mean == mean.min(), 1.0, 0.0)
+
+    def events(self) -> list[dict]:
+        return list(self._events)
+
+    # --- tools ---------------------------------------------------------------------------------
+    @property
+    def on_platform(self) -> np.ndarray:
+        """``bool[n_agents]``: which seats are still on the platform (a copy)."""
+        return self._on.copy()
+
+    def agents(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(xy, velocity, heading)``: every agent's world position, velocity and heading (copies;
+        a seat that fell lies where it fell, still)."""
+        def pairs(c: np.ndarray) -> np.ndarray:
+            return np.stack([c.real, c.imag], axis=1)
+
+        return pairs(self._agent_pos_c), pairs(self._agent_vel_c), pairs(self._heading_c)
+
+    def cooldown(self) -> np.ndarray:
+        """``int64[n_agents]``: steps each seat must still wait before it may blow."""
+        return np.maximum(np.array(self._ready) - self._step_count, 0).astype(np.int64)
+
+    def place(self, agent_xy: np.ndarray, agent_velocity: np.ndarray | None = None,
+              heading: np.ndarray | None = None) -> None:
+        """Put the agents at given world positions and velocities, and optionally turn their
+        headings to given angles (radians); for tests and scripted scenarios. The match continues
+        from there, cooldowns as they were. Every seat still on the platform must stand on it, at
+        least one agent radius from every other; the entries of seats that fell are ignored."""
+        if self.space is None:
+            raise RuntimeError("call reset(seed) before place()")
+        n = self.n_agents
+        agent_xy = np.asarray(agent_xy, dtype=np.float64).reshape(n, 2)
+        agent_velocity = (np.zeros((n, 2)) if agent_velocity is None
+                          else np.asarray(agent_velocity, dtype=np.float64).reshape(n, 2))
+        if heading is not None:
+            heading = np.asarray(heading, dtype=np.float64).reshape(n)
+        on = self._on
+        off = np.flatnonzero(on & (np.linalg.norm(agent_xy, axis=1) > self.platform_radius))
+        if len(off):
+            seat = int(off[0])
+            raise ValueError(f"agent {seat} at {agent_xy[seat].tolist()} is off the platform: its centre must lie "
+                             f"within {self.platform_radius} of the platform's centre")
+        xy = np.where(on[:, None], agent_xy, self.agents()[0])
+        apart = np.linalg.norm(xy[:, None] - xy[None], axis=2) + np.eye(n) * 99
+        if apart.min() < AGENT_RADIUS:
+            raise ValueError(f"agents must stand at least {AGENT_RADIUS} apart (centre to centre)")
+        self._record("place", agent_xy.copy(), agent_velocity.copy(), None if heading is None else heading.copy())
+        for seat in self._seats_on:
+            body = self._agents[seat]
+            body.position = float(agent_xy[seat, 0]), float(agent_xy[seat, 1])
+            body.velocity = float(agent_velocity[seat, 0]), float(agent_velocity[seat, 1])
+            if heading is not None:
+                self._heading_c[seat] = complex(math.cos(heading[seat]), math.sin(heading[seat]))
+        self._link.read_bodies()
+        self._events = []
+        self._measure_still_state()
+
+    def render_topdown(self) -> np.ndarray:
+        R = self.platform_radius
+        edge = R + 0.6
+        canvas = Canvas(-edge, edge, -edge, edge, size=400, background=(30, 30, 40))
+        canvas.circle(0.0, 0.0, R + 0.05, fill=(150, 150, 150))  # the edge
+        canvas.circle(0.0, 0.0, R, fill=(205, 185, 140))
+        xy, _, heading = self.agents()
+        for event in self._events:
+            if event["kind"] == "blow":  # the cone of a blow of the last step
+                x, y = xy[event["seat"]]
+                angle = math.atan2(heading[event["seat"], 1], heading[event["seat"], 0])
+                arc = [(x + BLOW_RANGE * math.cos(angle + a), y + BLOW_RANGE * math.sin(angle + a))
+                       for a in np.linspace(-BLOW_HALF_ANGLE, BLOW_HALF_ANGLE, 7)]
+                canvas.draw.polygon([canvas.px(x, y)] + [canvas.px(*p) for p in arc], fill=(170, 205, 235))
+        for seat in range(self.n_agents):
+            x, y = xy[seat]
+            colour = TEAM_COLOURS[self.team_of[seat]]
+            if not self._on[seat]:
+                canvas.circle(x, y, AGENT_RADIUS, fill=tuple(c // 3 for c in colour), outline=(20, 20, 20))
+                continue
+            canvas.circle(x, y, AGENT_RADIUS, fill=colour, outline=(20, 20, 20))
+            hx, hy = heading[seat]
+            canvas.line(x, y, x + AGENT_RADIUS * hx, y + AGENT_RADIUS * hy, fill=(20, 20, 20), width_px=3)
+        return canvas.array()
+
+    def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
+        R, ts = self.platform_radius, timestamp_ns
+        below = 2 * R + 1.2  # the void, far below the platform: dark ground
+        out = [scene.entity("platform", ts,
+                            cubes=[scene.cube(0.0, 0.0, -1.0, (below, below, 0.1), (0.12, 0.12, 0.16, 1.0))],
+                            cylinders=[scene.disc(0.0, 0.0, 2 * R, (0.8, 0.73, 0.55, 1.0), height=0.1)])]
+        xy, _, heading = self.agents()
+        yaw = np.arctan2(heading[:, 1], heading[:, 0])
+        for seat in range(self.n_agents):
+            x, y = (float(v) for v in xy[seat])
+            team = int(self.team_of[seat])
+            if self._on[seat]:
+                out.append(scene.entity(f"agent/{seat}", ts, cylinders=[
+                    scene.disc(x, y, 2 * AGENT_RADIUS, scene.team_colour(team), height=0.3)], arrows=[
+                    scene.arrow(x, y, 0.35, float(yaw[seat]), 0.5, (0.1, 0.1, 0.1, 1.0))]))
+            else:  # fallen: faded, below the platform's top
+                out.append(scene.entity(f"agent/{seat}", ts, cylinders=[
+                    scene.disc(x, y, 2 * AGENT_RADIUS, scene.team_colour(team, 0.4), height=0.05)]))
+        blows = [e["seat"] for e in self._events if e["kind"] == "blow"]
+        out.append(scene.entity("blows", ts, arrows=[
+            scene.arrow(float(xy[s, 0]), float(xy[s, 1]), 0.2, float(yaw[s]), BLOW_RANGE, (0.67, 0.8, 0.92, 0.6))
+            for s in blows]))
+        score = " : ".join(str(int(on)) for on in self._team_on)
+        out.append(scene.entity("score", ts, texts=[scene.text(0, R + 0.6, 0.2, score)]))
+        return out
+
+    def human_controls(self, seat: int) -> BlowBlowControls:
+        return BlowBlowControls(self, seat)
+
+    # --- social tree and scripted play ---------------------------------------------------------
+    @classmethod
+    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
+        return team_tree(n_teams, players_per_team, "win_loss")
+
+    @staticmethod
+    def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
+        obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
+        n_agents, rest = divmod(obs.shape[1] - 1, _OTHER_CELLS)
+        if rest or n_agents not in (2, 4):
+            raise ValueError(f"BlowBlow heuristic: an observation of {obs.shape[1]} cells is not BlowBlow's "
+                             f"({_OTHER_CELLS} * n_agents + 1 cells, n_agents 2 or 4)")
+        rows = np.arange(len(obs))
+        on = obs[:, 0] > 0.5
+        R = np.maximum(obs[:, 1] * 4.0, 1e-9)
+        me = obs[:, 2:4] * R[:, None]
+        velocity = obs[:, 4:6] * VELOCITY_UNIT
+        ready = obs[:, 8] < 1e-6
+        # the opponents: the last n_agents / 2 of the other seats
+        first = _OWN_CELLS + _OTHER_CELLS * (n_agents // 2 - 1)
+        blocks = obs[:, first: first + _OTHER_CELLS * (n_agents // 2)].reshape(len(obs), -1, _OTHER_CELLS)
+        there = blocks[:, :, 0] > 0.5
+        # the physics moves every body by its present velocity before the thrust acts: judge from
+        # where the bodies will be after this step
+        me_next = me + velocity * DT
+        rivals = me[:, None, :] + blocks[:, :, 1:3] * R[:, None, None] + blocks[:, :, 3:5] * (VELOCITY_UNIT * DT)
+        to_rivals = rivals - me_next[:, None, :]
+        rival_distance = np.linalg.norm(to_rivals, axis=2)
+        rival_radius = np.linalg.norm(rivals, axis=2)
+        cost = np.where(there, rival_distance + 2.0 * (R[:, None] - rival_radius), np.inf)
+        choice = cost.argmin(axis=1)
+        rival = rivals[rows, choice]
+        to_rival = to_rivals[rows, choice]
+        distance = rival_distance[rows, choice]
+        # pushed straight away from the centre; a rival at the centre, straight away from the seat
+        toward = to_rival / np.maximum(distance, 1e-9)[:, None]
+        from_centre = np.linalg.norm(rival, axis=1, keepdims=True)
+        outward = np.where(from_centre > 0.3, rival / np.maximum(from_centre, 1e-9), toward)
+        # run to a spot on the centre's side of the rival, then charge through it radially outward
+        contact = 2 * AGENT_RADIUS
+        spot = rival - outward * (contact + 0.25)
+        behind = np.einsum("ij,ij->i", me_next - rival, outward)  # < 0: on the centre's side
+        lateral = (me_next - rival) - behind[:, None] * outward
+        lateral_length = np.linalg.norm(lateral, axis=1)
+        lined_up = (behind < -0.5 * contact) & (lateral_length < 0.6 * contact)
+        # when the rival stands between the seat and its spot, go round it on the seat's side
+        side = np.where(lateral_length[:, None] > 1e-6, lateral / np.maximum(lateral_length, 1e-9)[:, None],
+                        np.stack([-outward[:, 1], outward[:, 0]], axis=1))
+        around = rival + side * (contact + 0.3) - outward * 0.3
+        blocked = (behind > -0.5 * contact) & (lateral_length < contact + 0.25)
+        waypoint = np.where(lined_up[:, None], rival + outward * 0.6, np.where(blocked[:, None], around, spot))
+        way = waypoint - me_next
+        heading = way / np.maximum(np.linalg.norm(way, axis=1, keepdims=True), 1e-9)
+        drift = velocity - np.einsum("ij,ij->i", velocity, heading)[:, None] * heading
+        heading = heading - 0.4 * drift
+        # near the edge, back toward the centre
+        radius = np.linalg.norm(me_next, axis=1)
+        inward = -me_next / np.maximum(radius, 1e-9)[:, None]
+        danger = np.clip((radius - (R - 0.6)) / 0.4, 0.0, 1.0)[:, None]
+        heading = (1.0 - danger) * heading + danger * (2.0 * inward - 0.3 * velocity)
+        direction = heading / np.maximum(np.linalg.norm(heading, axis=1), 1e-9)[:, None]
+        if action_type == "continuous":
+            move = direction
+        else:
+            k = np.round(np.arctan2(heading[:, 1], heading[:, 0]) / (np.pi / 4)).astype(np.int64) % 8
+            move = COMPASS_MOVES[1 + k]
+        # blow along the heading (a continuous thrust sets it first) when it points at the rival and
+        # the blow pushes the rival outward, safely
+        blows_along = move if action_type == "continuous" else obs[:, 6:8]
+        aimed = np.einsum("ij,ij->i", blows_along, toward) > np.cos(np.radians(25.0))
+        pushes_out = np.einsum("ij,ij->i", blows_along, outward) > 0.2
+        recoiled = np.linalg.norm(me_next - blows_along * 0.5, axis=1) < R - 0.6
+        blow = on & ready & there.any(axis=1) & aimed & pushes_out & recoiled & (distance < 2.0)
+        if action_type == "continuous":
+            return np.concatenate([np.where(on[:, None], move, 0.0), np.where(blow, 1.0, -1.0)[:, None]],
+                                  axis=1).astype(np.float32)
+        return np.where(on, np.where(blow, _BLOW, 1 + k), 0).astype(np.int64)
+
+
+class BlowBlowControls(CompassControls):
+    """Compass moves on the platform as drawn (E = right), turned into the seat's frame, and ``b``
+    to blow along the heading."""
+
+    move = "move on the platform as drawn"
+    key_hint = ("Arrow keys or W A S D run on the platform as drawn (two at once: diagonally); Space (or B) blows "
+                "along your heading, the way you last ran; let go to stop pushing.")
+
+    def seat_move(self, action: int) -> int:
+        if action in (0, _BLOW):
+            return action
+        # the seat's frame is the world turned back by its team's turn: so is the move
+        shift = 8 * int(self.rules.team_of[self.seat]) // self.rules.n_teams
+        return 1 + (action - 1 - shift) % 8
+
+    def parse(self, text: str) -> tuple[int | None, str | None]:
+        if text == "b":
+            return _BLOW, None
+        action, problem = super().parse(text)
+        if problem is not None:
+            problem += "; b blows along your heading"
+        return action, problem
+
+    def prompt(self, step: int) -> str:
+        return (f"step {step}: {self.move} (e, ne, n, nw, w, sw, s, se or noop), or b to blow along your heading "
+                "(an action number 0-9; Enter repeats) > ")
+
+    def web(self) -> dict[str, Any]:
+        keys = {**arrow_keys("n", "w", "s", "e"), " ": "b", "b": "b", "B": "b"}
+        return key_controls(keys, self.PACE, self.key_hint, release="noop", combine="nsew",
+                            accepts=("ne", "nw", "se", "sw"))
+
+
+RULES = BlowBlowRules
