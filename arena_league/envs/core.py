@@ -166,6 +166,16 @@ class GameRules(ABC):
         self.measures = Measures.allocate(self.n_agents, self.measures_provided)
         self.rng = np.random.default_rng(0)
 
+    @classmethod
+    def check_layout(cls, n_teams: int, players_per_team: int, action_type: str) -> None:
+        """Refuse a layout or an action type the game does not offer (a ValueError listing those it does)."""
+        if (n_teams, players_per_team) not in cls.layouts:
+            valid = ", ".join(f"{t}T{p}P" for t, p in cls.layouts)
+            raise ValueError(f"{cls.name} has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
+        if action_type not in cls.action_types:
+            raise ValueError(f"{cls.name} action_type {action_type!r} is not offered; valid: "
+                             f"{', '.join(cls.action_types)}")
+
     # --- the match -------------------------------------------------------------------------
     @abstractmethod
     def reset(self, seed: int) -> None:

@@ -336,12 +336,7 @@ class AirHockeyRules(ReplayedMatch, GameRules):
     summary: ClassVar[str] = "Mallets strike a sliding puck at the other goal, each in its own half (pymunk; first goal wins, else territory)"
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
-        if (n_teams, players_per_team) not in self.layouts:
-            valid = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
-            raise ValueError(f"AirHockey has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
-        if action_type not in self.action_types:
-            raise ValueError(f"AirHockey action_type {action_type!r} is not offered; valid: "
-                             f"{', '.join(self.action_types)}")
+        self.check_layout(n_teams, players_per_team, action_type)
         settings = checked_kwargs("AirHockey", kwargs, _GAME_KWARGS)
         super().__init__(n_teams, players_per_team, action_type)
         self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))

@@ -264,12 +264,7 @@ class FightForFoodRules(ReplayedMatch, GameRules):
                               "gone (pymunk; most food wins)")
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
-        if (n_teams, players_per_team) not in self.layouts:
-            valid = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
-            raise ValueError(f"FightForFood has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
-        if action_type not in self.action_types:
-            raise ValueError(f"FightForFood action_type {action_type!r} is not offered; valid: "
-                             f"{', '.join(self.action_types)}")
+        self.check_layout(n_teams, players_per_team, action_type)
         low, high = _FOOD_RANGE
         settings = checked_kwargs("FightForFood", kwargs, {"food": (low, high, DEFAULT_FOOD, int),
                                                            "start_jitter": _JITTER_RANGE})

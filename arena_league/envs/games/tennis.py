@@ -314,11 +314,7 @@ class TennisRules(ReplayedMatch, GameRules):
                               "out or in the net is the other side's point; first to 7 points wins)")
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
-        if (n_teams, players_per_team) not in self.layouts:
-            valid = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
-            raise ValueError(f"Tennis has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
-        if action_type not in self.action_types:
-            raise ValueError(f"Tennis action_type {action_type!r} is not offered; valid: {', '.join(self.action_types)}")
+        self.check_layout(n_teams, players_per_team, action_type)
         settings = checked_kwargs("Tennis", kwargs, {
             "points": (*_POINTS_RANGE, DEFAULT_POINTS, int, " (to win the match)"), "start_jitter": _JITTER_RANGE})
         points, jitter = settings["points"], settings["start_jitter"]
