@@ -44,7 +44,7 @@ def test_budgets_past_their_bounds_are_refused_with_the_bound(name, words):
 
 def test_games_without_a_search_agent_say_so():
     with pytest.raises(ValueError, match="no search agent"):
-        scripted_policy("search-w4-r1-h10", "Snake-2T2P-v1")
+        scripted_policy("search-w4-r1-h10", "Sumo-2T1P-v1")
     with pytest.raises(ValueError, match="unknown scripted agent 'minimax'.*search-wW-rR-hH"):
         scripted_policy("minimax", GAME)
 
@@ -91,8 +91,10 @@ def test_the_gate_reads_validates_and_bounds_search_descriptors(tmp_path):
     verdict = validate_submission("scripted:search-w4-r2-h10", GAME, match_cycles=20)
     assert verdict.ok, verdict.reason
     assert "built-in agent: not timed" in verdict.log
-    refused = validate_submission("scripted:search-w4-r2-h10", "Snake-2T2P-v1")
+    refused = validate_submission("scripted:search-w4-r2-h10", "Sumo-2T1P-v1")
     assert not refused.ok and "no search agent" in refused.reason
+    refused = validate_submission("scripted:search-w4-r2-h10", "Snake-2T2P-v1")  # a budget the game cannot search
+    assert not refused.ok and "R = 1" in refused.reason
     # a descriptor file asking for more than the bounds allow is refused before anything runs
     hostile = tmp_path / "agent.json"
     hostile.write_text(json.dumps({"format": "arena-scripted", "name": f"search-w16-r16-h{SEARCH_LIMITS['horizon']}"}))

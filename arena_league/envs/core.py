@@ -229,12 +229,14 @@ class GameRules(ABC):
         (``int64[N]`` or ``float32[N, act_dim]``). Used as the built-in heuristic agent and by
         social-tree verification as the 'skilled' end of its policy space."""
 
-    #: Games whose observation holds the whole state may offer a search agent over their own rules,
-    #: ``search(obs, uniforms, *, width, rollouts, horizon, epsilon)``: from ``float32[N, obs_dim]`` and
-    #: ``float64[N]`` (one uniform per seat) to actions, deterministic given them (the budget's
-    #: meaning is the game's manual's; ``arena_league.policies.scripted`` names and bounds it); None
-    #: where the game has none.
+    #: A game may offer a search agent over its own rules (GoBang over its whole board, Snake over
+    #: each seat's window), ``search(obs, uniforms, *, width, rollouts, horizon, epsilon)``: from
+    #: ``float32[N, obs_dim]`` and ``float64[N]`` (one uniform per seat) to actions, deterministic given
+    #: them; a budget the game cannot search raises ValueError (also for N = 0, which checks it).
+    #: ``arena_league.policies.scripted`` names and bounds the budget; None where the game has none.
     search: ClassVar[Callable[..., np.ndarray] | None] = None
+    #: What ``search-wW-rR-hH-eE`` means in this game, in words (population provenance quotes it).
+    search_budget_meaning: ClassVar[str] = ""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

@@ -9,12 +9,14 @@ population. Both agents here are pure functions of their inputs, so they need no
   action_type)`` (documented in each game's manual). Should it ever name an illegal action, a
   random legal one is played instead.
 
-Games whose observation holds the whole state (GoBang) also offer **search** agents over their own
-rules (``RULES.search``), named with their budget: ``search-w8-r4-h30-e0.1`` searches the 8 moves
-the heuristic likes best, playing 4 rollouts of at most 30 more moves from each, the rollouts'
-moves the heuristic's but for a random one with probability 0.1 (``-e`` may be left out: 0). Their
-randomness comes from the engine's uniforms, so a match replays exactly; the budget is bounded
-(:data:`SEARCH_LIMITS`) so that no descriptor can ask for an unbounded search.
+Some games (GoBang, Snake) also offer **search** agents over their own rules (``RULES.search``),
+named with their budget, ``search-wW-rR-hH-eE`` (``-e`` may be left out: 0), whose meaning each game's
+manual gives (``RULES.search_budget_meaning``): in GoBang ``search-w8-r4-h30-e0.1`` searches the 8
+moves the heuristic likes best, playing 4 rollouts of at most 30 more moves from each, the rollouts'
+moves the heuristic's but for a random one with probability 0.1. Their randomness comes from the
+engine's uniforms, so a match replays exactly; the budget is bounded (:data:`SEARCH_LIMITS`) so that
+no descriptor can ask for an unbounded search, and a game refuses a budget it cannot search (Snake's
+plays no rollouts: R must be 1) when the agent is made.
 
 Refer to them as ``scripted:random`` / ``scripted:heuristic`` / ``scripted:search-w8-r4-h30``
 (:func:`scripted_policy`); the registry stores them as the small JSON descriptor of
@@ -144,12 +146,13 @@ class SearchPolicy(Policy):
     def __init__(self, game_id: str, spec: ActionSpec, name: str, budget: dict[str, Any]) -> None:
         search = game_spec(game_id).rules.search
         if search is None:
-            raise ValueError(f"{game_id} has no search agent (its observation does not hold the whole state); "
+            raise ValueError(f"{game_id} has no search agent (games with one: GoBang, Snake); "
                              f"play scripted:heuristic or scripted:random there")
         self.spec = spec
         self.name = name
         self.budget = budget
         self._search = search
+        search(np.zeros((0, spec.obs_dim), dtype=np.float32), np.zeros(0), **budget)  # the game checks the budget
 
     def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
             state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:

@@ -729,6 +729,9 @@ class GoBangRules(GameRules):
             actions[movers] = heuristic_moves(own[movers], opponent[movers])
         return actions
 
+    search_budget_meaning: ClassVar[str] = ("W candidate moves, R rollouts of at most H moves each, random moves "
+                                            "in them with probability E")
+
     @staticmethod
     def search(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
                epsilon: float) -> np.ndarray:

@@ -101,6 +101,19 @@ any whose cell is a wall or a body, then a dead end (no free cell past it), then
 another snake's head, then prefer a move toward the nearest food (along the axis with the larger
 offset first), then going straight. It outlives uniformly random play in about 19 of 20 matches.
 
+Search agent (``scripted:search-wW-r1-hH[-eE]``, :func:`search_moves`): a search over the seat's
+own moves in its window, from the observation alone (the others held still). Its candidates are the
+``W`` distinct moves the heuristic likes best (``W`` = 1 is the heuristic; 3 or more, every move).
+From each it searches ``H`` moves deep, breadth first, for the free window cells it can reach (a
+reach to the window's edge counts as enough room), and scores the move by that room (up to ``2 H``
+cells), by a kill (+40: an opponent's body cell entered while longer than every other living snake,
+which the collision rule decides for the mover), against a threat (-50: a head of a snake at least as
+long next to the cell; a seen head is told apart by the direction of the others' relative positions)
+and toward the nearest food (+1 closer, 0 across, -1 away); a blocked cell is never entered but for a
+kill. Ties go to the heuristic's order. With probability ``E`` (the seat's uniform) it plays the
+heuristic's move instead. It has no rollouts (``R`` must be 1): the window holds no one else's moves.
+In 400 matches of 2T2P (teams swapped halfway) ``search-w3-r1-h4`` scores 0.87 against the heuristic.
+
 Game kwargs: ``size`` (default 20, at least 8), ``n_food`` (default snakes + 1),
 ``start_length`` (default 3, 1 .. size // 4), ``view_radius`` (default 3: a 7 x 7 window).
 
@@ -893,7 +906,11 @@ class SnakeControls(Controls):
 
 def heuristic_actions(obs: np.ndarray) -> np.ndarray:
     """The Snake heuristic's action per observation row (module docstring), from the header only."""
-    obs = np.asarray(obs, dtype=np.float32)
+    return heuristic_scores(np.asarray(obs, dtype=np.float32)).argmax(axis=1).astype(np.int64)
+
+
+def heuristic_scores(obs: np.ndarray) -> np.ndarray:
+    """``float64[N, 4]``: how much the heuristic likes each action (it plays the highest)."""
     heading = obs[:, 3:7].argmax(axis=1)
     actions = np.arange(4)[None, :]
     effective = np.where(actions == ((heading + 2) % 4)[:, None], heading[:, None], actions)  # [N, 4]
@@ -905,9 +922,117 @@ def heuristic_actions(obs: np.ndarray) -> np.ndarray:
     has_food = (np.abs(food_r) + np.abs(food_c)) > 1e-6
     gain = np.where(has_food, gain + 0.01 * offset, 0.0)
     room = obs[:, 19:23]
-    score = (-100.0 * (obs[:, 11:15] > 0.5) - 10.0 * (obs[:, 15:19] > 0.5) - 20.0 * (room < 0.1)
-             - 3.0 * (room < 0.5) + gain + 0.001 * (effective == heading[:, None]))
-    return score.argmax(axis=1).astype(np.int64)
+    return (-100.0 * (obs[:, 11:15] > 0.5) - 10.0 * (obs[:, 15:19] > 0.5) - 20.0 * (room < 0.1)
+            - 3.0 * (room < 0.5) + gain + 0.001 * (effective == heading[:, None]))
+
+
+#: What a Snake search agent's budget means (the population provenance quotes it).
+SEARCH_BUDGET_MEANING = ("the W moves the heuristic likes best searched H moves deep in the seat's window "
+                         "(R must be 1), the heuristic's move played instead with probability E")
+_SEARCH_ROOM, _SEARCH_THREAT, _SEARCH_KILL = 30.0, 50.0, 40.0  # weights of the search's score
+
+
+def _window_parts(obs: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """The window side, the window's channels ``bool[N, 6, W, W]`` and the other snakes' rows
+    ``float32[N, snakes - 1, 4]`` of Snake observations (the layout of the module docstring)."""
+    rest = obs.shape[1] - N_HEADER
+    w = 3
+    while N_CHANNELS * w * w <= rest:
+        others = rest - N_CHANNELS * w * w
+        if others % PER_OTHER == 0 and others // PER_OTHER <= 3:
+            window = obs[:, N_HEADER:N_HEADER + N_CHANNELS * w * w].reshape(len(obs), N_CHANNELS, w, w) > 0.5
+            return w, window, obs[:, N_HEADER + N_CHANNELS * w * w:].reshape(len(obs), others // PER_OTHER,
+                                                                              PER_OTHER)
+        w += 2
+    raise ValueError(f"Snake search: observations of {obs.shape[1]} floats are not Snake's "
+                     f"({N_HEADER} + {N_CHANNELS} W^2 + 4 (snakes - 1))")
+
+
+def _shifted(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
+    """``a`` moved by ``(dr, dc)`` over its last two axes, zeros shifted in."""
+    out = np.zeros_like(a)
+    h, w = a.shape[-2:]
+    out[..., max(dr, 0):h + min(dr, 0), max(dc, 0):w + min(dc, 0)] = \
+        a[..., max(-dr, 0):h + min(-dr, 0), max(-dc, 0):w + min(-dc, 0)]
+    return out
+
+
+def search_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
+                 epsilon: float) -> np.ndarray:
+    """The Snake search agent's action per observation row (module docstring, "Search agent")."""
+    if rollouts != 1:
+        raise ValueError(f"Snake's search plays no rollouts (its window holds no one else's moves): "
+                         f"ask for R = 1, as in search-w{width}-r1-h{horizon}, not R = {rollouts}")
+    obs = np.asarray(obs, dtype=np.float32)
+    n = len(obs)
+    w, window, others = _window_parts(obs)
+    v = w // 2
+    rows = np.arange(n)[:, None]
+    heading = obs[:, 3:7].argmax(axis=1)
+    reversal = np.arange(4)[None, :] == ((heading + 2) % 4)[:, None]
+    effective = np.where(reversal, heading[:, None], np.arange(4)[None, :])
+    target_row, target_col = v + DROW[effective], v + DCOL[effective]  # [N, 4] window cells
+    free = ~window[:, :5].any(axis=1)  # no wall, body or head
+    # a kill: an opponent's body cell, entered by a snake longer than every other living one
+    alive_lengths = np.where(others[..., 3] > 0.5, others[..., 2], 0.0)
+    longest = obs[:, 7] > (alive_lengths.max(axis=1) if others.shape[1] else 0.0) + 1e-6
+    kill = window[:, 3][rows, target_row, target_col] & longest[:, None]
+    enter = free[rows, target_row, target_col] | kill
+    # room: the free window cells reachable within `horizon` moves (the others held still); a
+    # reach to the window's edge counts as room enough
+    reach = np.zeros((n, 4, w, w), dtype=bool)
+    reach[rows, np.arange(4)[None, :], target_row, target_col] = enter
+    for _ in range(horizon):
+        reach |= _shifted(reach, 1, 0) | _shifted(reach, -1, 0) | _shifted(reach, 0, 1) | _shifted(reach, 0, -1)
+        reach &= free[:, None]
+        reach[rows, np.arange(4)[None, :], target_row, target_col] = enter
+    edge = np.ones((w, w), dtype=bool)
+    edge[1:-1, 1:-1] = False
+    enough = 2 * horizon
+    room = np.minimum(reach.sum(axis=(2, 3)) + enough * (reach & edge).any(axis=(2, 3)), enough) / enough
+    # +1 a move that closes in on the nearest food, -1 one that moves away, 0 one across
+    closer = np.sign(np.where(DROW[effective] != 0, obs[:, 8:9] * DROW[effective], obs[:, 9:10] * DCOL[effective]))
+    score = (_SEARCH_ROOM * room + _SEARCH_KILL * kill - 1000.0 * ~enter + closer
+             - _SEARCH_THREAT * _threatened(obs, window[:, 4], others, target_row, target_col))
+    liked = heuristic_scores(obs)
+    liked[reversal] = -np.inf  # the reversal goes straight: the same move twice
+    order = np.argsort(-liked, axis=1, kind="stable")
+    candidate = np.zeros((n, 4), dtype=bool)
+    candidate[rows, order[:, :min(width, 3)]] = True
+    rank_bonus = np.empty((n, 4))
+    rank_bonus[rows, order] = -1e-3 * np.arange(4)  # ties go to the heuristic's order
+    chosen = np.where(candidate, score + rank_bonus, -np.inf).argmax(axis=1)
+    lapse = np.asarray(uniforms, dtype=np.float64).reshape(n) < epsilon
+    return np.where(lapse, order[:, 0], chosen).astype(np.int64)
+
+
+def _threatened(obs: np.ndarray, heads: np.ndarray, others: np.ndarray, target_row: np.ndarray,
+                target_col: np.ndarray) -> np.ndarray:
+    """``bool[N, 4]``: a head of a snake at least as long (or of one not told apart) is next to the
+    cell the action leads to. A head seen at window offset ``(dr, dc)`` is the living snake whose
+    relative position (``/ (size - 1)``) points the same way."""
+    n, w = len(obs), heads.shape[-1]
+    v = w // 2
+    rows = np.broadcast_to(np.arange(n)[:, None], target_row.shape)
+    threatened = np.zeros(target_row.shape, dtype=bool)
+    rel_row, rel_col, length = others[..., 0], others[..., 1], others[..., 2]
+    alive = others[..., 3] > 0.5
+    for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        head_row, head_col = target_row + dr, target_col + dc
+        inside = (head_row >= 0) & (head_row < w) & (head_col >= 0) & (head_col < w) & \
+            ((head_row != v) | (head_col != v))
+        seen = np.zeros(target_row.shape, dtype=bool)
+        seen[inside] = heads[rows[inside], head_row[inside], head_col[inside]]
+        if not seen.any():
+            continue
+        off_row, off_col = (head_row - v)[:, :, None], (head_col - v)[:, :, None]
+        span = np.abs(rel_row) + np.abs(rel_col)
+        scale = (np.abs(off_row) + np.abs(off_col)) / np.maximum(span, 1e-9)[:, None, :]
+        miss = np.abs(rel_row[:, None, :] * scale - off_row) + np.abs(rel_col[:, None, :] * scale - off_col)
+        match = (alive & (span > 0))[:, None, :] & (miss < 0.25)
+        theirs = np.where(match, length[:, None, :], -1.0).max(axis=2)
+        threatened |= seen & ((theirs >= obs[:, 7:8] - 1e-6) | ~match.any(axis=2))
+    return threatened
 
 
 class SnakeRules(GameRules):
@@ -1081,6 +1206,16 @@ class SnakeRules(GameRules):
             raise ValueError(f"Snake heuristic: observations of shape {obs.shape} are not Snake's "
                              f"(N, {N_HEADER} + {N_CHANNELS} W^2 + 4 (snakes - 1))")
         return heuristic_actions(obs)
+
+    search_budget_meaning: ClassVar[str] = SEARCH_BUDGET_MEANING
+
+    @staticmethod
+    def search(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
+               epsilon: float) -> np.ndarray:
+        """:func:`search_moves` for living seats (dead ones go up; the rules ignore them)."""
+        obs = np.asarray(obs, dtype=np.float32)
+        actions = search_moves(obs, uniforms, width=width, rollouts=rollouts, horizon=horizon, epsilon=epsilon)
+        return np.where(obs[:, 0] > 0.5, actions, 0)
 
 
 RULES = SnakeRules

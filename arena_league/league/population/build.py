@@ -1132,7 +1132,7 @@ def _members_line(manifest: Mapping[str, Any], figures: Mapping[str, Any]) -> st
     return f"{line} that {len(schemes)} training schemes produced"
 
 
-def _candidates_line(build: Mapping[str, Any]) -> str:
+def _candidates_line(build: Mapping[str, Any], game_id: str) -> str:
     """Where a build's candidates came from, in words."""
     parts = []
     base, scripted, top = build.get("base"), build.get("scripted") or [], build.get("top_runs") or []
@@ -1149,9 +1149,11 @@ def _candidates_line(build: Mapping[str, Any]) -> str:
         parts.append(f"the {base['members']} members of `{base['name']}` (build {base['build_id']}), rated again "
                      "with the others")
     if scripted:
+        from arena_league.envs import game_spec
+
+        meaning = game_spec(game_id).rules.search_budget_meaning
         parts.append(f"{len(scripted)} built-in search agents over the game's own rules (scheme `search`; the "
-                     f"budget is in the name, `search-wW-rR-hH-eE`: W candidate moves, R rollouts of at most H "
-                     f"moves each, random moves in them with probability E): "
+                     f"budget is in the name, `search-wW-rR-hH-eE`: {meaning}): "
                      + ", ".join(f"`{n}`" for n in scripted))
     return f"{build['candidates']}: " + "; ".join(parts)
 
@@ -1219,7 +1221,7 @@ Built by `arena_league.league.population.build.build_population` (code {build['c
 * schemes and env steps per run: {steps}; seed {build['seed']}; {build['snapshots_per_run']} snapshots per run
   (early snapshots are weak, late ones strong){early}; actors: MLP, hidden {build['recipe']['hidden']}{wide};
   recipe overrides {json.dumps(build['recipe']['per_scheme'])}; build options {options}.
-{warm_line}* candidates: {_candidates_line(build)}, plus the scripted `random` and `heuristic` agents as
+{warm_line}* candidates: {_candidates_line(build, game)}, plus the scripted `random` and `heuristic` agents as
   references, in a round robin of {build['matches_per_pair']} matches per pair (seats balanced).
 * selection: {len(manifest['members'])} candidates spanning the rating range from {build.get('floor_margin', DEFAULT_FLOOR_MARGIN):g} Elo above the random agent,
   preferring, among candidates of similar rating, those whose results against the others differ most.
