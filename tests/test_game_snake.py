@@ -276,3 +276,61 @@ def test_default_tree_verifies_as_declared(game_id):
     report = verify(game_id, samples=8, seed=0)
     assert report.ok, [(n.path, n.declared, n.verified) for n in report.nodes]
     assert report.nodes[0].verified == "CP"
+
+
+def search_actions(engine: SnakeBoards, width: int = 3, horizon: int = 4) -> np.ndarray:
+    """The search agent's action for every snake of board 0 (its own frame)."""
+    obs = engine.observe()[0]
+    return SnakeRules.search(obs, np.zeros(len(obs)), width=width, rollouts=1, horizon=horizon, epsilon=0.0)
+
+
+def test_the_search_rams_a_shorter_snakes_body_and_the_collision_rule_kills_it():
+    engine = two_snakes()
+    mine = [cell(10, 5), cell(11, 5), cell(12, 5), cell(13, 5), cell(14, 5), cell(15, 5)]  # 6 long, heading up
+    theirs = [cell(9, 6), cell(10, 6), cell(11, 6)]  # 3 long, heading up, its neck right of my head
+    engine.set_board(0, [mine, theirs], food=[cell(1, 1), cell(1, 2), cell(1, 3)])
+    assert search_actions(engine)[0] == RIGHT
+    assert SnakeRules.heuristic(engine.observe()[0], "discrete")[0] != RIGHT  # the heuristic never enters a body
+    engine.step(board_actions(engine, RIGHT, UP))
+    assert engine.alive[0].tolist() == [True, False] and engine.death_cause[0, 1] == 3
+
+
+def test_the_search_keeps_off_a_longer_snakes_body_and_head():
+    engine = two_snakes()
+    mine = [cell(10, 5), cell(11, 5), cell(12, 5)]  # 3 long
+    theirs = [cell(9, 6), cell(10, 6), cell(11, 6), cell(12, 6), cell(13, 6)]  # 5 long; its head next to my "up"
+    engine.set_board(0, [mine, theirs], food=[cell(1, 1), cell(1, 2), cell(1, 3)])
+    assert search_actions(engine)[0] == LEFT
+
+
+@pytest.mark.parametrize("width, horizon", [(1, 4), (3, 1), (3, 4)])
+def test_a_seats_search_depends_on_its_row_alone_and_width_one_is_the_heuristic(width, horizon):
+    engine = SnakeBoards(64, n_snakes=4, team_of=(0, 0, 1, 1), rotations=(0, 2, 1, 3), seed=5, autoreset=True)
+    for _ in range(60):
+        engine.step(engine.random_actions())
+    obs = engine.observe().reshape(256, -1)
+    uniforms = np.random.default_rng(0).random(256)
+    budget = {"width": width, "rollouts": 1, "horizon": horizon, "epsilon": 0.3}
+    whole = SnakeRules.search(obs, uniforms, **budget)
+    rows = np.arange(0, 256, 7)
+    assert (SnakeRules.search(obs[rows], uniforms[rows], **budget) == whole[rows]).all()
+    living = obs[:, 0] > 0.5
+    if width == 1:  # the same move (a reversal goes straight, so two actions may name it)
+        heading = obs[:, 3:7].argmax(axis=1)
+
+        def moves(actions: np.ndarray) -> np.ndarray:
+            return np.where(actions == (heading + 2) % 4, heading, actions)
+
+        assert (moves(whole)[living] == moves(SnakeRules.heuristic(obs, "discrete"))[living]).all()
+
+
+def test_the_search_outlives_the_heuristic_from_either_side():
+    from arena_league.matchmaking import play_matches, specs_for_seatings
+    from arena_league.policies.scripted import scripted_policy
+
+    game = "Snake-2T2P-v1"
+    agents = {"search": scripted_policy("search-w3-r1-h4", game), "heuristic": scripted_policy("heuristic", game)}
+    seatings = [("search", "heuristic"), ("heuristic", "search")] * 40
+    results = play_matches(specs_for_seatings(game, seatings, 3), agents, backend="inprocess")
+    scores = [r.team_scores()[s.index("search")] for s, r in zip(seatings, results)]
+    assert np.mean(scores) >= 0.65 and np.mean(scores[::2]) >= 0.6 and np.mean(scores[1::2]) >= 0.6, scores
