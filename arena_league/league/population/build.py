@@ -188,7 +188,7 @@ def _playing_the_heuristic(steps: int) -> tuple[dict[str, Any], ...]:
                  for _ in range(2))
 
 
-#: AirHockey's and FightForFood's ladder: SP meets the random agent in half its episodes, and two
+#: The ladder of the 2D duels (AirHockey, FightForFood, Tennis, BlowBlow): SP meets the random agent in half its episodes, and two
 #: warm-started runs per scheme (a short and a long imitation of the heuristic) lead to the top.
 _PUCK_DUEL = Recipe(steps=150_000, snapshots=12, hidden=(64, 64),
                     per_scheme={"pbt": {"population_size": 4},
@@ -237,6 +237,10 @@ RECIPES: dict[str, Recipe] = {
     # (rated about 620 Elo above the best member, who drew 2 of 200 and lost the rest), and the members spread
     # 540 Elo (floors 0, 25, 100 Elo above random: 559, 595, 482). The ladder lacks a top, not a bottom.
     "FightForFood": dataclasses.replace(_PUCK_DUEL, top_runs=_playing_the_heuristic(1_000_000)),
+    # Tennis and BlowBlow: AirHockey's ladder and top runs (two copies of the heuristic that then play
+    # it alone for 2 M env steps each).
+    "Tennis": dataclasses.replace(_PUCK_DUEL, top_runs=_playing_the_heuristic(2_000_000)),
+    "BlowBlow": dataclasses.replace(_PUCK_DUEL, top_runs=_playing_the_heuristic(2_000_000)),
     "GoBang": Recipe(steps=600_000, snapshots=16, hidden=(8,), common={"learning_rate": 1e-3},
                      per_scheme={"pbt": {"population_size": 4}}),
     "Sumo": _ANT_DUEL,
