@@ -188,8 +188,9 @@ def _playing_the_heuristic(steps: int) -> tuple[dict[str, Any], ...]:
                  for _ in range(2))
 
 
-#: The ladder of the 2D duels (AirHockey, FightForFood, Tennis, BlowBlow): SP meets the random agent in half its episodes, and two
-#: warm-started runs per scheme (a short and a long imitation of the heuristic) lead to the top.
+#: The ladder of the 2D duels (AirHockey, FightForFood, Tennis, BlowBlow): SP meets the random agent
+#: in half its episodes, and two warm-started runs per scheme (a short and a long imitation of the
+#: heuristic) lead to the top.
 _PUCK_DUEL = Recipe(steps=150_000, snapshots=12, hidden=(64, 64),
                     per_scheme={"pbt": {"population_size": 4},
                                 "sp": {"fixed_opponents": ("scripted:random",), "fixed_share": 0.5}},
