@@ -928,7 +928,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--base", default=None, metavar="FOLDER",
                    help="build: a frozen population whose members join the candidates (base-v2 from base-v1)")
     p.add_argument("--scripted", nargs="+", default=None, metavar="AGENT",
-                   help="build: built-in agents that join the candidates, e.g. search-w8-r4-h30-e0.1 (GoBang)")
+                   help="build: built-in agents that join the candidates, e.g. search-w8-r4-h30-e0.1 (GoBang), search-w3-r1-h4 (Snake)")
     p.add_argument("--steps", type=_positive_int, default=None, help="build: env steps per scheme run")
     p.add_argument("--runs", type=_positive_int, default=1, help="build: runs (seeds) of each scheme from scratch")
     p.add_argument("--warm-runs", type=_non_negative_int, default=None,
