@@ -267,10 +267,21 @@ def test_a_ladder_of_warm_starts_gives_each_warm_run_its_own(tmp_path):
     ([{"scheme": "sp"}], ValueError, "positive number of steps"),
     ([{"scheme": "nope", "steps": 10}], ValueError, "needs a scheme"),
     ([{"scheme": "sp", "steps": 10, "warm_start": {"stepz": 5}}], TypeError, "stepz"),
+    ([{"scheme": "sp", "steps": 10, "fixed_opponent": ["scripted:heuristic"]}], TypeError,
+     "sp: unknown option.*fixed_opponent"),
+    ([{"scheme": "sp", "steps": 10, "max_cycles": -3}], ValueError, "max_cycles"),
 ])
 def test_bad_top_runs_are_refused_before_training(tmp_path, top, error, words):
     with pytest.raises(error, match=words):
         build(tmp_path / "w", tmp_path / "o", top_runs=top)
+    assert not (tmp_path / "w" / "runs").exists()
+
+
+def test_a_bad_option_of_the_last_scheme_is_refused_before_the_first_trains(tmp_path):
+    options = {**OPTIONS, SCHEMES[-1]: {**OPTIONS.get(SCHEMES[-1], {}), "learnin_rate": 1e-3}}
+    with pytest.raises(TypeError, match=f"{SCHEMES[-1]}: unknown option.*learnin_rate"):
+        build_population(GAME, size=8, name="base-t", schemes=SCHEMES, steps_per_scheme=384, snapshots=3, seed=0,
+                         work_dir=tmp_path / "w", out_dir=tmp_path / "o", scheme_options=options)
     assert not (tmp_path / "w" / "runs").exists()
 
 

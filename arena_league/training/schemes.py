@@ -64,8 +64,8 @@ from arena_league.training.ppo import PPOConfig
 from arena_league.training.selfplay import SelfPlay
 from arena_league.training.trainer import PPO
 
-__all__ = ["ENV_OPTIONS", "RUN_RECORD", "SCHEMES", "Runner", "Snapshot", "make_env_fn", "register_scheme",
-           "run_scheme", "run_trainer", "scheme_runner", "split_overrides"]
+__all__ = ["ENV_OPTIONS", "RUN_RECORD", "SCHEMES", "Runner", "Snapshot", "check_scheme_options", "make_env_fn",
+           "register_scheme", "run_scheme", "run_trainer", "scheme_runner", "split_overrides"]
 
 #: A scheme's runner (see the module docstring).
 Runner = Callable[..., list["Snapshot"]]
@@ -138,6 +138,27 @@ def run_scheme(scheme: str, game_id: str, *, steps: int, seed: int, snapshot_eve
         log: called with a line per iteration.
         **overrides: hyper-parameters, env options and scheme options (see the module docstring).
     """
+    return _runner(scheme)(game_id, steps=steps, seed=seed, snapshot_every=snapshot_every, out_dir=out_dir,
+                           callback=callback, log=log, **overrides)
+
+
+def check_scheme_options(scheme: str, game_id: str, overrides: Mapping[str, Any]) -> None:
+    """Raise now, as :func:`run_scheme` would once it starts, when ``scheme`` is unknown or an
+    override is not one of its options or holds a bad value (hyper-parameters, env options, scheme
+    options, ``warm_start``, ``snapshot_at``): a long build checks every run before training any.
+    Runners registered without a trainer class are checked by name only."""
+    trainer_cls = getattr(_runner(scheme), "trainer_cls", None)
+    if trainer_cls is None:
+        return
+    overrides = dict(overrides)
+    WarmStart.parse(overrides.pop("warm_start", None))
+    _snapshot_marks(overrides.pop("snapshot_at", ()))
+    _, env_options, _ = split_overrides(overrides, trainer_cls)
+    make_env_fn(game_id, **env_options)
+
+
+def _runner(scheme: str) -> Runner:
+    """The runner of ``scheme``, importing the modules of schemes registered on first use."""
     if scheme not in SCHEMES and scheme in _LAZY_SCHEME_MODULES:
         module = _LAZY_SCHEME_MODULES[scheme]
         if importlib.util.find_spec(module) is not None:
@@ -148,8 +169,7 @@ def run_scheme(scheme: str, game_id: str, *, steps: int, seed: int, snapshot_eve
                 importlib.import_module(module)
     if scheme not in SCHEMES:
         raise ValueError(f"unknown training scheme {scheme!r}; available: {', '.join(sorted(SCHEMES))}")
-    return SCHEMES[scheme](game_id, steps=steps, seed=seed, snapshot_every=snapshot_every, out_dir=out_dir,
-                           callback=callback, log=log, **overrides)
+    return SCHEMES[scheme]
 
 
 def scheme_runner(trainer_cls: type) -> Runner:
@@ -182,6 +202,7 @@ def scheme_runner(trainer_cls: type) -> Runner:
         return run_trainer(trainer, game_id=game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
                            run_dir=run_dir, callback=callback, request=request, snapshot_at=snapshot_at)
 
+    runner.trainer_cls = trainer_cls  # type: ignore[attr-defined]  # check_scheme_options reads it
     runner.__name__ = f"run_{trainer_cls.scheme}"
     runner.__doc__ = f"Run :class:`{trainer_cls.__module__}.{trainer_cls.__name__}` (see run_scheme)."
     return runner

@@ -463,6 +463,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
             recipe's, :attr:`Recipe.top_runs`), seeds ``seed + 1000``, ``seed + 1001``, ...
     """
     from arena_league.envs import game_spec
+    from arena_league.training.schemes import check_scheme_options
 
     started = time.perf_counter()
     spec = game_spec(game_id)
@@ -520,30 +521,33 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     runs += [(scheme, seed + n_runs[scheme] + r, imitation[r % len(imitation)], None)
              for scheme in schemes for r in range(n_warm[scheme])]
     runs += [(run["scheme"], seed + TOP_RUN_SEEDS + r, run.get("warm_start"), run) for r, run in enumerate(top)]
-    for k, (scheme, run_seed, rung, own) in enumerate(runs):
-        warm = bool(rung)
+    plan = []  # (scheme, seed, warm, env steps, snapshot interval, overrides) of every run
+    for scheme, run_seed, rung, own in runs:
         overrides = {**recipe.overrides(scheme), **dict((scheme_options or {}).get(scheme, {}))}
         if own is not None:  # a top run: its own options and budget
             overrides.update({key: v for key, v in own.items() if key not in ("scheme", "steps")})
             run_steps = int(own["steps"])
         else:
-            run_steps = warm_steps[scheme] if warm else steps[scheme]
-            if warm:
+            run_steps = warm_steps[scheme] if rung else steps[scheme]
+            if rung:
                 overrides.update(dict(recipe.warm_overrides), warm_start=rung)
         every = max(1, run_steps // n_snapshots)
         if recipe.early_snapshots and own is None:
             overrides["snapshot_at"] = sorted({0} | {every >> k for k in range(1, recipe.early_snapshots)} - {every})
+        check_scheme_options(scheme, game_id, overrides)  # a bad option fails now, not hours into the build
+        plan.append((scheme, run_seed, bool(rung), run_steps, every, overrides))
+    for k, (scheme, run_seed, warm, run_steps, every, overrides) in enumerate(plan):
         finished = (work / "runs" / f"{scheme}-seed{run_seed}" / "run.json").exists()
         say(f"train {scheme} (seed {run_seed}{', warm start' if warm else ''}): {run_steps} env steps, a snapshot "
             f"every {every}" + (" (finished run: reading it back)" if finished else ""))
         if progress:
-            progress("train", k, len(runs))
+            progress("train", k, len(plan))
         snapshots_by_scheme.setdefault(scheme, []).extend(
             _run_scheme(scheme, game_id, run_steps, run_seed, every, work, overrides))
         label = scheme if run_seed == seed else f"{scheme}-seed{run_seed}"
         (report.reused_runs if finished else report.trained).append(label)
     if progress:
-        progress("train", len(runs), len(runs))
+        progress("train", len(plan), len(plan))
     report.seconds["train"] = round(time.perf_counter() - clock, 1)
     report.stage = "train"
     if stop_after == "train":
@@ -750,7 +754,7 @@ def _scripted_names(game_id: str, names: Sequence[str]) -> list[str]:
 
 
 def _top_runs(runs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Top runs checked before any training: each names a known scheme and a positive budget."""
+    """Top runs whose shape is checked: each names a known scheme and a positive budget."""
     from arena_league.training import SCHEMES
     from arena_league.training.schemes import _LAZY_SCHEME_MODULES
 
@@ -761,11 +765,7 @@ def _top_runs(runs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
                 not isinstance(run.get("steps"), int) or run["steps"] < 1:
             raise ValueError(f"a top run needs a scheme ({', '.join(sorted(known))}) and a positive number of "
                              f"steps, e.g. {{'scheme': 'sp', 'steps': 1_000_000}}; got {run!r}")
-        if run.get("warm_start"):
-            from arena_league.training.imitation import WarmStart
-
-            WarmStart.parse(run["warm_start"])
-        checked.append(dict(run))
+        checked.append(dict(run))  # its options are checked with every other run's before training
     return checked
 
 
