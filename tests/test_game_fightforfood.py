@@ -550,3 +550,48 @@ def test_replay_scene_has_the_pen_every_agent_the_food_and_the_score():
     r.step(still(r))
     entities = r.scene_entities(2_100_000_000)
     assert len(entities[5]["spheres"]) == 10 and entities[-1]["texts"][0]["text"] == "2 : 0"
+
+
+def observations_from_play(layouts=LAYOUTS, steps: int = 25) -> list[np.ndarray]:
+    """Every seat's observation over the first steps of a heuristic match, per layout."""
+    seen = []
+    for teams, players in layouts:
+        r = rules(teams, players, seed=3)
+        for _ in range(steps):
+            obs = r.observe()
+            seen.append(obs)
+            r.step(FightForFoodRules.heuristic(obs, "discrete"))
+    return seen
+
+
+@pytest.mark.parametrize("action_type", ["discrete", "continuous"])
+def test_a_search_of_width_one_plays_the_heuristic(action_type):
+    for obs in observations_from_play():
+        searched = FightForFoodRules.search(obs, np.full(len(obs), 0.5), action_type=action_type, width=1,
+                                            rollouts=2, horizon=10, epsilon=0.1)
+        assert np.array_equal(searched, FightForFoodRules.heuristic(obs, action_type))
+
+
+def test_a_seats_search_depends_on_its_row_alone_and_replays_exactly():
+    obs = np.concatenate(observations_from_play([(2, 1)], steps=30))
+    uniforms = np.random.default_rng(0).random(len(obs))
+    budget = {"action_type": "discrete", "width": 4, "rollouts": 3, "horizon": 15, "epsilon": 0.2}
+    whole = FightForFoodRules.search(obs, uniforms, **budget)
+    assert np.array_equal(whole, FightForFoodRules.search(obs, uniforms, **budget))
+    rows = np.arange(0, len(obs), 7)
+    assert np.array_equal(FightForFoodRules.search(obs[rows], uniforms[rows], **budget), whole[rows])
+    continuous = FightForFoodRules.search(obs[:3], uniforms[:3], **{**budget, "action_type": "continuous"})
+    assert continuous.dtype == np.float32 and continuous.shape == (3, 2) and (np.abs(continuous) <= 1).all()
+
+
+def test_the_search_breaks_the_heuristics_draw_from_either_seat():
+    from arena_league.matchmaking import play_matches, specs_for_seatings
+    from arena_league.policies.scripted import scripted_policy
+
+    game = "FightForFood-2T1P-v1"
+    agents = {"search": scripted_policy("search-w8-r1-h40", game), "heuristic": scripted_policy("heuristic", game)}
+    seatings = [("search", "heuristic"), ("heuristic", "search")] * 8
+    results = play_matches(specs_for_seatings(game, seatings, 7), agents, backend="inprocess")
+    scores = np.array([r.team_scores()[s.index("search")] for s, r in zip(seatings, results)])
+    assert (scores >= 0.5).all(), scores  # it never loses: at worst the heuristics' mirrored draw
+    assert (scores == 1).sum() >= 10 and (scores[::2] == 1).any() and (scores[1::2] == 1).any(), scores

@@ -281,7 +281,8 @@ def test_default_tree_verifies_as_declared(game_id):
 def search_actions(engine: SnakeBoards, width: int = 3, horizon: int = 4) -> np.ndarray:
     """The search agent's action for every snake of board 0 (its own frame)."""
     obs = engine.observe()[0]
-    return SnakeRules.search(obs, np.zeros(len(obs)), width=width, rollouts=1, horizon=horizon, epsilon=0.0)
+    return SnakeRules.search(obs, np.zeros(len(obs)), action_type="discrete", width=width, rollouts=1, horizon=horizon,
+                             epsilon=0.0)
 
 
 def test_the_search_rams_a_shorter_snakes_body_and_the_collision_rule_kills_it():
@@ -310,7 +311,7 @@ def test_a_seats_search_depends_on_its_row_alone_and_width_one_is_the_heuristic(
         engine.step(engine.random_actions())
     obs = engine.observe().reshape(256, -1)
     uniforms = np.random.default_rng(0).random(256)
-    budget = {"width": width, "rollouts": 1, "horizon": horizon, "epsilon": 0.3}
+    budget = {"action_type": "discrete", "width": width, "rollouts": 1, "horizon": horizon, "epsilon": 0.3}
     whole = SnakeRules.search(obs, uniforms, **budget)
     rows = np.arange(0, 256, 7)
     assert (SnakeRules.search(obs[rows], uniforms[rows], **budget) == whole[rows]).all()

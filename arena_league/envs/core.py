@@ -230,9 +230,10 @@ class GameRules(ABC):
         social-tree verification as the 'skilled' end of its policy space."""
 
     #: A game may offer a search agent over its own rules (GoBang over its whole board, Snake over
-    #: each seat's window), ``search(obs, uniforms, *, width, rollouts, horizon, epsilon)``: from
-    #: ``float32[N, obs_dim]`` and ``float64[N]`` (one uniform per seat) to actions, deterministic given
-    #: them; a budget the game cannot search raises ValueError (also for N = 0, which checks it).
+    #: each seat's window, FightForFood over a model of its pen), ``search(obs, uniforms, *,
+    #: action_type, width, rollouts, horizon, epsilon)``: from ``float32[N, obs_dim]`` and
+    #: ``float64[N]`` (one uniform per seat) to actions of ``action_type``, deterministic given them; a
+    #: budget the game cannot search raises ValueError (also for N = 0, which checks it).
     #: ``arena_league.policies.scripted`` names and bounds the budget; None where the game has none.
     search: ClassVar[Callable[..., np.ndarray] | None] = None
     #: What ``search-wW-rR-hH-eE`` means in this game, in words (population provenance quotes it).

@@ -146,20 +146,24 @@ class SearchPolicy(Policy):
     def __init__(self, game_id: str, spec: ActionSpec, name: str, budget: dict[str, Any]) -> None:
         search = game_spec(game_id).rules.search
         if search is None:
-            raise ValueError(f"{game_id} has no search agent (games with one: GoBang, Snake); "
+            raise ValueError(f"{game_id} has no search agent (games with one: GoBang, Snake, FightForFood); "
                              f"play scripted:heuristic or scripted:random there")
         self.spec = spec
         self.name = name
         self.budget = budget
         self._search = search
-        search(np.zeros((0, spec.obs_dim), dtype=np.float32), np.zeros(0), **budget)  # the game checks the budget
+        search(np.zeros((0, spec.obs_dim), dtype=np.float32), np.zeros(0), action_type=spec.action_type,
+               **budget)  # the game checks the budget
 
     def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
             state: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
         uniforms = np.asarray(uniforms, dtype=np.float64)
         first = uniforms if uniforms.ndim == 1 else uniforms[:, 0]
         obs = np.asarray(obs, dtype=np.float32)[:, : self.spec.obs_dim]
-        return np.asarray(self._search(obs, first, **self.budget), dtype=np.int64), None
+        actions = self._search(obs, first, action_type=self.spec.action_type, **self.budget)
+        if self.spec.action_type == "continuous":
+            return np.clip(np.asarray(actions, dtype=np.float32), -1.0, 1.0), None
+        return np.asarray(actions, dtype=np.int64), None
 
 
 def scripted_policy(name: str, game_id: str, action_type: str | None = None) -> Policy:

@@ -733,7 +733,7 @@ class GoBangRules(GameRules):
                                             "in them with probability E")
 
     @staticmethod
-    def search(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
+    def search(obs: np.ndarray, uniforms: np.ndarray, *, action_type: str, width: int, rollouts: int, horizon: int,
                epsilon: float) -> np.ndarray:
         """:func:`rollout_moves` for the seats to move (the others get the first empty cell)."""
         own, opponent, movers = _planes(obs, "search")

@@ -1210,7 +1210,7 @@ class SnakeRules(GameRules):
     search_budget_meaning: ClassVar[str] = SEARCH_BUDGET_MEANING
 
     @staticmethod
-    def search(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
+    def search(obs: np.ndarray, uniforms: np.ndarray, *, action_type: str, width: int, rollouts: int, horizon: int,
                epsilon: float) -> np.ndarray:
         """:func:`search_moves` for living seats (dead ones go up; the rules ignore them)."""
         obs = np.asarray(obs, dtype=np.float32)
