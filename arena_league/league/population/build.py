@@ -237,7 +237,9 @@ RECIPES: dict[str, Recipe] = {
     # 57% of its moves, the top runs scored 0 to 4% against it in training, the heuristic ranked first
     # (rated about 620 Elo above the best member, who drew 2 of 200 and lost the rest), and the members spread
     # 540 Elo (floors 0, 25, 100 Elo above random: 559, 595, 482). The ladder lacks a top, not a bottom.
-    "FightForFood": dataclasses.replace(_PUCK_DUEL, top_runs=_playing_the_heuristic(1_000_000)),
+    # So the top is now FightForFood's search agents (``scripted=``, see the README's command), and
+    # the recipe is the ladder alone.
+    "FightForFood": _PUCK_DUEL,
     # Tennis and BlowBlow: AirHockey's ladder and top runs (two copies of the heuristic that then play
     # it alone for 2 M env steps each).
     "Tennis": dataclasses.replace(_PUCK_DUEL, top_runs=_playing_the_heuristic(2_000_000)),
