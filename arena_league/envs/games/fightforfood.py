@@ -850,7 +850,7 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
     there = pellets[:, :, 2] > 0.5
     to_pellet = pellets[:, :, 0:2] * HALF_SIZE
     others = obs[:, first + 3 * food:].reshape(n, n_agents - 1, 4)
-    if n == 0 or not there.any():
+    if n == 0 or width == 1 or not there.any():  # one candidate: the heuristic's own pellet
         return FightForFoodRules.heuristic(obs, action_type)
     # the pen in the seat's frame, the seat at the origin: agents [N, A, 2] (the seat first)
     position = np.concatenate([np.zeros((n, 1, 2)), others[:, :, 0:2] * HALF_SIZE], axis=1)
