@@ -28,12 +28,15 @@ from arena_league.policies.threads import torch_threads
 ROOT = Path(__file__).resolve().parent.parent / "checkpoints"
 SHIPPED = sorted(p.parent for p in ROOT.glob("*/*/population.json"))
 #: The games that ship a base population. The quickstart ranks against Crossroads'.
-REQUIRED = {"AirHockey-2T1P-v1", "BlowBlow-2T1P-v1", "Crossroads-2T2P-v1", "GoBang-2T1P-v1", "RunToGoal-2T1P-v1",
-            "Snake-2T2P-v1", "Soccer-2T2P-v1", "Sumo-2T1P-v1", "Tennis-2T1P-v1"}
+REQUIRED = {"AirHockey-2T1P-v1", "BlowBlow-2T1P-v1", "Crossroads-2T2P-v1", "FightForFood-2T1P-v1", "GoBang-2T1P-v1",
+            "RunToGoal-2T1P-v1", "Snake-2T2P-v1", "Soccer-2T2P-v1", "Sumo-2T1P-v1", "Tennis-2T1P-v1"}
 #: The newest population of each game: the one entrants are ranked against by default.
 NEWEST = sorted({shipped_population(p.parent.name) for p in SHIPPED})
 #: Games whose newest population still lacks headroom, and why (each must get a population that has it).
-WITHOUT_HEADROOM: dict[str, str] = {}
+WITHOUT_HEADROOM = {
+    "FightForFood-2T1P-v1": "base-v1's best (search-w4-r1-h40) beat the heuristic in 122 of 200 at the build, but "
+                            "wins 11 of these 20 replayed matches (8 drawn): marginal headroom",
+}
 
 
 def _manifest(folder: Path) -> dict:

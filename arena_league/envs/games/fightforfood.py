@@ -134,8 +134,8 @@ Search agent (``scripted:search-wW-rR-hH[-eE]``, :func:`plan_moves`)
     seat steers, as the heuristic does, for the candidate of the highest mean value (ties: the
     heuristic's order). Its draws come from a generator seeded by the seat's uniform, so a match
     replays exactly. ``W`` = 1 is the heuristic. Against the heuristic (2T1P, 80 matches, seats
-    alternating) ``search-w8-r1-h40`` won 74% and drew 24%: two heuristics mirror each other to a
-    6 to 6 draw, and the planner finds the pellet that breaks the tie.
+    alternating) ``search-w8-r1-h40`` won 62 and drew 16: two heuristics mirror each other to a
+    6 to 6 draw, and the planner often finds the pellet that breaks the tie.
 
 Game kwargs
     ``food`` (int in [4, 24], a multiple of the number of teams, default 12), ``start_jitter``
