@@ -270,6 +270,7 @@ def test_a_ladder_of_warm_starts_gives_each_warm_run_its_own(tmp_path):
     ([{"scheme": "sp", "steps": 10, "fixed_opponent": ["scripted:heuristic"]}], TypeError,
      "sp: unknown option.*fixed_opponent"),
     ([{"scheme": "sp", "steps": 10, "max_cycles": -3}], ValueError, "max_cycles"),
+    ([{"scheme": "sp", "steps": 10, "warm_start": {"steps": 5}, "family": "gru"}], ValueError, "feed-forward"),
 ])
 def test_bad_top_runs_are_refused_before_training(tmp_path, top, error, words):
     with pytest.raises(error, match=words):

@@ -151,10 +151,17 @@ def check_scheme_options(scheme: str, game_id: str, overrides: Mapping[str, Any]
     if trainer_cls is None:
         return
     overrides = dict(overrides)
-    WarmStart.parse(overrides.pop("warm_start", None))
+    imitation = WarmStart.parse(overrides.pop("warm_start", None))
     _snapshot_marks(overrides.pop("snapshot_at", ()))
-    _, env_options, _ = split_overrides(overrides, trainer_cls)
+    config, env_options, _ = split_overrides(overrides, trainer_cls)
+    _check_warm_start_family(imitation, config)
     make_env_fn(game_id, **env_options)
+
+
+def _check_warm_start_family(imitation: WarmStart | None, config: PPOConfig) -> None:
+    if imitation is not None and config.family != "mlp":
+        raise ValueError(f"warm_start fits feed-forward actors; a {config.family!r} actor would be fitted "
+                         "without its recurrent state. Drop warm_start or use family='mlp'")
 
 
 def _runner(scheme: str) -> Runner:
@@ -181,9 +188,7 @@ def scheme_runner(trainer_cls: type) -> Runner:
         imitation = WarmStart.parse(overrides.pop("warm_start", None))
         snapshot_at = _snapshot_marks(overrides.pop("snapshot_at", ()))
         config, env_options, scheme_options = split_overrides(overrides, trainer_cls)
-        if imitation is not None and config.family != "mlp":
-            raise ValueError(f"warm_start fits feed-forward actors; a {config.family!r} actor would be fitted "
-                             "without its recurrent state. Drop warm_start or use family='mlp'")
+        _check_warm_start_family(imitation, config)
         request = {"scheme": trainer_cls.scheme, "game_id": game_id, "steps": int(steps), "seed": int(seed),
                    "snapshot_every": int(snapshot_every or 0), "config": json_safe(config.__dict__),
                    "env": json_safe(env_options), "options": json_safe(scheme_options)}
