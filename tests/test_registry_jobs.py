@@ -150,13 +150,15 @@ def test_the_lease_is_renewed_while_a_long_handler_runs(league: League) -> None:
     stolen: list[object] = []
 
     def slow(context: JobContext) -> str:
-        for _ in range(12):  # 1.2 s, twice the lease, progressing all along
-            time.sleep(0.1)
+        for _ in range(24):  # 3 s, twice the lease, progressing all along
+            time.sleep(0.125)
             context.heartbeat()
             stolen.append(claim_job(league, "thief", lease_seconds=5))
         return "finished"
 
-    report = run_worker(league, {"slow": slow}, "w", lease_seconds=0.6, poll_seconds=0.01, max_jobs=1)
+    # a lease of 1.5 s is renewed every 0.5 s: a loaded machine's stall of a few tenths (a 0.6 s lease
+    # once ran out under CI) does not let it lapse
+    report = run_worker(league, {"slow": slow}, "w", lease_seconds=1.5, poll_seconds=0.01, max_jobs=1)
     assert report.completed == 1 and set(stolen) == {None}
     job = _job(league, job_id)
     assert (job.status, job.result, job.attempts) == ("done", "finished", 1)
