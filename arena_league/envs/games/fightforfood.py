@@ -165,6 +165,7 @@ Replay scene
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -784,23 +785,9 @@ class FightForFoodRules(ReplayedMatch, GameRules):
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
-        n_teams, players, food = _observation_layout(obs.shape[1])
-        n_others = n_teams * players - 1
-        velocity = obs[:, 3:5] * VELOCITY_UNIT
-        first = 6 + n_teams
-        pellets = obs[:, first: first + 3 * food].reshape(-1, food, 3)
-        to_pellet = pellets[:, :, 0:2] * HALF_SIZE
-        there = pellets[:, :, 2] > 0.5
-        others = obs[:, first + 3 * food:].reshape(-1, n_others, 4)
-        # the physics moves every body by its present velocity before the thrust acts: judge from
-        # where the bodies will be after this step
-        to_pellet -= velocity[:, None, :] * DT
-        others = (others[:, :, 0:2] * HALF_SIZE + others[:, :, 2:4] * (VELOCITY_UNIT * DT)
-                  - velocity[:, None, :] * DT)
-        cost = _pellet_costs(to_pellet, others[:, :, None, :], there)
-        choice = cost.argmin(axis=1)
-        return _steer(velocity, to_pellet[np.arange(len(obs)), choice], there.any(axis=1), action_type)
+        seen = _seen(obs)
+        choice = _pellet_costs(seen.ahead, seen.others_ahead[:, :, None, :], seen.there).argmin(axis=1)
+        return _steer(seen.velocity, seen.ahead[np.arange(len(choice)), choice], seen.there.any(axis=1), action_type)
 
     search_budget_meaning: ClassVar[str] = SEARCH_BUDGET_MEANING
 
@@ -809,6 +796,34 @@ class FightForFoodRules(ReplayedMatch, GameRules):
                epsilon: float) -> np.ndarray:
         return plan_moves(obs, uniforms, width=width, rollouts=rollouts, horizon=horizon, epsilon=epsilon,
                           action_type=action_type)
+
+
+@dataclass(frozen=True)
+class _Seen:
+    """What the heuristic and the search read from FightForFood observations (``N`` rows)."""
+
+    layout: tuple[int, int, int]  # n_teams, players per team, food
+    velocity: np.ndarray  # [N, 2], the seat's own
+    to_pellet: np.ndarray  # [N, food, 2], pellet - seat
+    there: np.ndarray  # [N, food], still-there flags
+    others: np.ndarray  # [N, others, 4], each other seat's offset and velocity cells as observed
+    ahead: np.ndarray  # [N, food, 2], pellet - seat after this step's drift
+    others_ahead: np.ndarray  # [N, others, 2], each other seat - seat after this step's drift
+
+
+def _seen(obs: np.ndarray) -> _Seen:
+    """The observation read as the heuristic reads it. The physics moves every body by its present
+    velocity before the thrust acts: offsets are judged from where the bodies will be after this step."""
+    obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
+    n_teams, players, food = _observation_layout(obs.shape[1])
+    velocity = obs[:, 3:5] * VELOCITY_UNIT
+    first = 6 + n_teams
+    pellets = obs[:, first: first + 3 * food].reshape(-1, food, 3)
+    to_pellet = pellets[:, :, 0:2] * HALF_SIZE
+    others = obs[:, first + 3 * food:].reshape(-1, n_teams * players - 1, 4)
+    drift = velocity[:, None, :] * DT
+    return _Seen((n_teams, players, food), velocity, to_pellet, pellets[:, :, 2] > 0.5, others, to_pellet - drift,
+                 others[:, :, 0:2] * HALF_SIZE + others[:, :, 2:4] * (VELOCITY_UNIT * DT) - drift)
 
 
 def _pellet_costs(to_pellet: np.ndarray, others: np.ndarray, there: np.ndarray) -> np.ndarray:
@@ -841,15 +856,10 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
                epsilon: float, action_type: str = "discrete") -> np.ndarray:
     """The FightForFood search agent's action per observation row (module docstring, "Search
     agent"): ``float32[N, obs_dim]`` and one uniform per seat to ``int64[N]`` (or ``float32[N, 2]``)."""
-    obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
-    n_teams, players, food = _observation_layout(obs.shape[1])
-    n, n_agents = len(obs), n_teams * players
-    first = 6 + n_teams
-    velocity = obs[:, 3:5] * VELOCITY_UNIT
-    pellets = obs[:, first: first + 3 * food].reshape(n, food, 3)
-    there = pellets[:, :, 2] > 0.5
-    to_pellet = pellets[:, :, 0:2] * HALF_SIZE
-    others = obs[:, first + 3 * food:].reshape(n, n_agents - 1, 4)
+    seen = _seen(obs)
+    n_teams, players, food = seen.layout
+    n, n_agents = len(seen.there), n_teams * players
+    velocity, there, to_pellet, others = seen.velocity, seen.there, seen.to_pellet, seen.others
     if n == 0 or width == 1 or not there.any():  # one candidate: the heuristic's own pellet
         return FightForFoodRules.heuristic(obs, action_type)
     # the pen in the seat's frame, the seat at the origin: agents [N, A, 2] (the seat first)
@@ -857,9 +867,8 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
     speed = np.concatenate([velocity[:, None, :], others[:, :, 2:4] * VELOCITY_UNIT], axis=1)
     team = np.arange(n_agents) // players  # the seat's team is 0, the others' in turn order
     # candidates: the W pellets the heuristic likes best (judged as the heuristic judges them)
-    ahead = to_pellet - velocity[:, None, :] * DT
-    seen = (others[:, :, 0:2] * HALF_SIZE + others[:, :, 2:4] * (VELOCITY_UNIT * DT) - velocity[:, None, :] * DT)
-    order = np.argsort(_pellet_costs(ahead, seen[:, :, None, :], there), axis=1, kind="stable")
+    ahead = seen.ahead
+    order = np.argsort(_pellet_costs(ahead, seen.others_ahead[:, :, None, :], there), axis=1, kind="stable")
     width = min(width, food)
     candidate = order[:, :width]  # [N, W]
     # the rollouts: batch rows (seat, candidate, rollout)
@@ -892,15 +901,16 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
         heading = direction - 0.5 * drift
         heading /= np.maximum(np.linalg.norm(heading, axis=-1, keepdims=True), 1e-9)
         vel = vel * _VELOCITY_KEPT + DT * (THRUST * heading - AGENT_DRAG * vel) / AGENT_MASS
-        # eating: the nearest agent within reach of a pellet still there eats it
-        reach = np.linalg.norm(food_at[..., None, :, :] - pos[..., :, None, :], axis=-1)  # [N, W, R, A, F]
+        # eating: the nearest agent within reach of a pellet still there eats it (no one moved since
+        # the offsets were taken)
+        reach = np.linalg.norm(offsets, axis=-1)  # [N, W, R, A, F]
         nearest = reach.argmin(axis=-2)
         eats = left & (reach.min(axis=-2) < EAT_DISTANCE)
         for t in range(n_teams):
             eaten[..., t] += (eats & (team[nearest] == t)).sum(axis=-1)
         left &= ~eats
-    # at the horizon, the pellets left count a half for the team whose agent is nearest
-    reach = np.linalg.norm(food_at[..., None, :, :] - pos[..., :, None, :], axis=-1)
+    # at the horizon (where the last step's reach was taken), the pellets left count a half for the
+    # team whose agent is nearest
     for t in range(n_teams):
         eaten[..., t] += 0.5 * (left & (team[reach.argmin(axis=-2)] == t)).sum(axis=-1)
     margin = eaten[..., 0] - (eaten[..., 1:].max(axis=-1) if n_teams > 1 else 0.0)
