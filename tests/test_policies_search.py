@@ -29,6 +29,13 @@ def test_a_search_name_carries_its_budget():
     assert search_budget("heuristic") is None and search_budget("search-w8") is None
     assert is_scripted_name("search-w8-r4-h30") and is_scripted_name("random")
     assert not is_scripted_name("search-w99-r4-h30") and not is_scripted_name("minimax")
+    # a later version of a game's search adds -vV; the first has no suffix, so one agent has one name
+    assert search_budget("search-w8-r1-h40-v2") == {"width": 8, "rollouts": 1, "horizon": 40, "epsilon": 0.0,
+                                                   "version": 2}
+    assert search_budget("search-w8-r4-h30-e0.1-v2")["version"] == 2
+    with pytest.raises(ValueError, match="named without -v; leave -v1 out: search-w8-r1-h40-e0.1"):
+        search_budget("search-w8-r1-h40-e0.1-v1")
+    assert scripted_descriptor("search-w8-r1-h40-v2") != scripted_descriptor("search-w8-r1-h40")
 
 
 @pytest.mark.parametrize("name, words", [
@@ -47,6 +54,16 @@ def test_games_without_a_search_agent_say_so():
         scripted_policy("search-w4-r1-h10", "Sumo-2T1P-v1")
     with pytest.raises(ValueError, match="unknown scripted agent 'minimax'.*search-wW-rR-hH"):
         scripted_policy("minimax", GAME)
+
+
+def test_a_version_the_game_lacks_is_refused_where_the_agent_is_made():
+    with pytest.raises(ValueError, match="GoBang-2T1P-v1's search agent has version 1, not 2; leave -v out"):
+        scripted_policy("search-w4-r1-h10-v2", GAME)
+    with pytest.raises(ValueError, match="versions 1, 2, not 3; the first is named without -v"):
+        scripted_policy("search-w4-r1-h10-v3", "FightForFood-2T1P-v1")
+    refused = validate_submission("scripted:search-w4-r1-h10-v2", GAME)
+    assert not refused.ok and "version 1, not 2" in refused.reason
+    assert scripted_policy("search-w4-r1-h10-v2", "FightForFood-2T1P-v1").budget["version"] == 2
 
 
 def test_rollout_search_replays_exactly_and_plays_legal_cells():

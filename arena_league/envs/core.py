@@ -238,6 +238,10 @@ class GameRules(ABC):
     search: ClassVar[Callable[..., np.ndarray] | None] = None
     #: What ``search-wW-rR-hH-eE`` means in this game, in words (population provenance quotes it).
     search_budget_meaning: ClassVar[str] = ""
+    #: The versions of the search agent: the first is named without a version; a later one, improved
+    #: after populations were built with the first, adds ``-vV`` to the name and is passed to
+    #: ``search`` as ``version=V`` (the first never is, so a game with one version takes no argument).
+    search_versions: ClassVar[tuple[int, ...]] = (1,)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

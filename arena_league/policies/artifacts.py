@@ -724,7 +724,7 @@ def _read_json_agent(path: Path, size: int, limits: ArtifactLimits) -> AgentArti
         name = document.get("name")
         if not is_scripted_name(name):
             raise ArtifactError(f"{path} names scripted agent {name!r}; built-in agents: {', '.join(SCRIPTED_NAMES)} "
-                                "and, where the game has one, search-wW-rR-hH[-eE] within its bounds")
+                                "and, where the game has one, search-wW-rR-hH[-eE][-vV] within its bounds")
         return AgentArtifact("scripted", {"scripted.json": scripted_descriptor(name)}, str(path))
     if isinstance(document, dict) and "family" in document:
         raise ArtifactError(f"{path} is an arena-policy manifest; pass the folder that holds it and "

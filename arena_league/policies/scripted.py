@@ -13,7 +13,9 @@ Some games (GoBang, Snake, FightForFood) also offer **search** agents over their
 (``RULES.search``), named with their budget, ``search-wW-rR-hH-eE`` (``-e`` may be left out: 0), whose
 meaning each game's manual gives (``RULES.search_budget_meaning``): in GoBang ``search-w8-r4-h30-e0.1`` searches the 8
 moves the heuristic likes best, playing 4 rollouts of at most 30 more moves from each, the rollouts'
-moves the heuristic's but for a random one with probability 0.1. Their randomness comes from the
+moves the heuristic's but for a random one with probability 0.1. A game whose search has been
+improved keeps the first version under its old names (a population that holds one stays what it
+was rated as) and names the next with a suffix, ``-v2`` (``RULES.search_versions``). Their randomness comes from the
 engine's uniforms, so a match replays exactly; the budget is bounded (:data:`SEARCH_LIMITS`) so that
 no descriptor can ask for an unbounded search, and a game refuses a budget it cannot search (Snake's
 plays no rollouts: R must be 1) when the agent is made.
@@ -39,7 +41,7 @@ SCRIPTED_NAMES: tuple[str, ...] = ("random", "heuristic")
 #: The search agents' budgets: bounds of each field, and of the rollouts' total work
 #: (``width * rollouts * horizon``, stones played per move searched).
 SEARCH_LIMITS: dict[str, int] = {"width": 16, "rollouts": 16, "horizon": 40, "work": 2048}
-_SEARCH_NAME = re.compile(r"search-w(\d{1,3})-r(\d{1,3})-h(\d{1,3})(?:-e(0|0\.\d{1,3}|1))?")
+_SEARCH_NAME = re.compile(r"search-w(\d{1,3})-r(\d{1,3})-h(\d{1,3})(?:-e(0|0\.\d{1,3}|1))?(?:-v(\d{1,2}))?")
 #: Prefix of a scripted agent's reference, e.g. ``scripted:heuristic``.
 SCRIPTED_PREFIX = "scripted:"
 #: The ``format`` field of a scripted agent's JSON descriptor.
@@ -48,13 +50,21 @@ SCRIPTED_FORMAT = "arena-scripted"
 
 def search_budget(name: str) -> dict[str, Any] | None:
     """The budget of search agent ``name`` (``search-w8-r4-h30-e0.1``, with or without the
-    ``scripted:`` prefix): ``{"width", "rollouts", "horizon", "epsilon"}``; None when ``name`` is not
-    a search agent's; raises ValueError, naming the bound, when a field is out of bounds."""
+    ``scripted:`` prefix): ``{"width", "rollouts", "horizon", "epsilon"}``, and ``"version"`` where the
+    name asks for a later one (``-v2``); None when ``name`` is not a search agent's; raises ValueError,
+    naming the bound, when a field is out of bounds."""
     found = _SEARCH_NAME.fullmatch(name.removeprefix(SCRIPTED_PREFIX))
     if found is None:
         return None
     width, rollouts, horizon = (int(found.group(k)) for k in (1, 2, 3))
     budget = {"width": width, "rollouts": rollouts, "horizon": horizon, "epsilon": float(found.group(4) or 0.0)}
+    if found.group(5) is not None:
+        version = int(found.group(5))
+        if version < 2:
+            # one name per agent: the first version is the name without a version
+            raise ValueError(f"search agent {name!r}: the first version is named without -v; leave "
+                             f"-v{found.group(5)} out: {name.removeprefix(SCRIPTED_PREFIX)[: found.start(5) - 2]}")
+        budget["version"] = version
     for field in ("width", "rollouts", "horizon"):
         if not 1 <= budget[field] <= SEARCH_LIMITS[field]:
             raise ValueError(f"search agent {name!r}: {field} must be from 1 to {SEARCH_LIMITS[field]}, "
@@ -79,7 +89,7 @@ def is_scripted_name(name: Any) -> bool:
 def _unknown(name: str) -> ValueError:
     return ValueError(f"unknown scripted agent {name!r}; built-in agents: "
                       + ", ".join(SCRIPTED_PREFIX + n for n in SCRIPTED_NAMES)
-                      + f", and, for games with a search agent, {SCRIPTED_PREFIX}search-wW-rR-hH[-eE] "
+                      + f", and, for games with a search agent, {SCRIPTED_PREFIX}search-wW-rR-hH[-eE][-vV] "
                         "(e.g. search-w8-r4-h30-e0.1)")
 
 
@@ -148,6 +158,11 @@ class SearchPolicy(Policy):
         if search is None:
             raise ValueError(f"{game_id} has no search agent (games with one: GoBang, Snake, FightForFood); "
                              f"play scripted:heuristic or scripted:random there")
+        versions = game_spec(game_id).rules.search_versions
+        if budget.get("version", 1) not in versions:
+            raise ValueError(f"{game_id}'s search agent has version{'s' if len(versions) > 1 else ''} "
+                             + ", ".join(map(str, versions)) + f", not {budget['version']}; "
+                             + ("leave -v out" if versions == (1,) else "the first is named without -v"))
         self.spec = spec
         self.name = name
         self.budget = budget

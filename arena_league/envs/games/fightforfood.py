@@ -121,21 +121,29 @@ Heuristic
     they are, a seat between two pellets turns from one to the other every step). It steers at
     full thrust, damping its sideways drift, and does not shove rivals on purpose.
 
-Search agent (``scripted:search-wW-rR-hH[-eE]``, :func:`plan_moves`)
+Search agent (``scripted:search-wW-rR-hH[-eE][-v2]``, :func:`plan_moves`)
     A planner over a model of the pen, from the observation alone (it holds the whole state). Its
     candidates are the ``W`` pellets the heuristic likes best. For each it plays ``R`` rollouts of
     ``H`` steps of a point-mass model: every body moves by its velocity, then thrusts at full
     strength as the heuristic steers it, under the game's damping and drag; the nearest agent within
-    reach of a pellet eats it; walls and contacts are left out. The seat heads for the candidate
-    until it is gone and then plays the heuristic; every other agent plays the heuristic, its pellet
-    costs jittered by a uniform draw of up to ``E`` times the pen's side (6) in each rollout (``E`` =
-    0: one rollout says all). A rollout's value is the food the seat's team ate less the best other
-    team's, each pellet left at the horizon counting a half for the team whose agent is nearest; the
-    seat steers, as the heuristic does, for the candidate of the highest mean value (ties: the
-    heuristic's order). Its draws come from a generator seeded by the seat's uniform, so a match
-    replays exactly. ``W`` = 1 is the heuristic. Against the heuristic (2T1P, 80 matches, seats
-    alternating) ``search-w8-r1-h40`` won 62 and drew 16: two heuristics mirror each other to a
-    6 to 6 draw, and the planner often finds the pellet that breaks the tie.
+    reach of a pellet eats it. The seat heads for the candidate until it is gone and then plays the
+    heuristic; every other agent plays the heuristic, its pellet costs jittered by a uniform draw of
+    up to ``E`` times the pen's side (6) in each rollout (``E`` = 0: one rollout says all). A
+    rollout's value is the food the seat's team ate less the best other team's, each pellet left at
+    the horizon counting a half for the team whose agent is nearest; the seat steers, as the
+    heuristic does, for the candidate of the highest mean value (ties: the heuristic's order). Its
+    draws come from a generator seeded by the seat's uniform, so a match replays exactly. ``W`` = 1
+    is the heuristic.
+
+    Two versions. The first (no suffix; the searchers of the ``base-v1`` population) leaves contacts
+    out and steers every body in any direction. The second (``-v2``) models what the first left
+    out: with discrete actions every body thrusts along one of the eight moves of the action table,
+    as the heuristic's rounded heading does; agents that touch rebound (restitution 0.25, equal
+    masses, overlaps pushed apart) and the walls stop them (restitution 0.4), so the planner sees a
+    rival it would bump and a shove that clears a pellet. Against the heuristic (2T1P, 100 matches,
+    seats alternating, discrete): ``search-w8-r1-h40`` won 71 and drew 27, ``search-w8-r1-h40-v2``
+    won 89 and drew 11; ``search-w4-r1-h40`` 59 and 40, its ``-v2`` 79 and 21. Two heuristics mirror
+    each other to a 6 to 6 draw; the planner finds the pellet that breaks the tie.
 
 Game kwargs
     ``food`` (int in [4, 24], a multiple of the number of teams, default 12), ``start_jitter``
@@ -225,8 +233,13 @@ VELOCITY_BOUND = 2.0
 #: What a FightForFood search agent's budget means (the population provenance quotes it).
 SEARCH_BUDGET_MEANING = ("the W pellets the heuristic likes best, each tried first in R rollouts of H steps of a "
                          "point-mass model of the pen where the others play the heuristic, their pellet costs "
-                         "jittered by up to E of the pen's side")
+                         "jittered by up to E of the pen's side; -v2 models the contacts between agents and with "
+                         "the walls, and the eight moves of the discrete action table")
 _VELOCITY_KEPT = SPACE_DAMPING ** DT  # the share of its velocity a body keeps over one step
+# pymunk's restitution of a contact is the product of the two shapes' elasticities
+_AGENT_RESTITUTION = ELASTICITY["agent"] ** 2
+_WALL_RESTITUTION = ELASTICITY["agent"] * ELASTICITY["wall"]
+_REACH = HALF_SIZE - AGENT_RADIUS  # the walls keep an agent's centre within this of the centre
 
 DEFAULT_FOOD = 12
 _FOOD_RANGE = (4, 24)
@@ -790,12 +803,13 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         return _steer(seen.velocity, seen.ahead[np.arange(len(choice)), choice], seen.there.any(axis=1), action_type)
 
     search_budget_meaning: ClassVar[str] = SEARCH_BUDGET_MEANING
+    search_versions: ClassVar[tuple[int, ...]] = (1, 2)
 
     @staticmethod
     def search(obs: np.ndarray, uniforms: np.ndarray, *, action_type: str, width: int, rollouts: int, horizon: int,
-               epsilon: float) -> np.ndarray:
+               epsilon: float, version: int = 1) -> np.ndarray:
         return plan_moves(obs, uniforms, width=width, rollouts=rollouts, horizon=horizon, epsilon=epsilon,
-                          action_type=action_type)
+                          action_type=action_type, version=version)
 
 
 @dataclass(frozen=True)
@@ -803,6 +817,7 @@ class _Seen:
     """What the heuristic and the search read from FightForFood observations (``N`` rows)."""
 
     layout: tuple[int, int, int]  # n_teams, players per team, food
+    place: np.ndarray  # [N, 2], the seat's own position
     velocity: np.ndarray  # [N, 2], the seat's own
     to_pellet: np.ndarray  # [N, food, 2], pellet - seat
     there: np.ndarray  # [N, food], still-there flags
@@ -822,7 +837,7 @@ def _seen(obs: np.ndarray) -> _Seen:
     to_pellet = pellets[:, :, 0:2] * HALF_SIZE
     others = obs[:, first + 3 * food:].reshape(-1, n_teams * players - 1, 4)
     drift = velocity[:, None, :] * DT
-    return _Seen((n_teams, players, food), velocity, to_pellet, pellets[:, :, 2] > 0.5, others, to_pellet - drift,
+    return _Seen((n_teams, players, food), obs[:, 1:3] * HALF_SIZE, velocity, to_pellet, pellets[:, :, 2] > 0.5, others, to_pellet - drift,
                  others[:, :, 0:2] * HALF_SIZE + others[:, :, 2:4] * (VELOCITY_UNIT * DT) - drift)
 
 
@@ -847,15 +862,48 @@ def _steer(velocity: np.ndarray, way: np.ndarray, any_left: np.ndarray, action_t
     length = np.linalg.norm(heading, axis=1)
     if action_type == "continuous":
         return np.clip(heading / np.maximum(length, 1e-9)[:, None], -1.0, 1.0).astype(np.float32)
-    angle = np.arctan2(heading[:, 1], heading[:, 0])
-    move = 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
-    return np.where(length < 1e-6, 0, move).astype(np.int64)
+    return np.where(length < 1e-6, 0, _move_of(heading)).astype(np.int64)
+
+
+def _move_of(heading: np.ndarray) -> np.ndarray:
+    """The discrete move (1 to 8) nearest each heading ``[..., 2]``."""
+    angle = np.arctan2(heading[..., 1], heading[..., 0])
+    return 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
+
+
+def _contacts(pos: np.ndarray, vel: np.ndarray, own: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The search model's contacts (version 2), after a step: agents ``[..., A, 2]`` (positions in the
+    seat's frame, relative to the seat's place ``own`` at the start) that overlap and close in rebound
+    as equal masses do and are pushed apart; an agent past a wall is put back on it, its speed into
+    the wall reversed and scaled by the wall's restitution."""
+    n_agents = pos.shape[-2]
+    for i in range(n_agents):
+        for j in range(i + 1, n_agents):
+            apart = pos[..., j, :] - pos[..., i, :]
+            distance = np.linalg.norm(apart, axis=-1, keepdims=True)
+            normal = apart / np.maximum(distance, 1e-9)
+            closing = ((vel[..., j, :] - vel[..., i, :]) * normal).sum(axis=-1, keepdims=True)
+            touching = distance < 2 * AGENT_RADIUS
+            impulse = np.where(touching & (closing < 0), -(1 + _AGENT_RESTITUTION) * closing / 2, 0.0) * normal
+            vel[..., i, :] -= impulse
+            vel[..., j, :] += impulse
+            overlap = np.where(touching, AGENT_RADIUS - distance / 2, 0.0) * normal
+            pos[..., i, :] -= overlap
+            pos[..., j, :] += overlap
+    place = pos + own
+    out = np.abs(place) > _REACH
+    side = np.sign(place)
+    vel = np.where(out & (vel * side > 0), -_WALL_RESTITUTION * vel, vel)
+    pos = np.where(out, side * _REACH - own, pos)
+    return pos, vel
 
 
 def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
-               epsilon: float, action_type: str = "discrete") -> np.ndarray:
+               epsilon: float, action_type: str = "discrete", version: int = 1) -> np.ndarray:
     """The FightForFood search agent's action per observation row (module docstring, "Search
     agent"): ``float32[N, obs_dim]`` and one uniform per seat to ``int64[N]`` (or ``float32[N, 2]``)."""
+    if version not in FightForFoodRules.search_versions:
+        raise ValueError(f"FightForFood's search has versions {FightForFoodRules.search_versions}, not {version!r}")
     seen = _seen(obs)
     n_teams, players, food = seen.layout
     n, n_agents = len(seen.there), n_teams * players
@@ -900,6 +948,8 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
         drift = vel - (vel * direction).sum(axis=-1, keepdims=True) * direction
         heading = direction - 0.5 * drift
         heading /= np.maximum(np.linalg.norm(heading, axis=-1, keepdims=True), 1e-9)
+        if version > 1 and action_type == "discrete":
+            heading = COMPASS_MOVES[_move_of(heading)]
         vel = vel * _VELOCITY_KEPT + DT * (THRUST * heading - AGENT_DRAG * vel) / AGENT_MASS
         # eating: the nearest agent within reach of a pellet still there eats it (no one moved since
         # the offsets were taken)
@@ -909,6 +959,8 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
         for t in range(n_teams):
             eaten[..., t] += (eats & (team[nearest] == t)).sum(axis=-1)
         left &= ~eats
+        if version > 1:
+            pos, vel = _contacts(pos, vel, seen.place[:, None, None, None, :])
     # at the horizon (where the last step's reach was taken), the pellets left count a half for the
     # team whose agent is nearest
     for t in range(n_teams):
