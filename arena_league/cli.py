@@ -586,7 +586,7 @@ def _build_population(args: argparse.Namespace, league) -> int:
                               steps_per_scheme=args.steps, runs_per_scheme=args.runs,
                               warm_runs_per_scheme=args.warm_runs, seed=args.seed, work_dir=args.work_dir,
                               out_dir=args.out_dir, league=league, log=log, base=args.base,
-                              scripted=args.scripted or ())
+                              scripted=args.scripted or (), retire=args.retire or ())
     document = report.to_dict()
     if args.json:
         emit_json(document)
@@ -928,7 +928,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--base", default=None, metavar="FOLDER",
                    help="build: a frozen population whose members join the candidates (base-v2 from base-v1)")
     p.add_argument("--scripted", nargs="+", default=None, metavar="AGENT",
-                   help="build: built-in agents that join the candidates, e.g. search-w8-r4-h30-e0.1 (GoBang), search-w3-r1-h4 (Snake)")
+                   help="build: built-in agents that join the candidates, e.g. search-w8-r4-h30-e0.1 (GoBang), "
+                        "search-w3-r1-h4 (Snake), search-w8-r1-h40-v2 (FightForFood)")
+    p.add_argument("--retire", nargs="+", default=None, metavar="KEY",
+                   help="build: members of --base left out, by key (e.g. search-w4-r1-h40: superseded by its -v2)")
     p.add_argument("--steps", type=_positive_int, default=None, help="build: env steps per scheme run")
     p.add_argument("--runs", type=_positive_int, default=1, help="build: runs (seeds) of each scheme from scratch")
     p.add_argument("--warm-runs", type=_non_negative_int, default=None,

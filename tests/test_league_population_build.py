@@ -5,6 +5,7 @@ at every stage; and the selection rule on its own."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -158,6 +159,36 @@ def test_a_second_population_keeps_the_first_and_adds_search_agents(trained, tmp
         population = get_population(session, "base-t2")
         kinds = {m.agent.name: m.agent.kind for m in population.members}
     assert sorted(n for n, k in kinds.items() if k == "scripted") == sorted(m["name"] for m in scripted)
+
+
+def test_a_later_population_retires_superseded_members_of_its_base(trained, tmp_path):
+    """retire leaves named base members out of the candidates (a search agent its next version
+    supersedes); the provenance, the README and the rebuild line name them; a key the base lacks is
+    refused before anything is played."""
+    work, _ = trained
+    first = build(work, tmp_path / "base-t1").out_dir
+    manifest = json.loads((Path(first) / "population.json").read_text())
+    keys = [m["name"].split(".", 1)[1].rsplit("@", 1)[0] for m in manifest["members"]]
+    kwargs = {"size": 8, "schemes": [], "base": first, "seed": 0, "work_dir": tmp_path / "work2",
+              "verify_matches": 20, "bootstrap_rounds": 20, "top_runs": []}
+    with pytest.raises(ValueError, match=r"retire names 'search-w9-r1-h4', not a member of base .*\(e.g. '"):
+        build_population(GAME, name="base-t2", retire=["search-w9-r1-h4"], **kwargs)
+    with pytest.raises(ValueError, match="retire names a member twice"):
+        build_population(GAME, name="base-t2", retire=keys[:1] * 2, **kwargs)
+    with pytest.raises(ValueError, match="give the base too"):
+        build_population(GAME, name="base-t2", retire=keys[:1], **{**kwargs, "base": None,
+                                                                   "scripted": ["search-w2-r1-h4"]})
+    assert not (tmp_path / "work2").exists() and not (tmp_path / "base-t2").exists()
+
+    second = build_population(GAME, name="base-t2", retire=keys[:2], scripted=["search-w2-r1-h4", "search-w4-r1-h4"],
+                              out_dir=tmp_path / "base-t2", **kwargs)
+    assert second.candidates == 8 - 2 + 2
+    assert not {m.key for m in second.members} & set(keys[:2])
+    record = json.loads((tmp_path / "base-t2" / "population.json").read_text())["provenance"]["build"]["base"]
+    assert record["retired"] == sorted(keys[:2]) and record["members"] == 6
+    readme = (tmp_path / "base-t2" / "README.md").read_text()
+    assert "the 6 members of `base-t`" in readme and f"2 retired: `{min(keys[:2])}`" in readme
+    assert f"retire={sorted(keys[:2])!r}" in readme
 
 
 def test_out_dir_of_another_build_is_not_overwritten(trained, tmp_path):

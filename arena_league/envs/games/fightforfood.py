@@ -140,10 +140,11 @@ Search agent (``scripted:search-wW-rR-hH[-eE][-v2]``, :func:`plan_moves`)
     out: with discrete actions every body thrusts along one of the eight moves of the action table,
     as the heuristic's rounded heading does; agents that touch rebound (restitution 0.25, equal
     masses, overlaps pushed apart) and the walls stop them (restitution 0.4), so the planner sees a
-    rival it would bump and a shove that clears a pellet. Against the heuristic (2T1P, 100 matches,
-    seats alternating, discrete): ``search-w8-r1-h40`` won 71 and drew 27, ``search-w8-r1-h40-v2``
-    won 89 and drew 11; ``search-w4-r1-h40`` 59 and 40, its ``-v2`` 79 and 21. Two heuristics mirror
-    each other to a 6 to 6 draw; the planner finds the pellet that breaks the tie.
+    rival it would bump and a shove that clears a pellet. Against the heuristic (2T1P, discrete, 100
+    matches, seats alternating; ``python benchmarks/search_agents.py FightForFood-2T1P-v1 ...``):
+    ``search-w8-r1-h40`` won 64, drew 33 and lost 3, ``search-w8-r1-h40-v2`` won 91 and drew 9;
+    ``search-w4-r1-h40`` 57, 40 and 3, its ``-v2`` 79 and 21. Two heuristics mirror each other to a
+    6 to 6 draw; the planner finds the pellet that breaks the tie.
 
 Game kwargs
     ``food`` (int in [4, 24], a multiple of the number of teams, default 12), ``start_jitter``

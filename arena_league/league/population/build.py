@@ -415,8 +415,8 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
                      floor_margin: float | None = None, bootstrap_rounds: int = 200, batch_size: int = 256,
                      overwrite: bool = False, stop_after: str | None = None, progress: Progress | None = None,
                      log: Callable[[str], None] | None = None, base: str | Path | None = None,
-                     scripted: Sequence[str] = (), top_runs: Sequence[Mapping[str, Any]] | None = None
-                     ) -> BuildReport:
+                     scripted: Sequence[str] = (), top_runs: Sequence[Mapping[str, Any]] | None = None,
+                     retire: Sequence[str] = ()) -> BuildReport:
     """Train, rate, select and freeze a base population of ``game_id`` (see the module docstring).
 
     Args:
@@ -463,6 +463,8 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
             :mod:`arena_league.policies.scripted`), scheme ``search``, their budget in their name.
         top_runs: runs with their own options for the top of the population (default: the
             recipe's, :attr:`Recipe.top_runs`), seeds ``seed + 1000``, ``seed + 1001``, ...
+        retire: keys of ``base`` members that do not join the candidates (``search-w4-r1-h40``: a
+            search agent a later version supersedes); the provenance names them.
     """
     from arena_league.envs import game_spec
     from arena_league.training.schemes import check_scheme_options
@@ -487,7 +489,9 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
                          f"got {schemes!r}")
     base_manifest = _base_manifest(Path(base), game_id) if base is not None else None
     scripted = _scripted_names(game_id, scripted)
-    extra = _base_candidates(Path(base), base_manifest) if base_manifest is not None else []
+    extra = _base_candidates(Path(base), base_manifest, retire) if base_manifest is not None else []
+    if retire and base_manifest is None:
+        raise ValueError("retire names members of a base population; give the base too (base=checkpoints/<game>/base-v1)")
     extra += [Candidate(n, SCRIPTED_SCHEME, 0, 0, n, None, {}, None, n) for n in scripted]
     steps = _steps_per_scheme(schemes, steps_per_scheme, recipe)
     n_runs = _runs_per_scheme(schemes, runs_per_scheme)
@@ -616,7 +620,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     warm_build = {"runs_per_scheme": n_warm, "steps_per_scheme": warm_steps,
                   "warm_start": imitation[0] if len(imitation) == 1 else imitation} \
         if any(n_warm.values()) else None
-    origin = _origin(base, base_manifest, scripted, top)
+    origin = _origin(base, base_manifest, scripted, top, retire)
     build_id = _build_id(game_id, name, schemes, steps, seed, n_snapshots, size, matches_per_pair, schedule.digest,
                          n_runs, warm_build, origin, margin)
     _freeze(out, report, members, build_id, overwrite, recipe, matches_per_pair, verify_matches, n_snapshots,
@@ -724,8 +728,9 @@ def _base_manifest(folder: Path, game_id: str) -> dict[str, Any]:
     return manifest
 
 
-def _base_candidates(folder: Path, manifest: Mapping[str, Any]) -> list[Candidate]:
-    """The members of the frozen population at ``folder`` as candidates (keys and records as built)."""
+def _base_candidates(folder: Path, manifest: Mapping[str, Any], retire: Sequence[str] = ()) -> list[Candidate]:
+    """The members of the frozen population at ``folder`` as candidates (keys and records as built),
+    but for those whose keys ``retire`` names."""
     weights = {member: (arch, params) for arch, members, stacked in _bundles(folder)
                for member, params in zip(members, stacked)}
     prefix = f"{manifest['name']}."
@@ -739,7 +744,15 @@ def _base_candidates(folder: Path, manifest: Mapping[str, Any]) -> list[Candidat
             raise ValueError(f"base {folder}: member {entry['name']} is in no bundle; the folder is damaged")
         candidates.append(Candidate(key, meta["scheme"], int(meta["steps"]), int(meta["seed"]), meta["learner"],
                                     arch, dict(params), meta.get("warm_start"), scripted))
-    return candidates
+    retired = set(retire)
+    unknown = sorted(retired - {c.key for c in candidates})
+    if unknown:
+        raise ValueError(f"retire names {', '.join(map(repr, unknown))}, not a member of base {folder}; name members "
+                         f"by their keys, as in its population.json without `{prefix}` and `@{manifest['game_id']}` "
+                         f"(e.g. {candidates[-1].key!r})")
+    if len(retired) != len(retire):
+        raise ValueError(f"retire names a member twice: {list(retire)!r}")
+    return [c for c in candidates if c.key not in retired]
 
 
 def _scripted_names(game_id: str, names: Sequence[str]) -> list[str]:
@@ -772,7 +785,7 @@ def _top_runs(runs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 
 
 def _origin(base: str | Path | None, manifest: Mapping[str, Any] | None, scripted: list[str],
-            top: Sequence[Mapping[str, Any]]) -> dict[str, Any] | None:
+            top: Sequence[Mapping[str, Any]], retire: Sequence[str] = ()) -> dict[str, Any] | None:
     """Where candidates other than the schemes' runs came from, for the provenance."""
     if manifest is None and not scripted and not top:
         return None
@@ -780,7 +793,9 @@ def _origin(base: str | Path | None, manifest: Mapping[str, Any] | None, scripte
     if manifest is not None:
         origin["base"] = {"name": manifest["name"], "version": manifest.get("version", 1),
                           "build_id": manifest.get("provenance", {}).get("build", {}).get("build_id"),
-                          "members": len(manifest["members"]), "path": str(base)}
+                          "members": len(manifest["members"]) - len(retire), "path": str(base)}
+        if retire:  # absent otherwise, so that earlier builds' ids stay what they were
+            origin["base"]["retired"] = sorted(retire)
     return origin
 
 
@@ -1154,7 +1169,9 @@ def _candidates_line(build: Mapping[str, Any], game_id: str) -> str:
                      f"{run['scheme']} for {run['steps']:,} env steps, {json.dumps(options)}")
     if base:
         parts.append(f"the {base['members']} members of `{base['name']}` (build {base['build_id']}), rated again "
-                     "with the others")
+                     "with the others" + (f" ({len(base['retired'])} retired: "
+                                          + ", ".join(f"`{k}`" for k in base["retired"]) + ")"
+                                          if base.get("retired") else ""))
     if scripted:
         from arena_league.envs import game_spec
 
@@ -1212,6 +1229,7 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
                  f"matches_per_pair={build['matches_per_pair']}, max_candidates={build['max_candidates']}"
                  + (f", scheme_options={build['scheme_options']!r}" if build["scheme_options"] else "")
                  + (f", base={build['base']['path']!r}" if build.get("base") else "")
+                 + (f", retire={build['base']['retired']!r}" if (build.get("base") or {}).get("retired") else "")
                  + (f", scripted={build['scripted']!r}" if build.get("scripted") else "")
                  + (f", top_runs={build['top_runs']!r}" if build.get("top_runs") else "")
                  + (f", floor_margin={build['floor_margin']!r}" if build.get("floor_margin", DEFAULT_FLOOR_MARGIN) != DEFAULT_FLOOR_MARGIN else "")
