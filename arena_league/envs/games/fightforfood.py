@@ -838,8 +838,8 @@ def _seen(obs: np.ndarray) -> _Seen:
     to_pellet = pellets[:, :, 0:2] * HALF_SIZE
     others = obs[:, first + 3 * food:].reshape(-1, n_teams * players - 1, 4)
     drift = velocity[:, None, :] * DT
-    return _Seen((n_teams, players, food), obs[:, 1:3] * HALF_SIZE, velocity, to_pellet, pellets[:, :, 2] > 0.5, others, to_pellet - drift,
-                 others[:, :, 0:2] * HALF_SIZE + others[:, :, 2:4] * (VELOCITY_UNIT * DT) - drift)
+    return _Seen((n_teams, players, food), obs[:, 1:3] * HALF_SIZE, velocity, to_pellet, pellets[:, :, 2] > 0.5,
+                 others, to_pellet - drift, others[:, :, 0:2] * HALF_SIZE + others[:, :, 2:4] * (VELOCITY_UNIT * DT) - drift)
 
 
 def _pellet_costs(to_pellet: np.ndarray, others: np.ndarray, there: np.ndarray) -> np.ndarray:
