@@ -30,8 +30,12 @@ def against_heuristic(game_id: str, name: str, matches: int, seed: int) -> dict:
     results = play_matches(specs_for_seatings(game_id, seatings, seed), agents, backend="inprocess")
     seconds = time.perf_counter() - started
     # the agent's team result against the best of the heuristic's teams: above it, level, below
-    margin = np.array([scores[seats.index("agent")] - max(s for team, s in scores.items() if seats[team] != "agent")
-                       for seats, scores in ((seats, r.team_scores()) for seats, r in zip(seatings, results))])
+    margin = []
+    for seats, result in zip(seatings, results):
+        scores = result.team_scores()  # {team: score}
+        agent = seats.index("agent")
+        margin.append(scores[agent] - max(s for team, s in scores.items() if team != agent))
+    margin = np.array(margin)
     return {"game": game_id, "agent": name, "matches": matches, "wins": int((margin > 0).sum()),
             "draws": int((margin == 0).sum()), "losses": int((margin < 0).sum()), "seconds": round(seconds, 1)}
 

@@ -63,7 +63,7 @@ def search_budget(name: str) -> dict[str, Any] | None:
         if version < 2:
             # one name per agent: the first version is the name without a version
             raise ValueError(f"search agent {name!r}: the first version is named without -v; leave "
-                             f"-v{found.group(5)} out: {name.removeprefix(SCRIPTED_PREFIX)[: found.start(5) - 2]}")
+                             f"-v{found.group(5)} out: {found.string[: found.start(5) - 2]}")
         budget["version"] = version
     for field in ("width", "rollouts", "horizon"):
         if not 1 <= budget[field] <= SEARCH_LIMITS[field]:

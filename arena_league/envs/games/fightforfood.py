@@ -935,6 +935,7 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
         draws[:] = np.stack([np.random.default_rng(int(seed)).random((1, rollouts, n_agents, food)) for seed in seeds])
     jitter = epsilon * 2 * HALF_SIZE * draws * (np.arange(n_agents) > 0)[:, None]  # the others' costs only
     eaten = np.zeros((*batch, n_teams))
+    place = seen.place[:, None, None, None, :]  # the seat's place, against the batch's agents (version 2's walls)
     for _ in range(horizon):
         pos += vel * DT  # the physics moves every body by its velocity before the thrust acts
         offsets = food_at[..., None, :, :] - pos[..., :, None, :]  # [N, W, R, A, F, 2]
@@ -961,7 +962,7 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
             eaten[..., t] += (eats & (team[nearest] == t)).sum(axis=-1)
         left &= ~eats
         if version > 1:
-            pos, vel = _contacts(pos, vel, seen.place[:, None, None, None, :])
+            pos, vel = _contacts(pos, vel, place)
     # at the horizon (where the last step's reach was taken), the pellets left count a half for the
     # team whose agent is nearest
     for t in range(n_teams):

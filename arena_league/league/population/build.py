@@ -489,10 +489,10 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
                          f"got {schemes!r}")
     base_manifest = _base_manifest(Path(base), game_id) if base is not None else None
     scripted = _scripted_names(game_id, scripted)
-    extra = _base_candidates(Path(base), base_manifest, retire) if base_manifest is not None else []
     if retire and base_manifest is None:
         raise ValueError("retire names members of a base population; give the base too (--base FOLDER, e.g. "
                          "checkpoints/<game>/base-v1)")
+    extra = _base_candidates(Path(base), base_manifest, retire) if base_manifest is not None else []
     extra += [Candidate(n, SCRIPTED_SCHEME, 0, 0, n, None, {}, None, n) for n in scripted]
     steps = _steps_per_scheme(schemes, steps_per_scheme, recipe)
     n_runs = _runs_per_scheme(schemes, runs_per_scheme)
