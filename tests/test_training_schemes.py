@@ -95,3 +95,19 @@ def test_same_seed_same_snapshots(tmp_path, scheme):
     for first, second in zip(*runs, strict=True):
         for name, tensor in first.params.items():
             assert torch.equal(second.params[name], tensor), (scheme, first.learner, name)
+
+
+def test_a_run_does_not_depend_on_the_callers_thread_count(tmp_path):
+    """A run trains on one torch thread from its set-up on: with the caller's count (a machine's
+    cores) the actors' first weights once differed in their last bits."""
+    from arena_league.policies.threads import torch_threads
+
+    runs = []
+    for threads in (1, 2):
+        with torch_threads(threads):
+            runs.append(run_scheme("sp", "GoBang-2T1P-v1", steps=128, seed=0, snapshot_every=64,
+                                   out_dir=tmp_path / f"threads{threads}", num_envs=2, num_steps=32, hidden=(32, 32)))
+    assert len(runs[0]) == len(runs[1]) >= 2
+    for first, second in zip(*runs, strict=True):
+        for name, tensor in first.params.items():
+            assert torch.equal(second.params[name], tensor), (first.steps, name)

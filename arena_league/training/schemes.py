@@ -57,6 +57,7 @@ from arena_league.policies.artifacts import (
     manifest_architecture,
     save_arena_policy,
 )
+from arena_league.policies.threads import torch_threads
 from arena_league.training.dppo import DPPO
 from arena_league.training.imitation import WarmStart, warm_start
 from arena_league.training.pbt import PBT
@@ -201,11 +202,14 @@ def scheme_runner(trainer_cls: type) -> Runner:
         if finished is not None:
             return finished
         env_fn = make_env_fn(game_id, **env_options)
-        trainer = trainer_cls(env_fn, config, seed, total_steps=int(steps), log=log, **scheme_options)
-        if imitation is not None:
-            trainer.warm_start_record = warm_start(trainer.learners, env_fn, game_id, imitation, seed, log=log)
-        return run_trainer(trainer, game_id=game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
-                           run_dir=run_dir, callback=callback, request=request, snapshot_at=snapshot_at)
+        # the whole run on one torch thread, its set-up and warm start too: with the caller's count
+        # (the machine's cores) the actors' initial weights differed in their last bits
+        with torch_threads(1):
+            trainer = trainer_cls(env_fn, config, seed, total_steps=int(steps), log=log, **scheme_options)
+            if imitation is not None:
+                trainer.warm_start_record = warm_start(trainer.learners, env_fn, game_id, imitation, seed, log=log)
+            return run_trainer(trainer, game_id=game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
+                               run_dir=run_dir, callback=callback, request=request, snapshot_at=snapshot_at)
 
     runner.trainer_cls = trainer_cls  # type: ignore[attr-defined]  # check_scheme_options reads it
     runner.__name__ = f"run_{trainer_cls.scheme}"
