@@ -191,6 +191,43 @@ def test_a_later_population_retires_superseded_members_of_its_base(trained, tmp_
     assert f"retire={sorted(keys[:2])!r}" in readme
 
 
+def _weights(run_dir: Path) -> dict[str, bytes]:
+    return {str(f.relative_to(run_dir)): f.read_bytes() for f in sorted(run_dir.rglob("*.safetensors"))}
+
+
+def test_side_by_side_processes_train_the_same_runs_and_play_the_same_matches(trained, tmp_path, monkeypatch):
+    """processes=2 trains the runs and plays the round robin's chunks in worker processes: every
+    snapshot's weights and every chunk's scores equal those of one process."""
+    import shutil
+
+    work, _ = trained
+    side = tmp_path / "side"
+    lines = []
+    report = build(side, tmp_path / "unused", stop_after="train", processes=2, log=lines.append)
+    assert report.trained == SCHEMES and report.reused_runs == []
+    assert any("in 2 processes" in line for line in lines)
+    for scheme in SCHEMES:
+        assert _weights(side / "runs" / f"{scheme}-seed0") == _weights(work / "runs" / f"{scheme}-seed0") != {}
+
+    monkeypatch.setattr(build_module, "CHUNK_MATCHES", 64)
+    scores = {}
+    for processes in (1, 2):
+        folder = tmp_path / f"robin{processes}"
+        shutil.copytree(work / "runs", folder / "runs")
+        report = build(folder, tmp_path / "unused", stop_after="round_robin", processes=processes)
+        assert report.matches_played > 128 and report.matches_reused == 0
+        (digest,) = (folder / "matches").iterdir()
+        scores[processes] = {f.name: json.loads(f.read_text()) for f in sorted(digest.glob("chunk-*.json"))}
+    assert len(scores[1]) > 2 and scores[2] == scores[1]
+
+
+def test_processes_must_be_a_positive_whole_number(tmp_path):
+    for processes in (0, -1, 1.5, True):
+        with pytest.raises(ValueError, match="processes must be a whole number"):
+            build(tmp_path / "w", tmp_path / "o", processes=processes)
+    assert not (tmp_path / "w").exists()
+
+
 def test_out_dir_of_another_build_is_not_overwritten(trained, tmp_path):
     work, _ = trained
     out = tmp_path / "base"

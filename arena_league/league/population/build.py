@@ -416,7 +416,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
                      overwrite: bool = False, stop_after: str | None = None, progress: Progress | None = None,
                      log: Callable[[str], None] | None = None, base: str | Path | None = None,
                      scripted: Sequence[str] = (), top_runs: Sequence[Mapping[str, Any]] | None = None,
-                     retire: Sequence[str] = ()) -> BuildReport:
+                     retire: Sequence[str] = (), processes: int = 1) -> BuildReport:
     """Train, rate, select and freeze a base population of ``game_id`` (see the module docstring).
 
     Args:
@@ -465,6 +465,9 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
             recipe's, :attr:`Recipe.top_runs`), seeds ``seed + 1000``, ``seed + 1001``, ...
         retire: keys of ``base`` members that do not join the candidates (``search-w4-r1-h40``: a
             search agent a later version supersedes); the provenance names them.
+        processes: processes that train runs and play round-robin chunks side by side (default 1: all in
+            this process). A run trains on one torch thread and a chunk plays on one, so each is the
+            same whichever process makes it, and the population does not depend on ``processes``.
     """
     from arena_league.envs import game_spec
     from arena_league.training.schemes import check_scheme_options
@@ -481,6 +484,8 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         raise ValueError(f"a population needs at least 2 members, not {size}")
     if matches_per_pair < 1 or verify_matches < 1:
         raise ValueError("matches_per_pair and verify_matches must be at least 1")
+    if isinstance(processes, bool) or not isinstance(processes, int) or processes < 1:
+        raise ValueError(f"processes must be a whole number, at least 1, not {processes!r}")
     recipe = recipe_for(game_id)
     schemes = list(schemes) if schemes is not None else list(default_schemes(game_id))
     top = _top_runs(recipe.top_runs if top_runs is None else top_runs)
@@ -543,8 +548,9 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
             overrides["snapshot_at"] = sorted({0} | {every >> k for k in range(1, recipe.early_snapshots)} - {every})
         check_scheme_options(scheme, game_id, overrides)  # a bad option fails now, not hours into the build
         plan.append((scheme, run_seed, bool(rung), run_steps, every, overrides))
+    side_by_side = _train_side_by_side(game_id, plan, work, processes, say)
     for k, (scheme, run_seed, warm, run_steps, every, overrides) in enumerate(plan):
-        finished = (work / "runs" / f"{scheme}-seed{run_seed}" / "run.json").exists()
+        finished = k not in side_by_side and (work / "runs" / f"{scheme}-seed{run_seed}" / "run.json").exists()
         say(f"train {scheme} (seed {run_seed}{', warm start' if warm else ''}): {run_steps} env steps, a snapshot "
             f"every {every}" + (" (finished run: reading it back)" if finished else ""))
         if progress:
@@ -575,7 +581,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
     keys = [c.key for c in candidates] + list(_REFERENCES)
     schedule = _Schedule(game_id, keys, matches_per_pair, seed)
     policies = _policies(game_id, candidates)
-    table = schedule.play(work, policies, batch_size, report, progress, say)
+    table = schedule.play(work, policies, batch_size, report, progress, say, processes=processes, candidates=candidates)
     report.seconds["round_robin"] = round(time.perf_counter() - clock, 1)
     report.stage = "round_robin"
     if stop_after == "round_robin":
@@ -698,6 +704,59 @@ def _run_scheme(scheme: str, game_id: str, steps: int, seed: int, every: int, wo
                       int(s.steps), int(s.seed), s.learner, s.architecture,
                       {k: v.detach().to(torch.float32).contiguous() for k, v in s.params.items()}, expert)
             for s in snapshots]
+
+
+def _train_side_by_side(game_id: str, plan: list[tuple[str, int, bool, int, int, dict[str, Any]]], work: Path,
+                        processes: int, say: Callable[[str], None]) -> set[int]:
+    """Train the unfinished runs of ``plan`` in ``processes`` worker processes, the longest first;
+    the indices of the runs trained (the caller then reads every run back). None when ``processes``
+    is 1."""
+    todo = [k for k, (scheme, run_seed, *_rest) in enumerate(plan)
+            if not (work / "runs" / f"{scheme}-seed{run_seed}" / "run.json").exists()]
+    if processes < 2 or len(todo) < 2:
+        return set()
+    todo.sort(key=lambda k: -plan[k][3])
+    say(f"training {len(todo)} runs in {min(processes, len(todo))} processes, the longest first")
+    trained: list[int] = []
+
+    def done(k: int, _: None) -> None:
+        trained.append(k)
+        say(f"trained {plan[k][0]} (seed {plan[k][1]}) in a worker process ({len(trained)} of {len(todo)})")
+
+    _in_processes(processes, {k: (_train_in_worker, (plan[k][0], game_id, plan[k][3], plan[k][1], plan[k][4], str(work),
+                                                      plan[k][5])) for k in todo}, done)
+    return set(todo)
+
+
+def _in_processes(processes: int, tasks: Mapping[Any, tuple[Callable[..., Any], tuple[Any, ...]]],
+                  done: Callable[[Any, Any], None], initializer: Callable[..., None] | None = None,
+                  initargs: tuple[Any, ...] = ()) -> None:
+    """Run ``tasks`` (key: (function, arguments)) in at most ``processes`` spawned worker processes,
+    in their order, calling ``done(key, result)`` here as each finishes. A task that fails fails
+    here, as it would in this process; then, or when ``done`` raises (an interrupt, a deadline),
+    the workers are ended at once: nothing already saved is lost, the rest is not played out."""
+    from multiprocessing import get_context
+
+    pool = get_context("spawn").Pool(min(processes, len(tasks)), initializer, initargs)
+    try:
+        for key, result in pool.imap_unordered(_call, [(key, *task) for key, task in tasks.items()]):
+            done(key, result)
+    except BaseException:
+        pool.terminate()
+        raise
+    finally:
+        pool.close()
+        pool.join()
+
+
+def _call(task: tuple[Any, Callable[..., Any], tuple[Any, ...]]) -> tuple[Any, Any]:
+    key, function, arguments = task
+    return key, function(*arguments)
+
+
+def _train_in_worker(scheme: str, game_id: str, steps: int, seed: int, every: int, work: str,
+                     overrides: Mapping[str, Any]) -> None:
+    _run_scheme(scheme, game_id, steps, seed, every, Path(work), overrides)
 
 
 def _thin(candidates: list[Candidate], limit: int) -> list[Candidate]:
@@ -850,30 +909,59 @@ class _Schedule:
         self.digest = hashlib.sha256(identity.encode()).hexdigest()[:16]
 
     def play(self, work: Path, policies: Mapping[str, Any], batch_size: int, report: BuildReport,
-             progress: Progress | None, say: Callable[[str], None]) -> np.ndarray:
-        """``float64[matches, 3]``: team 0's agent index, team 1's, team 0's score."""
+             progress: Progress | None, say: Callable[[str], None], processes: int = 1,
+             candidates: Sequence[Candidate] = ()) -> np.ndarray:
+        """``float64[matches, 3]``: team 0's agent index, team 1's, team 0's score. With
+        ``processes`` above 1, the unplayed chunks are played in that many worker processes, each
+        holding ``candidates``."""
         folder = work / "matches" / self.digest
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "schedule.json").write_text(json.dumps({"game_id": self.game_id, "agents": self.keys,
                                                           "matches": len(self.seatings), "seed": self.seed}))
         n_chunks = math.ceil(len(self.seatings) / CHUNK_MATCHES)
-        rows = []
         say(f"round robin: {len(self.keys)} agents, {len(self.seatings)} matches in {n_chunks} chunks")
-        for chunk in range(n_chunks):
-            path = folder / f"chunk-{chunk:06d}.json"
-            first = chunk * CHUNK_MATCHES
-            seatings = self.seatings[first: first + CHUNK_MATCHES]
-            if path.exists():
-                scores = json.loads(path.read_text())["scores"]
-                report.matches_reused += len(scores)
-            else:
-                scores = play_seatings(self.game_id, seatings, policies, self.seed, first, batch_size)
-                _write_json(path, {"first_match_id": first, "seatings": seatings, "scores": scores})
-                report.matches_played += len(scores)
-            rows += [(self.index[a], self.index[b], s) for (a, b), s in zip(seatings, scores)]
+        chunks = [(folder / f"chunk-{chunk:06d}.json", chunk * CHUNK_MATCHES) for chunk in range(n_chunks)]
+        todo = [(path, first) for path, first in chunks if not path.exists()]
+        saved = {path for path, _ in chunks} - {path for path, _ in todo}
+        done = [len(self.seatings) - sum(len(self.seatings[first: first + CHUNK_MATCHES]) for _, first in todo)]
+
+        def save(path: Path, first: int, scores: list[float]) -> None:
+            _write_json(path, {"first_match_id": first, "seatings": self.seatings[first: first + CHUNK_MATCHES],
+                               "scores": scores})
+            report.matches_played += len(scores)
+            done[0] += len(scores)
             if progress:
-                progress("round_robin", min(len(self.seatings), first + CHUNK_MATCHES), len(self.seatings))
+                progress("round_robin", done[0], len(self.seatings))
+
+        if processes > 1 and len(todo) > 1:
+            say(f"playing {len(todo)} chunks in {min(processes, len(todo))} processes")
+            _in_processes(processes, {(path, first): (_play_in_worker, (self.game_id, self.seatings[
+                first: first + CHUNK_MATCHES], self.seed, first, batch_size)) for path, first in todo},
+                lambda key, scores: save(*key, scores), _hold_policies, (self.game_id, list(candidates)))
+        else:
+            for path, first in todo:
+                save(path, first, play_seatings(self.game_id, self.seatings[first: first + CHUNK_MATCHES], policies,
+                                                self.seed, first, batch_size))
+        rows = []
+        for path, first in chunks:
+            seatings = self.seatings[first: first + CHUNK_MATCHES]
+            scores = json.loads(path.read_text())["scores"]
+            if path in saved:
+                report.matches_reused += len(scores)
+            rows += [(self.index[a], self.index[b], s) for (a, b), s in zip(seatings, scores)]
         return np.asarray(rows, dtype=np.float64).reshape(-1, 3)
+
+
+#: The policies of a round-robin worker process (:func:`_hold_policies`).
+_WORKER_POLICIES: dict[str, Any] = {}
+
+
+def _hold_policies(game_id: str, candidates: list[Candidate]) -> None:
+    _WORKER_POLICIES.update(_policies(game_id, candidates))
+
+
+def _play_in_worker(game_id: str, seatings: list[Any], seed: int, first_match_id: int, batch_size: int) -> list[float]:
+    return play_seatings(game_id, seatings, _WORKER_POLICIES, seed, first_match_id, batch_size)
 
 
 def play_seatings(game_id: str, seatings: Sequence[Sequence[str]], policies: Mapping[str, Any], seed: int,
