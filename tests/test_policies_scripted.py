@@ -61,3 +61,44 @@ def test_every_game_has_both_scripted_agents_and_stable_descriptors():
     assert scripted_descriptor("random") != scripted_descriptor("heuristic")
     with pytest.raises(ValueError, match="unknown scripted agent 'greedy'"):
         scripted_policy("greedy", "Crossroads-2T2P-v1")
+
+
+def test_a_tuned_heuristic_is_the_games_heuristic_with_its_constants():
+    """PushBox's heuristic with other constants, named with them: at the heuristic's own values it
+    plays the heuristic exactly; at others it plays otherwise; it is refused where a game has no
+    such option, out of bounds, or named in a second way."""
+    from arena_league.envs.games import pushbox
+    from arena_league.policies.scripted import heuristic_options, is_scripted_name
+
+    game = "PushBox-2T2P-v1"
+    env = make(game)
+    obs = env.reset_arrays(0)
+    same = scripted_policy(f"scripted:heuristic-gap{pushbox.PUSH_GAP:g}-lane{pushbox.PUSH_LANE:g}-"
+                           f"side{pushbox.PUSH_SIDE:g}", game)
+    tuned = scripted_policy("heuristic-lane0.6-side0.3", game)
+    heuristic = scripted_policy("heuristic", game)
+    assert tuned.name == "heuristic-lane0.6-side0.3" and tuned.options == {"lane": 0.6, "side": 0.3}
+    differed = False
+    for _ in range(60):
+        expected, _ = heuristic.act(obs, np.zeros((len(obs), 1)))
+        np.testing.assert_array_equal(same.act(obs, np.zeros((len(obs), 1)))[0], expected)
+        differed |= not np.array_equal(tuned.act(obs, np.zeros((len(obs), 1)))[0], expected)
+        obs, _, terminated, truncated = env.step_arrays(expected)
+        if terminated or truncated:
+            break
+    assert differed
+    assert load_agent("scripted:heuristic-lane0.6-side0.3", game).info.kind == "scripted"
+    assert scripted_descriptor("heuristic-lane0.6-side0.3") not in (scripted_descriptor("heuristic"),
+                                                                     scripted_descriptor("heuristic-lane0.6"))
+    assert heuristic_options("heuristic") is None and is_scripted_name("heuristic-lane0.6")
+    for name, words in [("heuristic-side0.3-lane0.6", "alphabetical order.*heuristic-lane0.6-side0.3"),
+                        ("heuristic-lane0.60", "written plainly: heuristic-lane0.6$"),
+                        ("heuristic-lane0.6-lane0.7", "name each option once")]:
+        assert not is_scripted_name(name)
+        with pytest.raises(ValueError, match=words):
+            scripted_policy(name, game)
+    for game_id, name, words in [("GoBang-2T1P-v1", "heuristic-lane0.6", "GoBang-2T1P-v1 has no tuned heuristic"),
+                                 (game, "heuristic-speed2", "no option 'speed'; its options: gap .*lane .*side"),
+                                 (game, "heuristic-lane3", "lane must be from 0.1 to 1.5, not 3")]:
+        with pytest.raises(ValueError, match=words):
+            scripted_policy(name, game_id)

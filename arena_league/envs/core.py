@@ -242,6 +242,12 @@ class GameRules(ABC):
     #: after populations were built with the first, adds ``-vV`` to the name and is passed to
     #: ``search`` as ``version=V`` (the first never is, so a game with one version takes no argument).
     search_versions: ClassVar[tuple[int, ...]] = (1,)
+    #: A game may offer its heuristic with other constants, ``heuristic(obs, action_type, **options)``:
+    #: each option's (low, high) bounds, by name. ``arena_league.policies.scripted`` names such a
+    #: tuned heuristic with its options, ``heuristic-lane0.6-side0.3``; none where the game has none.
+    heuristic_options: ClassVar[dict[str, tuple[float, float]]] = {}
+    #: What the options mean, in words (population provenance quotes it).
+    heuristic_options_meaning: ClassVar[str] = ""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)

@@ -20,6 +20,11 @@ engine's uniforms, so a match replays exactly; the budget is bounded (:data:`SEA
 no descriptor can ask for an unbounded search, and a game refuses a budget it cannot search (Snake's
 plays no rollouts: R must be 1) when the agent is made.
 
+Some games (PushBox) also offer **tuned heuristics**: their heuristic with other constants
+(``RULES.heuristic_options``), named with them in alphabetical order, ``heuristic-lane0.6-side0.3``;
+the game's manual says what each constant does. Both kinds serve as top rungs of a base population
+where training does not reach above the heuristic.
+
 Refer to them as ``scripted:random`` / ``scripted:heuristic`` / ``scripted:search-w8-r4-h30``
 (:func:`scripted_policy`); the registry stores them as the small JSON descriptor of
 :func:`scripted_descriptor`.
@@ -42,6 +47,8 @@ SCRIPTED_NAMES: tuple[str, ...] = ("random", "heuristic")
 #: (``width * rollouts * horizon``, stones played per move searched).
 SEARCH_LIMITS: dict[str, int] = {"width": 16, "rollouts": 16, "horizon": 40, "work": 2048}
 _SEARCH_NAME = re.compile(r"search-w(\d{1,3})-r(\d{1,3})-h(\d{1,3})(?:-e(0|0\.\d{1,3}|1))?(?:-v(\d{1,2}))?")
+_TUNED_NAME = re.compile(r"heuristic((?:-[a-z]{1,12}\d{1,3}(?:\.\d{1,3})?){1,8})")
+_TUNED_OPTION = re.compile(r"-([a-z]+)(\d+(?:\.\d+)?)")
 #: Prefix of a scripted agent's reference, e.g. ``scripted:heuristic``.
 SCRIPTED_PREFIX = "scripted:"
 #: The ``format`` field of a scripted agent's JSON descriptor.
@@ -75,13 +82,31 @@ def search_budget(name: str) -> dict[str, Any] | None:
     return budget
 
 
+def heuristic_options(name: str) -> dict[str, float] | None:
+    """The options of tuned heuristic ``name`` (``heuristic-lane0.6-side0.3``, with or without the
+    ``scripted:`` prefix): ``{"lane": 0.6, "side": 0.3}``; None when ``name`` is not a tuned
+    heuristic's. One agent has one name: options out of alphabetical order, repeated, or written
+    other than plainly (``0.60``, ``00.6``) raise ValueError with the name to use. Which options
+    and values a game takes its :class:`HeuristicPolicy` checks."""
+    found = _TUNED_NAME.fullmatch(name.removeprefix(SCRIPTED_PREFIX))
+    if found is None:
+        return None
+    pairs = [(key, float(text)) for key, text in _TUNED_OPTION.findall(found.group(1))]
+    options = dict(pairs)
+    canonical = "heuristic" + "".join(f"-{key}{value:g}" for key, value in sorted(options.items()))
+    if len(options) != len(pairs) or canonical != found.string:
+        raise ValueError(f"tuned heuristic {name!r}: name each option once, in alphabetical order, its value "
+                         f"written plainly: {canonical}")
+    return options
+
+
 def is_scripted_name(name: Any) -> bool:
-    """Whether ``name`` (without the prefix) names a built-in agent: random, heuristic or a search
-    agent within its bounds (anything but a string does not)."""
+    """Whether ``name`` (without the prefix) names a built-in agent: random, heuristic, a search
+    agent within its bounds or a tuned heuristic (anything but a string does not)."""
     if not isinstance(name, str):
         return False
     try:
-        return name in SCRIPTED_NAMES or search_budget(name) is not None
+        return name in SCRIPTED_NAMES or search_budget(name) is not None or heuristic_options(name) is not None
     except ValueError:
         return False
 
@@ -90,7 +115,8 @@ def _unknown(name: str) -> ValueError:
     return ValueError(f"unknown scripted agent {name!r}; built-in agents: "
                       + ", ".join(SCRIPTED_PREFIX + n for n in SCRIPTED_NAMES)
                       + f", and, for games with a search agent, {SCRIPTED_PREFIX}search-wW-rR-hH[-eE][-vV] "
-                        "(e.g. search-w8-r4-h30-e0.1)")
+                        f"(e.g. search-w8-r4-h30-e0.1), for games with a tuned heuristic, "
+                        f"{SCRIPTED_PREFIX}heuristic-<option><value>... (e.g. PushBox's heuristic-lane0.6-side0.3)")
 
 
 class RandomPolicy(Policy):
@@ -117,14 +143,31 @@ class RandomPolicy(Policy):
 
 
 class HeuristicPolicy(Policy):
-    """The game's deterministic scripted policy (``RULES.heuristic``)."""
+    """The game's deterministic scripted policy (``RULES.heuristic``), with ``options`` a tuned one
+    (``RULES.heuristic_options`` bounds them)."""
 
     name = "heuristic"
 
-    def __init__(self, game_id: str, spec: ActionSpec) -> None:
+    def __init__(self, game_id: str, spec: ActionSpec, options: dict[str, float] | None = None) -> None:
         self.spec = spec
         self.game_id = game_id
-        self._heuristic = game_spec(game_id).rules.heuristic
+        rules = game_spec(game_id).rules
+        self.options = dict(options or {})
+        if self.options:
+            bounds = rules.heuristic_options
+            if not bounds:
+                raise ValueError(f"{game_id} has no tuned heuristic (games with one: PushBox); play "
+                                 f"scripted:heuristic there")
+            for key, value in self.options.items():
+                if key not in bounds:
+                    raise ValueError(f"{game_id}'s heuristic has no option {key!r}; its options: "
+                                     + ", ".join(f"{k} ({lo:g} to {hi:g})" for k, (lo, hi) in sorted(bounds.items())))
+                low, high = bounds[key]
+                if not low <= value <= high:
+                    raise ValueError(f"{game_id}'s heuristic option {key} must be from {low:g} to {high:g}, "
+                                     f"not {value:g}")
+            self.name = "heuristic" + "".join(f"-{k}{v:g}" for k, v in sorted(self.options.items()))
+        self._heuristic = rules.heuristic
         self._fallback = RandomPolicy(spec)
 
     def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
@@ -134,7 +177,7 @@ class HeuristicPolicy(Policy):
             raise ValueError(f"{self.game_id} heuristic reads observations float32[N, {self.spec.obs_dim}], "
                              f"got shape {obs.shape}")
         # Boards or the global state may follow the base observation; the heuristic reads the base.
-        actions = self._heuristic(obs[:, : self.spec.obs_dim], self.spec.action_type)
+        actions = self._heuristic(obs[:, : self.spec.obs_dim], self.spec.action_type, **self.options)
         if self.spec.action_type == "continuous":
             return np.clip(np.asarray(actions, dtype=np.float32), -1.0, 1.0), None
         actions = np.asarray(actions, dtype=np.int64)
@@ -193,6 +236,9 @@ def scripted_policy(name: str, game_id: str, action_type: str | None = None) -> 
     budget = search_budget(bare)
     if budget is not None:
         return SearchPolicy(game_id, spec, bare, budget)
+    options = heuristic_options(bare)
+    if options is not None:
+        return HeuristicPolicy(game_id, spec, options)
     raise _unknown(name)
 
 
@@ -200,6 +246,6 @@ def scripted_descriptor(name: str) -> bytes:
     """The canonical JSON bytes that stand for scripted agent ``name`` in the artifact store
     (the same name always gives the same bytes, hence the same content address)."""
     bare = name.removeprefix(SCRIPTED_PREFIX)
-    if bare not in SCRIPTED_NAMES and search_budget(bare) is None:
+    if bare not in SCRIPTED_NAMES and search_budget(bare) is None and heuristic_options(bare) is None:
         raise _unknown(name)
     return json.dumps({"format": SCRIPTED_FORMAT, "name": bare}, sort_keys=True).encode() + b"\n"
