@@ -161,6 +161,27 @@ def test_a_second_population_keeps_the_first_and_adds_search_agents(trained, tmp
     assert sorted(n for n, k in kinds.items() if k == "scripted") == sorted(m["name"] for m in scripted)
 
 
+def test_tuned_heuristics_join_a_build_as_their_own_scheme(tmp_path):
+    """Built-in tuned heuristics (PushBox's heuristic with other constants) join the candidates
+    with scheme ``tuned``, frozen with their options instead of a budget, named in the README."""
+    game = "PushBox-2T2P-v1"
+    tuned = ["heuristic-lane0.6", "heuristic-lane0.6-side0.3", "heuristic-side0.3"]
+    report = build_population(game, size=3, name="base-tuned", schemes=[], scripted=tuned, top_runs=[], seed=0,
+                              matches_per_pair=1, work_dir=tmp_path / "w", out_dir=tmp_path / "out",
+                              verify_matches=4, bootstrap_rounds=10)
+    assert report.candidates == 3 and report.trained == []
+    manifest = json.loads((tmp_path / "out" / "population.json").read_text())
+    assert {m["metadata"]["scheme"] for m in manifest["members"]} == {build_module.TUNED_SCHEME}
+    options = {m["agent_metadata"]["scripted"]: m["metadata"]["budget"] for m in manifest["members"]}
+    assert options["heuristic-lane0.6-side0.3"] == {"options": {"lane": 0.6, "side": 0.3}}
+    readme = (tmp_path / "out" / "README.md").read_text()
+    assert "3 tuned heuristics, the game's heuristic with other constants (scheme `tuned`" in readme
+    assert "lane L: an ant pushes within L m of its push line" in readme
+    assert "3 tuned heuristics above them" in readme
+    for m in manifest["members"]:
+        assert build_module.member_policy(tmp_path / "out", m, game).name == m["agent_metadata"]["scripted"]
+
+
 def test_a_later_population_retires_superseded_members_of_its_base(trained, tmp_path):
     """retire leaves named base members out of the candidates (a search agent its next version
     supersedes); the provenance, the README and the rebuild line name them; a key the base lacks is
@@ -214,8 +235,19 @@ def test_side_by_side_processes_train_the_same_runs_and_play_the_same_matches(tr
     for processes in (1, 2):
         folder = tmp_path / f"robin{processes}"
         shutil.copytree(work / "runs", folder / "runs")
+        reused = 0
+        if processes == 2:  # interrupted after its first chunk: the workers end, the chunk stays
+
+            def interrupt(stage, done, total):
+                if stage == "round_robin":
+                    raise KeyboardInterrupt
+
+            with pytest.raises(KeyboardInterrupt):
+                build(folder, tmp_path / "unused", stop_after="round_robin", processes=processes, progress=interrupt)
+            assert len(list((folder / "matches").glob("*/chunk-*.json"))) == 1
+            reused = 64
         report = build(folder, tmp_path / "unused", stop_after="round_robin", processes=processes)
-        assert report.matches_played > 128 and report.matches_reused == 0
+        assert report.matches_played > 128 and report.matches_reused == reused
         (digest,) = (folder / "matches").iterdir()
         scores[processes] = {f.name: json.loads(f.read_text()) for f in sorted(digest.glob("chunk-*.json"))}
     assert len(scores[1]) > 2 and scores[2] == scores[1]

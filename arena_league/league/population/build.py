@@ -10,7 +10,7 @@ as the base population new agents are ranked against. :func:`build_population` m
    (early) to strong (late);
 2. **candidates**: every snapshot (evenly thinned per learner down to ``max_candidates``), the
    members of an earlier population (``base``: a ``base-v2`` keeps what ``base-v1`` holds) and
-   built-in agents (``scripted``: search agents at several budgets, the top rungs where training
+   built-in agents (``scripted``: search agents at several budgets or tuned heuristics, the top rungs where training
    cannot reach above the heuristic), plus the built-in ``scripted:random`` and
    ``scripted:heuristic`` agents as references;
 3. **round robin**: every pair of candidates meets ``matches_per_pair`` times, seats balanced,
@@ -111,8 +111,10 @@ CRITERIA: dict[str, tuple[str, str, float]] = {
 #: at least (the newest population of every game must; ``base-v1`` of a game that ships a newer one
 #: is kept for comparability).
 HEADROOM: tuple[str, str, float] = ("best_vs_heuristic_win_rate", ">=", 0.60)
-#: The scheme recorded for a built-in (scripted) member.
+#: The scheme recorded for a built-in search agent member.
 SCRIPTED_SCHEME = "search"
+#: The scheme recorded for a built-in tuned heuristic member (the game's heuristic with other constants).
+TUNED_SCHEME = "tuned"
 #: Members are rated at least this far above the random agent (Elo) unless a recipe says otherwise.
 DEFAULT_FLOOR_MARGIN = 50.0
 #: Top run ``r`` of a build seeded ``seed`` trains with seed ``seed + TOP_RUN_SEEDS + r``.
@@ -266,8 +268,8 @@ RECIPES: dict[str, Recipe] = {
     # training stayed at 16 to 51% (draws half), the best member was a warm-started D-PPO snapshot that beat the
     # heuristic in 64 of 200, the heuristic ranked first, and the 100 members spread 481 Elo.
     "PushBox": dataclasses.replace(_ANT_DUEL, top_runs=tuple(
-        {"scheme": "sp", "steps": 800_000, "warm_start": {"steps": 60_000, "min_log_std": -4.0},
-         "fixed_opponents": ("scripted:heuristic",), "fixed_share": 1.0, "anneal_lr": False} for _ in range(2))),
+        {"scheme": "sp", "steps": 500_000, "warm_start": {"steps": 60_000, "min_log_std": -4.0},
+         "fixed_opponents": ("scripted:heuristic",), "fixed_share": 1.0, "anneal_lr": False} for _ in range(12))),
     "Snake": Recipe(steps=80_000, snapshots=10, hidden=(64, 64),
                     per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}},
                     warm_runs=1, warm_start={"steps": 100_000, "rounds": 5, "epochs": 6}, warm_steps=40_000,
@@ -498,7 +500,7 @@ def build_population(game_id: str, *, size: int = 100, name: str = "base-v1", sc
         raise ValueError("retire names members of a base population; give the base too (--base FOLDER, e.g. "
                          "checkpoints/<game>/base-v1)")
     extra = _base_candidates(Path(base), base_manifest, retire) if base_manifest is not None else []
-    extra += [Candidate(n, SCRIPTED_SCHEME, 0, 0, n, None, {}, None, n) for n in scripted]
+    extra += [Candidate(n, _scripted_scheme(n), 0, 0, n, None, {}, None, n) for n in scripted]
     steps = _steps_per_scheme(schemes, steps_per_scheme, recipe)
     n_runs = _runs_per_scheme(schemes, runs_per_scheme)
     n_warm = _runs_per_scheme(schemes, recipe.warm_runs if warm_runs_per_scheme is None else warm_runs_per_scheme,
@@ -816,8 +818,8 @@ def _base_candidates(folder: Path, manifest: Mapping[str, Any], retire: Sequence
 
 
 def _scripted_names(game_id: str, names: Sequence[str]) -> list[str]:
-    """The built-in agents that join the candidates (search agents at their budgets), without the
-    ``scripted:`` prefix, checked before any training."""
+    """The built-in agents that join the candidates (search agents at their budgets, tuned
+    heuristics), without the ``scripted:`` prefix, checked before any training."""
     from arena_league.policies.scripted import SCRIPTED_PREFIX, scripted_policy
 
     bare = [n.removeprefix(SCRIPTED_PREFIX) for n in names]
@@ -826,6 +828,13 @@ def _scripted_names(game_id: str, names: Sequence[str]) -> list[str]:
     for n in bare:
         scripted_policy(n, game_id)  # unknown names, bad budgets and games without search fail here
     return bare
+
+
+def _scripted_scheme(name: str) -> str:
+    """The scheme recorded for built-in member ``name``: ``search`` or ``tuned``."""
+    from arena_league.policies.scripted import search_budget
+
+    return SCRIPTED_SCHEME if search_budget(name) is not None else TUNED_SCHEME
 
 
 def _top_runs(runs: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
@@ -1183,10 +1192,12 @@ def _freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: 
 
 def _scripted_entry(record: MemberRecord, population: str) -> dict[str, Any]:
     """The ``population.json`` entry of a built-in member: no artifact, its name and budget instead."""
-    from arena_league.policies.scripted import search_budget
+    from arena_league.policies.scripted import heuristic_options, search_budget
 
     assert record.scripted is not None
     budget = search_budget(record.scripted)
+    if budget is None:
+        budget = {"options": heuristic_options(record.scripted)}
     metadata = {"rating": record.rating, "rating_lower": record.rating_lower, "rating_upper": record.rating_upper,
                 "rank": record.rank, "scheme": record.scheme, "steps": record.steps, "seed": record.seed,
                 "learner": record.learner, "warm_start": None, "budget": budget}
@@ -1235,11 +1246,13 @@ def _bundles(folder: Path) -> list[tuple[Architecture, list[str], list[dict[str,
 def _members_line(manifest: Mapping[str, Any], figures: Mapping[str, Any]) -> str:
     """How many members, and what made them, in words."""
     schemes = dict(figures.get("schemes", {}))
-    searchers = schemes.pop(SCRIPTED_SCHEME, 0)
+    searchers, tuned = schemes.pop(SCRIPTED_SCHEME, 0), schemes.pop(TUNED_SCHEME, 0)
     line = f"{len(manifest['members'])} agents"
-    if searchers:
-        return f"{line}: {len(manifest['members']) - searchers} that {len(schemes)} training schemes produced and " \
-               f"{searchers} built-in search agents above them"
+    if searchers or tuned:
+        built_in = " and ".join(([f"{searchers} built-in search agents"] if searchers else [])
+                                + ([f"{tuned} tuned heuristics"] if tuned else []))
+        return f"{line}: {len(manifest['members']) - searchers - tuned} that {len(schemes)} training schemes " \
+               f"produced and {built_in} above them"
     return f"{line} that {len(schemes)} training schemes produced"
 
 
@@ -1261,13 +1274,20 @@ def _candidates_line(build: Mapping[str, Any], game_id: str) -> str:
                      "with the others" + (f" ({len(base['retired'])} retired: "
                                           + ", ".join(f"`{k}`" for k in base["retired"]) + ")"
                                           if base.get("retired") else ""))
+    searchers = [n for n in scripted if _scripted_scheme(n) == SCRIPTED_SCHEME]
+    tuned = [n for n in scripted if _scripted_scheme(n) == TUNED_SCHEME]
     if scripted:
         from arena_league.envs import game_spec
 
-        meaning = game_spec(game_id).rules.search_budget_meaning
-        parts.append(f"{len(scripted)} built-in search agents over the game's own rules (scheme `search`; the "
-                     f"budget is in the name, `search-wW-rR-hH-eE`: {meaning}): "
-                     + ", ".join(f"`{n}`" for n in scripted))
+        rules = game_spec(game_id).rules
+    if searchers:
+        parts.append(f"{len(searchers)} built-in search agents over the game's own rules (scheme `search`; the "
+                     f"budget is in the name, `search-wW-rR-hH-eE`: {rules.search_budget_meaning}): "
+                     + ", ".join(f"`{n}`" for n in searchers))
+    if tuned:
+        parts.append(f"{len(tuned)} tuned heuristics, the game's heuristic with other constants (scheme `tuned`; "
+                     f"the constants are in the name, `heuristic-<option><value>`: {rules.heuristic_options_meaning}): "
+                     + ", ".join(f"`{n}`" for n in tuned))
     return f"{build['candidates']}: " + "; ".join(parts)
 
 
