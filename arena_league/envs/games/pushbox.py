@@ -79,7 +79,8 @@ Tuned heuristics
     0.45), ``lane`` (how far from its push line an ant still pushes, 0.1 to 1.5 m, 0.35) and
     ``side`` (how far to its own side of the line each ant pushes, 0 to 0.5 m, 0.18). An ant that
     keeps pushing when the box has turned a little loses less time than one that walks back to its
-    spot: ``heuristic-lane0.6-side0.3`` beats the heuristic in about two matches of three.
+    spot: ``heuristic-lane0.6-side0.3`` beat the heuristic in 69 to 76% of matches (200 to 400
+    matches under each of three league seeds).
 
 Game kwargs
     ``target_radius`` (float in [0.3, 1.2], default 0.6), ``box_distance`` (float in [1.5, 4.0],
@@ -145,6 +146,12 @@ class PushBoxRules(RobotGameRules):
     summary: ClassVar[str] = "Two teams of two ants race to push their own box onto a shared target (MuJoCo)"
     game_kwargs: ClassVar[dict] = {"target_radius": (float, 0.3, 1.2, 0.6), "box_distance": (float, 1.5, 4.0, 2.0),
                                    "start_jitter": (float, 0.0, 0.4, 0.2)}
+    heuristic_options: ClassVar[dict[str, tuple[float, float]]] = {"gap": (0.1, 1.0), "lane": (0.1, 1.5),
+                                                                   "side": (0.0, 0.5)}
+    heuristic_options_meaning: ClassVar[str] = (
+        f"gap G: each ant's pushing spot is G m behind the box's face (the heuristic's {PUSH_GAP}); lane L: an ant "
+        f"pushes within L m of its push line (the heuristic's {PUSH_LANE}); side S: each ant pushes S m to its own "
+        f"side of the line (the heuristic's {PUSH_SIDE})")
 
     @property
     def target_radius(self) -> float:
@@ -244,13 +251,6 @@ class PushBoxRules(RobotGameRules):
             teams.append({"scheme": "CL", "reward": "team_progress", "scale": 10, "children": [
                 {"agent": f"player_{seat}", "scheme": "IS", "reward": "robot_motion", "scale": 1} for seat in seats]})
         return {"scheme": "CP", "reward": "ranking", "scale": 100, "params": {"order": "depart"}, "children": teams}
-
-    heuristic_options: ClassVar[dict[str, tuple[float, float]]] = {"gap": (0.1, 1.0), "lane": (0.1, 1.5),
-                                                                   "side": (0.0, 0.5)}
-    heuristic_options_meaning: ClassVar[str] = (
-        f"gap G: each ant's pushing spot is G m behind the box's face (the heuristic's {PUSH_GAP}); lane L: an ant "
-        f"pushes within L m of its push line (the heuristic's {PUSH_LANE}); side S: each ant pushes S m to its own "
-        f"side of the line (the heuristic's {PUSH_SIDE})")
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str, *, gap: float = PUSH_GAP, lane: float = PUSH_LANE,

@@ -715,8 +715,8 @@ def _run_scheme(scheme: str, game_id: str, steps: int, seed: int, every: int, wo
 def _train_side_by_side(game_id: str, plan: list[tuple[str, int, bool, int, int, dict[str, Any]]], work: Path,
                         processes: int, say: Callable[[str], None]) -> set[int]:
     """Train the unfinished runs of ``plan`` in ``processes`` worker processes, the longest first;
-    the indices of the runs trained (the caller then reads every run back). None when ``processes``
-    is 1."""
+    the indices of the runs trained (the caller then reads every run back); an empty set when
+    ``processes`` is 1 or at most one run is left."""
     todo = [k for k, (scheme, run_seed, *_rest) in enumerate(plan)
             if not (work / "runs" / f"{scheme}-seed{run_seed}" / "run.json").exists()]
     if processes < 2 or len(todo) < 2:
@@ -1278,20 +1278,18 @@ def _candidates_line(build: Mapping[str, Any], game_id: str) -> str:
                      "with the others" + (f" ({len(base['retired'])} retired: "
                                           + ", ".join(f"`{k}`" for k in base["retired"]) + ")"
                                           if base.get("retired") else ""))
+    from arena_league.envs import game_spec
+
     searchers = [n for n in scripted if _scripted_scheme(n) == SCRIPTED_SCHEME]
     tuned = [n for n in scripted if _scripted_scheme(n) == TUNED_SCHEME]
-    if scripted:
-        from arena_league.envs import game_spec
-
-        rules = game_spec(game_id).rules
     if searchers:
         parts.append(f"{len(searchers)} built-in search agents over the game's own rules (scheme `search`; the "
-                     f"budget is in the name, `search-wW-rR-hH-eE`: {rules.search_budget_meaning}): "
+                     f"budget is in the name, `search-wW-rR-hH-eE`: {game_spec(game_id).rules.search_budget_meaning}): "
                      + ", ".join(f"`{n}`" for n in searchers))
     if tuned:
         parts.append(f"{len(tuned)} tuned heuristics, the game's heuristic with other constants (scheme `tuned`; "
-                     f"the constants are in the name, `heuristic-<option><value>`: {rules.heuristic_options_meaning}): "
-                     + ", ".join(f"`{n}`" for n in tuned))
+                     "the constants are in the name, `heuristic-<option><value>`: "
+                     f"{game_spec(game_id).rules.heuristic_options_meaning}): " + ", ".join(f"`{n}`" for n in tuned))
     return f"{build['candidates']}: " + "; ".join(parts)
 
 
