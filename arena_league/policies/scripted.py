@@ -93,11 +93,16 @@ def heuristic_options(name: str) -> dict[str, float] | None:
         return None
     pairs = [(key, float(text)) for key, text in _TUNED_OPTION.findall(found.group(1))]
     options = dict(pairs)
-    canonical = "heuristic" + "".join(f"-{key}{value:g}" for key, value in sorted(options.items()))
+    canonical = _tuned_name(options)
     if len(options) != len(pairs) or canonical != found.string:
         raise ValueError(f"tuned heuristic {name!r}: name each option once, in alphabetical order, its value "
                          f"written plainly: {canonical}")
     return options
+
+
+def _tuned_name(options: dict[str, float]) -> str:
+    """The one name of the heuristic tuned with ``options``: each in alphabetical order, plainly."""
+    return "heuristic" + "".join(f"-{key}{value:g}" for key, value in sorted(options.items()))
 
 
 def is_scripted_name(name: Any) -> bool:
@@ -166,7 +171,7 @@ class HeuristicPolicy(Policy):
                 if not low <= value <= high:
                     raise ValueError(f"{game_id}'s heuristic option {key} must be from {low:g} to {high:g}, "
                                      f"not {value:g}")
-            self.name = "heuristic" + "".join(f"-{k}{v:g}" for k, v in sorted(self.options.items()))
+            self.name = _tuned_name(self.options)
         self._heuristic = rules.heuristic
         self._fallback = RandomPolicy(spec)
 

@@ -936,15 +936,16 @@ class _Schedule:
         chunks = [(folder / f"chunk-{chunk:06d}.json", chunk * CHUNK_MATCHES) for chunk in range(n_chunks)]
         todo = [(path, first) for path, first in chunks if not path.exists()]
         saved = {path for path, _ in chunks} - {path for path, _ in todo}
-        done = [len(self.seatings) - sum(len(self.seatings[first: first + CHUNK_MATCHES]) for _, first in todo)]
+        done = len(self.seatings) - sum(len(self.seatings[first: first + CHUNK_MATCHES]) for _, first in todo)
 
         def save(path: Path, first: int, scores: list[float]) -> None:
+            nonlocal done
             _write_json(path, {"first_match_id": first, "seatings": self.seatings[first: first + CHUNK_MATCHES],
                                "scores": scores})
             report.matches_played += len(scores)
-            done[0] += len(scores)
+            done += len(scores)
             if progress:
-                progress("round_robin", done[0], len(self.seatings))
+                progress("round_robin", done, len(self.seatings))
 
         if processes > 1 and len(todo) > 1:
             say(f"playing {len(todo)} chunks in {min(processes, len(todo))} processes")
