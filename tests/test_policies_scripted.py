@@ -73,20 +73,23 @@ def test_a_tuned_heuristic_is_the_games_heuristic_with_its_constants():
     game = "PushBox-2T2P-v1"
     env = make(game)
     obs = env.reset_arrays(0)
-    same = scripted_policy(f"scripted:heuristic-gap{pushbox.PUSH_GAP:g}-lane{pushbox.PUSH_LANE:g}-"
-                           f"side{pushbox.PUSH_SIDE:g}", game)
+    same = scripted_policy(f"scripted:heuristic-gap{pushbox.PUSH_GAP:g}-kp{pushbox.KP:g}-lane{pushbox.PUSH_LANE:g}-"
+                           f"period{pushbox.GAIT_PERIOD:g}-side{pushbox.PUSH_SIDE:g}", game)
+    trotting = scripted_policy("heuristic-kp1.75-period0.4", game)
+    assert trotting.options == {"kp": 1.75, "period": 0.4}
     tuned = scripted_policy("heuristic-lane0.6-side0.3", game)
     heuristic = scripted_policy("heuristic", game)
     assert tuned.name == "heuristic-lane0.6-side0.3" and tuned.options == {"lane": 0.6, "side": 0.3}
-    differed = False
+    differed = trotted = False
     for _ in range(60):
         expected, _ = heuristic.act(obs, np.zeros((len(obs), 1)))
         np.testing.assert_array_equal(same.act(obs, np.zeros((len(obs), 1)))[0], expected)
         differed |= not np.array_equal(tuned.act(obs, np.zeros((len(obs), 1)))[0], expected)
+        trotted |= not np.array_equal(trotting.act(obs, np.zeros((len(obs), 1)))[0], expected)
         obs, _, terminated, truncated = env.step_arrays(expected)
         if terminated or truncated:
             break
-    assert differed
+    assert differed and trotted
     assert load_agent("scripted:heuristic-lane0.6-side0.3", game).info.kind == "scripted"
     assert scripted_descriptor("heuristic-lane0.6-side0.3") not in (scripted_descriptor("heuristic"),
                                                                      scripted_descriptor("heuristic-lane0.6"))
@@ -98,7 +101,8 @@ def test_a_tuned_heuristic_is_the_games_heuristic_with_its_constants():
         with pytest.raises(ValueError, match=words):
             scripted_policy(name, game)
     for game_id, name, words in [("GoBang-2T1P-v1", "heuristic-lane0.6", "GoBang-2T1P-v1 has no tuned heuristic"),
-                                 (game, "heuristic-speed2", "no option 'speed'; its options: gap .*lane .*side"),
+                                 (game, "heuristic-speed2", "no option 'speed'; its options: gap .*kp .*lane .*period .*side"),
+                                 (game, "heuristic-period0.2", "period must be from 0.3 to 0.7, not 0.2"),
                                  (game, "heuristic-lane3", "lane must be from 0.1 to 1.5, not 3")]:
         with pytest.raises(ValueError, match=words):
             scripted_policy(name, game_id)
