@@ -106,3 +106,27 @@ def test_a_tuned_heuristic_is_the_games_heuristic_with_its_constants():
                                  (game, "heuristic-lane3", "lane must be from 0.1 to 1.5, not 3")]:
         with pytest.raises(ValueError, match=words):
             scripted_policy(name, game_id)
+
+
+def test_youshallnotpass_tunes_its_heuristics_trot():
+    """YouShallNotPass's tuned heuristic takes the trot's constants only: at the heuristic's own
+    values it plays the heuristic exactly, on a quicker trot otherwise."""
+    from arena_league.envs.robots import gait
+
+    game = "YouShallNotPass-2T1P-v1"
+    env = make(game)
+    obs = env.reset_arrays(3)
+    same = scripted_policy(f"heuristic-kp{gait.KP:g}-period{gait.GAIT_PERIOD:g}", game)
+    quick = scripted_policy("heuristic-kp2.25-period0.4", game)
+    heuristic = scripted_policy("heuristic", game)
+    differed = False
+    for _ in range(40):
+        expected, _ = heuristic.act(obs, np.zeros((len(obs), 1)))
+        np.testing.assert_array_equal(same.act(obs, np.zeros((len(obs), 1)))[0], expected)
+        differed |= not np.array_equal(quick.act(obs, np.zeros((len(obs), 1)))[0], expected)
+        obs, _, terminated, truncated = env.step_arrays(expected)
+        if terminated or truncated:
+            break
+    assert differed
+    with pytest.raises(ValueError, match="no option 'lane'; its options: kp .*period"):
+        scripted_policy("heuristic-lane0.6", game)

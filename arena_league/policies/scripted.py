@@ -161,7 +161,7 @@ class HeuristicPolicy(Policy):
         if self.options:
             bounds = rules.heuristic_options
             if not bounds:
-                raise ValueError(f"{game_id} has no tuned heuristic (games with one: PushBox); play "
+                raise ValueError(f"{game_id} has no tuned heuristic (games with one: PushBox, YouShallNotPass); play "
                                  f"scripted:heuristic there")
             for key, value in self.options.items():
                 if key not in bounds:

@@ -61,6 +61,14 @@ Heuristic
     The runner trots toward the goal line, stepping sideways round the blocker when it is just
     ahead; the blocker trots to a spot just in front of the runner, on the runner's way to the line.
 
+Tuned heuristics
+    The same script on another trot, named with its constants (``scripted:heuristic-kp2.25-period0.4``):
+    ``kp`` (the trot's joint stiffness, 1 to 4, the heuristic's 2.5) and ``period`` (seconds per
+    trot cycle, 0.3 to 0.7, 0.5; see ``envs.robots.gait``). A quicker trot makes a better blocker:
+    against the heuristic, ``heuristic-kp2.25-period0.4`` won 97 of 100 matches as the runner and
+    stopped the heuristic runner in 38 of 100 (league seed 0; the heuristic's own blocker stops it in
+    3), and 192 and 42 of 200 under league seed 1.
+
 Game kwargs
     ``field_length`` (float in [3, 10], default 5.0), ``blocker_distance`` (float in [0.5, 4],
     default 2.0; at most the field length), ``start_jitter`` (float in [0, 0.5], default 0.2),
@@ -89,7 +97,7 @@ import numpy as np
 
 from arena_league.envs.games.runtogoal import avoid
 from arena_league.envs.robots import observation as cells
-from arena_league.envs.robots.gait import trot
+from arena_league.envs.robots.gait import GAIT_PERIOD, KP, trot
 from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose
 from arena_league.envs.robots.scene import Affine, Readout, SceneLayout
 
@@ -112,6 +120,10 @@ class YouShallNotPassRules(RobotGameRules):
     summary: ClassVar[str] = "A runner ant must cross the field, a blocker ant must stop it (MuJoCo)"
     game_kwargs: ClassVar[dict] = {"field_length": (float, 3.0, 10.0, 5.0), "blocker_distance": (float, 0.5, 4.0, 2.0),
                                    "start_jitter": (float, 0.0, 0.5, 0.2)}
+    heuristic_options: ClassVar[dict[str, tuple[float, float]]] = {"kp": (1.0, 4.0), "period": (0.3, 0.7)}
+    heuristic_options_meaning: ClassVar[str] = (
+        f"kp K: the trot's joint stiffness (the heuristic's {KP}); period P: seconds per trot cycle (the heuristic's "
+        f"{GAIT_PERIOD})")
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "continuous", **kwargs) -> None:
         super().__init__(n_teams, players_per_team, action_type, **kwargs)
@@ -180,7 +192,7 @@ class YouShallNotPassRules(RobotGameRules):
         return (-h, h, -h, h)
 
     @staticmethod
-    def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
+    def heuristic(obs: np.ndarray, action_type: str, *, kp: float = KP, period: float = GAIT_PERIOD) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
         runner = obs[:, ROLE] > 0
         opponent = obs[:, OPPONENT]
@@ -195,7 +207,7 @@ class YouShallNotPassRules(RobotGameRules):
         toward_line /= np.maximum(np.linalg.norm(toward_line, axis=1, keepdims=True), 1e-9)
         spot = runner_at + INTERCEPT_LEAD * toward_line
         block = spot / np.maximum(np.linalg.norm(spot, axis=1, keepdims=True), 0.3)
-        return trot(obs, np.where(runner[:, None], run, block))
+        return trot(obs, np.where(runner[:, None], run, block), kp=kp, period=period)
 
 
 RULES = YouShallNotPassRules
