@@ -586,7 +586,8 @@ def _build_population(args: argparse.Namespace, league) -> int:
                               steps_per_scheme=args.steps, runs_per_scheme=args.runs,
                               warm_runs_per_scheme=args.warm_runs, seed=args.seed, work_dir=args.work_dir,
                               out_dir=args.out_dir, league=league, log=log, base=args.base,
-                              scripted=args.scripted or (), retire=args.retire or (), processes=args.processes)
+                              scripted=args.scripted or (), retire=args.retire or (), processes=args.processes,
+                              matches_per_pair=args.matches_per_pair)
     document = report.to_dict()
     if args.json:
         emit_json(document)
@@ -940,6 +941,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--processes", type=_positive_int, default=1,
                    help="build: processes that train runs and play the round robin side by side (default 1; "
                         "the population is the same for any number)")
+    p.add_argument("--matches-per-pair", type=_positive_int, default=2,
+                   help="build: round-robin matches per pair of candidates, seats balanced (default 2; the shipped "
+                        "populations' READMEs say theirs)")
     p.add_argument("--work-dir", default=None, help="build: runs and matches (a rerun resumes from here)")
     p.add_argument("--out-dir", default=None, help="build: the frozen population (default checkpoints/GAME/NAME)")
     p.add_argument("--population", default=None, help="export: NAME[:VERSION]")
