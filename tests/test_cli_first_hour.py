@@ -226,7 +226,7 @@ def test_population_build_plays_the_round_robin_it_is_told(capsys, home, tmp_pat
     """``--matches-per-pair`` reaches the build (the shipped populations' READMEs give theirs): two
     tuned heuristics and the two references meet once per pair, six matches."""
     out = tmp_path / "base-t1"
-    code, report, err = run(capsys, "population", "build", "PushBox-2T2P-v1", "--schemes", "none", "--scripted",
+    code, _, err = run(capsys, "population", "build", "PushBox-2T2P-v1", "--schemes", "none", "--scripted",
                             "heuristic-lane0.6", "heuristic-lane1", "--size", "2", "--matches-per-pair", "1",
                             "--work-dir", tmp_path / "work", "--out-dir", out, "--json")
     assert code == 0, err
