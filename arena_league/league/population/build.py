@@ -259,6 +259,10 @@ RECIPES: dict[str, Recipe] = {
         {"scheme": "sp", "steps": 2_000_000, "warm_start": {"steps": 60_000, "min_log_std": -4.0},
          "fixed_opponents": ("scripted:heuristic",), "fixed_share": 1.0, "learning_rate": 1e-4, "anneal_lr": False,
          "ent_coef": 0.0},)),
+    # YouShallNotPass: Sumo's ladder. Built on 2026-11-27 (seed 0, one match per pair) with five tuned
+    # heuristics on a quicker trot (the README's command) it did NOT meet the criteria: the best,
+    # heuristic-period0.4, beat the heuristic in 120 of 200 (headroom just met) but the members spread
+    # 502 Elo: the runner wins nearly every match, so agents that can run split their matches. Not shipped.
     "YouShallNotPass": _ANT_DUEL,
     # PushBox: Sumo's ladder (four schemes: CC joins in a team game); its top is tuned heuristics
     # (``scripted=``, the README's command), not trained. A first build (2026-11-26, seed 0, one match per
