@@ -227,8 +227,8 @@ def test_population_build_plays_the_round_robin_it_is_told(capsys, home, tmp_pat
     tuned heuristics and the two references meet once per pair, six matches."""
     out = tmp_path / "base-t1"
     code, _, err = run(capsys, "population", "build", "PushBox-2T2P-v1", "--schemes", "none", "--scripted",
-                            "heuristic-lane0.6", "heuristic-lane1", "--size", "2", "--matches-per-pair", "1",
-                            "--work-dir", tmp_path / "work", "--out-dir", out, "--json")
+                       "heuristic-lane0.6", "heuristic-lane1", "--size", "2", "--matches-per-pair", "1",
+                       "--work-dir", tmp_path / "work", "--out-dir", out, "--json")
     assert code == 0, err
     assert "round robin: 4 agents, 6 matches in 1 chunks" in err
     assert json.loads((out / "population.json").read_text())["provenance"]["build"]["matches_per_pair"] == 1

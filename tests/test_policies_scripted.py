@@ -63,6 +63,24 @@ def test_every_game_has_both_scripted_agents_and_stable_descriptors():
         scripted_policy("greedy", "Crossroads-2T2P-v1")
 
 
+def _differs_from_the_heuristic(game: str, same, others: list, *, seed: int, steps: int) -> list[bool]:
+    """Steps a match of ``game`` on the heuristic's own actions, checking that ``same`` plays
+    exactly them, and says for each of ``others`` whether it ever played otherwise."""
+    env = make(game)
+    obs = env.reset_arrays(seed)
+    heuristic = scripted_policy("heuristic", game)
+    uniforms = np.zeros((len(obs), 1))
+    differed = [False] * len(others)
+    for _ in range(steps):
+        expected, _ = heuristic.act(obs, uniforms)
+        np.testing.assert_array_equal(same.act(obs, uniforms)[0], expected)
+        differed = [d or not np.array_equal(o.act(obs, uniforms)[0], expected) for d, o in zip(differed, others)]
+        obs, _, terminated, truncated = env.step_arrays(expected)
+        if terminated or truncated:
+            break
+    return differed
+
+
 def test_a_tuned_heuristic_is_the_games_heuristic_with_its_constants():
     """PushBox's heuristic with other constants, named with them: at the heuristic's own values it
     plays the heuristic exactly; at others it plays otherwise; it is refused where a game has no
@@ -71,25 +89,13 @@ def test_a_tuned_heuristic_is_the_games_heuristic_with_its_constants():
     from arena_league.policies.scripted import heuristic_options, is_scripted_name
 
     game = "PushBox-2T2P-v1"
-    env = make(game)
-    obs = env.reset_arrays(0)
     same = scripted_policy(f"scripted:heuristic-gap{pushbox.PUSH_GAP:g}-kp{pushbox.KP:g}-lane{pushbox.PUSH_LANE:g}-"
                            f"period{pushbox.GAIT_PERIOD:g}-side{pushbox.PUSH_SIDE:g}", game)
     trotting = scripted_policy("heuristic-kp1.75-period0.4", game)
     assert trotting.options == {"kp": 1.75, "period": 0.4}
     tuned = scripted_policy("heuristic-lane0.6-side0.3", game)
-    heuristic = scripted_policy("heuristic", game)
     assert tuned.name == "heuristic-lane0.6-side0.3" and tuned.options == {"lane": 0.6, "side": 0.3}
-    differed = trotted = False
-    for _ in range(60):
-        expected, _ = heuristic.act(obs, np.zeros((len(obs), 1)))
-        np.testing.assert_array_equal(same.act(obs, np.zeros((len(obs), 1)))[0], expected)
-        differed |= not np.array_equal(tuned.act(obs, np.zeros((len(obs), 1)))[0], expected)
-        trotted |= not np.array_equal(trotting.act(obs, np.zeros((len(obs), 1)))[0], expected)
-        obs, _, terminated, truncated = env.step_arrays(expected)
-        if terminated or truncated:
-            break
-    assert differed and trotted
+    assert _differs_from_the_heuristic(game, same, [tuned, trotting], seed=0, steps=60) == [True, True]
     assert load_agent("scripted:heuristic-lane0.6-side0.3", game).info.kind == "scripted"
     assert scripted_descriptor("heuristic-lane0.6-side0.3") not in (scripted_descriptor("heuristic"),
                                                                      scripted_descriptor("heuristic-lane0.6"))
@@ -114,19 +120,8 @@ def test_youshallnotpass_tunes_its_heuristics_trot():
     from arena_league.envs.robots import gait
 
     game = "YouShallNotPass-2T1P-v1"
-    env = make(game)
-    obs = env.reset_arrays(3)
     same = scripted_policy(f"heuristic-kp{gait.KP:g}-period{gait.GAIT_PERIOD:g}", game)
     quick = scripted_policy("heuristic-kp2.25-period0.4", game)
-    heuristic = scripted_policy("heuristic", game)
-    differed = False
-    for _ in range(40):
-        expected, _ = heuristic.act(obs, np.zeros((len(obs), 1)))
-        np.testing.assert_array_equal(same.act(obs, np.zeros((len(obs), 1)))[0], expected)
-        differed |= not np.array_equal(quick.act(obs, np.zeros((len(obs), 1)))[0], expected)
-        obs, _, terminated, truncated = env.step_arrays(expected)
-        if terminated or truncated:
-            break
-    assert differed
+    assert _differs_from_the_heuristic(game, same, [quick], seed=3, steps=40) == [True]
     with pytest.raises(ValueError, match="no option 'lane'; its options: kp .*period"):
         scripted_policy("heuristic-lane0.6", game)
