@@ -14,6 +14,7 @@ from arena_league.league.experiments import (
     BASELINES,
     _episode_measures,
     _finite,
+    baselines,
     checkpoint_steps,
     crossroads_behaviour,
     ordering_flips,
@@ -118,9 +119,13 @@ def test_baselines_end_to_end_at_a_tiny_budget(capsys, tmp_path):
 
 
 def test_experiment_errors_are_one_line_with_the_fix(capsys, tmp_path):
-    code, _, err = run(capsys, "experiment", "baselines", "PushBox-2T2P-v1", "--out", tmp_path / "pushbox")
-    assert code == 2 and "ships no base population" in err and "population build PushBox-2T2P-v1" in err
+    # PushBox's actions are continuous: CF (COMA) cannot train it, and asked for alone it is refused
+    code, _, err = run(capsys, "experiment", "baselines", "PushBox-2T2P-v1", "--methods", "cf", "--out",
+                       tmp_path / "pushbox")
+    assert code == 2 and "no method of those asked can train PushBox-2T2P-v1" in err and "discrete actions" in err
     assert not (tmp_path / "pushbox").exists()  # nothing written by a command that could not start
+    with pytest.raises(ValueError, match="ships no base population 'base-v9'.*population build Crossroads-2T2P-v1"):
+        baselines("Crossroads-2T2P-v1", tmp_path / "crossroads", population="base-v9")
     (tmp_path / "file").write_text("")
     code, _, err = run(capsys, "experiment", "crossroads-social", "--out", tmp_path / "file" / "report")
     assert code == 2 and "cannot write the report folder" in err and "--out" in err

@@ -455,6 +455,16 @@ def _placements(game_id: str, snapshots: list[Any], names: list[str], ratings: n
     return placements
 
 
+def _methods_left_out(game_id: str, methods: Sequence[str]) -> dict[str, str]:
+    """The methods of ``methods`` that cannot train ``game_id``, each with why: CF (COMA's
+    counterfactual baseline) sums its critic over a seat's discrete actions."""
+    from arena_league.envs import game_spec
+
+    if "cf" in methods and "discrete" not in game_spec(game_id).rules.action_types:
+        return {"cf": f"CF's counterfactual baseline needs discrete actions and {game_id} has continuous ones only"}
+    return {}
+
+
 def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELINES, seeds: Sequence[int] = (0, 1, 2),
               steps: int = 200_000, checkpoints: int = 6, budget: int = 40, population: str = "base-v1",
               max_cycles: int | None = None, reps: int = 2000,
@@ -473,6 +483,12 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
     unknown = [m for m in methods if m not in BASELINES]
     if unknown or not methods:
         raise ValueError(f"unknown method(s) {', '.join(unknown) or '(none given)'}; the paper's: {', '.join(BASELINES)}")
+    left_out = _methods_left_out(game_id, methods)
+    methods = [m for m in methods if m not in left_out]
+    if not methods:
+        raise ValueError(f"no method of those asked can train {game_id}: {'; '.join(left_out.values())}")
+    for method, why in left_out.items():
+        say(f"{method} left out: {why}")
     tree_name = BASELINE_GAMES[game_id]
     tree = example_trees(game_id)[tree_name] if tree_name else None
     started = time.perf_counter()
@@ -505,6 +521,7 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
             say(f"{method}, seed {seed}: final rank {last['rank']} of {len(names) + 1}, percentile "
                 f"{last['percentile']:.0f} ({last['percentile_lower']:.0f} .. {last['percentile_upper']:.0f})")
     report = _baselines_report(game_id, tree_name, population, len(names), seeds, steps, budget, marks, runs, reps)
+    report["left_out"] = left_out
     report["seconds"] = round(time.perf_counter() - started, 1)
     report["max_cycles"] = max_cycles
     _write(out, report)
@@ -582,7 +599,8 @@ def baselines_readme(report: Mapping[str, Any]) -> str:
              f"{report['steps_per_run']:,} env steps per run; at checkpoints {report['checkpoints']} the run's first "
              f"learner is placed against {report['population']} ({report['base_size']} agents) with "
              f"{report['placement_budget']} adaptive matches; {report['seconds']:,} s in this call (runs and "
-             f"placements kept under `runs/` from earlier calls are read back, not redone).", "",
+             f"placements kept under `runs/` from earlier calls are read back, not redone)."
+             + "".join(f" Left out: {m}, {why}." for m, why in report.get("left_out", {}).items()), "",
              "| method | IQM of final percentile [95% CI] | mean final rank |", "|---|---|---|"]
     for m in methods:
         f = report["final"][m]
