@@ -167,3 +167,15 @@ def test_the_command_offers_the_papers_baselines():
     from arena_league.cli import _BASELINES
 
     assert _BASELINES == BASELINES
+
+
+def test_a_base_population_with_built_in_members_is_loaded_whole():
+    """PushBox's base-v1 tops its ladder with tuned heuristics, members without an artifact: the
+    experiment plays them as the built-in agents their names say."""
+    from arena_league.league.experiments import _base_population
+    from arena_league.policies.scripted import HeuristicPolicy
+
+    names, ratings, policies = _base_population("PushBox-2T2P-v1", "base-v1")
+    assert len(names) == len(ratings) == len(policies) == 100
+    tuned = [name for name, policy in policies.items() if isinstance(policy, HeuristicPolicy)]
+    assert len(tuned) == 5 and "base-v1.heuristic-kp1.75-lane0.6-period0.4-side0.3@PushBox-2T2P-v1" in tuned

@@ -350,9 +350,10 @@ def social_readme(report: Mapping[str, Any]) -> str:
 # --- the five baselines by population performance -------------------------------------------------
 
 def _base_population(game_id: str, population: str) -> tuple[list[str], np.ndarray, dict[str, Any]]:
-    """The frozen base population's member names, ratings and policies (loaded once)."""
+    """The frozen base population's member names, ratings and policies (loaded once; a built-in
+    member, such as PushBox's tuned heuristics, is the agent its name says)."""
+    from arena_league.league.population.build import member_policy
     from arena_league.league.populations import shipped_population
-    from arena_league.matchmaking import AgentRef
 
     folder = shipped_population(game_id, population)
     if folder is None:
@@ -362,7 +363,7 @@ def _base_population(game_id: str, population: str) -> tuple[list[str], np.ndarr
     members = manifest["members"]
     names = [m["name"] for m in members]
     ratings = np.array([m["metadata"]["rating"] for m in members], dtype=np.float64)
-    policies = {m["name"]: AgentRef.parse(f"arena-policy:{folder / m['artifact']}", game_id).load() for m in members}
+    policies = {m["name"]: member_policy(folder, m, game_id) for m in members}  # built-in members too
     return names, ratings, policies
 
 
