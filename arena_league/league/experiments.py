@@ -457,13 +457,18 @@ def _placements(game_id: str, snapshots: list[Any], names: list[str], ratings: n
 
 
 def _methods_left_out(game_id: str, methods: Sequence[str]) -> dict[str, str]:
-    """The methods of ``methods`` that cannot train ``game_id``, each with why: CF (COMA's
-    counterfactual baseline) sums its critic over a seat's discrete actions."""
-    from arena_league.envs import game_spec
+    """The methods of ``methods`` that cannot train ``game_id``, each with why: those whose trainer
+    takes none of the game's action types (CF sums its critic over a seat's discrete actions)."""
+    from arena_league.training.schemes import scheme_action_types
 
-    if "cf" in methods and "discrete" not in game_spec(game_id).rules.action_types:
-        return {"cf": f"CF's counterfactual baseline needs discrete actions and {game_id} has continuous ones only"}
-    return {}
+    offered = game_spec(game_id).rules.action_types
+    left_out = {}
+    for method in methods:
+        trains = scheme_action_types(method)
+        if not set(trains) & set(offered):
+            left_out[method] = (f"{method.upper()} needs {' or '.join(trains)} actions and {game_id} has "
+                                f"{' and '.join(offered)} ones only")
+    return left_out
 
 
 def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELINES, seeds: Sequence[int] = (0, 1, 2),

@@ -110,6 +110,7 @@ def paper_runner(trainer_cls: type, config_cls: type[PPOConfig]) -> Callable[...
 
     runner.__name__ = f"run_{trainer_cls.scheme}"
     runner.__doc__ = base.__doc__
+    runner.action_types = getattr(trainer_cls, "action_types", None)  # type: ignore[attr-defined]
     return runner
 
 

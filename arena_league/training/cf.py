@@ -228,6 +228,8 @@ class CF(TrainerBase):
     """
 
     scheme = "cf"
+    #: The action types it trains (``training.schemes.scheme_action_types`` reads it).
+    action_types = ("discrete",)
 
     def __init__(self, env_fn: Callable[[], Any], config: PPOConfig | None = None, seed: int = 0, *,
                  critic_lr: float | None = None, td_lambda: float | None = None,
@@ -243,7 +245,7 @@ class CF(TrainerBase):
         config = CFConfig(**{**config.__dict__, **{k: v for k, v in critic_options.items() if v is not None}})
         probe = self._begin(env_fn, config, seed, architecture, total_steps, log)
         rules = probe.rules
-        if rules.action_type != "discrete":
+        if rules.action_type not in self.action_types:
             raise ValueError(f"CF (COMA's counterfactual baseline) needs discrete actions: its critic outputs Q for "
                              f"each of a seat's actions and the baseline sums over them, but this {probe.game_id} "
                              f"env has {rules.action_type} actions. Make it with action_type='discrete' "

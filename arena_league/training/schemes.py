@@ -65,8 +65,21 @@ from arena_league.training.ppo import PPOConfig
 from arena_league.training.selfplay import SelfPlay
 from arena_league.training.trainer import PPO
 
-__all__ = ["ENV_OPTIONS", "RUN_RECORD", "SCHEMES", "Runner", "Snapshot", "check_scheme_options", "make_env_fn",
-           "register_scheme", "run_scheme", "run_trainer", "scheme_runner", "split_overrides"]
+__all__ = [
+    "ENV_OPTIONS",
+    "RUN_RECORD",
+    "SCHEMES",
+    "Runner",
+    "Snapshot",
+    "check_scheme_options",
+    "make_env_fn",
+    "register_scheme",
+    "run_scheme",
+    "run_trainer",
+    "scheme_action_types",
+    "scheme_runner",
+    "split_overrides",
+]
 
 #: A scheme's runner (see the module docstring).
 Runner = Callable[..., list["Snapshot"]]
@@ -157,6 +170,15 @@ def check_scheme_options(scheme: str, game_id: str, overrides: Mapping[str, Any]
     config, env_options, _ = split_overrides(overrides, trainer_cls)
     _check_warm_start_family(imitation, config)
     make_env_fn(game_id, **env_options)
+
+
+def scheme_action_types(scheme: str) -> tuple[str, ...]:
+    """The action types ``scheme`` can train: those its runner or trainer declares (``action_types``;
+    CF: discrete only), else both."""
+    runner = _runner(scheme)
+    declared = getattr(runner, "action_types", None) or getattr(getattr(runner, "trainer_cls", None),
+                                                                "action_types", None)
+    return tuple(declared or ("discrete", "continuous"))
 
 
 def _check_warm_start_family(imitation: WarmStart | None, config: PPOConfig) -> None:

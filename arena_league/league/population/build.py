@@ -1282,16 +1282,17 @@ def _candidates_line(build: Mapping[str, Any], game_id: str) -> str:
                                           if base.get("retired") else ""))
     from arena_league.envs import game_spec
 
+    rules = game_spec(game_id).rules
     searchers = [n for n in scripted if _scripted_scheme(n) == SCRIPTED_SCHEME]
     tuned = [n for n in scripted if _scripted_scheme(n) == TUNED_SCHEME]
     if searchers:
         parts.append(f"{len(searchers)} built-in search agents over the game's own rules (scheme `search`; the "
-                     f"budget is in the name, `search-wW-rR-hH-eE`: {game_spec(game_id).rules.search_budget_meaning}): "
+                     f"budget is in the name, `search-wW-rR-hH-eE`: {rules.search_budget_meaning}): "
                      + ", ".join(f"`{n}`" for n in searchers))
     if tuned:
         parts.append(f"{len(tuned)} tuned heuristics, the game's heuristic with other constants (scheme `tuned`; "
                      "the constants are in the name, `heuristic-<option><value>`: "
-                     f"{game_spec(game_id).rules.heuristic_options_meaning}): " + ", ".join(f"`{n}`" for n in tuned))
+                     f"{rules.heuristic_options_meaning}): " + ", ".join(f"`{n}`" for n in tuned))
     return f"{build['candidates']}: " + "; ".join(parts)
 
 
