@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from arena_league.envs import game_spec
+from arena_league.envs import game_spec, list_games
 from arena_league.policies.policy import ActionSpec, Policy, legal_mask, sample_from_logits
 from arena_league.policies.spaces import game_action_spec
 
@@ -116,6 +116,12 @@ def is_scripted_name(name: Any) -> bool:
         return False
 
 
+def _games_with(feature: str) -> str:
+    """The game families whose rules offer ``feature`` (``heuristic_options``, ``search``), for an error."""
+    rules = (game_spec(game_id).rules for game_id in list_games())
+    return ", ".join(dict.fromkeys(r.name for r in rules if getattr(r, feature)))
+
+
 def _unknown(name: str) -> ValueError:
     return ValueError(f"unknown scripted agent {name!r}; built-in agents: "
                       + ", ".join(SCRIPTED_PREFIX + n for n in SCRIPTED_NAMES)
@@ -161,7 +167,7 @@ class HeuristicPolicy(Policy):
         if self.options:
             bounds = rules.heuristic_options
             if not bounds:
-                raise ValueError(f"{game_id} has no tuned heuristic (games with one: PushBox, YouShallNotPass); play "
+                raise ValueError(f"{game_id} has no tuned heuristic (games with one: {_games_with('heuristic_options')}); play "
                                  f"scripted:heuristic there")
             for key, value in self.options.items():
                 if key not in bounds:
@@ -204,7 +210,7 @@ class SearchPolicy(Policy):
     def __init__(self, game_id: str, spec: ActionSpec, name: str, budget: dict[str, Any]) -> None:
         search = game_spec(game_id).rules.search
         if search is None:
-            raise ValueError(f"{game_id} has no search agent (games with one: GoBang, Snake, FightForFood); "
+            raise ValueError(f"{game_id} has no search agent (games with one: {_games_with('search')}); "
                              f"play scripted:heuristic or scripted:random there")
         versions = game_spec(game_id).rules.search_versions
         if budget.get("version", 1) not in versions:
