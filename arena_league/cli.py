@@ -961,7 +961,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = command("play", "play against a base population in the terminal (human ranking)")
     p.add_argument("game", help="the game id")
-    p.add_argument("--against", default="base-v1", help="the base population NAME[:VERSION] (default base-v1)")
+    p.add_argument("--against", default=None,
+                   help="the base population NAME[:VERSION] (default: the one rank uses, the game's newest frozen "
+                        "one, or the newest shipped, imported on first use)")
     p.add_argument("--player", default="human", help="your name; your results are kept as <name>@GAME")
     p.add_argument("--matches", type=_positive_int, default=None, help="stop after this many matches")
     _seed_option(p)

@@ -166,3 +166,20 @@ def test_the_shipped_base_population_is_imported_when_the_league_lacks_it(tmp_pa
     again = io.StringIO()
     play_human("Snake-2T2P-v1", "base-v1", league, player="cy", input_fn=lambda p: "q", output=again)
     assert "imported" not in again.getvalue()  # registered now: not imported twice
+
+
+def test_play_takes_the_population_rank_uses_by_default(tmp_path):
+    """Without `--against`, a person plays the population entrants are ranked against: the newest
+    shipped (base-v2 where one is shipped, not base-v1), then a newer frozen one of the league's own;
+    a game with none says how to get one."""
+    league = open_home(tmp_path / "league")
+    out = io.StringIO()
+    play_human("Snake-2T2P-v1", league=league, player="cy", input_fn=lambda p: "q", output=out)
+    assert "imported the shipped base population base-v2:1 of Snake-2T2P-v1" in out.getvalue()
+    assert "base-v2:1 has 100 agents" in out.getvalue()
+    frozen_population(league, tmp_path, "Snake-2T2P-v1", [1000.0, 1100.0])
+    again = io.StringIO()
+    play_human("Snake-2T2P-v1", league=league, player="cy", input_fn=lambda p: "q", output=again)
+    assert "imported" not in again.getvalue() and "base-t:1 has 2 agents" in again.getvalue()
+    with pytest.raises(ValueError, match="YouShallNotPass-2T1P-v1 has no base population.*population build"):
+        play_human("YouShallNotPass-2T1P-v1", league=league, input_fn=lambda p: "q", output=io.StringIO())

@@ -52,7 +52,7 @@ def test_a_person_plays_gobang_to_the_end_by_clicking_and_lands_on_the_leaderboa
     seats = page.locator('[data-role="seats"] li')
     sync_api.expect(seats).to_have_count(2)
     sync_api.expect(seats.nth(0)).to_contain_text("you (clicker@GoBang-2T1P-v1)")
-    sync_api.expect(seats.nth(1)).to_contain_text("opponent: base-v1.")
+    sync_api.expect(seats.nth(1)).to_contain_text("opponent: base-v2.")  # the base rank uses: GoBang ships base-v2
     size = 15
     for row, col in gobang_cells(size):
         if page.get_attribute("#play", "data-state") == "ended":

@@ -6,7 +6,8 @@ base agents and are placed among them like any entrant. :func:`play_human` does 
 
 * the person is an agent of kind ``human`` (``<player>@<game>``); every match is recorded in the
   registry like any other, so leaderboards count it;
-* opponents come from a frozen, rated base population (``base-v1`` by default), weakest first;
+* opponents come from a frozen, rated base population (by default the one its entrants are ranked
+  against: ``base-v2`` where one is shipped), weakest first;
   a win climbs the ladder by ``climb`` places, a draw stays, a loss steps back half as far;
 * after each match the person's rating, its 95% interval and rank among the base come from the
   rating engine's :func:`~arena_league.rating.place_entrant` over all their results against
@@ -91,7 +92,7 @@ class _Resign(Exception):
     """The person typed q (or input ended)."""
 
 
-def play_human(game_id: str, against: str = "base-v1", league: reg.League | None = None, *,
+def play_human(game_id: str, against: str | None = None, league: reg.League | None = None, *,
                player: str = "human", input_fn: InputFn = input, output: TextIO | None = None, seed: int = 0,
                matches: int | None = None, climb: int | None = None, picture_dir: str | Path | None = None
                ) -> HumanSession:
@@ -99,7 +100,8 @@ def play_human(game_id: str, against: str = "base-v1", league: reg.League | None
 
     Args:
         game_id: a two-team game.
-        against: the frozen base population (``name`` or ``name:version``) of that game.
+        against: the frozen base population (``name`` or ``name:version``) of that game; by default
+            the one its entrants are ranked against (the newest: ``base-v2`` where one is shipped).
         league: the league (default: :func:`arena_league.league.home.open_home`).
         player: the person's name; their agent is ``<player>@<game_id>`` (kind ``human``), and a
             later session with the same name continues their record.
@@ -152,10 +154,10 @@ class Ladder:
     (:mod:`arena_league.league.live`). ``owner`` is who owns the person's agent (default: the
     player's name)."""
 
-    def __init__(self, game_id: str, against: str = "base-v1", league: reg.League | None = None, *,
+    def __init__(self, game_id: str, against: str | None = None, league: reg.League | None = None, *,
                  player: str = "human", owner: str | None = None, climb: int | None = None) -> None:
         from arena_league.league.home import open_home, register_game
-        from arena_league.league.populations import ensure_population
+        from arena_league.league.populations import default_population, ensure_population
         from arena_league.league.service import agent_refs, base_population
 
         spec = game_spec(game_id)
@@ -168,7 +170,15 @@ class Ladder:
         if not AGENT_NAME_PATTERN.match(agent_name):
             raise ValueError(f"player name {player!r} is not allowed: use letters, digits and . _ - (it becomes the "
                              f"agent name {agent_name!r})")
-        against, self.imported = ensure_population(league, game_id, against)
+        if against is None:  # the population its entrants are ranked against
+            found, self.imported = default_population(league, game_id)
+            if found is None:
+                raise ValueError(f"{game_id} has no base population in this league and none is shipped; import or "
+                                 f"build one (`arena-league population import FOLDER`, `arena-league population build "
+                                 f"{game_id}`)")
+            against = found
+        else:
+            against, self.imported = ensure_population(league, game_id, against)
         label, names, ratings = base_population(league, game_id, agent_name, against)
         if not names:
             raise ValueError(f"population {against} of {game_id} has no members to play")

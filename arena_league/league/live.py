@@ -73,7 +73,7 @@ class LivePlay:
     """One person's session of play: a ladder through the base population of ``game_id``, its
     matches stepped on demand (see the module docstring for the messages)."""
 
-    def __init__(self, league: reg.League, game_id: str, *, player: str, owner: str, against: str = "base-v1",
+    def __init__(self, league: reg.League, game_id: str, *, player: str, owner: str, against: str | None = None,
                  seed: int = 0, climb: int | None = None) -> None:
         self.ladder = Ladder(game_id, against, league, player=player, owner=owner, climb=climb)
         self.game_id = game_id

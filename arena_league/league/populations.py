@@ -50,6 +50,7 @@ from arena_league.registry import League
 __all__ = [
     "POPULATION_MANIFEST",
     "SHIPPED_POPULATIONS",
+    "default_population",
     "ensure_population",
     "export_population",
     "find_population",
@@ -146,14 +147,19 @@ def game_population(league: League, game_id: str, *, import_shipped: bool = True
     package has since superseded (``base-v1`` where ``base-v2`` is shipped) or there is none: then
     the newest population shipped for the game, imported now (unless ``import_shipped`` is False:
     importing validates every member, which a web request must not do); else None."""
+    return default_population(league, game_id, import_shipped=import_shipped)[0]
+
+
+def default_population(league: League, game_id: str, *, import_shipped: bool = True) -> tuple[str | None, bool]:
+    """:func:`game_population` and whether it imported the shipped population just now."""
     shipped = shipped_populations(game_id) if import_shipped else []
     superseded = {folder.name for folder in shipped[:-1]}  # shipped populations with a newer one shipped
     with league.reading() as session:
         frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
         newest = max(frozen, key=lambda p: (p.created_at, p.id)) if frozen else None
         if newest is not None and newest.name not in superseded:
-            return f"{newest.name}:{newest.version}"
-    return import_population(league, shipped[-1]) if shipped else None
+            return f"{newest.name}:{newest.version}", False
+    return (import_population(league, shipped[-1]), True) if shipped else (None, False)
 
 
 def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
