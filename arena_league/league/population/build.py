@@ -263,6 +263,8 @@ RECIPES: dict[str, Recipe] = {
     # heuristics on a quicker trot (the README's command) it did NOT meet the criteria: the best,
     # heuristic-period0.4, beat the heuristic in 120 of 200 (headroom just met) but the members spread
     # 502 Elo: the runner wins nearly every match, so agents that can run split their matches. Not shipped.
+    # Rebuilt the same day: 549 Elo. By role (benchmarks/population_roles.py) an 800-Elo ladder would need a
+    # top whose blocker stops about 93% of the runs others let through; the best known stops about a quarter.
     "YouShallNotPass": _ANT_DUEL,
     # PushBox: Sumo's ladder (four schemes: CC joins in a team game); its top is tuned heuristics
     # (``scripted=``, the README's command), not trained. A first build (2026-11-26, seed 0, one match per
