@@ -116,6 +116,11 @@ def test_baselines_end_to_end_at_a_tiny_budget(capsys, tmp_path):
     assert poi["dppo"]["sp"] + poi["sp"]["dppo"] == pytest.approx(1.0)
     assert {"episode_reward", "percentile"} <= set(report["noise"])
     assert (tmp_path / "curves.png").stat().st_size > 0 and (tmp_path / "report.json").exists()
+    # again into the same folder, the log on: every run and placement is read back, the report the same
+    code, _, err = run(capsys, "experiment", "baselines", "Crossroads-2T2P-v1", "--seeds", "0", "1", "--steps",
+                       "1024", "--checkpoints", "2", "--budget", "2", "--max-cycles", "40", "--out", tmp_path)
+    assert code == 0 and "dppo, seed 1: read back from" in " ".join(err.split()) and "trained" not in err
+    assert json.loads((tmp_path / "report.json").read_text())["final"] == report["final"]
 
 
 def test_experiment_errors_are_one_line_with_the_fix(capsys, tmp_path):

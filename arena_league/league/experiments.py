@@ -247,10 +247,12 @@ def crossroads_social(out: str | Path, *, seeds: Sequence[int] = (0, 1, 2), step
     for name in names:
         per_seed[name] = {m: [] for m in SOCIAL_MEASURES}
         for seed in seeds:
-            say(f"{name}, seed {seed}: training {steps:,} env steps (D-PPO, one learner per seat)")
+            say(f"{name}, seed {seed}: {steps:,} env steps (D-PPO, one learner per seat)")
+            iterations: list[Any] = []
             snapshots = run_scheme("dppo", CROSSROADS, steps=steps, seed=seed, snapshot_every=None,
                                    out_dir=out / "runs" / name, tree=case_trees[name], per="agent",
-                                   max_cycles=max_cycles)
+                                   max_cycles=max_cycles, callback=lambda trainer, row, seen=iterations: seen.append(row))
+            say(f"{name}, seed {seed}: " + ("trained" if iterations else f"read back from {out / 'runs' / name}"))
             final = max(s.steps for s in snapshots)
             seats = sorted((s for s in snapshots if s.steps == final), key=lambda s: s.learner)
             policies = [TorchPolicy(s.architecture, s.params, name=s.learner) for s in seats]
@@ -418,9 +420,9 @@ def ordering_flips(curves: Mapping[str, Sequence[float]]) -> float:
 
 
 def _train_run(method: str, game_id: str, seed: int, steps: int, marks: list[int], tree: Any,
-               max_cycles: int | None, folder: Path) -> tuple[list[Any], list[dict[str, Any]], float | None]:
+               max_cycles: int | None, folder: Path) -> tuple[list[Any], list[dict[str, Any]], float | None, bool]:
     """Trains one run (or reads it back from ``folder``): its snapshots, its episode return per
-    iteration and the seconds its training took (None when not known)."""
+    iteration, the seconds its training took (None when not known) and whether it trained now."""
     from arena_league.training.schemes import run_scheme
 
     started = time.perf_counter()
@@ -435,9 +437,9 @@ def _train_run(method: str, game_id: str, seed: int, steps: int, marks: list[int
     if history:
         seconds = round(time.perf_counter() - started, 1)
         curve_file.write_text(json.dumps({"history": history, "train_seconds": seconds}))
-        return snapshots, history, seconds
+        return snapshots, history, seconds, True
     saved = json.loads(curve_file.read_text()) if curve_file.exists() else {"history": [], "train_seconds": None}
-    return snapshots, saved["history"], saved["train_seconds"]
+    return snapshots, saved["history"], saved["train_seconds"], False
 
 
 def _placements(game_id: str, snapshots: list[Any], names: list[str], ratings: np.ndarray,
@@ -507,9 +509,11 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
         folder = out / "runs" / method
         for seed in seeds:
             run_started = time.perf_counter()
-            say(f"{method}, seed {seed}: training {steps:,} env steps, checkpoints at {marks}")
-            snapshots, history, train_seconds = _train_run(method, game_id, seed, steps, marks, tree, max_cycles,
-                                                           folder)
+            say(f"{method}, seed {seed}: {steps:,} env steps, checkpoints at {marks}")
+            snapshots, history, train_seconds, trained = _train_run(method, game_id, seed, steps, marks, tree,
+                                                                    max_cycles, folder)
+            say(f"{method}, seed {seed}: " + (f"trained in {train_seconds:.0f} s" if trained else
+                                              f"read back from {folder}"))
             first_learner = min(s.learner for s in snapshots)
             ours = sorted((s for s in snapshots if s.learner == first_learner and s.steps > 0), key=lambda s: s.steps)
             placements = _placements(game_id, ours, names, ratings, base, budget, seed, population,
