@@ -111,3 +111,16 @@ def test_a_run_does_not_depend_on_the_callers_thread_count(tmp_path):
     for first, second in zip(*runs, strict=True):
         for name, tensor in first.params.items():
             assert torch.equal(second.params[name], tensor), (first.steps, name)
+
+
+@pytest.mark.parametrize("scheme, valid", [("cc", {"opponent_sampling": "80/20"}), ("cf", {"critic_epochs": 2})])
+def test_the_papers_cc_and_cf_options_are_checked_before_a_run_starts(scheme, valid):
+    """CC and CF take the paper's settings (paper_runner); their options are checked by their trainer's
+    signature, as every other scheme's, so a long build refuses a misspelt one before training anything."""
+    from arena_league.training.schemes import check_scheme_options
+
+    check_scheme_options(scheme, "Crossroads-2T2P-v1", valid)
+    with pytest.raises(TypeError, match=f"{scheme}: unknown option.*opponent_samplin\\b.*{scheme} options \\(.*opponent_sampling"):
+        check_scheme_options(scheme, "Crossroads-2T2P-v1", {"opponent_samplin": "80/20"})
+    with pytest.raises(ValueError, match="learning_rate must be positive"):
+        check_scheme_options(scheme, "Crossroads-2T2P-v1", {"learning_rate": 0.0})

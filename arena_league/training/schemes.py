@@ -160,7 +160,7 @@ def check_scheme_options(scheme: str, game_id: str, overrides: Mapping[str, Any]
     """Raise now, as :func:`run_scheme` would once it starts, when ``scheme`` is unknown or an
     override is not one of its options or holds a bad value (hyper-parameters, env options, scheme
     options, ``warm_start``, ``snapshot_at``): a long build checks every run before training any.
-    Runners registered without a trainer class are checked by name only."""
+    Runners registered without a trainer class (a plain function) are checked by name only."""
     trainer_cls = getattr(_runner(scheme), "trainer_cls", None)
     if trainer_cls is None:
         return
