@@ -358,6 +358,8 @@ def test_a_ladder_of_warm_starts_gives_each_warm_run_its_own(tmp_path):
                               seed=0, work_dir=tmp_path / "w", out_dir=tmp_path / "o", scheme_options={"sp": TINY},
                               warm_runs_per_scheme=3, warm_start=ladder, stop_after="train")
     assert report.trained == ["sp", "sp-seed1", "sp-seed2", "sp-seed3"]
+    log = (tmp_path / "w" / "train-sp.log").read_text().splitlines()  # each line names its run (runs/sp-seedN)
+    assert log and {line.split(":")[0] for line in log} == {"seed 0", "seed 1", "seed 2", "seed 3"}
     taken = [json.loads((tmp_path / "w" / "runs" / f"sp-seed{k}" / "run.json").read_text())["request"]["warm_start"]
              for k in (1, 2, 3)]
     assert [(w["steps"], w["rounds"]) for w in taken] == [(400, 2), (64, 1), (400, 2)]

@@ -701,8 +701,8 @@ def _run_scheme(scheme: str, game_id: str, steps: int, seed: int, every: int, wo
 
     log_path = work / f"train-{scheme}.log"
     with log_path.open("a") as handle:
-        def log_line(line: str) -> None:
-            handle.write(line + "\n")
+        def log_line(line: str) -> None:  # runs trained side by side share the file: each line names its run
+            handle.write(f"seed {seed}: {line}\n")
             handle.flush()
 
         snapshots = run_scheme(scheme, game_id, steps=steps, seed=seed, snapshot_every=every,
