@@ -110,8 +110,7 @@ def paper_runner(trainer_cls: type, config_cls: type[PPOConfig]) -> Callable[...
 
     runner.__name__ = f"run_{trainer_cls.scheme}"
     runner.__doc__ = base.__doc__
-    runner.action_types = getattr(trainer_cls, "action_types", None)  # type: ignore[attr-defined]
-    runner.trainer_cls = trainer_cls  # type: ignore[attr-defined]  # check_scheme_options reads its options
+    runner.trainer_cls = trainer_cls  # type: ignore[attr-defined]  # its options and action_types are read off it
     return runner
 
 
