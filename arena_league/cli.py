@@ -448,6 +448,9 @@ def cmd_agent(args: argparse.Namespace) -> int:
         return 0
     _print_record(f"agent {detail['name']}", {k: v for k, v in detail.items()
                                              if not isinstance(v, (dict, list)) and k != "validation_log"})
+    if len(detail["versions"]) > 1:
+        stdout.print("versions: " + ", ".join(f"{v['name']} ({v['status']})" for v in detail["versions"]),
+                     highlight=False)
     for forfeit in detail["forfeits"][:5]:
         stdout.print(f"forfeited {forfeit['match_key']} (job {forfeit['job_id']}): it {escape(forfeit['reason'])}",
                      highlight=False)

@@ -162,8 +162,11 @@ def test_a_submission_refused_for_a_taken_name_stores_nothing(capsys, home, tmp_
     assert code == 0, err
     before = store_files(home)
     code, doc, _ = run(capsys, "submit", gobang_agent(tmp_path / "b", seed=2), "--game", GAME, "--name", "alice",
-                       "--json")
-    assert code == 2 and "alice" in doc["error"]
+                       "--owner", "mallory", "--json")
+    assert code == 2 and "alice belongs to another submitter" in doc["error"]
+    (tmp_path / "empty.onnx").write_bytes(b"")
+    code, doc, _ = run(capsys, "submit", tmp_path / "empty.onnx", "--game", GAME, "--name", "carol", "--json")
+    assert code == 2 and "empty" in doc["error"]
     code, doc, _ = run(capsys, "submit", gobang_agent(tmp_path / "c", seed=3), "--game", GAME, "--name=-bad",
                        "--json")
     assert code == 2 and "not allowed" in doc["error"]

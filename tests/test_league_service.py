@@ -76,14 +76,18 @@ def test_submit_example_then_same_bytes_again(home, capsys):
     assert snapshot(home)["agents"] == [("alice-v1", "active")]
 
 
-def test_name_already_taken_changes_nothing(home, tmp_path, capsys):
+def test_a_name_another_owner_holds_is_refused_and_changes_nothing(home, tmp_path, capsys):
     rules = make_rules(GAME)
-    run_cli(capsys, "submit", str(EXAMPLE), "--game", GAME, "--name", "alice", "--json")
+    run_cli(capsys, "submit", str(EXAMPLE), "--game", GAME, "--name", "alice", "--owner", "alice", "--json")
     before = snapshot(home)
     other = linear_onnx(tmp_path / "other.onnx", rules.obs_dim, rules.n_actions)
-    code, doc, _err = run_cli(capsys, "submit", str(other), "--game", GAME, "--name", "alice", "--json")
-    assert code == 2 and "alice" in doc["error"] and "already" in doc["error"] and "alice-" in doc["error"]
+    code, doc, _err = run_cli(capsys, "submit", str(other), "--game", GAME, "--name", "alice", "--owner", "bob",
+                              "--json")
+    assert code == 2 and "alice belongs to another submitter" in doc["error"]
     assert snapshot(home) == before
+    code, doc, _err = run_cli(capsys, "submit", str(other), "--game", GAME, "--name", "alice", "--owner", "alice",
+                              "--json")
+    assert code == 0 and doc["agent"] == "alice:v2" and doc["created"]
 
 
 @pytest.mark.parametrize("maker, words", [

@@ -5,6 +5,8 @@ the server's worker; reads are open, writes need a token, private data is its ow
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -93,16 +95,44 @@ def test_an_upload_is_validated_by_a_job_and_a_name_is_a_series_of_versions(serv
     assert server.wait_job(second["job"])["state"] == "done"
     again = upload(server, alice, "ann", onnx_files(tmp_path, 2)).json()  # the same bytes again
     result = server.wait_job(again["job"])["result"]
-    assert result["status"] == "rejected" and "already agent ann:v2" in result["reason"]
+    assert (result["agent"], result["status"], result["created"]) == ("ann:v2", "active", False)
+    assert "already agent ann:v2" in result["note"] and "rename" not in result["note"]
     with server.client() as client:
         agent = client.get("/api/agents/ann").json()
+        assert client.get(f"/api/agents/{again['name']}").status_code == 404  # the reserved version was dropped
     assert agent["owner"] == "alice" and agent["status"] == "active"
-    assert [(v["name"], v["status"]) for v in agent["versions"]] == [("ann", "active"), ("ann:v2", "active"),
-                                                                    ("ann:v3", "rejected")]
+    assert [(v["name"], v["status"]) for v in agent["versions"]] == [("ann", "active"), ("ann:v2", "active")]
     squatter = upload(server, server.token("mallory"), "ann", onnx_files(tmp_path, 3))
     assert squatter.status_code == 403 and "belongs to another submitter" in squatter.json()["detail"]
     reserved = upload(server, alice, f"random@{GAME}", onnx_files(tmp_path, 4))
     assert reserved.status_code == 403 and "reserved" in reserved.json()["detail"]
+
+
+def test_the_web_and_the_command_follow_one_rule_for_names_files_and_budgets(server, alice, tmp_path):
+    """What the terminal answers (the command run on the server's league), the API answers too."""
+    def refused_by_the_command(*argv: str) -> str:
+        done = subprocess.run([sys.executable, "-m", "arena_league.cli", *argv, "--home", str(server.home)],
+                              capture_output=True, text=True, timeout=120, check=False)
+        assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+        return done.stderr.removeprefix("error: ").strip()
+
+    empty = upload(server, alice, "hollow", [("file", ("model.onnx", b""))])
+    (tmp_path / "model.onnx").write_bytes(b"")
+    assert empty.status_code == 400
+    assert empty.json()["detail"] == refused_by_the_command("submit", str(tmp_path / "model.onnx"), "--game", GAME,
+                                                            "--name", "hollow")
+    terminal = refused_by_the_command("submit", str(gobang_agent(tmp_path / "t", 31)), "--game", GAME, "--name",
+                                      "ann", "--owner", "mallory")
+    squatter = upload(server, server.token("mallory"), "ann", onnx_files(tmp_path, 32))
+    assert squatter.status_code == 403 and squatter.json()["detail"] == terminal
+    queued = upload(server, alice, "budgeted", policy_files(gobang_agent(tmp_path / "b", 33))).json()
+    server.wait_job(queued["job"])
+    with server.client(alice) as client:
+        over = client.post("/api/agents/budgeted/rank", json={"budget": 5001})
+    assert over.status_code == 400
+    assert over.json()["detail"] == refused_by_the_command("rank", "budgeted", "--budget", "5001")
+    with server.client() as client:
+        assert client.get("/api/agents/hollow").status_code == 404
 
 
 def test_an_arena_policy_folder_uploads_as_its_files(server, alice, tmp_path):

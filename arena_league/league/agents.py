@@ -13,6 +13,7 @@ from typing import Any
 from arena_league import registry as reg
 from arena_league.league.errors import NotFoundError
 from arena_league.league.home import did_you_mean
+from arena_league.league.versions import version_rows
 from arena_league.registry import League
 
 __all__ = ["agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent", "require_agent"]
@@ -100,7 +101,7 @@ def agent_detail(league: League, name: str, *, matches: int = 10) -> dict[str, A
             "owner": agent.owner, "created_at": agent.created_at.isoformat(timespec="seconds"),
             "artifact": agent.artifact_sha256, "metadata": agent.meta or {}, "reason": agent.reject_reason,
             "validation_log": agent.validation_log or "", "populations": populations, "placements": placements,
-            "matches_played": played, "matches_forfeited": forfeited,
+            "matches_played": played, "matches_forfeited": forfeited, "versions": version_rows(session, agent.name),
             "forfeits": [{**f, "at": f["at"].isoformat(timespec="seconds")} for f in forfeits],
             "recent_matches": [{"id": m.id, "match_key": m.match_key, "replay": bool(m.replay_path),
                                 "created_at": m.created_at.isoformat(timespec="seconds"),

@@ -53,7 +53,6 @@ from arena_league.matchmaking import (
 from arena_league.registry import League
 from arena_league.registry.errors import ArtifactTakenError
 from arena_league.registry.jobs import live_jobs, lock_game, set_job_payload
-from arena_league.registry.repository import AGENT_NAME_PATTERN
 from arena_league.replay import ReplayRecording
 
 if TYPE_CHECKING:
@@ -153,10 +152,12 @@ class SubmitResult:
     def note(self) -> str:
         """One line on what happened to the name asked for."""
         if self.created:
+            if self.requested and self.requested != self.agent:
+                return f"registered as {self.agent}: new bytes under {self.requested} make its next version"
             return "registered"
         if self.requested and self.requested != self.agent:
-            return (f"these bytes are already agent {self.agent}; nothing was registered as {self.requested} "
-                    f"(rank or rename {self.agent} instead)")
+            return (f"these bytes are already agent {self.agent}; nothing new was registered as {self.requested} "
+                    f"(rank {self.agent} instead, or submit different bytes)")
         return "already registered (same bytes)"
 
 
@@ -191,37 +192,34 @@ def _agent_with_bytes(league: League, game_id: str, digest: str, requested: str,
 
 def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: str | None = None,
            kind: str = "submission", metadata: Mapping[str, Any] | None = None) -> SubmitResult:
-    """Validate an agent artifact and register it under ``name``.
+    """Validate an agent artifact and register it under ``name``, or its next version.
 
-    The game and the name are checked before anything is read or stored: the name must be well
-    formed, not reserved (:func:`reserved_name_reason`) and, unless these bytes are registered
-    already, free. An artifact that cannot be read safely (pickle, TorchScript, .pt2, over the size
-    limit) or at all (truncated, corrupt) is refused with an error and nothing is stored. One that
-    reads but fails validation (wrong spaces, non-finite outputs, a crash in its validation match)
-    is stored and registered as *rejected*, with the reason and the validation log. The same bytes
-    submitted again return the agent already registered for them (idempotent by content hash).
-    Storing and registering are one transaction: when it fails (the name taken meanwhile, a
-    database error, a full disk) the file it stored is removed again.
+    Names follow :mod:`arena_league.league.versions`, as web uploads do: the game, the name and the
+    file are checked before anything is read or stored (the name well formed, without a version
+    suffix, not reserved, not another owner's; the file not empty). New bytes under a name
+    ``owner`` already holds become its next version (``name:v2`` ...); the same bytes submitted
+    again return the agent already registered for them (idempotent by content hash). An artifact
+    that cannot be read safely (pickle, TorchScript, .pt2, over the size limit) or at all
+    (truncated, corrupt) is refused with an error and nothing is stored. One that reads but fails
+    validation (wrong spaces, non-finite outputs, a crash in its validation match) is stored and
+    registered as *rejected*, with the reason and the validation log. Storing and registering are
+    one transaction: when it fails (a database error, a full disk) the file it stored is removed again.
     """
     from arena_league.league.settings import sandbox_limits
+    from arena_league.league.versions import artifact_files, check_submitted_name, refuse_empty, version_name
     from arena_league.policies import CorruptArtifactError, read_artifact, validate_submission
     from arena_league.policies.errors import artifact_error_class
 
     start = time.perf_counter()
     register_game(league, game_id)
-    if not AGENT_NAME_PATTERN.match(name):
-        raise reg.InvalidRecordError(f"agent name {name!r} is not allowed: use 1 to 128 letters, digits and "
-                                     ". _ : @ + -, starting with a letter or digit")
-    reserved = reserved_name_reason(name)
-    if reserved is not None:
-        raise ValueError(f"{reserved}; the name is reserved for the league. Submit under a name of your own, "
-                         f"e.g. --name my-{name}")
+    check_submitted_name(name)
+    with league.reading() as session:
+        version_name(session, name, game_id, owner)  # another owner's name is refused before reading
+    refuse_empty(artifact_files(path))
     artifact = read_artifact(path)  # refuses unsafe, over-size and unreadable files before storing
     existing = _agent_with_bytes(league, game_id, artifact.digest, name, start)
     if existing is not None:
         return existing
-    with league.reading() as session:
-        reg.refuse_taken_name(session, name)  # before anything is stored
     verdict = validate_submission(artifact, game_id, sandbox_limits=sandbox_limits(league))
     refusal = artifact_error_class(verdict.error, CorruptArtifactError)
     if refusal is not None:
@@ -229,10 +227,12 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
     status = "active" if verdict.ok else "rejected"
     try:
         with league.transaction() as session:
-            reg.refuse_taken_name(session, name)  # again under the write lock, before storing
+            # named under the write lock: a version submitted meanwhile makes this one the next
+            versioned, version = version_name(session, name, game_id, owner)
             sha256 = store_validated(session, league, artifact)
-            agent = reg.create_agent(session, name, game_id, kind, owner=owner, artifact_sha256=sha256,
-                                     status="pending", metadata=agent_metadata(metadata, artifact, verdict))
+            agent = reg.create_agent(session, versioned, game_id, kind, owner=owner, artifact_sha256=sha256,
+                                     status="pending", metadata={**agent_metadata(metadata, artifact, verdict),
+                                                                 "series": name, "version": version})
             reg.set_agent_status(session, agent, status, reason=verdict.reason, log=verdict.log)
     except ArtifactTakenError:
         # the same bytes were registered under another name meanwhile: answer as for a resubmission
@@ -240,7 +240,7 @@ def submit(league: League, path: str | Path, game_id: str, name: str, *, owner: 
         if raced is None:
             raise
         return raced
-    return SubmitResult(name, game_id, status, True, artifact.digest, verdict.reason, verdict.log,
+    return SubmitResult(versioned, game_id, status, True, artifact.digest, verdict.reason, verdict.log,
                         time.perf_counter() - start, requested=name)
 
 
@@ -715,6 +715,9 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
     ``population="league"``, every other active agent of the game: those are first rated by a
     round robin of :data:`BASE_ROUND_ROBIN_PER_PAIR` matches for each pair that never met, which
     counts against ``budget`` and is announced through ``log`` before it starts."""
+    from arena_league.league.settings import check_rank_budget
+
+    check_rank_budget(league, budget)
     say = log or (lambda line: None)
     game_id = _entrant_game(league, agent)
     label, names, ratings = base_population(league, game_id, agent, population)
@@ -751,10 +754,10 @@ def queue_rank(league: League, agent: str, *, budget: int = 200, population: str
     frozen one with ratings) for a worker; returns the job id. The job finds the base when it runs
     (importing the shipped one on first use, which validates its members: agent code, never run in
     the caller's request). With ``who``, only the agent's owner (or an administrator) may."""
-    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 2:
-        raise ValueError(f"budget must be a whole number of matches, at least 2, not {budget!r}")
     from arena_league.league.errors import NotFoundError
+    from arena_league.league.settings import check_rank_budget
 
+    check_rank_budget(league, budget)
     game_id = _entrant_game(league, agent, who, NotFoundError)
     with league.transaction() as session:
         return reg.enqueue(session, "rank", {"game_id": game_id, "agent": agent, "population": population,

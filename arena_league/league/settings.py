@@ -17,8 +17,8 @@ from arena_league.league.home import did_you_mean
 from arena_league.policies.sandbox import SandboxLimits
 from arena_league.registry import League
 
-__all__ = ["SETTINGS", "Setting", "league_settings", "reset_setting", "sandbox_limits", "set_setting",
-           "suspend_after"]
+__all__ = ["SETTINGS", "Setting", "check_rank_budget", "league_settings", "reset_setting", "sandbox_limits",
+           "set_setting", "suspend_after"]
 
 _DEFAULT_LIMITS = SandboxLimits()
 
@@ -64,6 +64,8 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
                      "plus a forward at the largest batch; over it, the submission is rejected"),
     Setting("forfeits.suspend_after", int, 3, 1, 10**6, "forfeits after which an agent is suspended (it plays no "
             "more until an operator makes it active again)"),
+    Setting("rank.max_budget", int, 5000, 2, 10**7, "the most matches one placement may play (`rank --budget`, "
+            "a placement queued on the web); a larger budget is refused"),
     Setting("web.upload_mib", int, 300, 1, 1 << 16, "the most an upload to the web service may hold (MiB); the "
             "artifact's own limits apply as well"),
     Setting("web.uploads_per_hour", int, 30, 1, 10**6, "uploads one owner may make to the web service in an hour "
@@ -121,3 +123,16 @@ def suspend_after(league: League, values: Mapping[str, Mapping[str, Any]] | None
     """Forfeits after which an agent is suspended (from ``values`` when given)."""
     values = values if values is not None else league_settings(league)
     return int(values["forfeits.suspend_after"]["value"])
+
+
+def check_rank_budget(league: League, budget: Any) -> None:
+    """Refuse a placement's budget that is not a whole number of matches from 2 to the league's
+    ``rank.max_budget``, with the same message whichever front end asked."""
+    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 2:
+        raise ValueError(f"a placement's budget is a whole number of matches, at least 2, not {budget!r}; give "
+                         "--budget 200 (the default), for example")
+    limit = int(league_settings(league)["rank.max_budget"]["value"])
+    if budget > limit:
+        raise ValueError(f"a budget of {budget} matches is over {limit}, the most one placement may play in this "
+                         f"league (the setting rank.max_budget); give --budget {limit} or less, or raise the "
+                         "setting with `arena-league settings set rank.max_budget N`")

@@ -9,9 +9,11 @@ answers at once. The job (:func:`handle_validate`) validates the files in the in
 as ``arena-league submit`` does, stores the bytes and makes the agent active, or rejects it with
 the reason and the log its owner can read. Agent code never runs in the request.
 
-A name is a series of immutable versions owned by whoever uploaded its first: ``alice`` is
-version 1, new bytes uploaded as ``alice`` by the same owner become ``alice:v2``, ``alice:v3``...
-(:func:`series_versions`); anyone else uploading as ``alice`` is refused.
+Names follow :mod:`arena_league.league.versions`, as ``arena-league submit`` does: a name is a
+series of immutable versions owned by whoever submitted its first (:func:`series_versions`); new
+bytes under it become its next version, the same bytes again are the agent already registered
+for them (the job finds them, drops the version it reserved and answers with that agent), and
+anyone else uploading under it is refused.
 """
 
 from __future__ import annotations
@@ -25,13 +27,19 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from arena_league import registry as reg
-from arena_league.league.errors import ForbiddenError, NotFoundError, RateLimitedError
+from arena_league.league.errors import NotFoundError, RateLimitedError
 from arena_league.league.home import register_game
 from arena_league.league.tokens import Identity
+from arena_league.league.versions import (
+    check_submitted_name,
+    refuse_empty,
+    series_of,
+    version_name,
+    version_rows,
+)
 from arena_league.registry import League
 from arena_league.registry.errors import NameTakenError
 from arena_league.registry.models import utcnow
-from arena_league.registry.repository import plain_name
 
 __all__ = ["UPLOADS", "handle_validate", "series_of", "series_versions", "upload_agent", "upload_limits"]
 
@@ -40,22 +48,13 @@ UPLOADS = "uploads"
 #: What an uploaded file may be called: no folders, no dot files.
 _FILE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
 _POLICY_FILES = {"manifest.json", "weights.safetensors", "README.md"}
-_VERSION = re.compile(r"^(?P<series>.+):v(?P<version>[0-9]+)$")
 _CHUNK = 1 << 20
-
-
-def series_of(name: str) -> tuple[str, int]:
-    """``alice:v3`` -> (``alice``, 3); ``alice`` -> (``alice``, 1)."""
-    found = _VERSION.match(name)
-    return (found["series"], int(found["version"])) if found else (name, 1)
 
 
 def series_versions(league: League, name: str) -> list[dict[str, Any]]:
     """Every version of the series ``name`` belongs to: name, version, status, reason, created."""
-    series, _ = series_of(name)
     with league.reading() as session:
-        return [{"name": a.name, "version": series_of(a.name)[1], "status": a.status, "reason": a.reject_reason,
-                 "created_at": a.created_at.isoformat(timespec="seconds")} for a in reg.series_agents(session, series)]
+        return version_rows(session, name)
 
 
 def upload_limits(league: League) -> tuple[int, int]:
@@ -71,26 +70,14 @@ def upload_agent(league: League, who: Identity, game_id: str, name: str,
     """Stage an upload and queue its validation (see the module docstring); returns
     ``{"name", "version", "status": "pending", "job"}``.
 
-    Raises ``ValueError`` for a bad game, name or file set (nothing is kept), :class:`ForbiddenError`
-    when the name belongs to another owner, :class:`RateLimitedError` past the hourly limit."""
-    from arena_league.league.service import reserved_name_reason
-
+    Raises ``ValueError`` for a bad game, name or file set (an empty file included; nothing is
+    kept), :class:`ForbiddenError` when the name is reserved or belongs to another owner, :class:`RateLimitedError` past the hourly limit."""
     register_game(league, game_id)
-    if not plain_name(name):
-        raise ValueError(f"agent name {name!r} is not allowed: use 1 to 128 letters, digits and . _ @ + -, "
-                         "starting with a letter or digit (versions are named for you: name:v2, name:v3 ...)")
-    reserved = reserved_name_reason(name)
-    if reserved is not None:
-        raise ForbiddenError(f"{reserved}; the name is reserved for the league. Upload under a name of your own")
+    check_submitted_name(name)
     limit_bytes, per_hour = upload_limits(league)
     with league.reading() as session:
         recent = reg.count_agents_since(session, who.owner, utcnow() - timedelta(hours=1))
-        existing = reg.series_agents(session, name)
-        if existing and existing[0].owner != who.owner:
-            raise ForbiddenError(f"the name {name} belongs to another submitter; upload under a name of your own")
-        if existing and existing[0].game_id != game_id:
-            raise ValueError(f"{name} plays {existing[0].game_id}, not {game_id}; upload {game_id} agents under "
-                             "another name")
+        version_name(session, name, game_id, who.owner)  # another owner's name is refused before staging
     if recent >= per_hour and not who.admin:
         raise RateLimitedError(f"{who.owner} has uploaded {recent} agents in the last hour, the most this league "
                                f"allows ({per_hour}, the setting web.uploads_per_hour); try again later")
@@ -124,6 +111,7 @@ def _stage(league: League, files: Iterable[tuple[str, BinaryIO]], limit_bytes: i
                         raise ValueError(f"the upload is over {limit_bytes >> 20} MiB, the most this league takes "
                                          "(the setting web.upload_mib)")
                     out.write(chunk)
+        refuse_empty((n, (folder / n).stat().st_size) for n in names)
         onnx = [n for n in names if n.endswith(".onnx")]
         if len(onnx) == 1 and set(names) <= {onnx[0], onnx[0] + ".data"}:
             return folder / onnx[0]
@@ -144,9 +132,7 @@ def _reserve(league: League, who: Identity, game_id: str, series: str, staged: P
     for _ in range(5):
         try:
             with league.transaction() as session:
-                existing = reg.series_agents(session, series)
-                version = series_of(existing[-1].name)[1] + 1 if existing else 1
-                name = series if version == 1 else f"{series}:v{version}"
+                name, version = version_name(session, series, game_id, who.owner)
                 reg.create_agent(session, name, game_id, "submission", owner=who.owner, status="pending",
                                  metadata={"series": series, "version": version, "upload": relative}, reserved=True)
                 job = reg.enqueue(session, "validate", {"game_id": game_id, "agent": name, "upload": relative},
@@ -184,8 +170,7 @@ def handle_validate(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]
         with ctx.league.reading() as session:
             twin = next(iter(reg.find_agents_by_artifact(session, artifact.digest, game_id=payload["game_id"])), None)
         if twin is not None:
-            reason = f"these bytes are already agent {twin.name}; upload new bytes to make a new version"
-            return _settle(ctx.league, payload["agent"], "rejected", reason, f"[read] {reason}\n")
+            return _drop_for_twin(ctx.league, payload["agent"], twin, artifact.digest)
         if progress is not None:
             progress(0, 1)
         verdict = validate_submission(artifact, payload["game_id"], sandbox_limits=sandbox_limits(ctx.league))
@@ -209,6 +194,20 @@ def handle_validate(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]
 def _discard(staged: Path) -> None:
     """Remove a staged upload (a file's folder, or the folder of a policy's files)."""
     shutil.rmtree(staged.parent if staged.is_file() else staged, ignore_errors=True)
+
+
+def _drop_for_twin(league: League, name: str, twin: reg.Agent, digest: str) -> dict[str, Any]:
+    """The upload's bytes are ``twin`` already: remove the version reserved for them (it never
+    held an artifact) and answer with ``twin``, as ``arena-league submit`` does."""
+    from arena_league.league.service import SubmitResult
+
+    with league.transaction() as session:
+        row = reg.require_agent(session, name)
+        if row.status == "pending" and row.artifact_sha256 is None:
+            session.delete(row)
+    series, _ = series_of(name)
+    return SubmitResult(twin.name, twin.game_id, twin.status, False, digest, twin.reject_reason,
+                        requested=series).to_dict()
 
 
 def _settle(league: League, name: str, status: str, reason: str, log: str) -> dict[str, Any]:

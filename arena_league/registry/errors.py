@@ -112,7 +112,7 @@ class ArtifactTakenError(RegistryError):
         self.sha256 = sha256
         super().__init__(
             f"these bytes (artifact {sha256[:12]}) are already agent {agent!r} of {game_id}; nothing "
-            f"was registered as {requested!r}. Rank or rename {agent!r} instead, or submit different bytes"
+            f"was registered as {requested!r}. Rank {agent!r} instead, or submit different bytes"
         )
 
 

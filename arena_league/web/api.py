@@ -58,7 +58,8 @@ class Queued(BaseModel):
 
 
 class Uploaded(BaseModel):
-    name: str = Field(description="the version's name: NAME for the first upload, NAME:vK after")
+    name: str = Field(description="the version reserved: NAME for the first upload, NAME:vK after (when the bytes "
+                                  "are an agent already, the job drops it and its result names that agent)")
     version: int
     status: str = Field(description="pending until its validation job has run")
     job: int
@@ -78,7 +79,8 @@ class JobState(BaseModel):
 
 
 class RankRequest(BaseModel):
-    budget: int = Field(200, ge=2, le=5000, description="at most this many matches")
+    budget: int = Field(200, description="at most this many matches: from 2 to the league's setting rank.max_budget "
+                                         "(5000 unless its operator changed it)")
     seed: int = Field(0, ge=0, le=2**31)
 
 

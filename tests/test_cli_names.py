@@ -1,0 +1,56 @@
+"""The command's side of the league's one set of rules (the web's side is in test_web_api.py):
+names are series of versions, an empty file is refused, a placement's budget has one limit."""
+
+from __future__ import annotations
+
+from cli_helpers import gobang_agent, run
+
+pytest_plugins = ["cli_helpers"]  # the home fixture
+GAME = "GoBang-2T1P-v1"
+
+
+def test_new_bytes_under_your_name_become_its_next_version(capsys, home, tmp_path):
+    code, first, err = run(capsys, "submit", gobang_agent(tmp_path / "a", 1), "--game", GAME, "--name", "alice", "--json")
+    assert code == 0 and first["agent"] == "alice" and first["created"], err
+    code, second, err = run(capsys, "submit", gobang_agent(tmp_path / "b", 2), "--game", GAME, "--name", "alice",
+                            "--json")
+    assert code == 0 and second["agent"] == "alice:v2" and second["created"], err
+    assert "next version" in second["note"]
+    code, again, _ = run(capsys, "submit", tmp_path / "b", "--game", GAME, "--name", "alice", "--json")
+    assert code == 0 and again["agent"] == "alice:v2" and not again["created"]
+    assert "rename" not in again["note"] and "rank alice:v2" in again["note"]
+    code, detail, _ = run(capsys, "agent", "alice", "--json")
+    assert [(v["name"], v["version"]) for v in detail["versions"]] == [("alice", 1), ("alice:v2", 2)]
+    code, _, err = run(capsys, "agent", "alice:v2")
+    assert code == 0, err
+
+
+def test_names_refused_by_the_command_are_refused_as_the_web_refuses_them(capsys, home, tmp_path):
+    run(capsys, "submit", gobang_agent(tmp_path / "a", 1), "--game", GAME, "--name", "alice", "--owner", "alice")
+    agent = gobang_agent(tmp_path / "b", 2)
+    cases = [(("--name", "alice", "--owner", "mallory"), "alice belongs to another submitter"),
+             (("--name", "alice:v7"), "versions are named for you"),
+             (("--name", f"random@{GAME}"), "reserved for the league")]
+    for options, words in cases:
+        code, doc, err = run(capsys, "submit", agent, "--game", GAME, *options, "--json")
+        assert code == 2 and words in doc["error"], doc
+        assert err.count("\n") == 1 and "Traceback" not in err
+    (tmp_path / "empty.onnx").write_bytes(b"")
+    code, doc, err = run(capsys, "submit", tmp_path / "empty.onnx", "--game", GAME, "--name", "carol", "--json")
+    assert code == 2 and doc["error"].startswith("empty.onnx is empty (0 bytes)") and "export" in doc["error"]
+    code, listed, _ = run(capsys, "agents", "--json")
+    assert [a["name"] for a in listed["agents"]] == ["alice"]
+
+
+def test_a_placement_budget_over_the_league_limit_is_refused_before_it_plays(capsys, home, tmp_path):
+    run(capsys, "submit", gobang_agent(tmp_path / "a", 1), "--game", GAME, "--name", "alice")
+    code, doc, _ = run(capsys, "rank", "alice", "--budget", "5001", "--json")
+    assert code == 2 and "over 5000" in doc["error"] and "rank.max_budget" in doc["error"]
+    code, doc, _ = run(capsys, "rank", "alice", "--budget", "1", "--json")
+    assert code == 2 and "at least 2" in doc["error"]
+    code, _, err = run(capsys, "settings", "set", "rank.max_budget", "20")
+    assert code == 0, err
+    code, doc, _ = run(capsys, "rank", "alice", "--budget", "21", "--json")
+    assert code == 2 and "over 20" in doc["error"]
+    code, jobs, _ = run(capsys, "jobs", "--json")
+    assert jobs["jobs"] == []  # refused before anything was queued
