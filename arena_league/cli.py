@@ -650,14 +650,19 @@ def cmd_train(args: argparse.Namespace) -> int:
     report = train_entrant(args.game, args.scheme, steps=args.steps, seed=args.seed, report_dir=args.report,
                            eval_every=args.eval_every, eval_matches=args.eval_matches, reference=args.reference,
                            snapshot_every=args.snapshot_every, out_dir=args.out, warm_start_steps=args.warm_start,
-                           hidden=args.hidden, log=log)
+                           hidden=args.hidden, log=log, home=args.home)
     document = report.as_dict()
     if args.json:
         emit_json(document)
         return 0
     last = report.evaluations[-1] if report.evaluations else {}
-    stdout.print(f"{args.scheme} on {args.game}: {args.steps} env steps, {len(report.snapshots)} snapshot(s); "
-                 f"population performance {last.get('population_performance', float('nan')):.3f}")
+    trained = report.env_steps
+    rounded = (f" ({args.steps} asked for, rounded up to whole iterations of {report.history[0]['env_steps']})"
+               if trained != args.steps and report.history else "")
+    performance = last.get("population_performance")
+    stdout.print(f"{args.scheme} on {args.game}: {trained} env steps in {len(report.history)} iteration(s){rounded}, "
+                 f"{len(report.snapshots)} snapshot(s); population performance "
+                 f"{'-' if performance is None else f'{performance:.3f}'}")
     for name, path in report.plots.items():
         stdout.print(f"  {name}: {path}")
     for snapshot in report.snapshots[-3:]:
@@ -987,7 +992,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--reference", nargs="+", default=None,
                    help="the fixed reference population (default scripted:random scripted:heuristic)")
     p.add_argument("--snapshot-every", type=_positive_int, default=None, help="env steps between snapshots")
-    p.add_argument("--out", default=None, help="where snapshots (arena-policy folders) go")
+    p.add_argument("--out", default=None, help="where snapshots (arena-policy folders) go (default: REPORT/snapshots "
+                                               "with --report, else a new runs/<game>-<scheme>-seed<N>-<k>/ of the "
+                                               "league home)")
+    p.add_argument("--home", default=None, help="league home whose runs/ takes the snapshots (default: "
+                                                "$ARENA_LEAGUE_HOME or ~/.arena-league)")
     p.add_argument("--warm-start", type=_positive_int, default=None, metavar="STEPS",
                    help="first imitate the game's heuristic (DAgger) for this many env steps")
     p.add_argument("--hidden", type=_positive_int, nargs="+", default=None, help="actor hidden widths (default 64 64)")

@@ -1,8 +1,15 @@
 """The command's side of the league's one set of rules (the web's side is in test_web_api.py):
-names are series of versions, an empty file is refused, a placement's budget has one limit."""
+names are series of versions, an empty file is refused, a placement's budget has one limit; and
+`train` says what it really did."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
 from cli_helpers import gobang_agent, run
 
 pytest_plugins = ["cli_helpers"]  # the home fixture
@@ -54,3 +61,25 @@ def test_a_placement_budget_over_the_league_limit_is_refused_before_it_plays(cap
     assert code == 2 and "over 20" in doc["error"]
     code, jobs, _ = run(capsys, "jobs", "--json")
     assert jobs["jobs"] == []  # refused before anything was queued
+
+
+@pytest.mark.slow
+def test_train_reports_the_steps_it_trained_and_keeps_snapshots_in_the_league_home(capsys, home):
+    runs = []
+    for _ in range(2):
+        code, doc, err = run(capsys, "train", "Crossroads-2T1P-v1", "--scheme", "ppo", "--steps", "10", "--hidden",
+                             "8", "--eval-matches", "2", "--json")
+        assert code == 0, err
+        assert doc["steps"] == 10 and doc["env_steps"] == doc["history"][-1]["env_steps"] > 10
+        runs.append(Path(doc["snapshots"][-1]["path"]).parent.parent)
+    # a second run never overwrites the first
+    assert runs == [home / "runs" / f"Crossroads-2T1P-v1-ppo-seed0-{k}" for k in (1, 2)]
+
+
+def test_train_prints_the_rounded_steps_and_no_nan(home):
+    done = subprocess.run([sys.executable, "-m", "arena_league.cli", "train", "Crossroads-2T1P-v1", "--scheme", "ppo",
+                           "--steps", "10", "--hidden", "8", "--eval-matches", "2"], capture_output=True, text=True, check=False,
+                          timeout=300, env={**os.environ, "COLUMNS": "200"})
+    assert done.returncode == 0, done.stderr
+    assert "10 asked for, rounded up to whole iterations" in done.stdout
+    assert "nan" not in done.stderr and "return - (no episode ended in this iteration)" in done.stderr

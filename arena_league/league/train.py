@@ -10,16 +10,31 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["train_entrant"]
+__all__ = ["runs_folder", "train_entrant"]
+
+
+def runs_folder(home: str | Path | None, game_id: str, scheme: str, seed: int) -> Path:
+    """A new folder for a run's snapshots under the league home: ``runs/<game>-<scheme>-seed<N>-<k>``,
+    ``k`` the first number not taken (no clock, so the same runs get the same folders)."""
+    from arena_league.registry import league_home
+
+    runs = league_home(home) / "runs"
+    k = 1
+    while (runs / f"{game_id}-{scheme}-seed{seed}-{k}").exists():
+        k += 1
+    return runs / f"{game_id}-{scheme}-seed{seed}-{k}"
 
 
 def train_entrant(game_id: str, scheme: str = "sp", *, steps: int = 100_000, seed: int = 0,
                   report_dir: str | Path | None = None, eval_every: int = 10, eval_matches: int = 20,
                   reference: Sequence[str] | None = None, snapshot_every: int | None = None,
                   out_dir: str | Path | None = None, warm_start_steps: int | None = None,
-                  hidden: Sequence[int] | None = None, log: Callable[[str], None] | None = None) -> Any:
-    """Train ``game_id`` with ``scheme`` for ``steps`` env steps; snapshots go to ``out_dir`` (submit
-    them with ``arena-league submit``), plots and ``curves.json`` to ``report_dir``. With
+                  hidden: Sequence[int] | None = None, log: Callable[[str], None] | None = None,
+                  home: str | Path | None = None) -> Any:
+    """Train ``game_id`` with ``scheme`` for ``steps`` env steps (rounded up to whole iterations:
+    the report's ``env_steps`` says how many were trained); snapshots go to ``out_dir`` (default
+    ``report_dir/snapshots``, else a new :func:`runs_folder` of the league ``home``; submit them
+    with ``arena-league submit``), plots and ``curves.json`` to ``report_dir``. With
     ``warm_start_steps`` the learners first imitate the game's heuristic (DAgger) for that many env
     steps; ``hidden`` sets the actor's hidden widths; ``reference`` is the fixed population of the
     performance curve (default: the scripted random and heuristic agents). Returns the training report."""
@@ -30,6 +45,8 @@ def train_entrant(game_id: str, scheme: str = "sp", *, steps: int = 100_000, see
         overrides["warm_start"] = {"steps": int(warm_start_steps)}
     if hidden:
         overrides["hidden"] = tuple(int(h) for h in hidden)
+    if out_dir is None and report_dir is None:
+        out_dir = runs_folder(home, game_id, scheme, seed)
     return train(game_id, scheme, steps=steps, seed=seed, report_dir=report_dir, eval_every=eval_every,
                  eval_matches=eval_matches, reference=tuple(reference or DEFAULT_REFERENCE),
                  snapshot_every=snapshot_every, out_dir=out_dir, log=log, **overrides)

@@ -59,7 +59,7 @@ from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 from arena_league.training.schemes import register_scheme, scheme_runner
 from arena_league.training.selfplay import OPPONENT_SAMPLING, OpponentPool, load_fixed_opponent
-from arena_league.training.trainer import TrainerBase, format_record, iteration_record
+from arena_league.training.trainer import TrainerBase, figure, format_record, iteration_record
 
 __all__ = ["CC", "CCConfig", "CentralCriticLearner", "TeamSeats", "central_critic_features", "paper_config",
            "paper_runner"]
@@ -300,8 +300,8 @@ class CC(TrainerBase):
         record = iteration_record(self, rollout, [stats], start, collect_time)
         record["win_rate"] = self.seats.win_rate()
         if self.log:
-            self.log(format_record(record) + f" win_rate {record['win_rate']:.2f} "
-                     f"ev {stats.explained_variance:.2f}")
+            self.log(format_record(record) + f" win_rate {figure(record['win_rate'], '.2f')} "
+                     f"ev {figure(stats.explained_variance, '.2f')}")
         return record
 
     def snapshot_metrics(self, index: int) -> dict[str, Any]:

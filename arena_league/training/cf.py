@@ -67,7 +67,7 @@ from arena_league.training.cc import TeamSeats, paper_config, paper_runner
 from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import RolloutCollector, learner_batch
 from arena_league.training.schemes import register_scheme
-from arena_league.training.trainer import TrainerBase, annealed_lr, format_record, iteration_record
+from arena_league.training.trainer import TrainerBase, annealed_lr, figure, format_record, iteration_record
 
 __all__ = ["CF", "CFConfig", "COMACritic", "counterfactual_advantage", "counterfactual_critic_inputs",
            "policy_probabilities", "td_lambda_targets"]
@@ -315,7 +315,7 @@ class CF(TrainerBase):
         record["win_rate"] = self.seats.win_rate()
         record["critic_steps"] = self.critic_steps
         if self.log:
-            self.log(format_record(record) + f" win_rate {record['win_rate']:.2f} q_ev {explained:.2f}")
+            self.log(format_record(record) + f" win_rate {figure(record['win_rate'], '.2f')} q_ev {figure(explained, '.2f')}")
         return record
 
     def _train_critic(self, x: torch.Tensor, taken: torch.Tensor, targets: torch.Tensor, valid: torch.Tensor,

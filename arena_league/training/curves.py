@@ -64,8 +64,14 @@ class TrainingReport:
     """The imitation before RL, when the learners were warm-started: ``expert``, ``env_steps``
     (imitation env steps, which the history's ``env_steps`` do not count), ``rows`` and ``fit``."""
 
+    @property
+    def env_steps(self) -> int:
+        """The RL env steps trained: ``steps`` rounded up to whole iterations."""
+        return int(self.history[-1]["env_steps"]) if self.history else 0
+
     def as_dict(self) -> dict[str, Any]:
         return json_safe({"game_id": self.game_id, "scheme": self.scheme, "seed": self.seed, "steps": self.steps,
+                           "env_steps": self.env_steps,
                            "reference": list(self.reference), "history": self.history,
                            "evaluations": self.evaluations,
                            "snapshots": [{"name": s.name, "path": str(s.path), "steps": s.steps} for s in self.snapshots],

@@ -54,7 +54,7 @@ from arena_league.policies.families import StackedPolicy
 from arena_league.policies.policy import Policy
 from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
-from arena_league.training.trainer import TrainerBase, format_record, iteration_record
+from arena_league.training.trainer import TrainerBase, figure, format_record, iteration_record
 
 __all__ = ["OPPONENT_SAMPLING", "OpponentPool", "RunningScores", "SelfPlay", "load_fixed_opponent", "pfsp_weights"]
 
@@ -288,7 +288,7 @@ class SelfPlay(TrainerBase):
             record["fixed_win_rates"] = self._fixed_scores()
             fixed = " " + " ".join(f"vs {k} {v:.2f}" for k, v in record["fixed_win_rates"].items())
         if self.log:
-            self.log(format_record(record) + f" win_rate {record['win_rate']:.2f} pool {len(self.pool)}{fixed}")
+            self.log(format_record(record) + f" win_rate {figure(record['win_rate'], '.2f')} pool {len(self.pool)}{fixed}")
         return record
 
     def snapshot_metrics(self, index: int) -> dict[str, Any]:

@@ -24,7 +24,7 @@ from arena_league.policies.threads import torch_threads
 from arena_league.training.ppo import Learner, PPOConfig, UpdateStats, game_architecture
 from arena_league.training.rollout import RolloutCollector, check_trainable, learner_batch
 
-__all__ = ["PPO", "TrainerBase", "annealed_lr", "format_record", "iteration_record"]
+__all__ = ["PPO", "TrainerBase", "annealed_lr", "figure", "format_record", "iteration_record"]
 
 
 class TrainerBase(ABC):
@@ -141,11 +141,17 @@ def iteration_record(trainer: Any, rollout: Any, stats: list[UpdateStats], start
     }
 
 
+def figure(value: float, spec: str) -> str:
+    """``value`` formatted by ``spec``, or ``-`` where there is none to show (NaN: nothing measured)."""
+    return "-" if value is None or np.isnan(value) else format(value, spec)
+
+
 def format_record(record: Mapping[str, Any]) -> str:
     """One log line of an iteration record."""
     loss = record["losses"][0] if record["losses"] else {}
-    return (f"{record['scheme']} iter {record['iteration']} steps {record['env_steps']} "
-            f"return {record['episode_return']:.3f} ({record['episodes']} episodes) "
+    returns = (f"return {record['episode_return']:.3f} ({record['episodes']} episodes)" if record["episodes"]
+               else "return - (no episode ended in this iteration)")
+    return (f"{record['scheme']} iter {record['iteration']} steps {record['env_steps']} {returns} "
             f"SPS {record['steps_per_second']:.0f} "
             f"pi_loss {loss.get('policy_loss', float('nan')):.4f} v_loss {loss.get('value_loss', float('nan')):.4f} "
             f"entropy {loss.get('entropy', float('nan')):.3f} kl {loss.get('approx_kl', float('nan')):.4f}")
