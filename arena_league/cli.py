@@ -532,10 +532,15 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
     if args.no_worker and args.workers is not None:
         raise CommandError("give --workers N or --no-worker, not both")
+    from arena_league.league import league_location
+
     workers = 0 if args.no_worker else (1 if args.workers is None else args.workers)
-    stderr.print(f"serving the league at {args.home or '$ARENA_LEAGUE_HOME or ~/.arena-league'} on "
-                 f"http://{args.host}:{args.port} with {workers} job worker(s); Ctrl-C stops it")
-    serve(host=args.host, port=args.port, home=args.home, url=args.db, workers=workers)
+
+    def banner() -> None:  # once the port is ours: a port in use is one line, no banner
+        stderr.print(f"serving the league at {league_location(args.home, args.db)} on http://{args.host}:{args.port} "
+                     f"with {workers} job worker(s); Ctrl-C stops it", highlight=False, soft_wrap=True)
+
+    serve(host=args.host, port=args.port, home=args.home, url=args.db, workers=workers, on_listening=banner)
     return 0
 
 

@@ -1,12 +1,15 @@
 """The command's side of the league's one set of rules (the web's side is in test_web_api.py):
 names are series of versions, an empty file is refused, a placement's budget has one limit; and
-`train` says what it really did."""
+`train` and `serve` say what they really did."""
 
 from __future__ import annotations
 
 import os
+import signal
+import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -83,3 +86,35 @@ def test_train_prints_the_rounded_steps_and_no_nan(home):
     assert done.returncode == 0, done.stderr
     assert "10 asked for, rounded up to whole iterations" in done.stdout
     assert "nan" not in done.stderr and "return - (no episode ended in this iteration)" in done.stderr
+
+
+def test_serve_on_a_busy_port_is_one_line_and_no_banner(capsys, home):
+    with socket.socket() as holder:
+        holder.bind(("127.0.0.1", 0))
+        holder.listen()
+        port = holder.getsockname()[1]
+        code, _, err = run(capsys, "serve", "--port", port)
+    assert code == 2 and err.count("\n") == 1
+    assert f"127.0.0.1:{port}" in err and "--port" in err and "serving" not in err
+
+
+def test_serve_names_the_league_home_it_serves(home, tmp_path):
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    log = tmp_path / "serve.log"
+    with open(log, "w") as out:
+        process = subprocess.Popen([sys.executable, "-m", "arena_league.cli", "serve", "--port", str(port),
+                                    "--no-worker"], stdout=out, stderr=subprocess.STDOUT,
+                                   env={**os.environ, "COLUMNS": "400"})
+        try:
+            deadline = time.monotonic() + 60
+            while "serving" not in log.read_text() and process.poll() is None and time.monotonic() < deadline:
+                time.sleep(0.1)
+        finally:
+            process.send_signal(signal.SIGINT)
+            process.wait(timeout=30)
+    text = log.read_text()
+    assert f"serving the league at {home.resolve()} on http://127.0.0.1:{port}" in text, text
+    assert "$ARENA_LEAGUE_HOME" not in text
+

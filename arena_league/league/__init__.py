@@ -36,7 +36,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "errors": ("USER_ERRORS", "ForbiddenError", "NotFoundError", "RateLimitedError"),
     "first_league": ("QuickstartReport", "quickstart"),
     "gc": ("collect_garbage",),
-    "home": ("did_you_mean", "open_home", "register_game", "short_name"),
+    "home": ("did_you_mean", "league_location", "open_home", "register_game", "short_name"),
     "human": ("Ladder", "LiveMatch", "play_human"),
     "live": ("LivePlay", "player_of"),
     "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),

@@ -9,14 +9,25 @@ from pathlib import Path
 from arena_league import registry as reg
 from arena_league.envs import game_spec
 from arena_league.registry import League
+from arena_league.registry.db import DB_FILENAME
 
-__all__ = ["did_you_mean", "open_home", "register_game", "short_name"]
+__all__ = ["did_you_mean", "league_location", "open_home", "register_game", "short_name"]
 
 
 def open_home(home: str | Path | None = None, url: str | None = None) -> League:
     """Open (and create if needed) the league at ``home`` / ``url`` (``ARENA_LEAGUE_HOME``,
     ``ARENA_LEAGUE_DB``, default ``~/.arena-league``)."""
     return reg.open_league(url, home)
+
+
+def league_location(home: str | Path | None = None, url: str | None = None) -> str:
+    """Where the league at ``home`` / ``url`` lives, as a person reads it: the home folder and, when
+    the registry is not the home's own SQLite file, the database URL (without its password)."""
+    folder = reg.league_home(home)
+    database = reg.league_url(url, home)
+    if database.drivername == "sqlite" and database.database == str(folder / DB_FILENAME):
+        return str(folder)
+    return f"{folder} (database {database.render_as_string(hide_password=True)})"
 
 
 def register_game(league: League, game_id: str) -> None:

@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 __all__ = ["serve"]
 
 
 def serve(*, host: str = "127.0.0.1", port: int = 8000, home: str | Path | None = None, url: str | None = None,
-          workers: int = 1) -> None:
+          workers: int = 1, on_listening: Callable[[], None] | None = None) -> None:
     """Serve the league at ``home`` / ``url`` on ``host:port`` until interrupted, with ``workers``
     job workers beside it (0: jobs wait for ``arena-league worker`` processes started elsewhere).
+    ``on_listening`` is called once the port is held, before the league is opened.
     One log line per request goes to stderr (the application's own, which names who asked; uvicorn's
     access log is off)."""
     import logging
+    import os
     import socket
     import sys
 
@@ -28,8 +31,11 @@ def serve(*, host: str = "127.0.0.1", port: int = 8000, home: str | Path | None 
         # ones inherit it from here (else a play page's second frame waits ~40 ms on a delayed ACK)
         listening.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
     except OSError as error:
-        raise ValueError(f"cannot listen on {host}:{port} ({error.strerror or error}); check --host, or choose "
+        why = os.strerror(error.errno) if error.errno else str(error)
+        raise ValueError(f"cannot listen on {host}:{port} ({why}); check --host, or choose "
                          "another --port (or stop what holds this one)") from None
+    if on_listening is not None:
+        on_listening()
     logging.basicConfig(level=logging.INFO, stream=sys.stderr, format="%(asctime)s %(name)s %(message)s")
     app = create_app(home, url, workers=workers)
     # a play page's messages are a few bytes: a WebSocket message over 64 KiB closes its connection
