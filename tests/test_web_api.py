@@ -94,8 +94,10 @@ def test_an_upload_is_validated_by_a_job_and_a_name_is_a_series_of_versions(serv
     assert (second["name"], second["version"]) == ("ann:v2", 2)
     assert server.wait_job(second["job"])["state"] == "done"
     again = upload(server, alice, "ann", onnx_files(tmp_path, 2)).json()  # the same bytes again
-    result = server.wait_job(again["job"])["result"]
+    job = server.wait_job(again["job"])
+    result = job["result"]
     assert (result["agent"], result["status"], result["created"]) == ("ann:v2", "active", False)
+    assert job["agent"] == "ann:v2"  # the job page links the agent the bytes belong to
     assert "already agent ann:v2" in result["note"] and "rename" not in result["note"]
     with server.client() as client:
         agent = client.get("/api/agents/ann").json()

@@ -39,6 +39,7 @@ from arena_league.league.versions import (
 )
 from arena_league.registry import League
 from arena_league.registry.errors import NameTakenError
+from arena_league.registry.jobs import set_job_payload
 from arena_league.registry.models import utcnow
 
 __all__ = ["UPLOADS", "handle_validate", "series_of", "series_versions", "upload_agent", "upload_limits"]
@@ -170,7 +171,7 @@ def handle_validate(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]
         with ctx.league.reading() as session:
             twin = next(iter(reg.find_agents_by_artifact(session, artifact.digest, game_id=payload["game_id"])), None)
         if twin is not None:
-            return _drop_for_twin(ctx.league, payload["agent"], twin, artifact.digest)
+            return _drop_for_twin(ctx, twin, artifact.digest)
         if progress is not None:
             progress(0, 1)
         verdict = validate_submission(artifact, payload["game_id"], sandbox_limits=sandbox_limits(ctx.league))
@@ -196,15 +197,18 @@ def _discard(staged: Path) -> None:
     shutil.rmtree(staged.parent if staged.is_file() else staged, ignore_errors=True)
 
 
-def _drop_for_twin(league: League, name: str, twin: reg.Agent, digest: str) -> dict[str, Any]:
+def _drop_for_twin(ctx: reg.JobContext, twin: reg.Agent, digest: str) -> dict[str, Any]:
     """The upload's bytes are ``twin`` already: remove the version reserved for them (it never
-    held an artifact) and answer with ``twin``, as ``arena-league submit`` does."""
+    held an artifact), point the job at ``twin`` (its page links the agent it names) and answer
+    with ``twin``, as ``arena-league submit`` does."""
     from arena_league.league.service import SubmitResult
 
-    with league.transaction() as session:
+    name = ctx.job.payload["agent"]
+    with ctx.league.transaction() as session:
         row = reg.require_agent(session, name)
         if row.status == "pending" and row.artifact_sha256 is None:
             session.delete(row)
+        set_job_payload(session, ctx.job, {**ctx.job.payload, "agent": twin.name})
     series, _ = series_of(name)
     return SubmitResult(twin.name, twin.game_id, twin.status, False, digest, twin.reject_reason,
                         requested=series).to_dict()
