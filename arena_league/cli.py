@@ -1105,7 +1105,7 @@ def main(argv: list[str] | None = None) -> int:
         stderr.print(f"[bold red]interrupted:[/] {escape(str(exc))}" if str(exc) else
                      "[bold red]interrupted:[/] the job this command was running is cancelled (nothing half-done "
                      "is left queued); matches already played stay stored. See `arena-league jobs list`.",
-                     highlight=False)
+                     highlight=False, soft_wrap=True)
         return 130
     except _user_errors() as exc:
         if debug:

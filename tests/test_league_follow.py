@@ -145,6 +145,34 @@ def test_ctrl_c_cancels_a_job_another_worker_runs_and_that_worker_stops(tmp_path
             assert count_matches(session, GAME) < 5000 and get_job(session, job_id).progress["done"] < 5000
 
 
+@pytest.mark.slow
+def test_ctrl_c_in_the_terminal_cancels_its_job_and_says_so_in_one_line(tmp_path):
+    home = tmp_path / "league"
+    with open_home(home) as league:
+        ensure_scripted_agents(league, GAME)
+    command = subprocess.Popen([sys.executable, "-m", "arena_league.cli", "evaluate", GAME, "--matches-per-pair",
+                                "5000", "--home", str(home)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        with open_home(home) as league:
+            def progressed() -> bool:
+                with league.reading() as session:
+                    job = get_job(session, 1)
+                    return job is not None and bool((job.progress or {}).get("done"))
+
+            _wait_until(progressed, "the evaluation's first progress report", seconds=120)
+        command.send_signal(signal.SIGINT)
+        _, err = command.communicate(timeout=60)
+    finally:
+        if command.poll() is None:
+            command.kill()
+            command.wait()
+    assert command.returncode == 130
+    assert err.splitlines()[-1] == ("interrupted: job 1 was cancelled (Ctrl-C); the matches it already played stay "
+                                    "stored. See `arena-league jobs show 1`")
+    with open_home(home) as league:
+        assert _status(league, 1) == "cancelled"
+
+
 def _scripted_base_with_entrant(home: Path) -> None:
     with open_home(home) as league:
         names = ensure_scripted_agents(league, CROSSROADS)
