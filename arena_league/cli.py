@@ -173,25 +173,37 @@ def cmd_rank(args: argparse.Namespace) -> int:
         raise CommandError("give one agent to rank, or --members NAME_OR_PATH ... for a population's averaged "
                            "ranking, not both")
     population = LEAGUE_WIDE if args.league_wide else args.population
+    if args.members is not None and args.more is not None:
+        raise CommandError("--more continues one agent's placement; leave it out with --members")
     if args.members is not None:
         return _rank_members(args, population)
     if args.game is not None:
         raise CommandError("--game is for --members given as files; an agent's game is known from its name")
-    with _league(args) as league, progress_bar(f"ranking {args.agent}", args.budget) as update:
+    with _league(args) as league, progress_bar(f"ranking {args.agent}", args.more or args.budget) as update:
         report = rank(league, args.agent, budget=args.budget, population=population, seed=args.seed,
-                      target_half_width=args.half_width, backend=args.backend, progress=update, log=_log)
+                      target_half_width=args.half_width, backend=args.backend, more=args.more, progress=update,
+                      log=_log)
     if args.json:
         emit_json(report.to_dict())
         return 0
     level = round(report.level * 100)
+    seeds = ", ".join(report.seeds) or str(args.seed)
     stdout.print(f"[bold]{report.agent}[/] on {report.game_id} against {report.base} ({report.base_size} agents), "
                  f"{report.matches} matches:")
+    if report.stored:
+        stdout.print(f"  from the stored placement (job {report.job_id}, seed{'s' if len(report.seeds) > 1 else ''} "
+                     f"{seeds}); --more N or another --seed to add evidence", highlight=False)
+    elif report.played != report.matches:
+        stdout.print(f"  {report.played} played now under seed {args.seed}, continuing the stored placement (seeds "
+                     f"{seeds})", highlight=False)
     stdout.print(f"  rating      {report.rating:.0f}  ({level}% CI {report.lower:.0f} .. {report.upper:.0f})")
     stdout.print(f"  rank        {report.rank} of {report.base_size + 1}  ({level}% interval {report.rank_best} .. "
                  f"{report.rank_worst})")
     stdout.print(f"  percentile  {report.percentile:.1f}  ({report.percentile_lower:.1f} .. "
                  f"{report.percentile_upper:.1f})")
     stdout.print(f"  Nash score  {report.nash_score:+.3f}  (mass {report.nash_mass:.3f})")
+    if report.stop_reason:
+        stdout.print(f"  stopped     {escape(report.stop_reason)}", highlight=False)
     if report.forfeits:
         stdout.print(f"  forfeits    {report.forfeits} (losses: its calls failed in the inference sandbox)")
     if report.suspended:
@@ -750,6 +762,12 @@ def _seed_option(p: argparse.ArgumentParser, what: str = "the matches' seeds") -
     p.add_argument("--seed", type=int, default=0, help=f"seed of {what} (default 0): same seed, same result")
 
 
+def _evaluation_seed_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the matches (default 0), mixed with the job's id so that no two evaluations play "
+                        "the same match: the same commands on the same league state play the same matches")
+
+
 def build_parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False, allow_abbrev=False)
     common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
@@ -794,7 +812,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="rank every member instead and report their mean rank and percentile with intervals: agent "
                         "names, .onnx files, arena-policy folders, a population folder or a folder of agents")
     p.add_argument("--game", default=None, help="--members given as files: their game (a population folder says it)")
-    p.add_argument("--budget", type=_positive_int, default=200, help="at most this many matches (default 200)")
+    p.add_argument("--budget", type=_positive_int, default=200,
+                   help="at most this many matches played now (default 200)")
+    p.add_argument("--more", type=_positive_int, default=None, metavar="N",
+                   help="play N more matches under --seed after the agent's stored placement against this base "
+                        "(whatever its interval): its matches only grow")
     p.add_argument("--population", default=None,
                    help="the base population NAME[:VERSION] (default: the game's own: the newest frozen one, or "
                         "the shipped base-v1, imported on first use)")
@@ -803,7 +825,12 @@ def build_parser() -> argparse.ArgumentParser:
                         "robin that counts against --budget)")
     p.add_argument("--half-width", type=float, default=3.0,
                    help="stop early at this rank-interval half-width, in places (default 3)")
-    _seed_option(p)
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the placement's matches (default 0): they depend on the seed, the agent and the "
+                        "base only, so the same seed gives the same placement in any league, and asking again with "
+                        "a seed the stored placement holds returns it without playing. Another seed adds its "
+                        "matches to the stored ones (at least 20, at most --budget, until the interval reaches "
+                        "--half-width)")
     p.add_argument("--backend", choices=_BACKENDS, default="inprocess", help=_BACKEND_HELP)
     _league_options(p)
     p.set_defaults(func=cmd_rank)
@@ -826,7 +853,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--matches-per-pair", type=_positive_int, default=10,
                    help="bring every pair up to this many matches (default 10); pairs that have them play none")
     p.add_argument("--max-matches", type=_positive_int, default=None, help="play at most this many matches")
-    _seed_option(p)
+    _evaluation_seed_option(p)
     p.add_argument("--backend", choices=_BACKENDS, default="inprocess", help=_BACKEND_HELP)
     p.add_argument("--workers", type=_positive_int, default=None, help="processes or Ray CPUs (default: all cores)")
     p.add_argument("--record", action="store_true",
@@ -911,7 +938,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cron", default=None, help="add: cron expression, 5 fields, UTC")
     p.add_argument("--matches-per-pair", type=_positive_int, default=10,
                    help="add: bring every pair up to this many matches (default 10)")
-    _seed_option(p)
+    _evaluation_seed_option(p)
     p.add_argument("--backend", choices=_BACKENDS, default="inprocess", help=_BACKEND_HELP)
     _league_options(p)
     p.set_defaults(func=cmd_schedule)
@@ -1089,12 +1116,13 @@ def main(argv: list[str] | None = None) -> int:
     debug = getattr(args, "debug", False)
     try:
         return args.func(args)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         if debug:
             raise
-        stderr.print("[bold red]interrupted:[/] the job this command was running is cancelled (nothing half-done "
-                      "is left queued); matches already played stay stored. See `arena-league jobs list`.",
-                      highlight=False)
+        stderr.print(f"[bold red]interrupted:[/] {escape(str(exc))}" if str(exc) else
+                     "[bold red]interrupted:[/] the job this command was running is cancelled (nothing half-done "
+                     "is left queued); matches already played stay stored. See `arena-league jobs list`.",
+                     highlight=False, soft_wrap=True)
         return 130
     except _user_errors() as exc:
         if debug:

@@ -169,6 +169,8 @@ def test_rank_of_an_entrant_that_always_fails_ends_with_it_suspended(league_home
     assert report["forfeits"] == report["matches"] == 4
     assert "suspended after forfeiting 4 matches (the league suspends at 3)" in report["suspended"]
     assert report["rank"] == report["base_size"] + 1  # four losses: last
+    assert report["stopped"] == "suspended" and report["stop_reason"].startswith(
+        "the entrant was suspended after 4 new matches (suspended after forfeiting 4 matches")
     code, agent, _, _ = command(league_home, "agent", "bad")
     assert agent["status"] == "suspended"
 

@@ -33,13 +33,16 @@ from arena_league import lazy_exports
 _EXPORTS: dict[str, tuple[str, ...]] = {
     "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent"),
     "catalog": ("check_game", "game_ids", "game_rows", "verify_social_tree"),
-    "errors": ("USER_ERRORS", "ForbiddenError", "NotFoundError", "RateLimitedError"),
+    "errors": (
+        "USER_ERRORS", "ForbiddenError", "JobCancelledError", "JobFailedError", "JobInterrupted", "NotFoundError",
+        "RateLimitedError",
+    ),
     "first_league": ("QuickstartReport", "quickstart"),
     "gc": ("collect_garbage",),
     "home": ("did_you_mean", "league_location", "open_home", "register_game", "short_name"),
     "human": ("Ladder", "LiveMatch", "play_human"),
     "live": ("LivePlay", "player_of"),
-    "jobs": ("cancel_job", "evaluation_payload", "job_detail", "job_rows"),
+    "jobs": ("cancel_job", "evaluation_payload", "follow_job", "job_detail", "job_rows"),
     "matches": ("match_replay", "match_view", "queue_replay"),
     "leaderboards": ("Leaderboard", "render_terminal"),
     "populations": (

@@ -12,7 +12,8 @@ from __future__ import annotations
 from arena_league.policies.errors import ArtifactError
 from arena_league.registry.errors import RegistryError
 
-__all__ = ["USER_ERRORS", "ForbiddenError", "NotFoundError", "RateLimitedError"]
+__all__ = ["USER_ERRORS", "ForbiddenError", "JobCancelledError", "JobFailedError", "JobInterrupted", "NotFoundError",
+           "RateLimitedError"]
 
 
 class NotFoundError(ValueError):
@@ -25,6 +26,18 @@ class ForbiddenError(ValueError):
 
 class RateLimitedError(ValueError):
     """The caller has done this too often lately; the message says when to try again."""
+
+
+class JobFailedError(ValueError):
+    """A job a command waited for failed (here or in another worker); the message is its error's last line."""
+
+
+class JobCancelledError(ValueError):
+    """A job a command waited for was cancelled by someone else (``jobs cancel``, the web)."""
+
+
+class JobInterrupted(KeyboardInterrupt):
+    """Ctrl-C while a command waited for its job: the job is cancelled; the message says which."""
 
 
 USER_ERRORS: tuple[type[BaseException], ...] = (ValueError, FileNotFoundError, RegistryError, ArtifactError)

@@ -1,20 +1,31 @@
 """The league's jobs as a person looks them up: the queue, one job in full, and cancelling one.
 
 Every match is played by a job (``evaluate`` or ``rank``), run at once by the command that
-queued it or later by ``arena-league worker``. A cancelled job does not run (again); a worker
-running it stops at its next lease renewal and discards its result, and the matches it had
-already stored stay (they are real matches).
+queued it or later by ``arena-league worker``. A command that queues a job follows it wherever it
+runs (:func:`follow_job`): here when it can claim it, else in the worker that took it (a server's,
+say), reading the progress that worker stores. A cancelled job does not run (again); a worker
+running it stops at its next progress report (within :data:`PROGRESS_EVERY` seconds and a match)
+or lease renewal and discards its result, and the matches it had already stored stay (they are
+real matches).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import time
+from collections.abc import Callable, Mapping, Sequence
+from datetime import UTC, datetime
 from typing import Any
 
 from arena_league import registry as reg
+from arena_league.league.errors import JobCancelledError, JobFailedError, JobInterrupted
 from arena_league.registry import League
 
-__all__ = ["cancel_job", "evaluation_payload", "job_detail", "job_rows"]
+__all__ = ["PROGRESS_EVERY", "cancel_job", "evaluation_payload", "follow_job", "job_detail", "job_rows"]
+
+#: Seconds between two writes of a running job's progress to its row, and between two looks at the
+#: row of a job another worker runs.
+PROGRESS_EVERY = 0.5
 
 
 def evaluation_payload(game_id: str, agents: Sequence[str] | None, *, matches_per_pair: int = 10, seed: int = 0,
@@ -88,3 +99,73 @@ def cancel_job(league: League, job_id: int) -> dict[str, Any]:
         raise ValueError(str(error)) from None
     with league.reading() as session:
         return _row(reg.get_job(session, job_id))
+
+
+def follow_job(league: League, job_id: int, handlers: Mapping[str, Callable[[reg.JobContext], Any]], *,
+               progress: Callable[[int, int], None] | None = None, log: Callable[[str], None] | None = None,
+               poll_seconds: float = PROGRESS_EVERY, sleep: Callable[[float], None] = time.sleep) -> Any:
+    """Wait for the job ``job_id`` and return its result, wherever it runs: here (claimed, run
+    with ``handlers``, reporting to ``progress``) whenever it can be claimed (queued, or its
+    worker's lease ran out), else in the worker that holds it, whose stored progress
+    (``done``/``total``) goes to ``progress`` every ``poll_seconds`` (slept with ``sleep``).
+
+    Raises :class:`JobFailedError` (its error's last line) when the job failed,
+    :class:`JobCancelledError` when someone cancelled it, and, on Ctrl-C, cancels the job (here:
+    stops it; in another worker: that worker stops at its next progress report) and raises
+    :class:`JobInterrupted` saying so. ``log`` hears once that another worker runs the job."""
+    say = log or (lambda line: None)
+    worker = reg.default_worker_id()
+    elsewhere: str | None = None
+    try:
+        while True:
+            with league.reading() as session:
+                job = reg.get_job(session, job_id)
+                if job is None:
+                    raise ValueError(f"there is no job {job_id}; see `arena-league jobs list`")
+                status, owner, result = job.status, job.lease_owner, job.result
+                error, done = job.error, job.progress or {}
+                claimable = _claimable(job)
+            if status == reg.JobStatus.DONE.value:
+                if progress is not None and done.get("total"):
+                    progress(int(done["total"]), int(done["total"]))
+                return result
+            if status == reg.JobStatus.FAILED.value:
+                raise JobFailedError(f"job {job_id} failed: {_last_line(error)}; see `arena-league jobs show {job_id}`")
+            if status == reg.JobStatus.CANCELLED.value:
+                raise JobCancelledError(f"job {job_id} was cancelled (`arena-league jobs cancel`, or on the web) "
+                                        "before it finished; the matches it played stay stored")
+            if claimable:
+                claimed = reg.claim_job(league, worker, job_id=job_id)
+                if claimed is not None:
+                    elsewhere = None
+                    try:
+                        return reg.run_claimed_job(league, claimed, handlers)
+                    except reg.LeaseLostError:
+                        continue  # cancelled or taken meanwhile: the row says which
+            if status == reg.JobStatus.RUNNING.value and owner and owner != elsewhere:
+                elsewhere = owner
+                say(f"job {job_id} is run by worker {owner}; following it here (Ctrl-C cancels it)")
+            if progress is not None and done.get("total"):
+                progress(int(done.get("done", 0)), int(done["total"]))
+            sleep(poll_seconds)
+    except KeyboardInterrupt:
+        with contextlib.suppress(reg.InvalidRecordError):  # it ended meanwhile: nothing to cancel
+            reg.cancel_job(league, job_id)
+        where = f" in worker {elsewhere}, which stops at its next progress report" if elsewhere else ""
+        raise JobInterrupted(f"job {job_id} was cancelled (Ctrl-C){where}; the matches it already played stay "
+                             f"stored. See `arena-league jobs show {job_id}`") from None
+
+
+def _claimable(job: reg.Job) -> bool:
+    """Whether a claim could take the job now: queued and due, or running on an expired lease."""
+    now = datetime.now(UTC)  # the registry returns its timestamps as aware UTC
+    if job.status == reg.JobStatus.QUEUED.value:
+        return job.run_after is None or job.run_after <= now
+    return (job.status == reg.JobStatus.RUNNING.value and job.lease_expires_at is not None
+            and job.lease_expires_at < now)
+
+
+def _last_line(error: str | None) -> str:
+    """A job's stored error (a traceback) as one line: its last, which names the exception."""
+    lines = [line.strip() for line in (error or "").splitlines() if line.strip()]
+    return lines[-1] if lines else "no error was stored"

@@ -3,10 +3,13 @@ thin layers over. They join the layers below: the registry (SQL), agent artifact
 validation (policies/), the match engine (matchmaking/), the rating engine (rating/) and
 replays, after Arena's "ranking among the base population" (Song et al., AAAI 2020).
 
-Every match is played by a job (kind ``evaluate`` or ``rank``), queued for workers or run at
-once in the caller's process. A job's matches get ids ``job_id * MATCH_IDS_PER_JOB + k``, so match
-seeds (derived from the match id and the league seed) never repeat within a league, and keys
-``job:<job id>:<match id>``, so a retried job stores each match once.
+Every match is played by a job (kind ``evaluate`` or ``rank``), queued for workers or run by the
+command that queued it, which follows it wherever it runs (:func:`~arena_league.league.jobs.follow_job`).
+An evaluation's matches get ids ``job_id * MATCH_IDS_PER_JOB + k``, so its match seeds (derived
+from the match id and the seed) never repeat within a league. A placement's matches get ids
+``0, 1, 2, ...`` under each seed it was given (see :func:`rank`), so its matches depend on the seed,
+the entrant and the base only. Match keys are ``job:<job id>:<match id>``: unique in the league,
+and a retried job stores each match once.
 
 Submitted agents play inside the worker's inference sandbox (:mod:`arena_league.policies.sandbox`),
 within the league's budgets (:mod:`arena_league.league.settings`); built-in scripted agents and
@@ -18,11 +21,10 @@ reason its owner sees, and the job goes on without it (its remaining matches are
 
 from __future__ import annotations
 
-import contextlib
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -32,7 +34,7 @@ from arena_league import registry as reg
 from arena_league.envs import game_spec
 from arena_league.league.agents import latest_placements
 from arena_league.league.home import did_you_mean, register_game
-from arena_league.league.jobs import evaluation_payload
+from arena_league.league.jobs import PROGRESS_EVERY, evaluation_payload, follow_job
 from arena_league.league.leaderboards import (
     EntrantPlacement,
     FrozenRating,
@@ -411,16 +413,16 @@ def evaluate(league: League, game_id: str, agents: Sequence[str] | None = None, 
              seed: int = 0, backend: str = "inprocess", workers: int | None = None, record: bool = False,
              max_matches: int | None = None, progress: Progress | None = None,
              log: Callable[[str], None] | None = None) -> EvaluationReport:
-    """Queue an evaluation and run it here and now (see :func:`queue_evaluation`); ``log`` first
-    gets what will be played and why (:class:`EvaluationPlan`)."""
+    """Queue an evaluation and wait for it (see :func:`queue_evaluation`): run here, or followed in
+    the worker that took it (:func:`~arena_league.league.jobs.follow_job`); ``log`` first gets what
+    will be played and why (:class:`EvaluationPlan`)."""
     if log is not None:
         log(evaluation_plan(league, game_id, agents, matches_per_pair=matches_per_pair,
                             max_matches=max_matches).describe())
     job_id = queue_evaluation(league, game_id, agents, matches_per_pair=matches_per_pair, seed=seed,
                               backend=backend, workers=workers, record=record, max_matches=max_matches,
                               priority=100)
-    result = reg.run_job_now(league, job_id, job_handlers(progress))
-    return EvaluationReport(**result)
+    return EvaluationReport(**follow_job(league, job_id, job_handlers(progress), progress=progress, log=log))
 
 
 def _played_seatings(rows: list[dict[str, Any]]) -> dict[tuple[str, ...], int]:
@@ -626,9 +628,29 @@ class RankReport:
     forfeits: int = 0
     #: Why the entrant was suspended by this placement, or None.
     suspended: str | None = None
+    #: Matches this call played (0 when the placement was stored already); ``matches`` counts them all.
+    played: int = 0
+    #: Seed -> the placement's matches played under it (see :func:`rank`).
+    seeds: dict[str, int] = field(default_factory=dict)
+    #: True when the placement was read back from an earlier job (``job_id``) without playing.
+    stored: bool = False
+    #: Why the placement stopped: ``target`` (the rank interval narrowed to the target half-width),
+    #: ``budget`` (the budget ran out first), ``more`` (the matches --more asked for were played) or
+    #: ``suspended`` (the entrant was suspended, or is past its forfeits); ``stop_reason`` says it in words.
+    stopped: str = ""
+    stop_reason: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+    @classmethod
+    def of(cls, result: Mapping[str, Any], *, stored: bool = False) -> RankReport:
+        """The report of a rank job's result (which also keeps the placement's evidence)."""
+        known = {f.name for f in fields(cls)}
+        report = cls(**{key: value for key, value in result.items() if key in known})
+        if stored:
+            report.stored, report.played = True, 0
+        return report
 
 
 def base_population(league: League, game_id: str, entrant: str, population: str | None = None
@@ -704,8 +726,8 @@ def _entrant_game(league: League, agent: str, who: Identity | None = None,
 
 
 def rank(league: League, agent: str, *, budget: int = 200, population: str | None = None, seed: int = 0,
-         target_half_width: float = 3.0, backend: str = "inprocess", progress: Progress | None = None,
-         log: Callable[[str], None] | None = None) -> RankReport:
+         target_half_width: float = 3.0, backend: str = "inprocess", more: int | None = None,
+         progress: Progress | None = None, log: Callable[[str], None] | None = None) -> RankReport:
     """Place ``agent`` against its game's base population with adaptive opponent choice, storing
     every match; the rating has a 95% interval, the rank and percentile their intervals.
 
@@ -714,7 +736,31 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
     imported on first use too), or, with
     ``population="league"``, every other active agent of the game: those are first rated by a
     round robin of :data:`BASE_ROUND_ROBIN_PER_PAIR` matches for each pair that never met, which
-    counts against ``budget`` and is announced through ``log`` before it starts."""
+    counts against ``budget`` and is announced through ``log`` before it starts.
+
+    Same seed, same result. A placement's matches depend on the seed, the entrant and the base only
+    (the match with index ``k`` under seed ``s`` has the env seed of match ``k`` of seed ``s``; not
+    the job id, nor the league's other matches), and the entrant's placement against a base (same
+    label, members and ratings) is kept and grows:
+
+    - the first ``rank`` plays under ``seed`` until the rank interval's half-width is at most
+      ``target_half_width`` places (looked at from the 20th match on) or ``budget`` matches;
+    - ``rank`` again with a seed the placement already holds returns the stored placement without
+      playing (``stored`` is True, ``job_id`` the job that played it);
+    - ``rank`` with a seed it does not hold adds evidence: the stored matches (every seed, in the
+      order they were played) are replayed into the opponent chooser, then new matches are played
+      under the new seed (indices from 0), at least 20 and at most ``budget``, stopping once the
+      interval over all the matches reaches the target;
+    - ``more=N`` plays exactly ``N`` more matches under ``seed`` (continuing its indices), also
+      after the replayed evidence, whatever the interval: matches only grow.
+
+    So the placement is a function of the entrant, the base and the seeds and ``more`` counts asked
+    for, in their order; the leaderboard shows the newest. The Nash score is computed over every
+    stored match of the entrant and the base. The job is followed wherever it runs (a server's
+    worker may take it, see :func:`~arena_league.league.jobs.follow_job`); a queued or running
+    placement asking the same is followed rather than queued twice."""
+    if more is not None and (isinstance(more, bool) or not isinstance(more, int) or more < 1):
+        raise ValueError(f"more must be a whole number of matches, at least 1, not {more!r}")
     from arena_league.league.settings import check_rank_budget
 
     check_rank_budget(league, budget)
@@ -724,11 +770,15 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
     if not names:
         raise ValueError(f"{game_id} has no base agents to rank {agent} against; import a base population "
                          "(`arena-league population import FOLDER`) or submit more agents")
-    say(f"ranking {agent} against {label} ({len(names)} agents), at most {budget} matches")
+    stored = None if ratings is None else _stored_placement(league, game_id, agent, label, names, ratings, seed, more)
+    if stored is not None:
+        return stored
+    plays = f"{more} more matches" if more is not None else f"at most {budget} matches"
+    say(f"ranking {agent} against {label} ({len(names)} agents), {plays}")
     if ratings is None:
         unmet = _unmet_pairs(league, game_id, names)
         round_robin = unmet * BASE_ROUND_ROBIN_PER_PAIR
-        if round_robin >= budget:
+        if round_robin >= budget and more is None:
             raise ValueError(f"ranking against {label} first needs a round robin of {round_robin} matches "
                              f"({unmet} pairs of its {len(names)} agents never met, {BASE_ROUND_ROBIN_PER_PAIR} "
                              f"matches each) before any placement match, over the budget of {budget}. Rank "
@@ -736,24 +786,75 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
                              f"above {round_robin}")
         if round_robin:
             say(f"first a round robin of {round_robin} matches among {len(names)} agents ({unmet} pairs never "
-                f"met), then up to {budget - round_robin} placement matches")
-            budget -= round_robin
+                f"met), then {plays if more is not None else f'up to {budget - round_robin} placement matches'}")
+            budget -= round_robin if more is None else 0
         ratings = _base_ratings(league, game_id, names, seed, progress, unmet)
+        stored = _stored_placement(league, game_id, agent, label, names, ratings, seed, more)
+        if stored is not None:
+            return stored
+    payload = {"game_id": game_id, "agent": agent, "population": population, "base": names, "base_label": label,
+               "base_ratings": [float(r) for r in ratings], "budget": int(budget),
+               "target_half_width": float(target_half_width), "seed": int(seed), "more": more, "backend": backend}
     with league.transaction() as session:
-        job = reg.enqueue(session, "rank", {
-            "game_id": game_id, "agent": agent, "base": names, "base_label": label,
-            "base_ratings": [float(r) for r in ratings], "budget": int(budget),
-            "target_half_width": float(target_half_width), "seed": int(seed), "backend": backend}, priority=100)
-        job_id = job.id
-    return RankReport(**reg.run_job_now(league, job_id, job_handlers(progress)))
+        job_id = _live_placement(session, payload)
+        if job_id is None:
+            job_id = reg.enqueue(session, "rank", payload, priority=100).id
+        else:
+            say(f"job {job_id} already places {agent} against {label} with seed {seed}; waiting for it")
+    return RankReport.of(follow_job(league, job_id, job_handlers(progress), progress=progress, log=say))
+
+
+def _stored_placement(league: League, game_id: str, agent: str, label: str, names: list[str], ratings: Any,
+                      seed: int, more: int | None) -> RankReport | None:
+    """The entrant's stored placement against this base when it already holds ``seed`` and no
+    ``more`` is asked for (see :func:`rank`), else None."""
+    if more is not None:
+        return None
+    with league.reading() as session:
+        prior = _placement_evidence(session, game_id, agent, label, names, ratings)
+    if prior is None or str(int(seed)) not in prior[1].get("seeds", {}):
+        return None
+    return RankReport.of(prior[1], stored=True)
+
+
+def _placement_evidence(session: Any, game_id: str, agent: str, label: str, names: Sequence[str], ratings: Any,
+                        exclude_job_id: int | None = None) -> tuple[int, dict[str, Any]] | None:
+    """(job id, result) of the entrant's newest finished placement against the base ``label``, when
+    that placement kept its evidence and was made against these members at these ratings; None when
+    there is none (the next placement starts afresh)."""
+    wanted = [float(r) for r in ratings]
+    for job in reg.list_jobs(session, status="done", kind="rank"):  # newest first
+        payload, result = job.payload or {}, job.result or {}
+        if (job.id == exclude_job_id or payload.get("agent") != agent or payload.get("game_id") != game_id
+                or payload.get("base_label") != label):
+            continue
+        same_base = list(payload.get("base") or []) == list(names) and payload.get("base_ratings") == wanted
+        return (job.id, result) if same_base and "evidence" in result else None
+    return None
+
+
+def _live_placement(session: Any, payload: Mapping[str, Any]) -> int | None:
+    """A queued or running rank job that asks for the same placement as ``payload`` (queued from the
+    web, or by another terminal), or None."""
+    same = ("agent", "game_id", "seed", "more", "budget", "target_half_width")
+    for job in live_jobs(session, "rank"):
+        other = job.payload or {}
+        base_same = (other.get("base_label") == payload["base_label"] if "base_label" in other
+                     else other.get("population") == payload["population"])
+        if base_same and all(other.get(key) == payload[key] for key in same):
+            return job.id
+    return None
 
 
 def queue_rank(league: League, agent: str, *, budget: int = 200, population: str | None = None, seed: int = 0,
-               target_half_width: float = 3.0, who: Identity | None = None) -> int:
+               target_half_width: float = 3.0, more: int | None = None, who: Identity | None = None) -> int:
     """Queue a placement of ``agent`` against its game's base population (or ``population``, a
     frozen one with ratings) for a worker; returns the job id. The job finds the base when it runs
     (importing the shipped one on first use, which validates its members: agent code, never run in
-    the caller's request). With ``who``, only the agent's owner (or an administrator) may."""
+    the caller's request). ``seed`` and ``more`` as in :func:`rank`: a seed the stored placement
+    holds gives it back without playing. With ``who``, only the agent's owner (or an administrator) may."""
+    if more is not None and (isinstance(more, bool) or not isinstance(more, int) or more < 1):
+        raise ValueError(f"more must be a whole number of matches, at least 1, not {more!r}")
     from arena_league.league.errors import NotFoundError
     from arena_league.league.settings import check_rank_budget
 
@@ -762,7 +863,8 @@ def queue_rank(league: League, agent: str, *, budget: int = 200, population: str
     with league.transaction() as session:
         return reg.enqueue(session, "rank", {"game_id": game_id, "agent": agent, "population": population,
                                              "budget": int(budget), "target_half_width": float(target_half_width),
-                                             "seed": int(seed), "backend": "inprocess"}, priority=60).id
+                                             "seed": int(seed), "more": more, "backend": "inprocess"},
+                           priority=60).id
 
 
 def _resolve_base(ctx: reg.JobContext) -> dict[str, Any]:
@@ -780,48 +882,86 @@ def _resolve_base(ctx: reg.JobContext) -> dict[str, Any]:
 
 
 def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[str, Any]:
-    """Job handler: adaptive placement of an entrant (re-played from the start on a retry, which the
-    engine's determinism makes exact and the match keys make idempotent)."""
-    from arena_league.rating import AdaptivePlacement, nash_averaging
+    """Job handler: adaptive placement of an entrant, continuing its stored placement against the
+    same base (see :func:`rank`); re-played from the start on a retry, which the engine's
+    determinism makes exact and the match keys make idempotent. The result keeps the placement's
+    evidence (seed, match index, opponent, the entrant's score of every match, in order) for the
+    next placement to continue from."""
+    from arena_league.rating import MIN_PLACEMENT_MATCHES, AdaptivePlacement, nash_averaging
 
     start = time.perf_counter()
     p = ctx.job.payload if "base" in ctx.job.payload else _resolve_base(ctx)
     game_id, agent, names = p["game_id"], p["agent"], list(p["base"])
+    seed, more, target = int(p["seed"]), p.get("more"), float(p["target_half_width"])
+    with ctx.league.reading() as session:
+        prior = _placement_evidence(session, game_id, agent, p["base_label"], names, p["base_ratings"],
+                                    exclude_job_id=ctx.job.id)
+    if prior is not None and more is None and str(seed) in prior[1].get("seeds", {}):
+        return {**prior[1], "stored": True, "played": 0, "seconds": round(time.perf_counter() - start, 3)}
+    evidence = [list(e) for e in prior[1]["evidence"]] if prior is not None else []
     with ctx.league.reading() as session:
         refs = agent_refs(session, ctx.league, _active_agents(session, game_id, [agent, *names]))
-    chooser = AdaptivePlacement(np.asarray(p["base_ratings"]), budget=int(p["budget"]),
-                                target_half_width=float(p["target_half_width"]))
-    recorder = _Recorder(ctx, game_id, int(p["budget"]), progress)
+    cap = int(more) if more is not None else int(p["budget"])
+    chooser = AdaptivePlacement(np.asarray(p["base_ratings"]), budget=len(evidence) + cap, target_half_width=target,
+                                min_matches=len(evidence) + (cap if more is not None else MIN_PLACEMENT_MATCHES))
+    index = {name: k for k, name in enumerate(names)}
+    for _, _, opponent, score in evidence:
+        chooser.record(index[opponent], float(score))
+    recorder = _Recorder(ctx, game_id, cap, progress)
     sandboxing = _Sandboxing.of(ctx.league, refs, recorder.ids)
 
     def play(specs):
         return sandboxing.play(specs, refs, ctx, recorder, backend=p.get("backend", "inprocess"))
 
-    results = play_adaptive(agent, names, chooser, play, game_id, league_seed=int(p["seed"]),
-                            first_match_id=ctx.job.id * MATCH_IDS_PER_JOB, max_matches=int(p["budget"]) + 1)
+    first = sum(1 for e in evidence if e[0] == seed)  # this seed's matches so far: its next index
+    results = play_adaptive(agent, names, chooser, play, game_id, league_seed=seed, first_match_id=first,
+                            max_matches=cap + 1)
     recorder.flush()
     suspended = sandboxing.suspend(ctx.league, recorder.forfeits)
+    for r in results:
+        evidence.append([seed, r.match_id, next(s for s in r.seats if s != agent),
+                         float(r.team_scores()[r.teams[r.seats.index(agent)]])])
     placement = chooser.placement
+    stopped, why = _stop_reason(chooser, len(results), cap, more, target, suspended.get(agent))
     # Nash score of the entrant in the meta-game of base + entrant (logit win rates, smoothed by PSEUDO_COUNT)
     everyone = [*names, agent]
     with ctx.league.reading() as session:
         rows = reg.match_seat_rows(session, game_id, agents=everyone)
     nash_p, nash_scores = _nash_of(rows, everyone, nash_averaging)
     opponents: dict[str, dict[str, float]] = {}
-    for r in results:
-        mine = r.seats.index(agent)
-        other = next(s for s in r.seats if s != agent)
+    seeds: dict[str, int] = {}
+    for used, _, other, score in evidence:
         entry = opponents.setdefault(other, {"matches": 0, "score": 0.0})
         entry["matches"] += 1
-        entry["score"] += r.scores[mine]
+        entry["score"] += score
+        seeds[str(used)] = seeds.get(str(used), 0) + 1
     return {"agent": agent, "game_id": game_id, "base": p["base_label"], "base_size": len(names),
-            "matches": len(results), "rating": placement.rating, "lower": placement.lower,
+            "matches": len(evidence), "rating": placement.rating, "lower": placement.lower,
             "upper": placement.upper, "rank": placement.rank, "rank_best": placement.rank_best,
             "rank_worst": placement.rank_worst, "percentile": placement.percentile,
             "percentile_lower": placement.percentile_lower, "percentile_upper": placement.percentile_upper,
             "nash_score": float(nash_scores[-1]), "nash_mass": float(nash_p[-1]), "level": placement.level,
             "job_id": ctx.job.id, "seconds": round(time.perf_counter() - start, 3), "opponents": opponents,
-            "forfeits": recorder.forfeits.get(agent, 0), "suspended": suspended.get(agent)}
+            "forfeits": recorder.forfeits.get(agent, 0), "suspended": suspended.get(agent), "played": len(results),
+            "seeds": seeds, "stored": False, "stopped": stopped, "stop_reason": why, "evidence": evidence}
+
+
+def _stop_reason(chooser: Any, played: int, cap: int, more: int | None, target: float, suspended: str | None
+                 ) -> tuple[str, str]:
+    """Why a placement stopped, as a code and in words (see :attr:`RankReport.stopped`)."""
+    total = chooser.matches
+    if played < cap and not chooser.done:
+        if suspended:
+            return "suspended", f"the entrant was suspended after {played} new matches ({suspended})"
+        return "suspended", (f"the entrant's matches were skipped after {played} new matches: it is past its "
+                             "forfeits (see `arena-league agent NAME`)")
+    if more is not None:
+        return "more", f"played the {cap} more matches asked for (--more {cap}), {total} in all"
+    if chooser.matches >= chooser.min_matches and chooser.rank_half_width <= target:
+        return "target", (f"the rank interval reached the target half-width of {target:g} places after {total} "
+                          "matches")
+    return "budget", (f"the budget of {cap} matches ran out before the rank interval reached the target half-width "
+                      f"of {target:g} places (it is {chooser.rank_half_width:g})")
 
 
 def _nash_of(rows: list[dict[str, Any]], agents: list[str], nash_averaging) -> tuple[np.ndarray, np.ndarray]:
@@ -942,12 +1082,11 @@ class _JobProgress:
         now = time.monotonic()
         if now - self.written >= PROGRESS_EVERY or done >= total:
             self.written = now
-            with contextlib.suppress(reg.LeaseLostError):  # the job's own checks stop it
+            try:
                 reg.set_job_progress(self.ctx.league, self.ctx.job, {"done": int(done), "total": int(total)})
-
-
-#: Seconds between two writes of a running job's progress to its row.
-PROGRESS_EVERY = 0.5
+            except reg.LeaseLostError:
+                self.ctx.lease_lost.set()  # cancelled, or taken by another worker: stop now
+                raise
 
 
 def job_handlers(progress: Progress | None = None) -> dict[str, Callable[[reg.JobContext], Any]]:

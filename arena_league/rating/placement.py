@@ -285,6 +285,12 @@ class AdaptivePlacement:
             and self._posterior.rank_half_width(self._rows)[0] <= self.target_half_width)
 
     @property
+    def rank_half_width(self) -> float:
+        """Half the number of base agents rated inside the interval: what :attr:`done` compares with
+        ``target_half_width``."""
+        return float(self._posterior.rank_half_width(self._rows)[0])
+
+    @property
     def placement(self) -> Placement:
         return self._posterior.placements(self._rows)[0]
 

@@ -36,6 +36,7 @@ Times come from the workers' clocks (keep them in sync with NTP) and are stored 
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import logging
@@ -521,23 +522,37 @@ def run_job_now(
     lease_seconds: float = 60.0,
 ) -> Any:
     """Claim the job `job_id` and run it here, in the caller's process, under a renewed lease (for
-    commands that queue work and wait for it). Returns its result; a handler error fails the
-    attempt and is re-raised, so the caller sees the cause. Interrupted (Ctrl-C), the job is
-    cancelled rather than left queued: nobody else waits for it."""
+    commands that queue work and wait for it); see :func:`run_claimed_job`. Raises
+    InvalidRecordError when the job cannot be claimed (another worker holds it, or it ended)."""
     job = claim_job(league, worker_id or default_worker_id(), lease_seconds=lease_seconds, job_id=job_id)
     if job is None:
         raise InvalidRecordError(f"job {job_id} cannot be claimed: it is not queued (or already taken by a worker)")
+    return run_claimed_job(league, job, handlers, lease_seconds=lease_seconds)
+
+
+def run_claimed_job(league: League, job: ClaimedJob, handlers: Mapping[str, Handler], *,
+                    lease_seconds: float = 60.0) -> Any:
+    """Run a job this process claimed, here, under a renewed lease; returns its result. A handler
+    error fails the attempt and is re-raised, so the caller sees the cause. Interrupted (Ctrl-C),
+    the job is cancelled rather than left queued: nobody else waits for it. Raises LeaseLostError
+    when the job was taken from this process meanwhile (cancelled, or its lease ran out and another
+    worker claimed it): its result, if any, is discarded."""
     if job.kind not in handlers:
         release_job(league, job)
-        raise InvalidRecordError(f"job {job_id} is of kind {job.kind!r}, which has no handler here")
+        raise InvalidRecordError(f"job {job.id} is of kind {job.kind!r}, which has no handler here")
     try:
-        result, _ = _under_lease(league, handlers[job.kind], job, lease_seconds)
+        result, lease_lost = _under_lease(league, handlers[job.kind], job, lease_seconds)
     except KeyboardInterrupt:
-        _cancel_held(league, job)
+        with contextlib.suppress(LeaseLostError):  # already cancelled or taken: nothing to hand back
+            _cancel_held(league, job)
+        raise
+    except LeaseLostError:
         raise
     except Exception:
-        fail_job(league, job, traceback.format_exc())
+        fail_job(league, job, traceback.format_exc())  # LeaseLostError if it was taken meanwhile
         raise
+    if lease_lost.is_set():
+        raise LeaseLostError(f"this process lost its lease on job {job.id} while running it; its result is discarded")
     complete_job(league, job, result)
     return result
 
@@ -555,7 +570,7 @@ def _run_one(
         result, lease_lost = _under_lease(league, handler, job, lease_seconds)
     except LeaseLostError:
         report.lost += 1
-        logger.warning("job %d: lease lost; leaving it to its new owner", job.id)
+        logger.warning("job %d: lease lost (the job was cancelled, or another worker took it); stopped", job.id)
         return
     except KeyboardInterrupt:
         release_job(league, job)

@@ -1,0 +1,120 @@
+"""A placement's matches depend on the seed, the entrant and the base only: the same seed gives the
+same placement in two leagues (whatever else they played) and, asked again in one league, the stored
+one; --more and another seed add matches to it; the report says why it stopped."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from arena_league.cli import main
+from arena_league.league import ensure_scripted_agents, evaluate, leaderboard, open_home, rank, submit
+from arena_league.registry import (
+    add_population_member,
+    count_matches,
+    create_population,
+    freeze_population,
+    get_agent,
+    match_seat_rows,
+)
+
+GAME = "Crossroads-2T2P-v1"
+EXAMPLE = Path(__file__).resolve().parent.parent / "submissions" / "crossroads-2t2p-mlp.onnx"
+PLACEMENT = ("rating", "lower", "upper", "rank", "rank_best", "rank_worst", "percentile", "percentile_lower",
+             "percentile_upper", "matches", "seeds", "stopped", "stop_reason")
+
+
+def seed_league(home: Path, *, history: bool = False) -> None:
+    """The example entrant and a frozen base of the two scripted agents; with ``history``, jobs and
+    matches played first (so job ids and stored matches differ from a fresh league's)."""
+    with open_home(home) as league:
+        names = ensure_scripted_agents(league, GAME)
+        if history:
+            evaluate(league, GAME, names, matches_per_pair=4, seed=9)
+            evaluate(league, GAME, names, matches_per_pair=6, seed=9)
+        with league.transaction() as session:
+            population = create_population(session, "scripted", GAME, provenance={"made_by": "test"})
+            for name, rating in zip(names, (900.0, 1100.0)):
+                add_population_member(session, population, get_agent(session, name), {"rating": rating})
+            freeze_population(session, population)
+        assert submit(league, EXAMPLE, GAME, "alice").status == "active"
+
+
+def placement(report) -> dict:
+    return {key: getattr(report, key) for key in PLACEMENT}
+
+
+def entrant_match_seeds(league) -> list[int]:
+    with league.reading() as session:
+        rows = match_seat_rows(session, GAME, agents=["alice"])
+    return [row["seed"] for row in rows if row["agent"] == "alice"]
+
+
+@pytest.mark.slow
+def test_one_seed_gives_one_placement_in_two_leagues_and_is_stored_the_second_time(tmp_path):
+    seed_league(tmp_path / "fresh")
+    seed_league(tmp_path / "busy", history=True)
+    with open_home(tmp_path / "fresh") as league:
+        first = rank(league, "alice", budget=30, seed=4)
+        first_seeds = entrant_match_seeds(league)
+        with league.reading() as session:
+            stored_matches = count_matches(session, GAME)
+        again = rank(league, "alice", budget=30, seed=4)
+        with league.reading() as session:
+            assert count_matches(session, GAME) == stored_matches  # nothing played the second time
+    with open_home(tmp_path / "busy") as league:
+        other = rank(league, "alice", budget=30, seed=4)
+        assert entrant_match_seeds(league) == first_seeds
+    assert other.job_id != first.job_id and first.played == first.matches >= 20
+    assert placement(other) == placement(first)
+    assert again.stored and not first.stored and again.played == 0 and again.job_id == first.job_id
+    assert placement(again) == placement(first)
+
+
+@pytest.mark.slow
+def test_more_and_another_seed_add_matches_and_the_board_shows_them(tmp_path):
+    seed_league(tmp_path / "a")
+    seed_league(tmp_path / "b", history=True)
+    reports = {}
+    for name in ("a", "b"):
+        with open_home(tmp_path / name) as league:
+            first = rank(league, "alice", budget=30)
+            more = rank(league, "alice", budget=30, more=10)
+            second_seed = rank(league, "alice", budget=30, seed=1)
+            back = rank(league, "alice", seed=0)
+            board = leaderboard(league, GAME, population="scripted")
+            row = next(r for r in board.rows if r.agent == "alice")
+        reports[name] = (first, more, second_seed, back, row)
+    first, more, second_seed, back, row = reports["a"]
+    assert more.matches == first.matches + 10 and more.played == 10 and more.stopped == "more"
+    assert more.upper - more.lower <= first.upper - first.lower
+    assert more.rank_worst - more.rank_best <= first.rank_worst - first.rank_best
+    assert second_seed.seeds == {"0": first.matches + 10, "1": second_seed.played}
+    assert second_seed.matches == more.matches + second_seed.played and second_seed.played >= 20
+    assert back.stored and placement(back) == placement(second_seed)  # seed 0 is held: the newest placement
+    assert row.matches == second_seed.matches and row.rating == pytest.approx(second_seed.rating)
+    for mine, theirs in zip(reports["a"][:4], reports["b"][:4]):  # the same asks give the same placements
+        assert placement(mine) == placement(theirs)
+
+
+def test_rank_says_why_it_stopped_and_when_it_is_stored(tmp_path, capsys):
+    seed_league(tmp_path / "league")
+    league_args = ["--home", str(tmp_path / "league")]
+    assert main(["rank", "alice", "--budget", "6", "--seed", "2", *league_args, "--json"]) == 0
+    short = json.loads(capsys.readouterr().out)
+    assert short["stopped"] == "budget" and short["matches"] == 6
+    assert "the budget of 6 matches ran out" in short["stop_reason"] and "evidence" not in short
+    assert main(["rank", "alice", "--budget", "60", *league_args]) == 0
+    out = capsys.readouterr().out
+    assert "played now under seed 0, continuing the stored placement (seeds 2, 0)" in out
+    assert "stopped     the rank interval reached the target half-width of 3 places after" in out
+    assert main(["rank", "alice", "--budget", "60", *league_args]) == 0
+    out = capsys.readouterr().out
+    assert "from the stored placement (job" in out and "seeds 2, 0); --more N or another --seed to add evidence" in out
+    assert main(["rank", "alice", "--more", "4", *league_args, "--json"]) == 0
+    grown = json.loads(capsys.readouterr().out)
+    assert grown["played"] == 4 and grown["stopped"] == "more" and not grown["stored"]
+    assert main(["rank", "--members", "alice", "--more", "4", *league_args]) == 2
+    assert "--more continues one agent's placement" in capsys.readouterr().err
