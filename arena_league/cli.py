@@ -165,7 +165,7 @@ def cmd_submit(args: argparse.Namespace) -> int:
 
 
 def cmd_rank(args: argparse.Namespace) -> int:
-    from arena_league.league import LEAGUE_WIDE, rank
+    from arena_league.league import LEAGUE_WIDE, describe_population, rank
 
     if args.league_wide and args.population:
         raise CommandError("give --population NAME or --league-wide, not both")
@@ -183,13 +183,14 @@ def cmd_rank(args: argparse.Namespace) -> int:
         report = rank(league, args.agent, budget=args.budget, population=population, seed=args.seed,
                       target_half_width=args.half_width, backend=args.backend, more=args.more, progress=update,
                       log=_log)
+        against = describe_population(league, report.game_id, report.base) if population != LEAGUE_WIDE else \
+            f"{report.base} ({report.base_size} agents)"
     if args.json:
         emit_json(report.to_dict())
         return 0
     level = round(report.level * 100)
     seeds = ", ".join(report.seeds) or str(args.seed)
-    stdout.print(f"[bold]{report.agent}[/] on {report.game_id} against {report.base} ({report.base_size} agents), "
-                 f"{report.matches} matches:")
+    stdout.print(f"[bold]{report.agent}[/] on {report.game_id} against {escape(against)}, {report.matches} matches:")
     if report.stored:
         stdout.print(f"  from the stored placement (job {report.job_id}, seed{'s' if len(report.seeds) > 1 else ''} "
                      f"{seeds}); --more N or another --seed to add evidence", highlight=False)
@@ -398,8 +399,23 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_population(args: argparse.Namespace) -> int:
-    from arena_league.league import export_population, import_population, list_populations
+    from arena_league.league import (
+        check_game,
+        export_population,
+        import_population,
+        list_populations,
+        list_shipped,
+    )
 
+    if args.what is not None and args.action != "pull":
+        raise CommandError(f"population {args.action} takes one argument; NAME after the game is for `population pull "
+                           "GAME NAME`")
+    if args.action == "pull":
+        return _pull_population(args)
+    if args.action == "index":
+        return _population_index(args)
+    if args.action == "list" and args.game is not None:
+        check_game(args.game)
     with _league(args) as league:
         if args.action == "build":
             return _build_population(args, league)
@@ -419,12 +435,61 @@ def cmd_population(args: argparse.Namespace) -> int:
                 stdout.print(f"exported {args.population} to {path}")
             return 0
         rows = list_populations(league, args.game)
+        shipped = list_shipped(league, args.game)
     if args.json:
-        emit_json({"populations": rows})
-    else:
-        _print_table("populations", ("population", "game", "members", "frozen"),
+        emit_json({"populations": rows, "shipped": shipped})
+        return 0
+    if rows:
+        _print_table("populations in this league", ("population", "game", "members", "frozen"),
                      [(f"{r['name']}:{r['version']}", r["game_id"], str(r["members"]), str(r["frozen"])) for r in rows])
+    else:
+        stdout.print(f"no populations{' of ' + args.game if args.game else ''} in this league yet (a shipped one is "
+                     "imported on first use, or with `arena-league population import FOLDER`)", highlight=False)
+    _print_table("shipped with arena-league", ("population", "game", "members", "MB", "on this machine", "imported"),
+                 [(r["name"], r["game_id"], str(r["members"]), f"{r['bytes'] / 1e6:.1f}",
+                   escape(f"{r['where']} {r['path']}" if r["path"] else "not downloaded: `arena-league population "
+                          f"pull {r['game_id']} {r['name']}`"), r["imported"] or "not yet") for r in shipped])
     return 0
+
+
+def _pull_population(args: argparse.Namespace) -> int:
+    from arena_league.league import pull_population
+
+    reports = pull_population(args.target, args.what, every=args.every, mirror=args.mirror)
+    if args.json:
+        emit_json({"pulled": [r.to_dict() for r in reports]})
+        return 0
+    for r in reports:
+        done = f"pulled {r.files} files ({r.bytes / 1e6:.1f} MB) from {r.source}" if r.fetched else \
+            "already here, whole"
+        stdout.print(f"{r.game_id} {r.name}: {done}; in {escape(r.path)}", highlight=False)
+    return 0
+
+
+def _population_index(args: argparse.Namespace) -> int:
+    from arena_league.league import index_differences, write_index
+
+    if args.write:
+        index = write_index(url=args.url)
+        if args.json:
+            emit_json({"written": len(index["populations"]), "url": index["url"]})
+        else:
+            stdout.print(f"wrote the index of {len(index['populations'])} populations (files fetched from "
+                         f"{index['url'] or 'a mirror only: no --url given'})", highlight=False)
+        return 0
+    if args.url is not None:
+        raise CommandError("--url is written with --write: `arena-league population index --write --url URL`")
+    differences = index_differences()
+    if args.json:
+        emit_json({"differences": differences})
+    elif differences:
+        for line in differences:
+            stderr.print(line, highlight=False)
+        stderr.print("the package's index disagrees with checkpoints/; rewrite it with "
+                     "`arena-league population index --write`", highlight=False)
+    else:
+        stdout.print("the package's index agrees with checkpoints/")
+    return 1 if differences else 0
 
 
 def cmd_agents(args: argparse.Namespace) -> int:
@@ -648,8 +713,9 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
         return 0
     ranked, board = report.ranked, report.board
     if ranked:
-        stdout.print(f"[bold]{ranked.agent}[/] against {ranked.base} ({ranked.base_size} agents, {ranked.matches} "
-                     f"matches):")
+        against = report.population_origin if report.population_origin and ranked.base == report.population \
+            else f"{ranked.base} ({ranked.base_size} agents)"
+        stdout.print(f"[bold]{ranked.agent}[/] against {escape(against)}, {ranked.matches} matches:")
         stdout.print(f"  rating {ranked.rating:.0f} ({ranked.lower:.0f} .. {ranked.upper:.0f}), rank {ranked.rank} "
                      f"({ranked.rank_best}..{ranked.rank_worst}) of {ranked.base_size + 1}, percentile "
                      f"{ranked.percentile:.0f} ({ranked.percentile_lower:.0f} .. {ranked.percentile_upper:.0f})")
@@ -958,9 +1024,21 @@ def build_parser() -> argparse.ArgumentParser:
     _json_option(p)
     p.set_defaults(func=cmd_replay)
 
-    p = command("population", "populations: list, build GAME, import FOLDER, export")
-    p.add_argument("action", choices=("list", "build", "import", "export"), help="what to do")
-    p.add_argument("target", nargs="?", default=None, help="build: the game id; import: the population folder")
+    p = command("population", "populations: list, build GAME, import FOLDER, export, pull GAME [NAME], index")
+    p.add_argument("action", choices=("list", "build", "import", "export", "pull", "index"),
+                   help="what to do (pull: fetch a shipped population into the cache; index: check the package's "
+                        "index of shipped populations against checkpoints/, or rewrite it with --write)")
+    p.add_argument("target", nargs="?", default=None,
+                   help="build / pull: the game id; import: the population folder")
+    p.add_argument("what", nargs="?", default=None, metavar="NAME",
+                   help="pull: the shipped population (default: the game's newest)")
+    p.add_argument("--all", dest="every", action="store_true",
+                   help="pull: every population shipped for the game (without a game: every one shipped)")
+    p.add_argument("--mirror", default=None, metavar="URL",
+                   help="pull: a copy of checkpoints/ to fetch from (http://, https://, file:// or a folder; default "
+                        "$ARENA_LEAGUE_POPULATION_MIRROR, else the URL the index names)")
+    p.add_argument("--write", action="store_true", help="index: rewrite the index from checkpoints/")
+    p.add_argument("--url", default=None, help="index --write: the base URL the files are fetched from")
     p.add_argument("--game", default=None, help="list: only this game's; export: the population's game")
     p.add_argument("--name", default=None, help="build / import: the population's name (default base-v1)")
     p.add_argument("--size", type=_positive_int, default=100, help="build: members (default 100)")

@@ -119,7 +119,7 @@ def test_a_second_population_keeps_the_first_and_adds_search_agents(trained, tmp
     """base-v2 from base-v1's members and built-in search agents: nothing trained, the members rated
     again, the search members frozen without artifacts, imported as scripted agents; the newest
     shipped population becomes the game's default base."""
-    from arena_league.league import populations
+    from arena_league.league import population_index, populations
 
     work, _ = trained
     shipped = tmp_path / "checkpoints" / GAME
@@ -149,8 +149,11 @@ def test_a_second_population_keeps_the_first_and_adds_search_agents(trained, tmp
 
     # shipped beside base-t1, base-t2 is the newest: a fresh league ranks against it by default,
     # its search members registered as scripted agents
-    monkeypatch.setattr(populations, "SHIPPED_POPULATIONS", tmp_path / "checkpoints")
-    assert populations.shipped_populations(GAME) == [shipped / "base-t1", shipped / "base-t2"]
+    population_index.write_index(tmp_path / "checkpoints", tmp_path / "population_index.json")
+    monkeypatch.setattr(population_index, "INDEX_PATH", tmp_path / "population_index.json")
+    monkeypatch.setattr(population_index, "CHECKOUT_POPULATIONS", tmp_path / "checkpoints")
+    assert populations.shipped_populations(GAME) == ["base-t1", "base-t2"]
+    assert populations.shipped_population(GAME) == shipped / "base-t2"
     league = open_home(tmp_path / "league")
     assert populations.game_population(league, GAME) == "base-t2:1"
     label, names, _ = base_population(league, GAME, "someone")

@@ -4,6 +4,7 @@
 * :mod:`.service`: submit, evaluate (now or queued), rank against a base population, leaderboards,
   recent matches, the job handlers;
 * :mod:`.populations`: populations per game, the game's default base, import and export;
+* :mod:`.population_index`: the shipped populations' index, where they are found, pulling one;
 * :mod:`.agents` / :mod:`.jobs`: agents and jobs as a person looks them up; cancelling a job;
   reinstating a suspended agent;
 * :mod:`.settings`: the league's settings (the inference sandbox's budgets, suspension after forfeits,
@@ -46,9 +47,10 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "matches": ("match_replay", "match_view", "queue_replay"),
     "leaderboards": ("Leaderboard", "render_terminal"),
     "populations": (
-        "ensure_population", "export_population", "game_population", "import_population", "list_populations",
-        "queue_import", "shipped_population",
+        "describe_population", "ensure_population", "export_population", "game_population", "import_population",
+        "list_populations", "list_shipped", "queue_import", "shipped_population",
     ),
+    "population_index": ("index_differences", "pull_population", "shipped_rows", "write_index"),
     "replays": ("replay_document", "replay_summary"),
     "report": ("write_html_report",),
     "schedules": (

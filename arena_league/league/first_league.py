@@ -1,8 +1,11 @@
 """A whole league on the embedded default, end to end: the workflow ``arena-league quickstart`` runs.
 
 1. the league home (SQLite under ``ARENA_LEAGUE_HOME``) and the game's scripted agents;
-2. where the game ships a base population (``checkpoints/<game>/base-vN``), the newest one's import;
-3. for Crossroads, the example ONNX submission under ``submissions/``, validated and registered;
+2. where the game ships a base population, the newest one's import from where it is found (the
+   checkout, the cache or the package, see :mod:`.population_index`; one not on this machine stops
+   the quickstart, naming the pull that fetches it);
+3. for Crossroads, the example ONNX submission (``submissions/`` in a checkout, carried by the
+   wheel otherwise), validated and registered;
 4. a round robin among the scripted agents;
 5. the example ranked against the base population (or, without one, against the league's agents);
 6. the Bradley-Terry leaderboard of the same base: its members at their frozen ratings, the example
@@ -18,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from arena_league.league.leaderboards import Leaderboard
-from arena_league.league.populations import ensure_population, shipped_population
+from arena_league.league.populations import describe_population, ensure_population, shipped_populations
 from arena_league.league.service import (
     LEAGUE_WIDE,
     EvaluationReport,
@@ -33,9 +36,16 @@ from arena_league.registry import League
 
 __all__ = ["EXAMPLE_SUBMISSIONS", "QuickstartReport", "quickstart"]
 
-#: Example submissions shipped beside the package, by game.
-EXAMPLE_SUBMISSIONS = {"Crossroads-2T2P-v1": Path(__file__).resolve().parents[2] / "submissions"
-                                             / "crossroads-2t2p-mlp.onnx"}
+
+
+def _example(filename: str) -> Path:
+    """An example submission: the checkout's ``submissions/``, else the copy a built wheel carries."""
+    checkout = Path(__file__).resolve().parents[2] / "submissions" / filename
+    return checkout if checkout.is_file() else Path(__file__).resolve().parent / "packaged" / filename
+
+
+#: Example submissions shipped with the package, by game.
+EXAMPLE_SUBMISSIONS = {"Crossroads-2T2P-v1": _example("crossroads-2t2p-mlp.onnx")}
 
 #: Progress callbacks: ``(stage, total) -> (done, total) -> None``, one per long stage.
 StageProgress = Callable[[str, int], Callable[[int, int], None]]
@@ -43,17 +53,20 @@ StageProgress = Callable[[str, int], Callable[[int, int], None]]
 
 @dataclass(frozen=True)
 class QuickstartReport:
-    """What the quickstart did: the home, the base population used, the round robin, the ranking
-    of the example submission (None where the game has no example) and the leaderboard."""
+    """What the quickstart did: the home, the base population used and where it came from, the
+    round robin, the ranking of the example submission (None where the game has no example) and
+    the leaderboard."""
 
     home: str
     population: str | None
     evaluation: EvaluationReport
     ranked: RankReport | None
     board: Leaderboard
+    population_origin: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return {"home": self.home, "population": self.population, "evaluation": self.evaluation.to_dict(),
+        return {"home": self.home, "population": self.population, "population_origin": self.population_origin,
+                "evaluation": self.evaluation.to_dict(),
                 "rank": self.ranked.to_dict() if self.ranked else None, "leaderboard": self.board.to_dict()}
 
 
@@ -70,14 +83,20 @@ def quickstart(league: League, game_id: str = "Crossroads-2T2P-v1", *, matches_p
 
     say(f"league home: {league.home}")
     names = ensure_scripted_agents(league, game_id)
-    population = None
-    shipped = shipped_population(game_id) if base else None
-    if shipped is not None:
-        population, _ = ensure_population(league, game_id, shipped.name)
-        say(f"base population {population} from {shipped}")
+    population = origin = None
+    shipped = shipped_populations(game_id) if base else []
+    if shipped:
+        try:
+            population, _ = ensure_population(league, game_id, shipped[-1])
+        except ValueError as error:
+            raise ValueError(f"{error}; or leave the base out with `arena-league quickstart --no-base`") from None
+        origin = describe_population(league, game_id, population)
+        say(f"base population {origin}")
     entrant = None
     example = EXAMPLE_SUBMISSIONS.get(game_id)
-    if example is not None and example.exists():
+    if example is not None and not example.is_file():
+        say(f"the example submission {example.name} is not here (a package built without it); skipped")
+    elif example is not None:
         result = submit(league, example, game_id, "example-mlp", owner="arena-league")
         entrant = result.agent if result.status == "active" else None
         say(f"submitted {example.name}: {result.agent} {result.status}")
@@ -90,4 +109,4 @@ def quickstart(league: League, game_id: str = "Crossroads-2T2P-v1", *, matches_p
         ranked = rank(league, entrant, budget=budget, population=against, seed=seed,
                       progress=progress(f"ranking {entrant}", budget))
     board = leaderboard(league, game_id, "bt", population=against, seed=seed)
-    return QuickstartReport(str(league.home), population, report, ranked, board)
+    return QuickstartReport(str(league.home), population, report, ranked, board, origin)

@@ -6,8 +6,8 @@ are two populations, and ``name`` alone means the newest version of that name in
 The population an entrant is ranked against by default is the game's **base**
 (:func:`game_population`): the league's newest frozen population of the game, or, when the league
 has none or only shipped ones the package has since superseded, the newest population shipped with
-the package for the game (``checkpoints/<game>/base-v2/`` where it exists, else ``base-v1``),
-imported on first use. Imports are idempotent by content: importing a folder whose files are byte for byte
+the package for the game (``base-v2`` where it exists, else ``base-v1``; the package's index
+names them, :mod:`.population_index` finds their folders and checks them), imported on first use. Imports are idempotent by content: importing a folder whose files are byte for byte
 those of a population already imported for that game returns that population (the address of the
 folder, as the artifact store computes it, is kept in its provenance under ``imported_from``).
 
@@ -33,9 +33,7 @@ The members' frozen ratings (their ``metadata``) are kept as shipped.
 
 from __future__ import annotations
 
-import functools
 import json
-import re
 import shutil
 import tempfile
 from dataclasses import dataclass
@@ -44,13 +42,25 @@ from typing import Any
 
 from arena_league import registry as reg
 from arena_league.league.home import did_you_mean, register_game
-from arena_league.policies.address import file_address, folder_address
+from arena_league.league.population_index import (
+    CHECKOUT_POPULATIONS,
+    Located,
+    index_entry,
+    indexed_member_names,
+    indexed_populations,
+    locate_population,
+    population_folder_address,
+    population_source,
+    shipped_rows,
+    verified_population,
+)
 from arena_league.registry import League
 
 __all__ = [
     "POPULATION_MANIFEST",
     "SHIPPED_POPULATIONS",
     "default_population",
+    "describe_population",
     "ensure_population",
     "export_population",
     "find_population",
@@ -58,6 +68,7 @@ __all__ = [
     "handle_import",
     "import_population",
     "list_populations",
+    "list_shipped",
     "population_folder_address",
     "queue_import",
     "require_population",
@@ -68,8 +79,9 @@ __all__ = [
 
 POPULATION_MANIFEST = "population.json"
 
-#: Where the base populations shipped with the package lie: ``checkpoints/<game>/<name>/``.
-SHIPPED_POPULATIONS = Path(__file__).resolve().parents[2] / "checkpoints"
+#: A checkout's shipped populations, ``checkpoints/<game>/<name>/`` (see :mod:`.population_index`
+#: for the cache and the wheel's own).
+SHIPPED_POPULATIONS = CHECKOUT_POPULATIONS
 #: Steps of the validation match each imported member plays (a submission plays a whole one).
 IMPORT_MATCH_CYCLES = 8
 #: Probe rows per probe set when an imported member is validated.
@@ -103,13 +115,14 @@ def find_population(session: Any, game_id: str, population: str) -> reg.Populati
 def _missing(session: Any, game_id: str, population: str) -> ValueError:
     every = reg.list_populations(session)
     known = [f"{p.name}:{p.version}" for p in every if p.game_id == game_id]
-    hint = did_you_mean(population, {p.name for p in every if p.game_id == game_id} | set(known))
+    shipped = shipped_populations(game_id)
+    hint = did_you_mean(population, {p.name for p in every if p.game_id == game_id} | set(known) | set(shipped))
     elsewhere = sorted({p.game_id for p in every if p.name == population.partition(":")[0] and p.game_id != game_id})
     also = f" ({population.partition(':')[0]} exists for {', '.join(elsewhere)})" if elsewhere else ""
+    ships = f" (shipped for {game_id}: {', '.join(shipped)}, imported by name)" if shipped else ""
     return ValueError(f"no population {population!r} of {game_id}{also}.{hint} Known for {game_id}: "
-                      f"{', '.join(known) or 'none'}. Import one with `arena-league population import FOLDER` "
-                      f"(shipped ones lie under checkpoints/{game_id}/) or build one with `arena-league population "
-                      f"build {game_id}`")
+                      f"{', '.join(known) or 'none'}{ships}. Import one with `arena-league population import FOLDER` "
+                      f"or build one with `arena-league population build {game_id}`")
 
 
 def require_population(session: Any, game_id: str, population: str) -> reg.Population:
@@ -120,25 +133,28 @@ def require_population(session: Any, game_id: str, population: str) -> reg.Popul
     return found
 
 
-def shipped_populations(game_id: str) -> list[Path]:
-    """The folders of the populations shipped for ``game_id``, oldest first (``base-v1``, ``base-v2``, ...)."""
-    def version(folder: Path) -> tuple[int, str]:
-        digits = re.findall(r"\d+", folder.name)
-        return (int(digits[-1]) if digits else 0, folder.name)
-
-    root = SHIPPED_POPULATIONS / game_id
-    found = [p.parent for p in root.glob(f"*/{POPULATION_MANIFEST}")] if root.is_dir() else []
-    return sorted(found, key=version)
+def shipped_populations(game_id: str) -> list[str]:
+    """The names of the populations shipped for ``game_id`` (the package's index), oldest first
+    (``base-v1``, ``base-v2``, ...), whether or not their files are on this machine."""
+    return indexed_populations(game_id)
 
 
 def shipped_population(game_id: str, name: str | None = None) -> Path | None:
-    """The folder of the population ``name`` shipped for ``game_id`` (default: the newest shipped),
-    or None."""
+    """The folder of the population ``name`` shipped for ``game_id`` (default: the newest shipped)
+    where it is on this machine (checkout, cache or package, unchecked), or None."""
     if name is None:
-        found = shipped_populations(game_id)
-        return found[-1] if found else None
-    folder = SHIPPED_POPULATIONS / game_id / name
-    return folder if (folder / POPULATION_MANIFEST).is_file() else None
+        names = shipped_populations(game_id)
+        name = names[-1] if names else None
+    found = locate_population(game_id, name) if name is not None else None
+    return found.folder if found is not None else None
+
+
+def import_shipped_population(league: League, game_id: str, name: str) -> tuple[str, Located]:
+    """Import the population ``name`` shipped for ``game_id`` from the folder that holds it, checked
+    against the index first (:func:`~.population_index.verified_population`: a population not on this
+    machine, or a folder holding other files, raises naming the pull that fixes it)."""
+    found = verified_population(game_id, name)
+    return import_population(league, found.folder), found
 
 
 def game_population(league: League, game_id: str, *, import_shipped: bool = True) -> str | None:
@@ -153,13 +169,13 @@ def game_population(league: League, game_id: str, *, import_shipped: bool = True
 def default_population(league: League, game_id: str, *, import_shipped: bool = True) -> tuple[str | None, bool]:
     """:func:`game_population` and whether it imported the shipped population just now."""
     shipped = shipped_populations(game_id) if import_shipped else []
-    superseded = {folder.name for folder in shipped[:-1]}  # shipped populations with a newer one shipped
+    superseded = set(shipped[:-1])  # shipped populations with a newer one shipped
     with league.reading() as session:
         frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
         newest = max(frozen, key=lambda p: (p.created_at, p.id)) if frozen else None
         if newest is not None and newest.name not in superseded:
             return f"{newest.name}:{newest.version}", False
-    return (import_population(league, shipped[-1]), True) if shipped else (None, False)
+    return (import_shipped_population(league, game_id, shipped[-1])[0], True) if shipped else (None, False)
 
 
 def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
@@ -171,31 +187,39 @@ def ensure_population(league: League, game_id: str, population: str = "base-v1")
         found = find_population(session, game_id, population)
         if found is not None:
             return f"{found.name}:{found.version}", False
-        folder = shipped_population(game_id, name) if version is None else None
-        if folder is None:
+        if version is not None or index_entry(game_id, name) is None:
             raise _missing(session, game_id, population)
-    return import_population(league, folder), True
+    return import_shipped_population(league, game_id, name)[0], True
 
 
-def population_folder_address(folder: str | Path) -> str:
-    """The content address of a population folder: every file's address under its relative path."""
-    root = Path(folder)
-    files = sorted(p for p in root.rglob("*") if p.is_file() and not p.is_symlink())
-    return folder_address((p.relative_to(root).as_posix(), file_address(p.read_bytes())) for p in files)
-
-
-@functools.cache
 def shipped_member_names() -> frozenset[str]:
-    """The member names of every population shipped under ``checkpoints/<game>/<name>/``: names
-    only the league may register (by importing the population), read once per process."""
-    names: set[str] = set()
-    for manifest in sorted(SHIPPED_POPULATIONS.glob(f"*/*/{POPULATION_MANIFEST}")):
-        try:
-            members = json.loads(manifest.read_text()).get("members") or []
-        except (OSError, ValueError, AttributeError):
-            continue
-        names.update(m["name"] for m in members if isinstance(m, dict) and isinstance(m.get("name"), str))
-    return frozenset(names)
+    """The member names of every population shipped with the package (its index, whether or not
+    the files are here): names only the league may register (by importing the population)."""
+    return indexed_member_names()
+
+
+def list_shipped(league: League, game_id: str | None = None) -> list[dict[str, Any]]:
+    """Every population shipped with the package (of ``game_id``), where it is on this machine
+    (:func:`~.population_index.shipped_rows`) and the league's population of that name
+    (``imported``: ``name:version``, or None while it is not imported)."""
+    rows = shipped_rows(game_id)
+    with league.reading() as session:
+        imported = {}
+        for population in reg.list_populations(session, game_id=game_id):
+            imported[(population.game_id, population.name)] = f"{population.name}:{population.version}"
+    return [{**row, "imported": imported.get((row["game_id"], row["name"]))} for row in rows]
+
+
+def describe_population(league: League, game_id: str, label: str) -> str:
+    """``base-v1:1 of Crossroads-2T2P-v1 (100 agents, from the package)``: a population of the
+    league and the folder it was imported from (the checkout, the cache, the package or a folder)."""
+    with league.reading() as session:
+        found = require_population(session, game_id, label)
+        imported = (found.provenance or {}).get("imported_from") or {}
+        size = len(found.members)
+        label = f"{found.name}:{found.version}"
+    origin = f"from {population_source(imported['path'])}" if imported.get("path") else "built in this league"
+    return f"{label} of {game_id} ({size} agents, {origin})"
 
 
 @dataclass(frozen=True)
@@ -415,13 +439,16 @@ def queue_import(league: League, game_id: str, population: str | None = None) ->
     """Queue the import of a population shipped with arena-league for ``game_id`` (default: the
     newest shipped; its members are validated: agent code, run by a worker, never by the caller);
     returns the job id."""
+    shipped = shipped_populations(game_id)
     if population is None:
-        newest = shipped_population(game_id)
-        population = newest.name if newest is not None else "base-v1"
+        population = shipped[-1] if shipped else "base-v1"
     name, version = _parse_label(population)
-    if version is not None or shipped_population(game_id, name) is None:
-        raise ValueError(f"no population {population!r} is shipped for {game_id}; the shipped ones lie under "
-                         f"checkpoints/<game>/<name>/ (e.g. base-v1)")
+    if version is not None or name not in shipped:
+        raise ValueError(f"no population {population!r} is shipped for {game_id}.{did_you_mean(name, shipped)} "
+                         f"Shipped for {game_id}: {', '.join(shipped) or 'none'}")
+    if locate_population(game_id, name) is None:
+        raise ValueError(f"the population {name} shipped for {game_id} is not on this machine; fetch it with "
+                         f"`arena-league population pull {game_id} {name}`")
     register_game(league, game_id)
     with league.transaction() as session:
         return reg.enqueue(session, "import", {"game_id": game_id, "population": name}, priority=80).id

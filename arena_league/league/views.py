@@ -49,7 +49,7 @@ def _require_game(game_id: str) -> None:
 
 def games_view(league: League) -> list[dict[str, Any]]:
     """Every game: id, layout, whether a base population is shipped and whether it is imported."""
-    from arena_league.league.populations import shipped_population
+    from arena_league.league.populations import shipped_populations
 
     with league.reading() as session:
         frozen = {}
@@ -62,7 +62,7 @@ def games_view(league: League) -> list[dict[str, Any]]:
         spec = game_spec(game_id)
         rows.append({"game_id": game_id, "teams": spec.n_teams, "players_per_team": spec.players_per_team,
                      "action_types": list(spec.rules.action_types), "summary": spec.rules.summary,
-                     "base_shipped": shipped_population(game_id) is not None,
+                     "base_shipped": bool(shipped_populations(game_id)),
                      "base_imported": frozen.get(game_id, [])})
     return rows
 
