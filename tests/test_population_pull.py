@@ -155,6 +155,8 @@ def test_pull_from_a_mirror_set_in_the_environment_over_file_urls(capsys, mirror
     code, doc, _, err = cli(capsys, "population", "pull", GAME, "--json")
     assert code == 0, err
     assert code == 0 and doc["pulled"][0]["fetched"] and doc["pulled"][0]["source"] == mirror.as_uri() + "/"
+    code, doc, _, err = cli(capsys, "population", "pull", "--all", "--json")  # every shipped one: the tiny one
+    assert code == 0 and [(p["game_id"], p["name"], p["fetched"]) for p in doc["pulled"]] == [(GAME, NAME, False)]
 
 
 def test_a_tampered_file_is_refused_and_nothing_is_kept(capsys, server, mirror, tmp_path):
