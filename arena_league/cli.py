@@ -460,7 +460,7 @@ def _pull_population(args: argparse.Namespace) -> int:
         emit_json({"pulled": [r.to_dict() for r in reports]})
         return 0
     for r in reports:
-        done = f"pulled {r.files} files ({r.bytes / 1e6:.1f} MB) from {r.source}" if r.fetched else \
+        done = f"pulled {r.files} files ({r.bytes / 1e6:.1f} MB) from {r.url}" if r.fetched else \
             "already here, whole"
         stdout.print(f"{r.game_id} {r.name}: {done}; in {escape(r.path)}", highlight=False)
     return 0

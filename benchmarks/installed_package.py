@@ -106,7 +106,8 @@ def main() -> int:
             server.server_close()
         script = ("import torch\nfrom arena_league.envs import make_rules\n"
                   "obs_dim = make_rules('GoBang-2T1P-v1').obs_dim\n"
-                  "model = torch.nn.Sequential(torch.nn.Linear(obs_dim, 32), torch.nn.Tanh(), torch.nn.Linear(32, 225))\n"
+                  "model = torch.nn.Sequential(torch.nn.Linear(obs_dim, 32), torch.nn.Tanh(),\n"
+                  "                            torch.nn.Linear(32, 225))  # GoBang's 225 cells\n"
                   + readme_export_snippet() + "\n")
         (cwd / "export.py").write_text(script)
         steps.append(step("README export snippet", [str(python), "export.py"], cwd=cwd, env=env))

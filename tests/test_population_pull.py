@@ -30,7 +30,8 @@ def _tiny_population(folder: Path) -> None:
     """Two scripted members (validated in no time) and a file big enough to stream in chunks."""
     members = [{"name": f"{NAME}.{agent}@{GAME}", "kind": "scripted", "artifact": None, "format": "scripted",
                 "metadata": {"rating": rating, "rating_lower": rating - 50, "rating_upper": rating + 50},
-                "agent_metadata": {"scripted": agent}} for agent, rating in (("random", 800.0), ("heuristic", 1200.0))]
+                "agent_metadata": {"scripted": agent}}
+               for agent, rating in (("random", 800.0), ("heuristic", 1200.0))]
     (folder / "agents").mkdir(parents=True)
     (folder / "population.json").write_text(json.dumps({"name": NAME, "version": 1, "game_id": GAME, "frozen": True,
                                                         "provenance": {}, "members": members}))
@@ -154,7 +155,9 @@ def test_pull_from_a_mirror_set_in_the_environment_over_file_urls(capsys, mirror
     monkeypatch.setenv("ARENA_LEAGUE_POPULATION_MIRROR", mirror.as_uri())
     code, doc, _, err = cli(capsys, "population", "pull", GAME, "--json")
     assert code == 0, err
-    assert code == 0 and doc["pulled"][0]["fetched"] and doc["pulled"][0]["source"] == mirror.as_uri() + "/"
+    assert code == 0 and doc["pulled"][0]["fetched"] and doc["pulled"][0]["url"] == mirror.as_uri() + "/"
+    code, doc, _, err = cli(capsys, "population", "pull", "--all", "--json")  # every shipped one: the tiny one
+    assert code == 0 and [(p["game_id"], p["name"], p["fetched"]) for p in doc["pulled"]] == [(GAME, NAME, False)]
 
 
 def test_a_tampered_file_is_refused_and_nothing_is_kept(capsys, server, mirror, tmp_path):

@@ -355,12 +355,13 @@ def _base_population(game_id: str, population: str) -> tuple[list[str], np.ndarr
     """The frozen base population's member names, ratings and policies (loaded once; a built-in
     member, such as PushBox's tuned heuristics, is the agent its name says)."""
     from arena_league.league.population.build import member_policy
-    from arena_league.league.populations import shipped_population
+    from arena_league.league.population_index import indexed_populations, verified_population
 
-    folder = shipped_population(game_id, population)
-    if folder is None:
+    if population not in indexed_populations(game_id):
         raise ValueError(f"{game_id} ships no base population {population!r}, which this experiment ranks against; "
-                         f"build one first (`arena-league population build {game_id}`)")
+                         f"build one first (`arena-league population build {game_id}`, then `arena-league "
+                         f"population index --write`)")
+    folder = verified_population(game_id, population).folder  # raises naming the pull when it is not here
     manifest = json.loads((folder / "population.json").read_text())
     members = manifest["members"]
     names = [m["name"] for m in members]

@@ -197,7 +197,8 @@ def indexed_member_names() -> frozenset[str]:
 # --- where a shipped population is -----------------------------------------------------------------
 
 def cache_root() -> Path:
-    """The user cache of pulled populations: ``ARENA_LEAGUE_POPULATIONS`` or ``~/.cache/arena-league/populations``."""
+    """The user cache of pulled populations: ``ARENA_LEAGUE_POPULATIONS``, default
+    ``~/.cache/arena-league/populations``."""
     configured = os.environ.get(CACHE_ENV)
     return Path(configured).expanduser() if configured else Path.home() / ".cache" / "arena-league" / "populations"
 
@@ -214,10 +215,6 @@ class Located:
     name: str
     folder: Path
     source: str
-
-    def describe(self) -> str:
-        """``from the checkout /.../checkpoints`` and the like, for a person."""
-        return "from the package" if self.source == "package" else f"from the {self.source} {self.folder.parents[1]}"
 
 
 def locate_population(game_id: str, name: str) -> Located | None:
@@ -251,15 +248,20 @@ def verified_population(game_id: str, name: str) -> Located:
     naming the fix when it is not here (pull it) or holds other files (pull it again)."""
     entry = index_entry(game_id, name)
     if entry is None:
-        raise ValueError(f"no population {name!r} is shipped for {game_id}.{did_you_mean(name, indexed_populations(game_id))}"
-                         f" Shipped for {game_id}: {', '.join(indexed_populations(game_id)) or 'none'}")
+        names = indexed_populations(game_id)
+        raise ValueError(f"no population {name!r} is shipped for {game_id}.{did_you_mean(name, names)} Shipped for "
+                         f"{game_id}: {', '.join(names) or 'none'}")
     found = locate_population(game_id, name)
     if found is None:
-        raise ValueError(f"the population {name} of {game_id} ({len(entry['members'])} agents) is not on this machine; "
-                         f"fetch it with {_pull_hint(game_id, name)} (into {cache_root()})")
+        raise ValueError(f"the population {name} of {game_id} ({len(entry['members'])} agents) is not on this "
+                         f"machine; fetch it with {_pull_hint(game_id, name)} (into {cache_root()})")
     if population_folder_address(found.folder) != entry["address"]:
+        fix = f"pull it again with {_pull_hint(game_id, name)}"
+        if found.source == "checkout":
+            fix = "restore it (`git checkout checkpoints/`) or, changed on purpose, rewrite the index with " \
+                "`arena-league population index --write`"
         raise ValueError(f"{found.folder} does not hold the files the index names for {game_id} {name} (changed or "
-                         f"partly written); pull it again with {_pull_hint(game_id, name)}")
+                         f"partly written); {fix}")
     return found
 
 
@@ -290,7 +292,8 @@ class PullReport:
     files: int
     bytes: int
     fetched: bool
-    source: str
+    #: The mirror (or the index's URL) the files were fetched from.
+    url: str
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

@@ -121,8 +121,8 @@ def _missing(session: Any, game_id: str, population: str) -> ValueError:
     also = f" ({population.partition(':')[0]} exists for {', '.join(elsewhere)})" if elsewhere else ""
     ships = f" (shipped for {game_id}: {', '.join(shipped)}, imported by name)" if shipped else ""
     return ValueError(f"no population {population!r} of {game_id}{also}.{hint} Known for {game_id}: "
-                      f"{', '.join(known) or 'none'}{ships}. Import one with `arena-league population import FOLDER` "
-                      f"or build one with `arena-league population build {game_id}`")
+                      f"{', '.join(known) or 'none'}{ships}. Import one with `arena-league population import "
+                      f"FOLDER` or build one with `arena-league population build {game_id}`")
 
 
 def require_population(session: Any, game_id: str, population: str) -> reg.Population:
