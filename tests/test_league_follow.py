@@ -192,11 +192,16 @@ def test_rank_from_a_terminal_beside_the_server_prints_the_placement(tmp_path):
         # the race made certain: the server's worker has the placement when the terminal asks for it
         with open_home(home) as league:
             job_id = queue_rank(league, "alice", budget=30, seed=0)
-            _wait_until(lambda: _status(league, job_id) != "queued", "the server's worker claiming the job")
+
+            def base_resolved() -> bool:  # then it starts the sandbox, writing nothing for a while
+                with league.reading() as session:
+                    return "base" in get_job(session, job_id).payload
+
+            _wait_until(base_resolved, "the server's worker claiming the job")
             with league.reading() as session:
                 owner = get_job(session, job_id).lease_owner
         worker_pid = int(owner.split(":")[1])
-        os.kill(worker_pid, signal.SIGSTOP)  # held mid-job until the terminal follows it
+        os.kill(worker_pid, signal.SIGSTOP)  # held mid-job (holding no lock) until the terminal follows it
         try:
             log = tmp_path / "rank.err"
             with open(log, "w") as err:

@@ -795,12 +795,13 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
     payload = {"game_id": game_id, "agent": agent, "population": population, "base": names, "base_label": label,
                "base_ratings": [float(r) for r in ratings], "budget": int(budget),
                "target_half_width": float(target_half_width), "seed": int(seed), "more": more, "backend": backend}
-    with league.transaction() as session:
+    with league.reading() as session:  # a lookup: no write lock, which a busy worker may hold
         job_id = _live_placement(session, payload)
-        if job_id is None:
+    if job_id is None:
+        with league.transaction() as session:
             job_id = reg.enqueue(session, "rank", payload, priority=100).id
-        else:
-            say(f"job {job_id} already places {agent} against {label} with seed {seed}; waiting for it")
+    else:
+        say(f"job {job_id} already places {agent} against {label} with seed {seed}; waiting for it")
     return RankReport.of(follow_job(league, job_id, job_handlers(progress), progress=progress, log=say))
 
 
