@@ -143,3 +143,21 @@ def test_boards_re_rated_from_matches_keep_every_method(tmp_path):
                 assert leaderboard(league, GAME, method, rounds=20, save=False).to_dict() == board.to_dict()
         with pytest.raises(ValueError, match="no population 'smal' of GoBang-2T1P-v1.*small:1"):
             leaderboard(league, GAME, population="smal")
+
+
+def test_a_placement_stored_under_the_old_names_of_the_rank_ends_still_stands_on_the_board(tmp_path):
+    from arena_league import registry as reg
+    from arena_league.league.views import agent_view
+
+    with open_home(tmp_path / "league") as league:
+        label = small_population(league, tmp_path / "population")
+        ensure_scripted_agents(league, GAME)
+        stored = {"agent": RANDOM, "game_id": GAME, "base": label, "base_size": 5, "rating": 1040.0,
+                  "lower": 960.0, "upper": 1110.0, "rank": 3, "rank_best": 2, "rank_worst": 4, "percentile": 40.0,
+                  "percentile_lower": 20.0, "percentile_upper": 60.0, "matches": 30, "level": 0.95}
+        with league.transaction() as session:
+            reg.record_finished_job(session, "rank", {"agent": RANDOM, "game_id": GAME, "base_label": label}, stored)
+        row = next(r for r in leaderboard(league, GAME).rows if r.agent == RANDOM)
+        assert row.status == "placed" and (row.rank, row.rank_lower, row.rank_upper) == (3, 2, 4)
+        placement = agent_view(league, RANDOM)["placements"][0]
+        assert (placement["rank_lower"], placement["rank_upper"]) == (2, 4) and "rank_best" not in placement
