@@ -455,7 +455,8 @@ def cmd_agent(args: argparse.Namespace) -> int:
     for placed in detail["placements"][:5]:
         stdout.print(f"placed against {placed.get('base')}: rating {placed.get('rating', float('nan')):.0f} "
                      f"({placed.get('lower', float('nan')):.0f} .. {placed.get('upper', float('nan')):.0f}), rank "
-                     f"{placed.get('rank')} of {int(placed.get('base_size', 0)) + 1}, {placed.get('matches')} matches")
+                     f"{placed.get('rank')} ({placed.get('rank_lower')}..{placed.get('rank_upper')}) of "
+                     f"{int(placed.get('base_size', 0)) + 1}, {placed.get('matches')} matches")
     if detail["validation_log"]:
         stdout.print("validation log:", style="bold")
         stdout.print(escape(detail["validation_log"].rstrip()), highlight=False)

@@ -213,7 +213,11 @@ def _heatmap(league: League, game_id: str, board: dict[str, Any], rows: Sequence
     shows and whether they met; a pair that never met has no win rate (None)."""
     rated = [r for r in rows if r["rating"] is not None]
     played = [r for r in rated if r["matches"]]
-    top = [r["agent"] for r in (played if len(played) >= 2 else rated)][:HEATMAP_AGENTS]
+    pool = played if len(played) >= 2 else rated
+    if board.get("basis") == "population":  # the entrants first, whatever their rank, then the members
+        picked = {r["agent"] for r in sorted(pool, key=lambda r: r["status"] != "placed")[:HEATMAP_AGENTS]}
+        pool = [r for r in pool if r["agent"] in picked]
+    top = [r["agent"] for r in pool][:HEATMAP_AGENTS]
     short = [short_name(a, game_id) for a in top]
     if len(top) < 2:
         return {"agents": top, "short": short, "win_rate": [], "games": [],
@@ -244,8 +248,14 @@ def _heatmap(league: League, game_id: str, board: dict[str, Any], rows: Sequence
     np.fill_diagonal(rate, np.nan)  # an agent against a copy of itself says nothing of its rank
     met = int(np.triu(games > 0, 1).sum())
     pairs = len(top) * (len(top) - 1) // 2
-    whom = (f"the top {len(top)} by rank of the agents with matches in this league"
-            if len(played) >= 2 and len(played) < len(rated) else f"the top {len(top)} by rank")
+    entrants = sum(r["status"] == "placed" for r in pool)
+    if board.get("basis") == "population" and len(played) >= 2:
+        whom = (f"{entrants} placed entrant(s) and the {len(top) - entrants} best-ranked members with matches in "
+                "this league, by rank")
+    elif len(played) >= 2 and len(played) < len(rated):
+        whom = f"the top {len(top)} by rank of the agents with matches in this league"
+    else:
+        whom = f"the top {len(top)} by rank"
     said = (f"{met} of their {pairs} pairs met" if met else
             "none of them has met another in this league: every cell is not met")
     plain = [[None if not np.isfinite(v) else round(float(v), 4) for v in line] for line in rate]
