@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
@@ -20,8 +21,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 stdout = Console()
-if not stdout.is_terminal:  # piped or captured: no terminal width to fit, keep rows readable
-    stdout = Console(width=160)
+if not stdout.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
+    stdout = Console(width=160)  # piped or captured, no width given (COLUMNS): keep rows readable
 stderr = Console(stderr=True)
 
 
@@ -198,8 +199,8 @@ def cmd_rank(args: argparse.Namespace) -> int:
         stdout.print(f"  {report.played} played now under seed {args.seed}, continuing the stored placement (seeds "
                      f"{seeds})", highlight=False)
     stdout.print(f"  rating      {report.rating:.0f}  ({level}% CI {report.lower:.0f} .. {report.upper:.0f})")
-    stdout.print(f"  rank        {report.rank} of {report.base_size + 1}  ({level}% interval {report.rank_best} .. "
-                 f"{report.rank_worst})")
+    stdout.print(f"  rank        {report.rank} of {report.base_size + 1}  ({level}% interval {report.rank_lower} .. "
+                 f"{report.rank_upper})")
     stdout.print(f"  percentile  {report.percentile:.1f}  ({report.percentile_lower:.1f} .. "
                  f"{report.percentile_upper:.1f})")
     stdout.print(f"  Nash score  {report.nash_score:+.3f}  (mass {report.nash_mass:.3f})")
@@ -227,7 +228,7 @@ def _rank_members(args: argparse.Namespace, population: str | None) -> int:
     stdout.print(f"{len(report.members)} members on {report.game_id} against {report.base} ({report.base_size} "
                  f"agents), {report.matches} matches:")
     for row in report.members:
-        stdout.print(f"  {row['agent']:<40} rank {row['rank']:>3} of {n} ({row['rank_best']} .. {row['rank_worst']}), "
+        stdout.print(f"  {row['agent']:<40} rank {row['rank']:>3} of {n} ({row['rank_lower']} .. {row['rank_upper']}), "
                      f"percentile {row['percentile']:.1f}", highlight=False)
     level = round(report.level * 100)
     stdout.print(f"  mean rank        {report.mean_rank:.1f} of {n}  ({level}% interval over members "
@@ -534,7 +535,8 @@ def cmd_agent(args: argparse.Namespace) -> int:
     for placed in detail["placements"][:5]:
         stdout.print(f"placed against {placed.get('base')}: rating {placed.get('rating', float('nan')):.0f} "
                      f"({placed.get('lower', float('nan')):.0f} .. {placed.get('upper', float('nan')):.0f}), rank "
-                     f"{placed.get('rank')} of {int(placed.get('base_size', 0)) + 1}, {placed.get('matches')} matches")
+                     f"{placed.get('rank')} ({placed.get('rank_lower')}..{placed.get('rank_upper')}) of "
+                     f"{int(placed.get('base_size', 0)) + 1}, {placed.get('matches')} matches")
     if detail["validation_log"]:
         stdout.print("validation log:", style="bold")
         stdout.print(escape(detail["validation_log"].rstrip()), highlight=False)
@@ -717,7 +719,7 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
             else f"{ranked.base} ({ranked.base_size} agents)"
         stdout.print(f"[bold]{ranked.agent}[/] against {escape(against)}, {ranked.matches} matches:")
         stdout.print(f"  rating {ranked.rating:.0f} ({ranked.lower:.0f} .. {ranked.upper:.0f}), rank {ranked.rank} "
-                     f"({ranked.rank_best}..{ranked.rank_worst}) of {ranked.base_size + 1}, percentile "
+                     f"({ranked.rank_lower}..{ranked.rank_upper}) of {ranked.base_size + 1}, percentile "
                      f"{ranked.percentile:.0f} ({ranked.percentile_lower:.0f} .. {ranked.percentile_upper:.0f})")
     stdout.print(render_terminal(board))
     return 0
@@ -909,7 +911,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rounds", type=_positive_int, default=100, help="bootstrap rounds of the intervals (default 100)")
     _seed_option(p, "the bootstrap")
     p.add_argument("--html", default=None, help="also write a self-contained HTML report to this file")
-    p.add_argument("--wide", action="store_true", help="every column (the default table fits 100 columns)")
+    p.add_argument("--wide", action="store_true", help="every column that fits beside the agent column (the default table fits 80 columns)")
     _league_options(p)
     p.set_defaults(func=cmd_leaderboard)
 

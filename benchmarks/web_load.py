@@ -81,7 +81,7 @@ def build_league(home: Path, n_agents: int, seed: int = 0) -> dict:
             reg.complete_job(league, claimed, {
                 "agent": f"entrant-{index:04d}", "game_id": GAME, "base": base, "base_size": len(members),
                 "matches": 10, "rating": rating, "lower": rating - 120, "upper": rating + 120, "rank": rank,
-                "rank_best": max(1, rank - 5), "rank_worst": min(len(members) + 1, rank + 5),
+                "rank_lower": max(1, rank - 5), "rank_upper": min(len(members) + 1, rank + 5),
                 "percentile": float(100 * (ratings < rating).mean()), "percentile_lower": 0.0,
                 "percentile_upper": 100.0, "level": 0.95, "job_id": job.id, "opponents": {}})
         with league.transaction() as session:

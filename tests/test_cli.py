@@ -128,7 +128,7 @@ def test_default_quickstart_ranks_the_example_against_crossroads_base_population
     assert code == 0 and doc["population"] == "base-v1:1"
     ranked = doc["rank"]
     assert ranked["agent"] == "example-mlp" and ranked["base_size"] == 100 and ranked["matches"] >= 20
-    assert 1 <= ranked["rank_best"] <= ranked["rank"] <= ranked["rank_worst"] <= 101
+    assert 1 <= ranked["rank_lower"] <= ranked["rank"] <= ranked["rank_upper"] <= 101
     assert ranked["percentile_lower"] <= ranked["percentile"] <= ranked["percentile_upper"]
 
 

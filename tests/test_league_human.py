@@ -79,7 +79,7 @@ def test_gobang_human_plays_the_weakest_first_with_refused_input(tmp_path):
     assert {r["agent"] for r in rows} == {"ada@GoBang-2T1P-v1", first.opponent}
     assert [r["outcome"] for r in rows if r["agent"] == "ada@GoBang-2T1P-v1"] == [first.outcome]
     assert session.total_matches == 1 and session.lower <= session.rating <= session.upper
-    assert 1 <= session.rank_best <= session.rank <= session.rank_worst <= 4
+    assert 1 <= session.rank_lower <= session.rank <= session.rank_upper <= 4
 
 
 def test_gobang_human_climbs_after_a_win_and_a_later_session_continues(tmp_path):

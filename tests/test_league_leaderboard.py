@@ -11,6 +11,7 @@ from rich.console import Console
 
 from arena_league.league import leaderboards
 from arena_league.league.leaderboards import (
+    AGENT_LINE_WIDTH,
     METHODS,
     EntrantPlacement,
     FrozenRating,
@@ -20,6 +21,7 @@ from arena_league.league.leaderboards import (
     leaderboard_table,
     outcome_table,
     population_leaderboard,
+    rank_text,
     render_terminal,
     short_name,
 )
@@ -114,12 +116,12 @@ def test_bradley_terry_recovers_the_true_order_with_intervals(league):
     assert board.agents == names[::-1] and board.n_matches == 600
     for position, row in enumerate(rated, start=1):
         assert row.lower <= row.rating <= row.upper
-        assert row.rank <= position <= row.rank_worst
+        assert row.rank == position and row.rank_lower <= row.rank <= row.rank_upper
         assert 0.0 <= row.win_rate <= 1.0
         assert row.kind == "trained"
     assert sum(r.matches for r in rated) == 2 * 600
     assert rated[0].percentile == 100.0 and rated[-1].percentile == 0.0
-    assert rated[0].rank == 1 and rated[-1].rank_worst == len(names)
+    assert rated[0].rank == 1 and rated[-1].rank_upper == len(names)
     # 700 Elo points between the ends: ratings spread accordingly around the mean of 1000
     assert 500 < rated[0].rating - rated[-1].rating < 900
     assert np.isclose(np.mean([r.rating for r in rated]), 1000.0)
@@ -181,7 +183,7 @@ def test_elo_is_sorted_by_online_elo_with_bradley_terry_columns(league):
         assert row.lower is None and row.upper is None
         c = row.method_columns
         assert c["bt_lower"] <= c["bt_rating"] <= c["bt_upper"]
-        assert c["bt_rank"] <= c["bt_rank_worst"]
+        assert c["bt_rank_lower"] <= c["bt_rank"] <= c["bt_rank_upper"]
     assert board.params["elo_k"] == 32.0
     # online Elo starts everyone at 1000 and is zero-sum
     assert np.mean(elo) == pytest.approx(1000.0)
@@ -200,8 +202,8 @@ def test_nash_and_alpharank_are_uniform_on_rock_paper_scissors():
     np.testing.assert_allclose([r.rating for r in alpharank.rows], 1 / 3, atol=1e-6)
     assert all(r.lower <= r.rating + 1e-9 and r.rating - 1e-9 <= r.upper for r in alpharank.rows)
     assert alpharank.params["alpha_from_sweep"] and alpharank.alpharank_alpha > 0
-    # with no agent better beyond doubt, every rank range is 1-3
-    assert all((r.rank, r.rank_worst) == (1, 3) for r in alpharank.rows)
+    # equal masses share rank 1, shown as a tie, and each interval spans the three places
+    assert all((r.rank, r.rank_lower, r.rank_upper, r.tied) == (1, 1, 3, True) for r in alpharank.rows)
     # win rates: 80% around the cycle
     assert nash.win_rate[nash.agents.index("rock"), nash.agents.index("scissors")] == pytest.approx(0.8)
 
@@ -352,7 +354,45 @@ def test_terminal_table_shows_rank_ranges_intervals_and_method_columns(league):
     close_rows, close_names = simulated_league([0.0, 10.0, 20.0, 30.0], 80, seed=1)
     console = Console(record=True, width=250)
     console.print(render_terminal(compute_leaderboard(close_rows, kinds(close_names), GAME, "bt")))
-    assert "1-4" in console.export_text()
+    assert "(1..4)" in console.export_text()
+
+
+def seat_rows(matches):
+    """Seat rows of (first agent, second agent, whether the first won) matches."""
+    rows = []
+    for match, (first, second, won) in enumerate(matches):
+        for seat, (agent, outcome) in enumerate(((first, "win" if won else "loss"),
+                                                 (second, "loss" if won else "win"))):
+            rows.append({"match_id": 100_000 + match, "seat": seat, "agent": agent, "team": seat, "score": 0.0,
+                         "outcome": outcome, "position": None})
+    return rows
+
+
+def test_a_method_whose_order_may_mislead_says_why_beside_the_table(league):
+    rows, names, info = league
+    # one lucky win against the best agent puts a newcomer on top of the Bradley-Terry board
+    lucky = rows + seat_rows([("newcomer", names[-1], True)])
+    everyone = info | {"newcomer": {"kind": "human"}}
+    board = compute_leaderboard(lucky, everyone, GAME, "bt", rounds=20)
+    assert board.rows[0].agent == "newcomer"
+    assert any("newcomer (1, 1 match)" in note and "fewer than 10 matches" in note for note in board.notes)
+    assert board.to_dict()["notes"] == board.notes
+    console = Console(width=120, record=True)
+    console.print(render_terminal(board))
+    assert "newcomer (1, 1 match)" in " ".join(console.export_text().split())
+    # a streak of wins early and of losses late: online Elo replayed backwards puts the other agent first
+    streaks = seat_rows([("early", "late", True)] * 12 + [("early", "late", False)] * 12)
+    elo = compute_leaderboard(streaks, kinds(["early", "late"]), GAME, "elo", rounds=20)
+    assert elo.rows[0].agent == "late"
+    assert "online Elo depends on match order: replayed in reverse order, 2 of 2 agents change rank and early " \
+           "is first instead of late" in elo.notes
+    # a ring where each agent met its two neighbours only: Nash and alpha-Rank fill the rest with 50%
+    ring = seat_rows([(f"r{i}", f"r{(i + 1) % 12}", k % 3 != 0) for i in range(12) for k in range(5)])
+    for method in ("nash", "alpharank"):
+        sparse = compute_leaderboard(ring, kinds([f"r{i}" for i in range(12)]), GAME, method, rounds=20)
+        assert any(note.startswith("only 12 of 66 pairs of agents met") for note in sparse.notes)
+    # a balanced, well-played league has nothing to say
+    assert compute_leaderboard(rows, info, GAME, "bt", rounds=20).notes == []
 
 
 def test_every_method_returns_a_board(league):
@@ -404,7 +444,8 @@ def test_a_board_computes_each_figure_once_and_no_other_method_s(league, method,
     calls = count_calls(monkeypatch, leaderboards, [*LEAGUE_FIGURES, *OWN_FIGURES.get(method, "").split()])
     board = compute_leaderboard(rows, info, GAME, method, rounds=10)
     assert board.nash_p is not None and board.alpharank_pi is not None and board.intransitivity is not None
-    assert calls == dict.fromkeys(calls, 1)
+    # online Elo is played once more, backwards, to tell whether its order depends on the match order
+    assert calls == {**dict.fromkeys(calls, 1), **({"elo_online": 2} if method == "elo" else {})}
 
 
 def test_choosing_elo_runs_no_nash_or_alpharank_bootstrap_and_no_openskill(league, monkeypatch):
@@ -470,9 +511,18 @@ def shipped_board(manifest_path: Path) -> Leaderboard:
                                                  (opponent, "loss" if won else "win"))):
             rows.append({"match_id": match, "seat": seat, "agent": agent, "team": seat, "score": 0.0,
                          "outcome": outcome, "position": None})
-    played = np.array([2.0 if name in middle else 0.0 for name in names])
-    placement = place_entrant([members[name].rating for name in names], wins, played - wins)
+    placement = place_entrant(*_shipped_placement_input(manifest_path))
     return population_leaderboard(rows, info, game, label, members, {ENTRANT: EntrantPlacement(placement, 7)})
+
+
+def _shipped_placement_input(manifest_path: Path) -> tuple[list[float], np.ndarray, np.ndarray]:
+    """(base ratings, wins, losses) of the entrant of :func:`shipped_board`."""
+    manifest = json.loads(manifest_path.read_text())
+    ratings = sorted(m["metadata"]["rating"] for m in manifest["members"])
+    n = len(ratings)
+    played = np.where((np.arange(n) >= n // 2 - 10) & (np.arange(n) < n // 2 + 10), 2.0, 0.0)
+    wins = np.where(np.arange(n) < n // 2, played, 0.0)
+    return ratings, wins, played - wins
 
 
 def test_a_population_board_keeps_frozen_ratings_and_places_the_entrant_on_their_scale():
@@ -484,12 +534,17 @@ def test_a_population_board_keeps_frozen_ratings_and_places_the_entrant_on_their
     entrant = next(r for r in rated if r.agent == ENTRANT)
     assert entrant.status == "placed" and entrant.matches == 40 and 0.0 < entrant.win_rate < 1.0
     assert entrant.lower < entrant.rating < entrant.upper and entrant.method_columns["job_id"] == 7
-    # with one entrant, its place on the board is its place among the members
-    columns = entrant.method_columns
-    assert (entrant.position, entrant.rank, entrant.rank_worst) == (
-        columns["base_rank"], columns["base_rank_best"], columns["base_rank_worst"])
+    # ranks count the members alone: the entrant's is its placement's, and the members' run 1..100
+    placement = place_entrant(*_shipped_placement_input(SHIPPED[0]))
+    assert (entrant.rank, entrant.rank_lower, entrant.rank_upper) == (
+        placement.rank, placement.rank_lower, placement.rank_upper)
+    members = [row for row in rated if row.status == "member"]
+    assert [row.rank for row in members] == [1 + sum(other.rating > row.rating for other in members)
+                                             for row in members]
+    assert members[-1].rank <= 100 and len(members) == 100
     for row in rated:
-        assert row.rank <= row.position <= row.rank_worst
+        assert row.rank_lower <= row.rank <= row.rank_upper
+    assert entrant.tied and sum(row.rank == entrant.rank for row in rated) >= 2
     document = board.to_dict()
     assert json.dumps(document, allow_nan=False) and document["basis"] == "population"
     assert set(document) == set(compute_leaderboard(*cyclic_board_input(), GAME, "bt", rounds=10).to_dict())
@@ -499,49 +554,58 @@ def cyclic_board_input():
     return cyclic_league(), kinds(["rock", "paper", "scissors"])
 
 
-@pytest.mark.parametrize("manifest", SHIPPED, ids=lambda path: path.parent.parent.name)
-def test_default_table_of_a_hundred_agent_base_population_fits_100_columns(manifest):
-    board = shipped_board(manifest)
-    console = Console(width=100, record=True)
-    console.print(render_terminal(board))
-    lines = console.export_text().splitlines()
-    widest = max(len(line) for line in lines)
-    print(f"{board.game_id}: {len(board.rows)} rows, widest line {widest} characters")
-    assert widest <= 100
-    body = [line.split("│")[1:-1] for line in lines if line.startswith("│")]
-    agent = 1  # the column after the rank
-    # one line per agent, but for a name longer than the agent column can be beside the other four
-    # (a tuned heuristic's, such as PushBox's heuristic-kp1.75-lane0.6-period0.4-side0.3): it folds
-    # onto lines of its own, whose other cells are blank, and is never cut
+def printed_names(lines: list[str], agent: int) -> list[str]:
+    """The agent column's names, a name folded onto further lines (their other cells blank) joined."""
     names: list[str] = []
-    folded: set[int] = set()  # rows whose name took more than one line
-    for cells in body:
+    for cells in (line.split("│")[1:-1] for line in lines if line.startswith("│")):
         if any(cell.strip() for k, cell in enumerate(cells) if k != agent):
             names.append(cells[agent].strip())
         else:
             names[-1] += cells[agent].strip()
-            folded.add(len(names) - 1)
-    assert names == [short_name(row.agent, board.game_id) for row in board.rows]
-    assert all(len(names[k]) > 40 for k in folded), [names[k] for k in folded]
-    assert "…" not in "".join(lines) and all(f"@{board.game_id}" not in cells[agent] for cells in body)
+    return names
+
+
+@pytest.mark.parametrize("manifest", SHIPPED, ids=lambda path: path.parent.parent.name)
+@pytest.mark.parametrize(("width", "wide"), [(80, False), (120, True), (80, True)])
+def test_a_hundred_agent_board_fits_the_terminal_with_every_name_whole(manifest, width, wide):
+    board = shipped_board(manifest)
+    console = Console(width=width, record=True)
+    console.print(render_terminal(board, wide=wide))
+    text = console.export_text()
+    lines = text.splitlines()
+    assert max(len(line) for line in lines) <= width
+    assert "…" not in text  # no cell cut, the agent's least of all
     head = next(line for line in lines if "Agent" in line)
-    assert [cell.strip() for cell in head.strip("┃ ").split("┃")] == [
-        "Rank", "Agent", "Status", "Rating (95% CI)", "Matches"]
-    # the wide view keeps every column
-    wide = Console(width=400, record=True)
-    wide.print(render_terminal(board, wide=True))
-    head = next(line for line in wide.export_text().splitlines() if "Agent" in line)
-    assert [cell.strip() for cell in head.strip("┃ ").split("┃")] == [
-        "Rank", "Agent", "Kind", "Status", "Rating (95% CI)", "Matches", "Win rate", "Percentile", "Percentile CI",
-        "Rank in base-v1:1"]
+    headers = [cell.strip() for cell in head.strip("┃ ").split("┃")]
+    assert printed_names(lines, headers.index("Agent")) == [short_name(row.agent, board.game_id) for row in board.rows]
+    assert all(f"@{board.game_id}" not in line for line in lines if line.startswith("│"))
+    # ranks as the board holds them, ties marked; the caption says what they mean
+    ranks = [line.split("│")[1].strip() for line in lines if line.startswith("│") and line.split("│")[1].strip()]
+    assert ranks == [rank_text(r.rank, r.rank_lower, r.rank_upper, r.tied) for r in board.rows]
+    caption = " ".join(text.split())
+    assert "rank: 1 + the members of base-v1:1 rated higher" in caption
+    # rank, agent and rating always; the others where they fit, the caption naming those left out
+    every = leaderboard_table(board, wide=wide).headers
+    left_out = [h for h in every if h not in headers]
+    assert headers == [h for h in every if h in headers] and {"Rank", "Agent", "Rating (95% CI)"} <= set(headers)
+    if left_out:
+        assert f"left out to fit {width} columns: {', '.join(left_out)}" in caption
+    if not wide:
+        assert every == ["Rank", "Agent", "Status", "Rating (95% CI)", "Matches"]
+    # room for names of up to AGENT_LINE_WIDTH on one line before any other column
+    longest = max(len(short_name(row.agent, board.game_id)) for row in board.rows)
+    column = len(head.strip("┃").split("┃")[headers.index("Agent")]) - 2
+    assert column >= min(longest, AGENT_LINE_WIDTH)
+    if width == 120:
+        assert len(headers) >= (6 if wide else 5)
 
 
 def test_a_long_name_folds_rather_than_being_cut():
     rows, names = simulated_league([0.0, 100.0], 40, prefix="team-" + "x" * 110)
-    console = Console(width=100, record=True)
-    console.print(render_terminal(compute_leaderboard(rows, kinds(names), GAME, "bt", rounds=10)))
+    console = Console(width=80, record=True)
+    console.print(render_terminal(compute_leaderboard(rows, kinds(names), GAME, "bt", rounds=10), wide=True))
     lines = console.export_text().splitlines()
-    assert max(len(line) for line in lines) <= 100 and "…" not in "".join(lines)
+    assert max(len(line) for line in lines) <= 80 and "…" not in "".join(lines)
     # the agent column's pieces, line after line, spell each name whole
     agent_cells = "".join(line.split("│")[2].strip() for line in lines if line.startswith("│"))
     assert agent_cells == "".join(sorted(names, reverse=True))

@@ -22,7 +22,7 @@ from arena_league.registry import (
 
 GAME = "Crossroads-2T2P-v1"
 EXAMPLE = Path(__file__).resolve().parent.parent / "submissions" / "crossroads-2t2p-mlp.onnx"
-PLACEMENT = ("rating", "lower", "upper", "rank", "rank_best", "rank_worst", "percentile", "percentile_lower",
+PLACEMENT = ("rating", "lower", "upper", "rank", "rank_lower", "rank_upper", "percentile", "percentile_lower",
              "percentile_upper", "matches", "seeds", "stopped", "stop_reason")
 
 
@@ -90,7 +90,7 @@ def test_more_and_another_seed_add_matches_and_the_board_shows_them(tmp_path):
     first, more, second_seed, back, row = reports["a"]
     assert more.matches == first.matches + 10 and more.played == 10 and more.stopped == "more"
     assert more.upper - more.lower <= first.upper - first.lower
-    assert more.rank_worst - more.rank_best <= first.rank_worst - first.rank_best
+    assert more.rank_upper - more.rank_lower <= first.rank_upper - first.rank_lower
     assert second_seed.seeds == {"0": first.matches + 10, "1": second_seed.played}
     assert second_seed.matches == more.matches + second_seed.played and second_seed.played >= 20
     assert back.stored and placement(back) == placement(second_seed)  # seed 0 is held: the newest placement

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from test_league_leaderboard import ENTRANT, GAME, SHIPPED, STRENGTHS, kinds, shipped_board, simulated_league
 
-from arena_league.league.leaderboards import METHODS, compute_leaderboard
+from arena_league.league.leaderboards import METHODS, compute_leaderboard, rank_text
 from arena_league.league.report import leaderboard_json, report_figures, write_html_report
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -128,7 +128,8 @@ def test_report_of_a_base_population_tells_members_placed_entrants_and_pending(t
     placed = re.search(r'<tr class="rated placed">(.*?)</tr>', text).group(1)
     assert f'<td class="name">{ENTRANT}</td>' in placed
     assert f"{entrant.rating:.0f} ({entrant.lower:.0f}..{entrant.upper:.0f})" in placed
-    assert f"{entrant.position} ({entrant.rank}..{entrant.rank_worst})" in placed
+    assert f"<td class=\"rank\">{rank_text(entrant.rank, entrant.rank_lower, entrant.rank_upper, entrant.tied)}" in placed
+    assert "rank: 1 + the members of base-v1:1 rated higher" in text
     assert '<td class="name">random@GoBang-2T1P-v1</td>' in text  # pending, listed by full name
     assert "--population league" in text  # where the win-rate, Nash and alpha-Rank figures are
     # the JSON twin keeps the keys of any board's

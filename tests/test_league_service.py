@@ -157,7 +157,7 @@ def test_evaluate_rank_and_leaderboard(home):
         assert evaluate(league, GAME, base, matches_per_pair=6).played == 0  # the pair is full
         placed = rank(league, "alice", budget=24, population="league")
         assert placed.matches >= 20 and placed.lower <= placed.rating <= placed.upper
-        assert 1 <= placed.rank_best <= placed.rank <= placed.rank_worst <= 3
+        assert 1 <= placed.rank_lower <= placed.rank <= placed.rank_upper <= 3
         board = leaderboard(league, GAME, population="league")
         names = [row.agent for row in board.rows]
         assert set(names) == {"alice", *base}

@@ -13,7 +13,7 @@ from rich.console import Console
 
 from arena_league.league.first_league import quickstart
 from arena_league.league.home import open_home
-from arena_league.league.leaderboards import METHODS, render_terminal
+from arena_league.league.leaderboards import METHODS, rank_text, render_terminal
 from arena_league.league.populations import import_population, shipped_population
 from arena_league.league.service import LEAGUE_WIDE, ensure_scripted_agents, evaluate, leaderboard, rank
 from arena_league.policies import init_parameters, save_arena_policy
@@ -42,14 +42,12 @@ def small_population(league, folder: Path) -> str:
     return import_population(league, folder)
 
 
-def rank_text(report) -> str:
-    """The rank as the rank line gives it: rank (best..worst)."""
-    if report.rank_best == report.rank_worst == report.rank:
-        return str(report.rank)
-    return f"{report.rank} ({report.rank_best}..{report.rank_worst})"
+def board_rank(row) -> str:
+    """The rank as the board writes it: rank (lower..upper), ``=`` marking a shared rank."""
+    return rank_text(row.rank, row.rank_lower, row.rank_upper, row.tied)
 
 
-def table_line(board, agent: str, width: int = 100) -> str:
+def table_line(board, agent: str, width: int = 120) -> str:
     """The default terminal table's line of ``agent`` (its name shown without the game suffix)."""
     console = Console(width=width, record=True)
     console.print(render_terminal(board))
@@ -60,7 +58,7 @@ def table_line(board, agent: str, width: int = 100) -> str:
 def assert_row_repeats_placement(row, placed) -> None:
     assert row.status == "placed"
     assert (row.rating, row.lower, row.upper) == (placed.rating, placed.lower, placed.upper)
-    assert (row.position, row.rank, row.rank_worst) == (placed.rank, placed.rank_best, placed.rank_worst)
+    assert (row.rank, row.rank_lower, row.rank_upper) == (placed.rank, placed.rank_lower, placed.rank_upper)
     assert row.percentile == placed.percentile
     columns = row.method_columns
     assert (columns["percentile_lower"], columns["percentile_upper"]) == (placed.percentile_lower,
@@ -76,10 +74,9 @@ def test_quickstart_table_agrees_with_its_rank_line(tmp_path):
     assert board.basis == "population" and board.population == report.population == ranked.base == "base-v1:1"
     row = next(r for r in board.rows if r.agent == ranked.agent)
     assert_row_repeats_placement(row, ranked)
-    assert row.method_columns["base_rank"] == ranked.rank
     assert len(board.rated_rows) == ranked.base_size + 1  # "of 101"
     line = table_line(board, ranked.agent)
-    assert f" {rank_text(ranked)} " in line
+    assert f" {board_rank(row)} " in line
     assert f" {ranked.rating:.0f} ({ranked.lower:.0f}..{ranked.upper:.0f}) " in line
     # the members at the ratings frozen with the population, the scripted agents pending (listed)
     manifest = json.loads((shipped_population("Crossroads-2T2P-v1") / "population.json").read_text())
@@ -107,7 +104,7 @@ def test_entrants_stand_where_their_latest_placement_against_the_population_put_
         assert_row_repeats_placement(rows[RANDOM], first)
         assert rows[HEURISTIC].status == "pending" and rows[HEURISTIC].rating is None
         assert rows[HEURISTIC].matches > 0 and board.rows[-1].agent == HEURISTIC  # listed last, not hidden
-        assert f" {rank_text(first)} " in table_line(board, RANDOM)
+        assert f" {board_rank(rows[RANDOM])} " in table_line(board, RANDOM)
         assert " pending " in table_line(board, HEURISTIC)
 
         # the newest placement counts; several entrants share the members' scale
@@ -117,14 +114,13 @@ def test_entrants_stand_where_their_latest_placement_against_the_population_put_
         rows = {r.agent: r for r in board.rows}
         assert rows[RANDOM].rating == latest.rating and rows[RANDOM].method_columns["job_id"] == latest.job_id
         for name, report in ((RANDOM, latest), (HEURISTIC, placed)):
-            columns = rows[name].method_columns
-            assert (columns["base_rank"], columns["base_rank_best"], columns["base_rank_worst"]) == (
-                report.rank, report.rank_best, report.rank_worst)
+            assert (rows[name].rank, rows[name].rank_lower, rows[name].rank_upper) == (
+                report.rank, report.rank_lower, report.rank_upper)
         rated = board.rated_rows
         assert [r.rating for r in rated] == sorted((r.rating for r in rated), reverse=True)
         for row in rated:
-            assert row.position == 1 + sum(other.rating > row.rating for other in rated)
-            assert row.rank <= row.position <= row.rank_worst
+            members_above = sum(other.rating > row.rating for other in rated if other.status == "member")
+            assert row.rank == 1 + members_above and row.rank_lower <= row.rank <= row.rank_upper
         assert [(r.rating, r.lower, r.upper) for r in rated if r.status == "member"] == [
             (x, x - 60.0, x + 55.0) for x in RATINGS]
         # same league, same board
@@ -147,3 +143,21 @@ def test_boards_re_rated_from_matches_keep_every_method(tmp_path):
                 assert leaderboard(league, GAME, method, rounds=20, save=False).to_dict() == board.to_dict()
         with pytest.raises(ValueError, match="no population 'smal' of GoBang-2T1P-v1.*small:1"):
             leaderboard(league, GAME, population="smal")
+
+
+def test_a_placement_stored_under_the_old_names_of_the_rank_ends_still_stands_on_the_board(tmp_path):
+    from arena_league import registry as reg
+    from arena_league.league.views import agent_view
+
+    with open_home(tmp_path / "league") as league:
+        label = small_population(league, tmp_path / "population")
+        ensure_scripted_agents(league, GAME)
+        stored = {"agent": RANDOM, "game_id": GAME, "base": label, "base_size": 5, "rating": 1040.0,
+                  "lower": 960.0, "upper": 1110.0, "rank": 3, "rank_best": 2, "rank_worst": 4, "percentile": 40.0,
+                  "percentile_lower": 20.0, "percentile_upper": 60.0, "matches": 30, "level": 0.95}
+        with league.transaction() as session:
+            reg.record_finished_job(session, "rank", {"agent": RANDOM, "game_id": GAME, "base_label": label}, stored)
+        row = next(r for r in leaderboard(league, GAME).rows if r.agent == RANDOM)
+        assert row.status == "placed" and (row.rank, row.rank_lower, row.rank_upper) == (3, 2, 4)
+        placement = agent_view(league, RANDOM)["placements"][0]
+        assert (placement["rank_lower"], placement["rank_upper"]) == (2, 4) and "rank_best" not in placement

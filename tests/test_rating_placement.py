@@ -15,7 +15,7 @@ def test_place_entrant_by_hand():
     placement = place_entrant(BASE, wins, losses)
     assert placement.rating == pytest.approx(BASE[50] + 400 * np.log10(1.5), abs=0.5)
     assert placement.lower < placement.rating < placement.upper
-    assert placement.rank_best <= placement.rank <= placement.rank_worst
+    assert placement.rank_lower <= placement.rank <= placement.rank_upper
     assert placement.percentile_lower <= placement.percentile <= placement.percentile_upper
     assert placement.rank == 1 + int((placement.rating < BASE).sum())
     assert placement.matches == 200
@@ -23,9 +23,9 @@ def test_place_entrant_by_hand():
 
 def test_no_matches_means_no_information_and_unbeaten_stays_finite():
     empty = place_entrant(BASE, np.zeros(100), np.zeros(100))
-    assert empty.rank_best == 1 and empty.rank_worst == 101
+    assert empty.rank_lower == 1 and empty.rank_upper == 101
     unbeaten = place_entrant(BASE, np.full(100, 3.0), np.zeros(100))
-    assert np.isfinite(unbeaten.upper) and unbeaten.rank_best == unbeaten.rank_worst == 1
+    assert np.isfinite(unbeaten.upper) and unbeaten.rank_lower == unbeaten.rank_upper == 1
     drawn = place_entrant(BASE, np.zeros(100), np.zeros(100), draws=np.full(100, 5.0))
     assert drawn.rating == pytest.approx(1000.0, abs=1e-6)
     with pytest.raises(ValueError, match="one count per base agent"):

@@ -29,8 +29,19 @@ def latest_placements(session: Any, game_id: str | None = None, *, base: str | N
         name = payload.get("agent")
         if (name and name not in placed and (game_id is None or payload.get("game_id") == game_id)
                 and (base is None or payload.get("base_label") == base)):
-            placed[name] = (result, job.id)
+            placed[name] = (placement_result(result), job.id)
     return placed
+
+
+_LEGACY_RANK_KEYS = {"rank_best": "rank_lower", "rank_worst": "rank_upper"}
+
+
+def placement_result(result: dict[str, Any]) -> dict[str, Any]:
+    """A stored ``rank`` job's result with today's field names: placements stored before the rank
+    interval's ends were named ``rank_lower``/``rank_upper`` carry ``rank_best``/``rank_worst``."""
+    if not any(key in result for key in _LEGACY_RANK_KEYS):
+        return result
+    return {_LEGACY_RANK_KEYS.get(key, key): value for key, value in result.items()}
 
 
 def frozen_ratings(session: Any, game_id: str | None) -> dict[str, tuple[float, str]]:
@@ -88,7 +99,7 @@ def agent_detail(league: League, name: str, *, matches: int = 10) -> dict[str, A
     its last ``matches`` matches."""
     with league.reading() as session:
         agent = require_agent(session, name)
-        placements = [job.result for job in reg.list_jobs(session, status="done", kind="rank")
+        placements = [placement_result(job.result) for job in reg.list_jobs(session, status="done", kind="rank")
                       if (job.result or {}).get("agent") == agent.name]
         populations = [f"{p.name}:{p.version}" for p in reg.list_populations(session, game_id=agent.game_id)
                        if any(m.agent_id == agent.id for m in p.members)]

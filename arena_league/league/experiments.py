@@ -384,7 +384,7 @@ def _place(game_id: str, entrant: Any, names: list[str], ratings: np.ndarray, po
         play_adaptive("entrant", names, chooser, lambda specs: play_matches(specs, agents), game_id,
                       league_seed=seed, first_match_id=first_match_id, max_matches=budget + 1)
     p = chooser.placement
-    return {"rank": int(p.rank), "rank_best": int(p.rank_best), "rank_worst": int(p.rank_worst),
+    return {"rank": int(p.rank), "rank_lower": int(p.rank_lower), "rank_upper": int(p.rank_upper),
             "percentile": float(p.percentile), "percentile_lower": float(p.percentile_lower),
             "percentile_upper": float(p.percentile_upper), "rating": float(p.rating), "matches": int(chooser.matches)}
 

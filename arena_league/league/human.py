@@ -78,8 +78,8 @@ class HumanSession:
     lower: float | None = None
     upper: float | None = None
     rank: int | None = None
-    rank_best: int | None = None
-    rank_worst: int | None = None
+    rank_lower: int | None = None
+    rank_upper: int | None = None
     percentile: float | None = None
     total_matches: int = 0
     """The person's matches against this base, earlier sessions included."""
@@ -133,7 +133,7 @@ def play_human(game_id: str, against: str | None = None, league: reg.League | No
         print(f"--- You {'resigned: a loss' if resigned else {'win': 'won', 'loss': 'lost', 'draw': 'drew'}[played.outcome]}"
               f" against {match.opponent}.", file=out)
         print(f"Your estimated placement: rating {report.rating:.0f} (95% {report.lower:.0f} .. {report.upper:.0f}), "
-              f"rank {report.rank} of {len(names) + 1} (between {report.rank_best} and {report.rank_worst}), above "
+              f"rank {report.rank} of {len(names) + 1} (between {report.rank_lower} and {report.rank_upper}), above "
               f"{report.percentile:.0f}% of {report.base}, from {report.total_matches} match(es).", file=out)
         if resigned or (matches is not None and ladder.played >= matches):
             break
@@ -278,7 +278,7 @@ def _place(league: reg.League, game_id: str, agent: str, names: list[str], ratin
         total += 1
     placement = place_entrant(ratings, wins, losses, draws)
     report.rating, report.lower, report.upper = placement.rating, placement.lower, placement.upper
-    report.rank, report.rank_best, report.rank_worst = placement.rank, placement.rank_best, placement.rank_worst
+    report.rank, report.rank_lower, report.rank_upper = placement.rank, placement.rank_lower, placement.rank_upper
     report.percentile = placement.percentile
     report.total_matches = total
     # kept as a finished placement, so the game's leaderboard lists the person like any entrant

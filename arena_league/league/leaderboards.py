@@ -33,6 +33,12 @@ that population put it (:class:`~arena_league.rating.Placement`, with its interv
 placed yet are listed as pending. Nothing is re-rated from the league's matches, so a board of many
 members and a few matches tells the same story as the placements themselves.
 
+Every board ranks by the one definition of :func:`~arena_league.rating.competition_ranks` (``rank``,
+``rank_lower``, ``rank_upper``): among the rated agents of a board of matches, among the members on a
+population board. Where a method's order may mislead on the matches at hand (few matches behind a
+high place, online Elo's dependence on match order, pairs that never met, mass ties), the board says
+why in :attr:`Leaderboard.notes`, computed from those matches.
+
 The views (:func:`render_terminal`, :func:`leaderboard_table`, the HTML report) leave out the
 columns that carry no information (one value on every row); the JSON (:meth:`Leaderboard.to_dict`)
 keeps every field.
@@ -56,24 +62,28 @@ from arena_league.rating import (
     PairCounts,
     PairwiseResults,
     Placement,
+    Ranks,
     RatingIntervals,
     SkillRatings,
     alpha_rank,
     alpha_rank_intervals,
     alpha_rank_sweep,
     bootstrap_ratings,
+    competition_ranks,
     elo_online,
     intransitivity,
     nash_averaging,
     nash_intervals,
     openskill_ratings,
-    rank_intervals,
 )
 
 if TYPE_CHECKING:
+    from rich.console import Console, ConsoleOptions, RenderableType, RenderResult
     from rich.table import Table
 
 __all__ = [
+    "AGENT_LINE_WIDTH",
+    "AGENT_MIN_WIDTH",
     "ALPHA_RANK_M",
     "ELO_INITIAL",
     "ELO_K",
@@ -94,6 +104,8 @@ __all__ = [
     "leaderboard_table",
     "outcome_table",
     "population_leaderboard",
+    "rank_legend",
+    "rank_text",
     "render_terminal",
     "short_name",
 ]
@@ -127,11 +139,14 @@ class LeaderboardRow:
     agent: str
     kind: str | None
     rank: int | None
-    """1 + the number of agents better beyond doubt (their interval lies above this one's; on a
-    population board: their rating lies above this one's interval)."""
-    rank_worst: int | None
-    """n - the number of agents worse beyond doubt; ``rank == rank_worst`` when the rank is sure.
-    On a population board: 1 + the number of agents rated above this one's lower end."""
+    """1 + the number of reference agents whose sort score is strictly above this one's (equal
+    scores share a rank; :func:`~arena_league.rating.competition_ranks`). The reference agents are
+    the other rated agents of a board of matches, and the population's members on a population
+    board (where an entrant's rank is its placement's, and entrants do not move the members)."""
+    rank_lower: int | None
+    """The best place the interval allows: 1 + the reference agents scored above its upper end."""
+    rank_upper: int | None
+    """The worst place: 1 + the other reference agents scored at or above its lower end."""
     rating: float | None
     """The method's primary score (see :attr:`Leaderboard.rating_label`)."""
     lower: float | None
@@ -148,17 +163,15 @@ class LeaderboardRow:
     ``nash_score``, ``alpharank_mass`` (point estimates, wherever pairwise results exist, but not
     the method's own rating: no ``nash_score`` for ``"nash"``, no ``alpharank_mass`` for
     ``"alpharank"``);
-    ``bt_rating``, ``bt_lower``, ``bt_upper``, ``bt_rank``, ``bt_rank_worst`` (the Bradley-Terry
-    columns, for every method but ``"bt"``); ``percentile_lower``, ``percentile_upper`` (``"bt"``).
-    On a population board: ``percentile_lower``, ``percentile_upper``, and ``base_rank``,
-    ``base_rank_best``, ``base_rank_worst`` (the place among the population's members alone, as a
-    placement reports it); ``job_id`` and ``placement_matches`` of a placed entrant's rank job."""
+    ``bt_rating``, ``bt_lower``, ``bt_upper``, ``bt_rank``, ``bt_rank_lower``, ``bt_rank_upper``
+    (the Bradley-Terry columns, for every method but ``"bt"``); ``percentile_lower``,
+    ``percentile_upper`` (``"bt"``). On a population board: ``percentile_lower``,
+    ``percentile_upper``; ``job_id`` and ``placement_matches`` of a placed entrant's rank job."""
     status: str | None = None
     """``"rated"`` or ``"pending"`` (no rated matches) on a board of matches; ``"member"``,
     ``"placed"`` or ``"pending"`` (not placed against the population yet) on a population board."""
-    position: int | None = None
-    """1 + the number of rated agents with a higher sort score: the place of the point estimate,
-    which lies in ``rank .. rank_worst``."""
+    tied: bool = False
+    """Another row of the board has the same rank (shown as ``53=``)."""
 
     @property
     def rated(self) -> bool:
@@ -204,6 +217,10 @@ class Leaderboard:
     """``"matches"``: every rating re-rated by :attr:`method` from the stored matches;
     ``"population"``: members at the ratings frozen with :attr:`population`, entrants at their
     placements against it (:func:`population_leaderboard`)."""
+    notes: list[str] = field(default_factory=list)
+    """Why this method's order may mislead on these matches, each computed from them (few
+    matches behind a high place, online Elo's dependence on match order, pairs that never met,
+    many agents sharing a rank); shown beside every view of the board."""
 
     @property
     def rated_rows(self) -> list[LeaderboardRow]:
@@ -232,6 +249,8 @@ class Leaderboard:
             "nash": {"p": _plain(self.nash_p), "score": _plain(self.nash_score)},
             "alpharank": {"pi": _plain(self.alpharank_pi), "alpha": _plain(self.alpharank_alpha)},
             "intransitivity": _plain(self.intransitivity),
+            "notes": list(self.notes),
+            "rank_legend": rank_legend(self),
         }
 
 
@@ -328,7 +347,8 @@ _LEAGUE_COLUMNS: dict[str, Callable[[_League], np.ndarray]] = {
     "bt_lower": lambda league: league.bt.lower,
     "bt_upper": lambda league: league.bt.upper,
     "bt_rank": lambda league: league.bt.rank,
-    "bt_rank_worst": lambda league: league.bt.rank_worst,
+    "bt_rank_lower": lambda league: league.bt.rank_lower,
+    "bt_rank_upper": lambda league: league.bt.rank_upper,
 }
 """The league's figures shown as method columns beside every method (in this order), unless the
 method's own score is the same figure (:attr:`_MethodSpec.replaces`)."""
@@ -343,9 +363,6 @@ class _MethodScores:
     upper: np.ndarray | None = None
     sort_score: np.ndarray | None = None
     """The score the board is sorted by, descending; the rating when None."""
-    rank: tuple[np.ndarray, np.ndarray] | None = None
-    """(rank, rank_worst) when the method has its own; otherwise they follow from the sort score
-    and the interval."""
     columns: dict[str, np.ndarray] = field(default_factory=dict)
     params: dict[str, Any] = field(default_factory=dict)
 
@@ -375,7 +392,7 @@ class _MethodSpec:
 
 def _score_bt(matches: _Matches, rated: np.ndarray, league: _League | None) -> _MethodScores:
     bt = league.bt
-    return _MethodScores(bt.rating, bt.lower, bt.upper, rank=(bt.rank, bt.rank_worst), columns={
+    return _MethodScores(bt.rating, bt.lower, bt.upper, columns={
         "percentile_lower": bt.percentile_lower, "percentile_upper": bt.percentile_upper})
 
 
@@ -413,7 +430,7 @@ def _score_alpharank(matches: _Matches, rated: np.ndarray, league: _League | Non
 _METHOD_TABLE: dict[str, _MethodSpec] = {
     "bt": _MethodSpec(
         score=_score_bt, label="Bradley-Terry rating (Elo scale)", header="BT rating", decimals=0,
-        bootstrap=True, replaces=("bt_rating", "bt_lower", "bt_upper", "bt_rank", "bt_rank_worst"),
+        bootstrap=True, replaces=("bt_rating", "bt_lower", "bt_upper", "bt_rank", "bt_rank_lower", "bt_rank_upper"),
         columns_shown=(("Percentile CI", "percentile_lower"),)),
     "elo": _MethodSpec(score=_score_elo, label="Elo rating (online, match order)", header="Elo", decimals=0),
     "openskill": _MethodSpec(
@@ -514,20 +531,11 @@ def compute_leaderboard(
     columns.update(scores.columns)
     rating, lower, upper = scores.rating, scores.lower, scores.upper
 
-    # Ranks, percentiles and the order, from the sort score.
+    # Ranks, percentiles and the order, from the sort score; an interval on another scale than the
+    # sort score (OpenSkill's mu +- 3 sigma around a sort by mu - 3 sigma) is widened to hold it.
     sort_score = rating if scores.sort_score is None else scores.sort_score
-    if scores.rank is not None:
-        rank, rank_worst = scores.rank
-    elif lower is None:
-        # competition ranking of a point score: tied agents share the range of places
-        rank = 1 + (sort_score[None, :] > sort_score[:, None]).sum(axis=1)
-        rank_worst = (sort_score[None, :] >= sort_score[:, None]).sum(axis=1)
-    else:
-        # percentile-bootstrap intervals need not hold their point estimate (an agent at the edge of
-        # the Nash support); widened to hold it, the rank range always contains the sorted position
-        rank, rank_worst = rank_intervals(np.minimum(lower, sort_score), np.maximum(upper, sort_score))
+    ranks = competition_ranks(sort_score, lower, upper)
     percentile = 100.0 * (sort_score[None, :] < sort_score[:, None]).sum(axis=1) / (rated.size - 1)
-    position = 1 + (sort_score[None, :] > sort_score[:, None]).sum(axis=1)
     tie_break = league.bt.rating if league is not None else np.zeros(rated.size)
     order = np.array(sorted(range(rated.size), key=lambda i: (-sort_score[i], -tie_break[i], names[i])))
 
@@ -536,18 +544,19 @@ def compute_leaderboard(
     for i in order:
         agent = rated[i]
         board_rows.append(LeaderboardRow(
-            agent=names[i], kind=_kind(agents_info.get(names[i])), rank=int(rank[i]),
-            rank_worst=int(rank_worst[i]), rating=float(rating[i]),
+            agent=names[i], kind=_kind(agents_info.get(names[i])), rank=int(ranks.rank[i]),
+            rank_lower=int(ranks.rank_lower[i]), rank_upper=int(ranks.rank_upper[i]), rating=float(rating[i]),
             lower=None if lower is None else float(lower[i]), upper=None if upper is None else float(upper[i]),
             matches=int(played[agent]), win_rate=float(points[agent] / played[agent]) if played[agent] else None,
             percentile=float(percentile[i]),
             method_columns={key: _plain(values[i]) for key, values in columns.items()}, status="rated",
-            position=int(position[i])))
+            tied=bool(ranks.tied[i])))
     agent_index = {name: i for i, name in enumerate(table.agents)}
     for name in sorted((set(agents_info) | set(table.agents)) - set(names)):
         board_rows.append(LeaderboardRow(
-            agent=name, kind=_kind(agents_info.get(name)), rank=None, rank_worst=None, rating=None,
-            lower=None, upper=None, matches=int(played[agent_index[name]]) if name in agent_index else 0,
+            agent=name, kind=_kind(agents_info.get(name)), rank=None, rank_lower=None, rank_upper=None,
+            rating=None, lower=None, upper=None,
+            matches=int(played[agent_index[name]]) if name in agent_index else 0,
             win_rate=None, percentile=None, status="pending"))
 
     figures: dict[str, Any] = dict.fromkeys(("win_rate", "games", "nash_p", "nash_score", "alpharank_pi",
@@ -558,10 +567,57 @@ def compute_leaderboard(
             games=league.counts.games[np.ix_(order, order)], nash_p=league.nash[0][order],
             nash_score=league.nash[1][order], alpharank_pi=league.alpha_rank[0][order],
             alpharank_alpha=league.alpha_rank[1], intransitivity=league.intransitivity)
+    notes = _method_notes(method, [short_name(name, game_id) for name in names], ranks, played[rated], matches,
+                          rated, league)
     return Leaderboard(
         game_id=game_id, method=method, level=level, rounds=rounds, seed=seed, rows=board_rows,
         rating_label=spec.label, sort_by=spec.sort_by, n_matches=table.n_matches,
-        agents=[names[i] for i in order], params=params, population=population, **figures)
+        agents=[names[i] for i in order], params=params, population=population, notes=notes, **figures)
+
+
+FEW_MATCHES = 10
+"""An agent rated from fewer matches stands where little evidence put it."""
+_METHOD_NAMES = {"nash": "Nash averaging", "alpharank": "alpha-Rank"}
+
+
+def _method_notes(method: str, names: list[str], ranks: Ranks, played: np.ndarray, matches: _Matches,
+                  rated: np.ndarray, league: _League | None) -> list[str]:
+    """Why the method's order may mislead on these matches, each condition computed from them."""
+    notes = []
+    n = len(names)
+    top = max(3, n // 10)
+    few = [i for i in np.argsort(ranks.rank, kind="stable") if ranks.rank[i] <= top and played[i] < FEW_MATCHES]
+    if few:
+        listed = ", ".join(f"{names[i]} ({ranks.rank[i]}, {played[i]} match{'es' if played[i] != 1 else ''})"
+                           for i in few[:3])
+        notes.append(f"placed in the top {top} from fewer than {FEW_MATCHES} matches: {listed}; "
+                     f"{int((played < FEW_MATCHES).sum())} of {n} rated agents have so few, and their places "
+                     "rest on little evidence")
+    if method == "elo":
+        results = matches.results
+        backwards = elo_online(results.first[::-1], results.second[::-1], results.score[::-1],
+                               matches.table.n_agents, k=ELO_K, initial=ELO_INITIAL)[rated]
+        reverse = competition_ranks(backwards)
+        moved = int((reverse.rank != ranks.rank).sum())
+        if moved:
+            first, again = int(np.argmin(ranks.rank)), int(np.argmin(reverse.rank))
+            notes.append(f"online Elo depends on match order: replayed in reverse order, {moved} of {n} agents "
+                         "change rank" + (f" and {names[again]} is first instead of {names[first]}"
+                                          if reverse.rank[first] != 1 else ""))
+    if method in ("nash", "alpharank") and league is not None:
+        met = int(np.triu(league.counts.games > 0, 1).sum())
+        pairs = n * (n - 1) // 2
+        if 2 * met < pairs:
+            notes.append(f"only {met} of {pairs} pairs of agents met; {_METHOD_NAMES[method]} scores every other "
+                         "pair as even "
+                         "(50% each way), so its order rests mostly on pairs that never played")
+        shared = np.bincount(ranks.rank)
+        if shared.max() >= max(3, n // 4):
+            place = int(np.argmax(shared))
+            notes.append(f"{int(shared.max())} of {n} agents share rank {place} (equal "
+                         f"{'Nash scores' if method == 'nash' else 'alpha-Rank mass'}): the method does not "
+                         "order them")
+    return notes
 
 
 # --- a base population's board ---------------------------------------------------------------------
@@ -596,10 +652,10 @@ def population_leaderboard(
     """The board of a game ranked against a frozen base population (see the module docstring).
 
     Every rated row stands on one scale: a member at its frozen rating, an entrant at its
-    placement's. A row's ``position`` is 1 + the number of rows rated higher, and ``rank ..
-    rank_worst`` the places its interval spans among the others' ratings, which is how a placement
-    counts them: with a single entrant, its row repeats its placement's rank, rank range and
-    percentile. ``base_rank*`` count the members alone.
+    placement's. Ranks count the members alone (:func:`~arena_league.rating.competition_ranks`
+    with the members as reference), as a placement does: an entrant's row repeats its placement's
+    rank and rank interval, a member's rank is its place among the other members, and entrants
+    never move a member. An entrant therefore shares its rank with the member rated just below it.
 
     Args:
         rows: the stored seat rows of the matches among the listed agents (see
@@ -634,21 +690,18 @@ def population_leaderboard(
     low = np.where(np.isnan(lower), rating, np.minimum(lower, rating))
     high = np.where(np.isnan(upper), rating, np.maximum(upper, rating))
     n = rating.size
+    n_members = len(members)
+    member = np.arange(n) < n_members
+    ranks = competition_ranks(rating, low, high, reference=rating[:n_members],
+                              self_index=np.where(member, np.arange(n), -1))
+    shared = np.bincount(ranks.rank, minlength=n_members + 2)[ranks.rank] > 1
     others = ~np.eye(n, dtype=bool)
-    member = np.arange(n) < len(members)
-    above = rating[None, :] > rating[:, None]
-    above_high = (rating[None, :] > high[:, None]) & others
-    above_low = (rating[None, :] > low[:, None]) & others
     below = rating[None, :] < rating[:, None]
     others_n = max(n - 1, 1)  # percentiles as a placement computes them: 100 * count / others
     columns = {
         "percentile_lower": 100.0 * ((rating[None, :] < low[:, None]) & others).sum(axis=1) / others_n,
         "percentile_upper": 100.0 * ((rating[None, :] < high[:, None]) & others).sum(axis=1) / others_n,
-        "base_rank": 1 + (above & member[None, :]).sum(axis=1),
-        "base_rank_best": 1 + (above_high & member[None, :]).sum(axis=1),
-        "base_rank_worst": 1 + (above_low & member[None, :]).sum(axis=1),
     }
-    position, rank, rank_worst = 1 + above.sum(axis=1), 1 + above_high.sum(axis=1), 1 + above_low.sum(axis=1)
     percentile = 100.0 * below.sum(axis=1) / others_n
     order = sorted(range(n), key=lambda i: (-rating[i], names[i]))
 
@@ -671,17 +724,17 @@ def population_leaderboard(
         if not member[i]:
             extra.update(job_id=placed[name].job_id, placement_matches=_plain(placed[name].placement.matches))
         board_rows.append(LeaderboardRow(
-            agent=name, kind=_kind(agents_info.get(name)), rank=int(rank[i]), rank_worst=int(rank_worst[i]),
-            rating=float(rating[i]), lower=None if np.isnan(lower[i]) else float(lower[i]),
+            agent=name, kind=_kind(agents_info.get(name)), rank=int(ranks.rank[i]),
+            rank_lower=int(ranks.rank_lower[i]), rank_upper=int(ranks.rank_upper[i]), rating=float(rating[i]), lower=None if np.isnan(lower[i]) else float(lower[i]),
             upper=None if np.isnan(upper[i]) else float(upper[i]), matches=matches, win_rate=win_rate,
             percentile=float(percentile[i]) if n > 1 else None, method_columns=extra,
-            status="member" if member[i] else "placed", position=int(position[i])))
+            status="member" if member[i] else "placed", tied=bool(shared[i])))
     pending = sorted(set(agents_info) - set(names))
     for name in pending:
         matches, _ = record(name)
         board_rows.append(LeaderboardRow(
-            agent=name, kind=_kind(agents_info.get(name)), rank=None, rank_worst=None, rating=None, lower=None,
-            upper=None, matches=matches, win_rate=None, percentile=None, status="pending"))
+            agent=name, kind=_kind(agents_info.get(name)), rank=None, rank_lower=None, rank_upper=None,
+            rating=None, lower=None, upper=None, matches=matches, win_rate=None, percentile=None, status="pending"))
     return Leaderboard(
         game_id=game_id, method="bt", level=level, rounds=0, seed=0, rows=board_rows,
         rating_label=f"Bradley-Terry rating (Elo scale) frozen with {population}; entrants placed against it",
@@ -769,17 +822,32 @@ def _ends_text(row: LeaderboardRow) -> str:
     return f"{_number(row.rating, 0)} ({_number(row.lower, 0)}..{_number(row.upper, 0)})"
 
 
+def rank_text(rank: int | None, lower: int | None = None, upper: int | None = None, tied: bool = False) -> str:
+    """A rank as every view writes it: ``53``, ``53=`` when shared, ``53 (51..57)`` with the places
+    its interval spans; ``-`` for none."""
+    if rank is None:
+        return "-"
+    text = f"{rank}=" if tied else str(rank)
+    if lower is None or upper is None or lower == upper:
+        return text
+    return f"{text} ({lower}..{upper})"
+
+
 def _rank_text(row: LeaderboardRow) -> str:
-    if row.rank is None:
-        return "-"
-    return str(row.rank) if row.rank == row.rank_worst else f"{row.rank}-{row.rank_worst}"
+    return rank_text(row.rank, row.rank_lower, row.rank_upper, row.tied)
 
 
-def _place_text(place: int | None, best: int | None, worst: int | None) -> str:
-    """A population board's rank: the place of the rating, and the places its interval spans."""
-    if place is None:
-        return "-"
-    return str(place) if best == worst == place else f"{place} ({best}..{worst})"
+def rank_legend(board: Leaderboard) -> str:
+    """What a board's rank column means, for its caption or legend."""
+    if board.basis == "population":
+        text = (f"rank: 1 + the members of {board.population} rated higher (an entrant's is its placement's), "
+                "and the places its interval spans")
+    else:
+        text = "rank: 1 + the agents scored higher, and the places the interval spans"
+    if any(row.tied for row in board.rows):
+        text += "; = shares its rank" + (" (equal ratings, or the member just below an entrant)"
+                                          if board.basis == "population" else " (equal scores)")
+    return text
 
 
 _LEAGUE_COLUMNS_SHOWN: tuple[tuple[str, str], ...] = (
@@ -826,8 +894,8 @@ class _Column:
 
 _DEFAULT_COLUMNS = {"matches": ("rank", "agent", "kind", "rating", "matches"),
                     "population": ("rank", "agent", "status", "rating", "matches")}
-"""The columns of the default terminal table, by :attr:`Leaderboard.basis`: with names of up to
-about 30 characters it fits 100 terminal columns."""
+"""The columns of the default terminal table, by :attr:`Leaderboard.basis`: they fit 80 terminal
+columns beside an agent column of :data:`AGENT_MIN_WIDTH`."""
 
 
 def _columns(board: Leaderboard, short_names: bool) -> list[_Column]:
@@ -849,20 +917,13 @@ def _columns(board: Leaderboard, short_names: bool) -> list[_Column]:
         "percentile": _Column("percentile", "Percentile", percentile),
     }
     if board.basis == "population":
-        def base_rank(row: LeaderboardRow) -> str:
-            c = row.method_columns
-            if c.get("base_rank") is None:
-                return ""
-            return _place_text(int(c["base_rank"]), c.get("base_rank_best"), c.get("base_rank_worst"))
-
         return [
-            _Column("rank", "Rank", lambda row: _place_text(row.position, row.rank, row.rank_worst), essential=True),
+            _Column("rank", "Rank", _rank_text, essential=True),
             common["agent"], common["kind"],
             _Column("status", "Status", lambda row: row.status or "", left=True),
             _Column("rating", f"Rating ({board.level:.0%} CI)", _ends_text, essential=True),
             common["matches"], common["win_rate"], common["percentile"],
             _Column("percentile_lower", "Percentile CI", lambda row: _method_cell(row, "percentile_lower")),
-            _Column("base_rank", f"Rank in {board.population}", base_rank),
         ]
     spec = _METHOD_TABLE[board.method]
     rating_header = spec.header + (f" ({board.level:.0%} CI)" if spec.bootstrap else "")
@@ -941,27 +1002,75 @@ def board_title(board: Leaderboard) -> str:
     return title
 
 
-def render_terminal(board: Leaderboard, *, wide: bool = False) -> Table:
-    """The leaderboard as a :class:`rich.table.Table` (print it with a rich console).
+AGENT_MIN_WIDTH = 20
+"""The agent column is never narrower than this (or the longest name, when shorter): a longer
+name folds onto further lines, and columns that leave it less room are left out of the table."""
+AGENT_LINE_WIDTH = 40
+"""The agent column keeps room for names up to this long (whole on one line) before any column
+but rank and rating is shown beside it."""
+
+
+def render_terminal(board: Leaderboard, *, wide: bool = False) -> RenderableType:
+    """The leaderboard as a rich renderable (print it with a rich console), fitted to the width it
+    is printed at.
 
     The default table holds rank, agent, kind (status on a population board), the rating with its
-    interval and the matches, and fits 100 terminal columns; ``wide=True`` shows every column.
-    Both leave out columns that carry no information (see :func:`leaderboard_table`) and show
-    names without their ``@<game id>`` suffix; the caption says what was left out.
+    interval and the matches; ``wide=True`` every column. Both leave out columns that carry no
+    information (see :func:`leaderboard_table`) and show names without their ``@<game id>``
+    suffix. Rank, agent and rating are always shown: the agent column keeps room for names of up
+    to :data:`AGENT_LINE_WIDTH` on one line (and at least :data:`AGENT_MIN_WIDTH`; a longer name
+    folds onto further lines, never cut), and another column is shown only where it fits beside
+    them, so that an 80-column terminal shows whole names. The caption says which columns were
+    left out, what the rank means, and why the method's ranking may mislead on these matches
+    (:attr:`Leaderboard.notes`).
     """
-    from rich.table import Table
+    return _TerminalBoard(board, leaderboard_table(board, wide=wide, short_names=True))
 
-    view = leaderboard_table(board, wide=wide, short_names=True)
-    notes = [board.rating_label]
-    if view.short_names:
-        notes.append(f"names without @{board.game_id}")
-    notes += view.same
-    table = Table(title=board_title(board), caption="; ".join(notes))
-    for key, header, left in zip(view.keys, view.headers, view.left):
-        if key == "agent":
-            table.add_column(header, justify="left", overflow="fold")  # a name too long folds, never cut
-        else:
-            table.add_column(header, justify="left" if left else "right", no_wrap=True)
-    for line, row in zip(view.cells, board.rows):
-        table.add_row(*line, style=None if row.rated else "dim")
-    return table
+
+class _TerminalBoard:
+    """A board's table, laid out when rich prints it (only then is the width known)."""
+
+    def __init__(self, board: Leaderboard, view: LeaderboardTable) -> None:
+        self.board, self.view = board, view
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
+        yield self.table(options.max_width)
+
+    def table(self, width: int) -> Table:
+        from rich.cells import cell_len
+        from rich.table import Table
+
+        board, view = self.board, self.view
+        widths = [max([cell_len(header), *(cell_len(line[k]) for line in view.cells)])
+                  for k, header in enumerate(view.headers)]
+        agent = view.keys.index("agent")
+        longest = widths[agent]
+        widths[agent] = min(longest, AGENT_MIN_WIDTH)
+        # rich's default box: a border left of every column and one at the right, one space each side
+        essential = [k for k, key in enumerate(view.keys) if key in ("rank", "agent", "rating")]
+        used = 1 + sum(widths[k] + 3 for k in essential)
+        # room for whole names on one line first, then the columns that fit beside them
+        widths[agent] = max(widths[agent], min(longest, AGENT_LINE_WIDTH, widths[agent] + width - used))
+        used = 1 + sum(widths[k] + 3 for k in essential)
+        kept = set(essential)
+        for k in range(len(view.keys)):
+            if k not in kept and used + widths[k] + 3 <= width:
+                kept.add(k)
+                used += widths[k] + 3
+        dropped = [view.headers[k] for k in range(len(view.keys)) if k not in kept]
+        notes = [board.rating_label, rank_legend(board)]
+        if view.short_names:
+            notes.append(f"names without @{board.game_id}")
+        if dropped:
+            notes.append(f"left out to fit {width} columns: {', '.join(dropped)} (all in --json)")
+        notes += view.same
+        notes += board.notes
+        table = Table(title=board_title(board), caption="; ".join(notes))
+        for k in sorted(kept):
+            if k == agent:  # a name too long folds, never cut
+                table.add_column(view.headers[k], justify="left", overflow="fold", min_width=widths[k])
+            else:
+                table.add_column(view.headers[k], justify="left" if view.left[k] else "right", no_wrap=True)
+        for line, row in zip(view.cells, board.rows):
+            table.add_row(*(line[k] for k in sorted(kept)), style=None if row.rated else "dim")
+        return table

@@ -131,8 +131,8 @@ def rank_members(league: Any, members: Sequence[str], *, game_id: str | None = N
         placed = rank(league, name, budget=budget, population=population, seed=seed,
                       target_half_width=target_half_width, backend=backend, progress=progress)
         label, base_size = placed.base, placed.base_size
-        rows.append({"agent": name, "rank": placed.rank, "rank_best": placed.rank_best,
-                     "rank_worst": placed.rank_worst, "percentile": placed.percentile,
+        rows.append({"agent": name, "rank": placed.rank, "rank_lower": placed.rank_lower,
+                     "rank_upper": placed.rank_upper, "percentile": placed.percentile,
                      "percentile_lower": placed.percentile_lower, "percentile_upper": placed.percentile_upper,
                      "rating": placed.rating, "matches": placed.matches})
     table = np.array([[r["rank"], r["percentile"]] for r in rows], dtype=np.float64)
@@ -147,7 +147,7 @@ def rank_members(league: Any, members: Sequence[str], *, game_id: str | None = N
         else:  # one member: its own placement interval is the population's
             row = rows[0]
             point = float(values[0, 0])
-            lower, upper = ((row["rank_best"], row["rank_worst"]) if key == "mean_rank"
+            lower, upper = ((row["rank_lower"], row["rank_upper"]) if key == "mean_rank"
                             else (row["percentile_lower"], row["percentile_upper"]))
         setattr(report, key, point)
         setattr(report, f"{key}_lower", float(lower))

@@ -33,6 +33,7 @@ from arena_league.league.leaderboards import (
     Leaderboard,
     LeaderboardRow,
     leaderboard_table,
+    rank_legend,
     short_name,
 )
 
@@ -313,10 +314,8 @@ def _population_header(board: Leaderboard) -> tuple[list[str], list[str], str]:
             f"placed, <b>{counts['pending']}</b> pending", f"<b>{board.n_matches}</b> matches in this league"]
     details = [f"members' intervals: as frozen with {board.population} (the bootstrap of its build); an "
                f"entrant's: the {board.level:.0%} likelihood-ratio interval of its latest placement"]
-    ranks = (f"Rank p (a..b): p is 1 + the number of agents rated higher; a..b are the places the agent's "
-             f"interval spans among the others' ratings, as a placement counts them. Pending: agents of the game "
-             f"not placed against {board.population} yet (`arena-league rank AGENT --population "
-             f"{board.population}`).")
+    ranks = (f"{rank_legend(board)}. Pending: agents of the game not placed against {board.population} yet "
+             f"(`arena-league rank AGENT --population {board.population}`).")
     return meta, details, ranks
 
 
@@ -339,8 +338,7 @@ def _page(board: Leaderboard, title: str, when: datetime, figures: dict[str, byt
         if board.alpharank_alpha is not None:
             swept = " (automatic sweep)" if board.params.get("alpha_from_sweep") else ""
             details.append(f"alpha-Rank alpha = {board.alpharank_alpha:.3g}{swept}")
-        ranks = ("Rank a-b: a is 1 + the number of agents better beyond doubt (interval entirely above), "
-                 "b is n minus the number worse beyond doubt.")
+        ranks = f"{rank_legend(board)}." + "".join(f" {note[0].upper()}{note[1:]}." for note in board.notes)
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',

@@ -613,8 +613,11 @@ class RankReport:
     lower: float
     upper: float
     rank: int
-    rank_best: int
-    rank_worst: int
+    """1 + the base agents rated above the entrant (:func:`~arena_league.rating.competition_ranks`)."""
+    rank_lower: int
+    """The best place its interval allows."""
+    rank_upper: int
+    """The worst place its interval allows."""
     percentile: float
     percentile_lower: float
     percentile_upper: float
@@ -938,8 +941,8 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
         seeds[str(used)] = seeds.get(str(used), 0) + 1
     return {"agent": agent, "game_id": game_id, "base": p["base_label"], "base_size": len(names),
             "matches": len(evidence), "rating": placement.rating, "lower": placement.lower,
-            "upper": placement.upper, "rank": placement.rank, "rank_best": placement.rank_best,
-            "rank_worst": placement.rank_worst, "percentile": placement.percentile,
+            "upper": placement.upper, "rank": placement.rank, "rank_lower": placement.rank_lower,
+            "rank_upper": placement.rank_upper, "percentile": placement.percentile,
             "percentile_lower": placement.percentile_lower, "percentile_upper": placement.percentile_upper,
             "nash_score": float(nash_scores[-1]), "nash_mass": float(nash_p[-1]), "level": placement.level,
             "job_id": ctx.job.id, "seconds": round(time.perf_counter() - start, 3), "opponents": opponents,
@@ -1029,8 +1032,8 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
             snapshot_population = (session.get(reg.Population, population_id)
                                    if board.basis == "population" else None)
             reg.write_rating_snapshot(session, game_id, method, [
-                reg.RatingRow(ids[r.agent], r.rating, r.lower, r.upper, r.rank, r.rank_worst, r.matches,
-                              extra={"status": r.status, "position": r.position})
+                reg.RatingRow(ids[r.agent], r.rating, r.lower, r.upper, r.rank_lower, r.rank_upper, r.matches,
+                              extra={"status": r.status, "rank": r.rank})
                 for r in board.rows if r.rating is not None and np.isfinite(r.rating)],
                 population=snapshot_population, scope="placements" if snapshot_population else scope or "all",
                 params={"rounds": rounds, "seed": seed, "basis": board.basis})
@@ -1057,7 +1060,7 @@ def _placements(session: Any, game_id: str, population: str, agents: set[str]) -
     """Agent -> the result of its newest finished ``rank`` job against ``population`` of ``game_id``."""
     from arena_league.rating import Placement
 
-    fields = ("rating", "lower", "upper", "rank", "rank_best", "rank_worst", "percentile", "percentile_lower",
+    fields = ("rating", "lower", "upper", "rank", "rank_lower", "rank_upper", "percentile", "percentile_lower",
               "percentile_upper", "matches", "level")
     return {agent: EntrantPlacement(Placement(**{k: result[k] for k in fields}), job_id)
             for agent, (result, job_id) in latest_placements(session, game_id, base=population).items()

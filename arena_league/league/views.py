@@ -26,7 +26,7 @@ from arena_league.league.agents import agent_detail, frozen_ratings
 from arena_league.league.errors import NotFoundError
 from arena_league.league.home import short_name
 from arena_league.league.jobs import stamp
-from arena_league.league.leaderboards import METHODS
+from arena_league.league.leaderboards import METHODS, LeaderboardError, rank_text
 from arena_league.league.tokens import Identity
 from arena_league.league.uploads import series_versions
 from arena_league.registry import League
@@ -36,7 +36,7 @@ __all__ = ["METHODS", "LeaderboardCache", "agent_log", "agent_view", "game_view"
 
 #: Agents in a game page's win-rate heatmap.
 HEATMAP_AGENTS = 12
-_SORTS = {"rank": ("position", False), "rating": ("rating", True), "name": ("agent", False),
+_SORTS = {"rank": ("rank", False), "rating": ("rating", True), "name": ("agent", False),
           "matches": ("matches", True), "win_rate": ("win_rate", True)}
 
 
@@ -179,8 +179,10 @@ def game_view(league: League, cache: LeaderboardCache, game_id: str, *, method: 
         owners = {a.name: a.owner for a in reg.list_agents(session, game_id=game_id)}
     rows = []
     for row in board["rows"]:
-        rows.append({**{k: row.get(k) for k in ("agent", "kind", "status", "rank", "rank_worst", "rating", "lower",
-                                                "upper", "matches", "win_rate", "percentile", "position")},
+        rows.append({**{k: row.get(k) for k in ("agent", "kind", "status", "rank", "rank_lower", "rank_upper", "tied",
+                                                "rating", "lower", "upper", "matches", "win_rate", "percentile")},
+                     "rank_text": rank_text(row.get("rank"), row.get("rank_lower"), row.get("rank_upper"),
+                                            bool(row.get("tied"))),
                      "short": short_name(row["agent"], game_id), "owner": owners.get(row["agent"]),
                      "mine": viewer is not None and owners.get(row["agent"]) == viewer.owner})
     kinds = sorted({r["kind"] for r in rows if r["kind"]})
@@ -198,16 +200,28 @@ def game_view(league: League, cache: LeaderboardCache, game_id: str, *, method: 
     return {"game_id": game_id, "method": method, "methods": list(METHODS), "basis": board.get("basis"),
             "population": board.get("population"), "rating_label": board.get("rating_label"),
             "level": board.get("level"), "n_matches": board.get("n_matches"), "n_agents": len(rows),
+            "rank_legend": board.get("rank_legend"), "notes": board.get("notes") or [],
             "filters": {"kind": kind, "owner": owner, "sort": sort, "kinds": kinds, "owners": listed_owners},
             "scale": scale, "rows": shown, "heatmap": _heatmap(league, game_id, board, rows)}
 
 
 def _heatmap(league: League, game_id: str, board: dict[str, Any], rows: Sequence[dict[str, Any]]
              ) -> dict[str, Any]:
-    """Pairwise win rates (share of points, draws half) among the board's top rated agents."""
-    top = [r["agent"] for r in rows if r["rating"] is not None][:HEATMAP_AGENTS]
+    """Pairwise win rates (share of points, draws half) among the board's top agents by rank that
+    played in this league (on a population board, the entrants and the members they met: the
+    members' own matches were played when the population was built), with a note saying whom it
+    shows and whether they met; a pair that never met has no win rate (None)."""
+    rated = [r for r in rows if r["rating"] is not None]
+    played = [r for r in rated if r["matches"]]
+    pool = played if len(played) >= 2 else rated
+    if board.get("basis") == "population":  # the entrants first, whatever their rank, then the members
+        picked = {r["agent"] for r in sorted(pool, key=lambda r: r["status"] != "placed")[:HEATMAP_AGENTS]}
+        pool = [r for r in pool if r["agent"] in picked]
+    top = [r["agent"] for r in pool][:HEATMAP_AGENTS]
+    short = [short_name(a, game_id) for a in top]
     if len(top) < 2:
-        return {"agents": top, "short": [short_name(a, game_id) for a in top], "win_rate": [], "games": []}
+        return {"agents": top, "short": short, "win_rate": [], "games": [],
+                "note": "fewer than two rated agents: no pair to show"}
     if board.get("win_rate") is not None:
         index = {name: i for i, name in enumerate(board["agents"])}
         picks = [index[a] for a in top if a in index]
@@ -226,21 +240,37 @@ def _heatmap(league: League, game_id: str, board: dict[str, Any], rows: Sequence
             mine = [i for i, a in enumerate(top) if a in table_index]
             picks = [table_index[top[i]] for i in mine]
             wins, draws = counts.wins[np.ix_(picks, picks)], counts.draws[np.ix_(picks, picks)]
-            played = wins + wins.T + draws
+            played_pairs = wins + wins.T + draws
             with np.errstate(invalid="ignore", divide="ignore"):
-                share = np.where(played > 0, (wins + 0.5 * draws) / played, np.nan)
-            rate[np.ix_(mine, mine)], games[np.ix_(mine, mine)] = share, played
+                share = np.where(played_pairs > 0, (wins + 0.5 * draws) / played_pairs, np.nan)
+            rate[np.ix_(mine, mine)], games[np.ix_(mine, mine)] = share, played_pairs
+    games = np.nan_to_num(games)
+    np.fill_diagonal(rate, np.nan)  # an agent against a copy of itself says nothing of its rank
+    met = int(np.triu(games > 0, 1).sum())
+    pairs = len(top) * (len(top) - 1) // 2
+    entrants = sum(r["status"] == "placed" for r in pool)
+    if board.get("basis") == "population" and len(played) >= 2:
+        whom = (f"{entrants} placed entrant(s) and the {len(top) - entrants} best-ranked members with matches in "
+                "this league, by rank")
+    elif len(played) >= 2 and len(played) < len(rated):
+        whom = f"the top {len(top)} by rank of the agents with matches in this league"
+    else:
+        whom = f"the top {len(top)} by rank"
+    said = (f"{met} of their {pairs} pairs met" if met else
+            "none of them has met another in this league: every cell is not met")
     plain = [[None if not np.isfinite(v) else round(float(v), 4) for v in line] for line in rate]
-    return {"agents": top, "short": [short_name(a, game_id) for a in top], "win_rate": plain,
-            "games": [[int(v) for v in line] for line in np.nan_to_num(games)]}
+    return {"agents": top, "short": short, "win_rate": plain, "games": [[int(v) for v in line] for line in games],
+            "note": f"{whom}; {said}"}
 
 
 # --- agents -----------------------------------------------------------------------------------------
 
-def agent_view(league: League, name: str, *, viewer: Identity | None = None) -> dict[str, Any]:
-    """An agent's page: its record, its versions, its placements (newest first), its win rate
-    against each member of the base it was last placed against, its recent matches; the validation
-    log and the forfeits only for its owner and administrators."""
+def agent_view(league: League, name: str, *, viewer: Identity | None = None,
+               boards: LeaderboardCache | None = None) -> dict[str, Any]:
+    """An agent's page: its rank on its game's board (from ``boards``: the same row the game page
+    shows), its record, its versions, its placements (newest first), its win rate against each
+    member of the base it was last placed against, its recent matches; the validation log and the
+    forfeits only for its owner and administrators."""
     detail = agent_detail(league, name)
     private = viewer is not None and viewer.may_manage(detail["owner"])
     game_id = detail["game_id"]
@@ -259,11 +289,31 @@ def agent_view(league: League, name: str, *, viewer: Identity | None = None) -> 
         against.sort(key=lambda r: (r["rating"] is None, r["rating"] or 0.0))
     view = {key: detail[key] for key in ("name", "game_id", "kind", "status", "owner", "created_at", "reason",
                                          "matches_played", "matches_forfeited", "populations")}
-    view.update(versions=series_versions(league, name), placements=detail["placements"], against=against,
+    view.update(standing=_standing(league, boards, game_id, name) if boards is not None else None,
+                versions=series_versions(league, name), placements=detail["placements"], against=against,
                 recent_matches=matches, private=private, mine=viewer is not None and viewer.owner == detail["owner"])
     if private:
         view.update(validation_log=detail["validation_log"], forfeits=detail["forfeits"])
     return view
+
+
+def _standing(league: League, boards: LeaderboardCache, game_id: str, name: str) -> dict[str, Any] | None:
+    """The agent's row of its game's board (rank, rank interval, rating), or None when the board
+    does not list it rated (or there is no board yet)."""
+    try:
+        board = boards.board(league, game_id)
+    except (LeaderboardError, ValueError):
+        return None
+    row = next((r for r in board["rows"] if r["agent"] == name), None)
+    if row is None or row.get("rank") is None:
+        return None
+    of = (board["params"]["members"] + (row["status"] != "member") if board.get("basis") == "population"
+          else board["n_rated"])
+    return {**{k: row.get(k) for k in ("rank", "rank_lower", "rank_upper", "tied", "rating", "lower", "upper",
+                                       "status")},
+            "rank_text": rank_text(row["rank"], row["rank_lower"], row["rank_upper"], bool(row.get("tied"))),
+            "of": int(of), "method": board["method"], "basis": board.get("basis"),
+            "population": board.get("population"), "rank_legend": board.get("rank_legend")}
 
 
 def agent_log(league: League, name: str, viewer: Identity | None) -> dict[str, Any]:

@@ -10,6 +10,7 @@ matrices; ratings know nothing of games or SQL.
 - :mod:`.alpharank`: alpha-Rank (Omidshafiei et al. 2019), OpenSpiel's payoff-table convention.
 - :mod:`.population`: Arena's population performance, population vs population, effective
   diversity, intransitivity.
+- :mod:`.ranks`: the one definition of a rank and its interval (competition ranking).
 - :mod:`.placement`: placing an entrant against a frozen base population, adaptively.
 - :mod:`.aggregate`: statistics over training runs (IQM, optimality gap, probability of
   improvement, performance profiles) with seeded stratified bootstrap intervals.
@@ -38,7 +39,6 @@ from arena_league.rating.bootstrap import (
     bootstrap_ratings,
     bootstrap_statistic,
     nash_intervals,
-    rank_intervals,
 )
 from arena_league.rating.bradley_terry import (
     DEFAULT_PRIOR_SD,
@@ -74,6 +74,7 @@ from arena_league.rating.population import (
     population_performance,
     population_vs_population,
 )
+from arena_league.rating.ranks import Ranks, competition_ranks
 from arena_league.rating.teams import SkillRatings, openskill_ratings
 
 __all__ = [
@@ -95,6 +96,7 @@ __all__ = [
     "PairwiseResults",
     "Placement",
     "PlacementSimulation",
+    "Ranks",
     "RatingIntervals",
     "ReducibleChainError",
     "SeatResult",
@@ -106,6 +108,7 @@ __all__ = [
     "bootstrap_statistic",
     "bradley_terry",
     "check_antisymmetric",
+    "competition_ranks",
     "effective_diversity",
     "elo_expected_score",
     "elo_online",
@@ -123,7 +126,6 @@ __all__ = [
     "population_vs_population",
     "probability_of_improvement",
     "probability_of_improvement_matrix",
-    "rank_intervals",
     "simulate_placement",
     "stratified_bootstrap_ci",
     "zero_sum_value",

@@ -8,9 +8,9 @@ over the (pair, outcome) cells of :class:`PairCounts`, so that a round costs the
 matrix, not the number of matches. Bradley-Terry rounds are all solved at once by batched Newton
 steps warm-started from the point estimate.
 
-Ranks follow Chatbot Arena: an agent's rank is 1 + the number of agents whose lower bound is above
-its upper bound (the agents that are better beyond doubt), and its worst rank is n minus the
-number of agents whose upper bound is below its lower bound.
+Ranks and their intervals are the league's one definition
+(:func:`~arena_league.rating.ranks.competition_ranks`): 1 + the agents rated above the rating,
+above the interval's upper end (the best place) and at or above its lower end (the worst).
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from arena_league.rating.bradley_terry import (
 )
 from arena_league.rating.nash import nash_averaging
 from arena_league.rating.outcomes import PSEUDO_COUNT, PairCounts
+from arena_league.rating.ranks import competition_ranks
 
 __all__ = [
     "BootstrapInterval",
@@ -39,7 +40,6 @@ __all__ = [
     "bootstrap_ratings",
     "bootstrap_statistic",
     "nash_intervals",
-    "rank_intervals",
 ]
 
 
@@ -52,9 +52,11 @@ class RatingIntervals:
     lower: np.ndarray
     upper: np.ndarray
     rank: np.ndarray
-    """1 + the number of agents whose lower bound is above this agent's upper bound."""
-    rank_worst: np.ndarray
-    """n - the number of agents whose upper bound is below this agent's lower bound."""
+    """1 + the number of other agents rated above this one (see :func:`competition_ranks`)."""
+    rank_lower: np.ndarray
+    """The best place: 1 + the agents rated above this one's upper end."""
+    rank_upper: np.ndarray
+    """The worst place: 1 + the other agents rated at or above this one's lower end."""
     percentile: np.ndarray
     """Share of the other agents rated below this one (point estimate), in percent."""
     percentile_lower: np.ndarray
@@ -74,13 +76,6 @@ class BootstrapInterval:
     upper: np.ndarray
     samples: np.ndarray
     level: float
-
-
-def rank_intervals(lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(rank, rank_worst) from per-agent interval bounds (see the module docstring)."""
-    above = (lower[None, :] > upper[:, None]).sum(axis=1)
-    below = (upper[None, :] < lower[:, None]).sum(axis=1)
-    return 1 + above, lower.size - below
 
 
 def bootstrap_ratings(
@@ -116,12 +111,14 @@ def bootstrap_ratings(
     rating = to_ratings(point[0, :n])
     samples = to_ratings(replicates[:, :n])
     lower, upper = _percentile_interval(samples, level)
-    rank, rank_worst = rank_intervals(lower, upper)
+    ranks = competition_ranks(rating, lower, upper)
     others = n - 1
     return RatingIntervals(
-        agents=counts.agents, rating=rating, lower=lower, upper=upper, rank=rank, rank_worst=rank_worst,
+        agents=counts.agents, rating=rating, lower=lower, upper=upper, rank=ranks.rank,
+        rank_lower=ranks.rank_lower, rank_upper=ranks.rank_upper,
         percentile=100.0 * (rating[None, :] < rating[:, None]).sum(axis=1) / others,
-        percentile_lower=100.0 * (n - rank_worst) / others, percentile_upper=100.0 * (n - rank) / others,
+        percentile_lower=100.0 * (n - ranks.rank_upper) / others,
+        percentile_upper=100.0 * (n - ranks.rank_lower) / others,
         samples=samples, level=level,
         draw_nu=float(np.exp(point[0, -1])) if draw_model == "davidson" else None)
 

@@ -5,8 +5,9 @@ entrant's Bradley-Terry rating x is fitted with the base ratings held fixed (Bra
 Elo scale, see :mod:`arena_league.rating.bradley_terry`): a one-dimensional penalised maximum
 likelihood with a weak Gaussian prior around the base mean. Its interval is the likelihood-ratio
 interval {x : 2 (l(x_hat) - l(x)) <= chi2_1(level)} of the penalised log-likelihood l, found by
-Newton's method on each side; the rank interval follows from where the base ratings fall inside it
-(rank = 1 + the number of base agents rated above, so 1 .. n + 1).
+Newton's method on each side; the rank and its interval follow from where the base ratings fall
+around it (:func:`~arena_league.rating.ranks.competition_ranks` with the base as reference: rank =
+1 + the number of base agents rated above, so 1 .. n + 1).
 
 The adaptive chooser picks the next opponent with the largest expected Fisher information about x,
 E[p (1 - p)] under the current normal approximation of x (the sequential design of optimal
@@ -27,6 +28,7 @@ from scipy.special import expit
 from scipy.stats import chi2
 
 from arena_league.rating.bradley_terry import ELO_SCALE
+from arena_league.rating.ranks import competition_ranks
 
 __all__ = [
     "MIN_PLACEMENT_MATCHES",
@@ -63,8 +65,10 @@ class Placement:
     upper: float
     rank: int
     """1 + the number of base agents rated above the entrant's estimate (1 .. n + 1)."""
-    rank_best: int
-    rank_worst: int
+    rank_lower: int
+    """The best place: 1 + the base agents rated above the interval's upper end."""
+    rank_upper: int
+    """The worst place: 1 + the base agents rated at or above the interval's lower end."""
     percentile: float
     """Share of the base population rated below the entrant, in percent."""
     percentile_lower: float
@@ -74,7 +78,7 @@ class Placement:
 
     @property
     def rank_half_width(self) -> float:
-        return 0.5 * (self.rank_worst - self.rank_best)
+        return 0.5 * (self.rank_upper - self.rank_lower)
 
 
 class _EntrantPosterior:
@@ -165,22 +169,23 @@ class _EntrantPosterior:
         scale = self.points_per_theta
         sorted_base = self.sorted_base * scale
         n = sorted_base.size
+        x, lo, hi = self.mode[rows] * scale, self.lower[rows] * scale, self.upper[rows] * scale
+        ranks = competition_ranks(x, lo, hi, reference=sorted_base)
         out = []
-        for e in rows.tolist():
-            x, lo, hi = self.mode[e] * scale, self.lower[e] * scale, self.upper[e] * scale
-            above = n - np.searchsorted(sorted_base, [x, hi, lo], side="right")
-            below = np.searchsorted(sorted_base, [x, lo, hi], side="left")
+        for k, e in enumerate(rows.tolist()):
+            below = np.searchsorted(sorted_base, [x[k], lo[k], hi[k]], side="left")
             out.append(Placement(
-                rating=float(x), lower=float(lo), upper=float(hi),
-                rank=int(1 + above[0]), rank_best=int(1 + above[1]), rank_worst=int(1 + above[2]),
+                rating=float(x[k]), lower=float(lo[k]), upper=float(hi[k]), rank=int(ranks.rank[k]),
+                rank_lower=int(ranks.rank_lower[k]), rank_upper=int(ranks.rank_upper[k]),
                 percentile=float(100.0 * below[0] / n), percentile_lower=float(100.0 * below[1] / n),
                 percentile_upper=float(100.0 * below[2] / n), matches=float(self.games[e].sum()), level=self.level))
         return out
 
     def rank_half_width(self, rows: np.ndarray) -> np.ndarray:
-        """Half the number of base agents rated inside each entrant's interval."""
+        """Half the number of base agents rated inside each entrant's interval, ends included (half
+        of rank_upper - rank_lower)."""
         inside = (np.searchsorted(self.sorted_base, self.upper[rows], side="right")
-                  - np.searchsorted(self.sorted_base, self.lower[rows], side="right"))
+                  - np.searchsorted(self.sorted_base, self.lower[rows], side="left"))
         return 0.5 * inside
 
     def most_informative(self, rows: np.ndarray) -> np.ndarray:
@@ -353,5 +358,5 @@ def simulate_placement(
     half_width = posterior.rank_half_width(everyone)
     true_rank = 1 + (posterior.base_ratings[None, :] > truth[:, None]).sum(axis=1)
     placements = posterior.placements(everyone)
-    covered = np.array([p.rank_best <= r <= p.rank_worst for p, r in zip(placements, true_rank)])
+    covered = np.array([p.rank_lower <= r <= p.rank_upper for p, r in zip(placements, true_rank)])
     return PlacementSimulation(matches, half_width <= target_half_width, covered, half_width)

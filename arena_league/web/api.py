@@ -155,7 +155,7 @@ def upload(request: Request, who: Writer, game: Annotated[str, Form(description=
 
 @router.get("/agents/{name}", summary="an agent: status, reason, kind, owner, versions, placements")
 def agent(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
-    view = ops.agent_view(league_of(request), name, viewer=viewer)
+    view = ops.agent_view(league_of(request), name, viewer=viewer, boards=request.app.state.boards)
     return {k: v for k, v in view.items() if k not in ("validation_log", "forfeits")}
 
 

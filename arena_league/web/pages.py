@@ -93,12 +93,13 @@ def game_page(request: Request, game: str, viewer: Viewer, method: Method = "bt"
 
 @router.get("/agents/{name}.json")
 def agent_json(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
-    return ops.agent_view(league_of(request), name, viewer=viewer)
+    return ops.agent_view(league_of(request), name, viewer=viewer, boards=request.app.state.boards)
 
 
 @router.get("/agents/{name}", response_class=HTMLResponse)
 def agent_page(request: Request, name: str, viewer: Viewer) -> HTMLResponse:
-    return _page(request, "agent.html", ops.agent_view(league_of(request), name, viewer=viewer), viewer,
+    view = ops.agent_view(league_of(request), name, viewer=viewer, boards=request.app.state.boards)
+    return _page(request, "agent.html", view, viewer,
                  f"/agents/{name}.json")
 
 

@@ -172,7 +172,7 @@
     }
     target.textContent = "Rating " + Math.round(placement.rating) + " (95% " + Math.round(placement.lower) + " to " +
       Math.round(placement.upper) + "), rank " + placement.rank + " of " + (placement.base_size + 1) + " (between " +
-      placement.rank_best + " and " + placement.rank_worst + "), above " + Math.round(placement.percentile) +
+      placement.rank_lower + " and " + placement.rank_upper + "), above " + Math.round(placement.percentile) +
       "% of " + placement.base + ", from " + placement.total_matches + " match(es).";
   }
 
