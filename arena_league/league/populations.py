@@ -50,6 +50,8 @@ from arena_league.registry import League
 __all__ = [
     "POPULATION_MANIFEST",
     "SHIPPED_POPULATIONS",
+    "base_import",
+    "base_to_import",
     "default_population",
     "ensure_population",
     "export_population",
@@ -152,14 +154,28 @@ def game_population(league: League, game_id: str, *, import_shipped: bool = True
 
 def default_population(league: League, game_id: str, *, import_shipped: bool = True) -> tuple[str | None, bool]:
     """:func:`game_population` and whether it imported the shipped population just now."""
-    shipped = shipped_populations(game_id) if import_shipped else []
-    superseded = {folder.name for folder in shipped[:-1]}  # shipped populations with a newer one shipped
     with league.reading() as session:
         frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
         newest = max(frozen, key=lambda p: (p.created_at, p.id)) if frozen else None
-        if newest is not None and newest.name not in superseded:
-            return f"{newest.name}:{newest.version}", False
-    return (import_population(league, shipped[-1]), True) if shipped else (None, False)
+        label = f"{newest.name}:{newest.version}" if newest is not None else None
+    folder = base_to_import(league, game_id) if import_shipped else None
+    if folder is None:
+        return label, False
+    return import_population(league, folder), True
+
+
+def base_to_import(league: League, game_id: str) -> Path | None:
+    """The folder of the shipped population :func:`game_population` would import now (the league
+    has no frozen population of the game, or only shipped ones the package has since superseded),
+    or None."""
+    shipped = shipped_populations(game_id)
+    if not shipped:
+        return None
+    superseded = {folder.name for folder in shipped[:-1]}  # shipped populations with a newer one shipped
+    with league.reading() as session:
+        frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
+    newest = max(frozen, key=lambda p: (p.created_at, p.id)) if frozen else None
+    return shipped[-1] if newest is None or newest.name in superseded else None
 
 
 def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
@@ -414,7 +430,7 @@ def export_population(league: League, population: str, destination: str | Path, 
 def queue_import(league: League, game_id: str, population: str | None = None) -> int:
     """Queue the import of a population shipped with arena-league for ``game_id`` (default: the
     newest shipped; its members are validated: agent code, run by a worker, never by the caller);
-    returns the job id."""
+    returns the job id: that of the import of the same population already queued or running, if any."""
     if population is None:
         newest = shipped_population(game_id)
         population = newest.name if newest is not None else "base-v1"
@@ -423,8 +439,32 @@ def queue_import(league: League, game_id: str, population: str | None = None) ->
         raise ValueError(f"no population {population!r} is shipped for {game_id}; the shipped ones lie under "
                          f"checkpoints/<game>/<name>/ (e.g. base-v1)")
     register_game(league, game_id)
+    payload = {"game_id": game_id, "population": name}
     with league.transaction() as session:
-        return reg.enqueue(session, "import", {"game_id": game_id, "population": name}, priority=80).id
+        for status in ("running", "queued"):
+            for job in reg.list_jobs(session, status=status, kind="import"):
+                if job.payload == payload:
+                    return job.id
+        return reg.enqueue(session, "import", payload, priority=80).id
+
+
+def base_import(league: League, game_id: str) -> dict[str, Any] | None:
+    """For a view that needs the base population of ``game_id`` while the league lacks the shipped
+    one (:func:`base_to_import`): its import, queued now unless one is queued, running or has
+    failed (a failed one is shown, not retried on every view), as ``game_id``, ``population``,
+    ``job`` and its ``state`` and ``error``. None when there is nothing to import."""
+    folder = base_to_import(league, game_id)
+    if folder is None:
+        return None
+    payload = {"game_id": game_id, "population": folder.name}
+    with league.reading() as session:
+        last = next((job for job in reg.list_jobs(session, kind="import") if job.payload == payload), None)
+        seen = None if last is None else (last.id, last.status, (last.error or "").strip().splitlines())
+    if seen is None or seen[1] == "cancelled":
+        job_id = queue_import(league, game_id, folder.name)
+        seen = (job_id, "queued", [])
+    return {"game_id": game_id, "population": folder.name, "job": seen[0], "state": seen[1],
+            "error": seen[2][-1] if seen[2] else None}
 
 
 def handle_import(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
