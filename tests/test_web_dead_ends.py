@@ -91,3 +91,12 @@ def test_an_unknown_job_or_match_is_one_line(idle_server):
         for path, detail in (("/api/jobs/9999", "there is no job 9999"), ("/api/matches/9999", "there is no match 9999")):
             answer = client.get(path)
             assert answer.status_code == 404 and answer.json()["detail"].startswith(detail)
+
+
+def test_a_name_the_board_shows_opens_its_agent_and_a_typo_is_answered_with_the_name(idle_server):
+    with idle_server.client() as client:
+        board = client.get(f"/games/{GOBANG}.json", params={"method": "elo"}).json()
+        for row in board["rows"]:
+            assert client.get(f"/api/agents/{row['short']}").json()["name"] == row["agent"]
+        answer = client.get("/api/agents/rando")
+        assert answer.status_code == 404 and "Did you mean 'random'?" in answer.json()["detail"]

@@ -265,7 +265,7 @@ def agent_view(league: League, name: str, *, viewer: Identity | None = None) -> 
         against.sort(key=lambda r: (r["rating"] is None, r["rating"] or 0.0))
     view = {key: detail[key] for key in ("name", "game_id", "kind", "status", "owner", "created_at", "reason",
                                          "matches_played", "matches_forfeited", "populations")}
-    view.update(versions=series_versions(league, name), placements=detail["placements"], against=against,
+    view.update(versions=series_versions(league, detail["name"]), placements=detail["placements"], against=against,
                 recent_matches=matches, private=private, mine=viewer is not None and viewer.owner == detail["owner"])
     if private:
         view.update(validation_log=detail["validation_log"], forfeits=detail["forfeits"])

@@ -179,7 +179,9 @@ def agent_log(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
 def rank(request: Request, name: str, who: Writer, options: Annotated[RankRequest | None, Body()] = None
          ) -> dict[str, int]:
     options = options or RankRequest()
-    return {"job": ops.queue_rank(league_of(request), name, budget=options.budget, seed=options.seed, who=who)}
+    league = league_of(request)
+    return {"job": ops.queue_rank(league, ops.resolve_agent(league, name), budget=options.budget, seed=options.seed,
+                                  who=who)}
 
 
 @router.post("/agents/{name}/reinstate", summary="let a suspended agent play again (administrators)")
