@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
@@ -282,7 +283,7 @@ def cmd_matches(args: argparse.Namespace) -> int:
     from arena_league.league import recent_matches
 
     with _league(args) as league:
-        matches = recent_matches(league, args.game, agent=args.agent, limit=args.limit)
+        matches = recent_matches(league, args.game, agent=args.agent, limit=args.limit, server=args.server)
     if args.json:
         emit_json({"game_id": args.game, "matches": matches})
         return 0
@@ -838,6 +839,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("game", help="the game id")
     p.add_argument("--agent", default=None, help="only this agent's matches")
     p.add_argument("--limit", type=_positive_int, default=20, help="how many (default 20)")
+    p.add_argument("--server", default=os.environ.get("ARENA_LEAGUE_URL"),
+                   help="the web service's address, e.g. http://127.0.0.1:8000, to link each match's page in full "
+                        "(default: $ARENA_LEAGUE_URL; without it, the page's path)")
     _league_options(p)
     p.set_defaults(func=cmd_matches)
 

@@ -99,3 +99,11 @@ def test_a_match_id_that_is_not_one_is_one_line_with_the_fix(two_games, capsys):
                             ("job:1:5", "there is no match job:1:5")):
         code, _, err = run(capsys, "replay", given)
         assert code == 2 and len(err.strip().splitlines()) == 1 and expected in err
+
+
+def test_matches_links_each_page_on_the_server_it_is_given(two_games, capsys):
+    code, listed, _ = run(capsys, "matches", GOBANG, "--server", "http://127.0.0.1:8000/", "--json")
+    [match] = listed["matches"]
+    assert code == 0 and match["page"] == f"http://127.0.0.1:8000/matches/{match['id']}"
+    code, _, err = run(capsys, "matches", GOBANG, "--server", "localhost:8000")
+    assert code == 2 and "must start with http:// or https://" in err

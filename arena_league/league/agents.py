@@ -152,18 +152,20 @@ def reinstate_agent(league: League, name: str, game_id: str | None = None) -> di
         return {"name": agent.name, "status": agent.status, "matches_forfeited": forfeited}
 
 
-def recent_matches(league: League, game_id: str, *, agent: str | None = None, limit: int = 20) -> list[dict[str, Any]]:
+def recent_matches(league: League, game_id: str, *, agent: str | None = None, limit: int = 20,
+                   server: str | None = None) -> list[dict[str, Any]]:
     """The last ``limit`` matches of a game (optionally those of one agent), newest first: each
     with its id (the one its page, ``/matches/<id>``, and ``arena-league replay`` take), its stored
-    key, seed, replay file and seats."""
+    key, seed, replay file and seats; ``page`` is the page's path, or its address on ``server``."""
     from arena_league.envs import game_spec
     from arena_league.league.matches import match_page
 
     game_spec(game_id)  # an unknown id raises with the valid ones
+    match_page(0, server)  # a malformed address raises before the league is read
     with league.reading() as session:
         agent_id = require_agent(session, agent, game_id).id if agent else None
         matches = reg.list_matches(session, game_id, agent_id=agent_id)[-limit:]
-        return [{"id": m.id, "page": match_page(m.id), "match_key": m.match_key, "seed": m.seed,
+        return [{"id": m.id, "page": match_page(m.id, server), "match_key": m.match_key, "seed": m.seed,
                  "replay": m.replay_path,
                  "created_at": m.created_at.isoformat(timespec="seconds"),
                  "seats": [{"seat": s.seat, "agent": s.agent.name, "team": s.team, "score": s.score,

@@ -30,9 +30,16 @@ def _match(session: Any, match_id: int) -> reg.Match:
     return match
 
 
-def match_page(match_id: int) -> str:
-    """Where the web service shows a match: its page's path (the same id everywhere)."""
-    return f"/matches/{match_id}"
+def match_page(match_id: int, server: str | None = None) -> str:
+    """Where the web service shows a match (the same id everywhere): its page's path, or its whole
+    address on ``server`` (e.g. ``http://127.0.0.1:8000``) when given."""
+    path = f"/matches/{match_id}"
+    if not server:
+        return path
+    if not server.startswith(("http://", "https://")):
+        raise ValueError(f"the server address {server!r} must start with http:// or https://, e.g. "
+                         "http://127.0.0.1:8000")
+    return server.rstrip("/") + path
 
 
 def find_match(session: Any, match: str | int, game_id: str | None = None) -> reg.Match:
