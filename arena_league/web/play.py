@@ -87,9 +87,12 @@ async def _session(websocket: WebSocket, league: Any, game: str, idle: float) ->
         ops.check_game(game)
         importing = await asyncio.to_thread(ops.base_import, league, game)
         if importing is not None:  # importing validates agent code: a worker's job, never this connection's
-            await _refuse(websocket, _TRY_LATER, f"{game}'s base population {importing['population']} is being "
-                          f"imported (job {importing['job']}, {importing['state']}: /jobs/{importing['job']}); play "
-                          "once it is done")
+            job = f"job {importing['job']}, /jobs/{importing['job']}"
+            await _refuse(websocket, _TRY_LATER, (
+                f"the import of {game}'s base population {importing['population']} failed ({job}): "
+                f"{importing['error']}; an administrator imports it again" if importing["state"] == "failed" else
+                f"{game}'s base population {importing['population']} is being imported ({job}); play once it is "
+                "done"))
             return
         player, owner = ops.player_of(identity.owner if identity else None, websocket.query_params.get("guest"))
         live = await asyncio.to_thread(ops.LivePlay, league, game, player=player, owner=owner)
