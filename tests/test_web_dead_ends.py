@@ -100,3 +100,15 @@ def test_a_name_the_board_shows_opens_its_agent_and_a_typo_is_answered_with_the_
             assert client.get(f"/api/agents/{row['short']}").json()["name"] == row["agent"]
         answer = client.get("/api/agents/rando")
         assert answer.status_code == 404 and "Did you mean 'random'?" in answer.json()["detail"]
+
+
+def test_a_cancelled_job_page_says_it_stopped_and_why(idle_server, capsys):
+    home = ["--home", str(idle_server.home)]
+    _, queued, _ = run(capsys, "evaluate", GOBANG, "--queue", "--matches-per-pair", "3", "--json", *home)
+    assert run(capsys, "jobs", "cancel", queued["queued"], *home)[0] == 0
+    with idle_server.client() as client:
+        view = client.get(f"/api/jobs/{queued['queued']}").json()
+    assert view["state"] == "cancelled" and view["finished"]
+    assert view["progress"]["done"] == view["progress"]["total"]
+    assert view["progress"]["label"] == "stopped after 0 of 1: cancelled"
+    assert view["summary"] == "The evaluate job was cancelled; matches it had stored stay stored."

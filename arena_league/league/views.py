@@ -333,6 +333,10 @@ def _job_progress(kind: str, state: str, payload: dict[str, Any], progress: dict
     return {"done": total, "total": total, "label": f"stopped after {done} of {total}: {why}"}
 
 
+def _whole(value: Any) -> str:
+    return "?" if value is None else f"{float(value):.0f}"
+
+
 def _job_outcome(job_id: int, kind: str, state: str, payload: dict[str, Any], result: dict[str, Any],
                  error: str | None) -> tuple[str, list[dict[str, str]]]:
     """What a job found or made, in one sentence, and links to it (``text``, ``href``, and a
@@ -353,10 +357,9 @@ def _job_outcome(job_id: int, kind: str, state: str, payload: dict[str, Any], re
         lower = result.get("rank_lower", result.get("rank_best"))
         upper = result.get("rank_upper", result.get("rank_worst"))
         size = int(result.get("base_size") or 0) + 1
+        rating, low, high = (_whole(result.get(key)) for key in ("rating", "lower", "upper"))
         return (f"{agent} placed against {result.get('base')}: rank {result.get('rank')} of {size} ({lower}..{upper}), "
-                f"rating {result.get('rating', float('nan')):.0f} ({result.get('lower', float('nan')):.0f}.."
-                f"{result.get('upper', float('nan')):.0f}), after {result.get('matches')} matches.",
-                agent_link + board)
+                f"rating {rating} ({low}..{high}), after {result.get('matches')} matches.", agent_link + board)
     if kind == "validate":
         reason = f": {result['reason']}" if result.get("reason") else ""
         return f"{agent} was validated: {result.get('status')}{reason}.", agent_link + board
