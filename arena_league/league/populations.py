@@ -171,11 +171,14 @@ def base_to_import(league: League, game_id: str) -> Path | None:
     shipped = shipped_populations(game_id)
     if not shipped:
         return None
+    from sqlalchemy import select
+
     superseded = {folder.name for folder in shipped[:-1]}  # shipped populations with a newer one shipped
-    with league.reading() as session:
-        frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
-    newest = max(frozen, key=lambda p: (p.created_at, p.id)) if frozen else None
-    return shipped[-1] if newest is None or newest.name in superseded else None
+    with league.reading() as session:  # the newest frozen one's name alone: boards ask this on every view
+        newest = session.scalar(select(reg.Population.name)
+                                .where(reg.Population.game_id == game_id, reg.Population.frozen.is_(True))
+                                .order_by(reg.Population.created_at.desc(), reg.Population.id.desc()).limit(1))
+    return shipped[-1] if newest is None or newest in superseded else None
 
 
 def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
