@@ -139,7 +139,7 @@ def _print_table(title: str, columns: tuple[str, ...], rows: list[tuple[str, ...
 def _print_record(title: str, record: dict[str, Any], keys: list[str] | None = None) -> None:
     table = Table(title=title, show_header=False)
     table.add_column("field", style="bold")
-    table.add_column("value")
+    table.add_column("value", overflow="fold")
     for key in keys or list(record):
         value = record.get(key)
         if isinstance(value, float):
@@ -166,7 +166,7 @@ def cmd_submit(args: argparse.Namespace) -> int:
 
 
 def cmd_rank(args: argparse.Namespace) -> int:
-    from arena_league.league import LEAGUE_WIDE, describe_population, rank
+    from arena_league.league import LEAGUE_WIDE, describe_population, rank, resolve_agent
 
     if args.league_wide and args.population:
         raise CommandError("give --population NAME or --league-wide, not both")
@@ -178,12 +178,10 @@ def cmd_rank(args: argparse.Namespace) -> int:
         raise CommandError("--more continues one agent's placement; leave it out with --members")
     if args.members is not None:
         return _rank_members(args, population)
-    if args.game is not None:
-        raise CommandError("--game is for --members given as files; an agent's game is known from its name")
     with _league(args) as league, progress_bar(f"ranking {args.agent}", args.more or args.budget) as update:
-        report = rank(league, args.agent, budget=args.budget, population=population, seed=args.seed,
-                      target_half_width=args.half_width, backend=args.backend, more=args.more, progress=update,
-                      log=_log)
+        report = rank(league, resolve_agent(league, args.agent, args.game), budget=args.budget,
+                      population=population, seed=args.seed, target_half_width=args.half_width,
+                      backend=args.backend, more=args.more, progress=update, log=_log)
         against = describe_population(league, report.game_id, report.base) if population != LEAGUE_WIDE else \
             f"{report.base} ({report.base_size} agents)"
     if args.json:
@@ -243,7 +241,7 @@ def cmd_leaderboard(args: argparse.Namespace) -> int:
 
     with _league(args) as league:
         board = leaderboard(league, args.game, args.method, population=args.population, rounds=args.rounds,
-                            seed=args.seed)
+                            seed=args.seed, log=_log)
     if args.html:
         write_html_report(board, args.html)
         stderr.print(f"wrote {args.html}")
@@ -255,9 +253,11 @@ def cmd_leaderboard(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from arena_league.league import evaluate, queue_evaluation
+    from arena_league.league import evaluate, queue_evaluation, resolve_agent
 
     with _league(args) as league:
+        if args.agents is not None:
+            args.agents = [resolve_agent(league, name, args.game) for name in args.agents]
         if args.queue:
             job_id = queue_evaluation(league, args.game, args.agents, matches_per_pair=args.matches_per_pair,
                                       seed=args.seed, backend=args.backend, workers=args.workers, record=args.record,
@@ -296,22 +296,21 @@ def cmd_matches(args: argparse.Namespace) -> int:
     from arena_league.league import recent_matches
 
     with _league(args) as league:
-        matches = recent_matches(league, args.game, agent=args.agent, limit=args.limit)
+        matches = recent_matches(league, args.game, agent=args.agent, limit=args.limit, server=args.server)
     if args.json:
         emit_json({"game_id": args.game, "matches": matches})
         return 0
-    table = Table(title=f"last {len(matches)} matches of {args.game}")
-    for column in ("match", "seed", "result", "replay"):
-        table.add_column(column)
+    rows = []
     for m in matches:
         teams: dict[int, list[str]] = {}
         for seat in m["seats"]:
             teams.setdefault(seat["team"], [])
             if seat["agent"] not in teams[seat["team"]]:
                 teams[seat["team"]].append(f"{seat['agent']} ({seat['outcome']})")
-        table.add_row(m["match_key"], str(m["seed"])[:10], " vs ".join("+".join(v) for v in teams.values()),
-                      m["replay"] or "")
-    stdout.print(table)
+        rows.append((str(m["id"]), str(m["seed"]), " vs ".join("+".join(v) for v in teams.values()), m["page"],
+                     m["replay"] or f"none: `arena-league replay {m['id']} --record`"))
+    _print_table(f"last {len(matches)} matches of {args.game}", ("match", "seed", "result", "page", "replay"),
+                 [tuple(escape(cell) for cell in row) for row in rows])
     return 0
 
 
@@ -387,15 +386,26 @@ def cmd_scheduler(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from arena_league.league import replay_summary
+    from arena_league.league import match_page, match_replay_file, replay_summary
 
-    document = replay_summary(args.file, gif=args.gif, fps=args.fps, every=args.every)
+    path, match = Path(args.file), None
+    if path.exists() or path.suffix == ".mcap":
+        if args.record:
+            raise CommandError("--record is for a match id (e.g. `arena-league replay 265 --record`), not a file")
+    else:
+        with _league(args) as league:
+            match, path = match_replay_file(league, args.file, record=args.record)
+    document = replay_summary(path, gif=args.gif, fps=args.fps, every=args.every)
+    if match is not None:  # the league's id, as `matches` and the web show it, before the file's own
+        document = {"match": match, "page": match_page(match), **document}
     if args.gif:
         stderr.print(f"wrote {args.gif} ({document['gif']['frames']} frames)")
     if args.json:
         emit_json(document)
     else:
-        _print_record(f"replay {args.file}", {k: v for k, v in document.items() if not isinstance(v, (dict, list))})
+        skip = {"match_id"} if match is not None else set()
+        _print_record(f"replay {path}" if match is None else f"replay of match {match}",
+                      {k: v for k, v in document.items() if not isinstance(v, (dict, list)) and k not in skip})
     return 0
 
 
@@ -520,7 +530,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
     from arena_league.league import agent_detail
 
     with _league(args) as league:
-        detail = agent_detail(league, args.name)
+        detail = agent_detail(league, args.name, game_id=args.game)
     if args.json:
         emit_json(detail)
         return 0
@@ -530,7 +540,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
         stdout.print("versions: " + ", ".join(f"{v['name']} ({v['status']})" for v in detail["versions"]),
                      highlight=False)
     for forfeit in detail["forfeits"][:5]:
-        stdout.print(f"forfeited {forfeit['match_key']} (job {forfeit['job_id']}): it {escape(forfeit['reason'])}",
+        stdout.print(f"forfeited in match {forfeit['match']} (job {forfeit['job_id']}): it {escape(forfeit['reason'])}",
                      highlight=False)
     for placed in detail["placements"][:5]:
         stdout.print(f"placed against {placed.get('base')}: rating {placed.get('rating', float('nan')):.0f} "
@@ -597,7 +607,7 @@ def cmd_reinstate(args: argparse.Namespace) -> int:
     from arena_league.league import reinstate_agent
 
     with _league(args) as league:
-        document = reinstate_agent(league, args.name)
+        document = reinstate_agent(league, args.name, args.game)
     if args.json:
         emit_json(document)
     else:
@@ -879,7 +889,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--members", nargs="+", default=None, metavar="NAME_OR_PATH",
                    help="rank every member instead and report their mean rank and percentile with intervals: agent "
                         "names, .onnx files, arena-policy folders, a population folder or a folder of agents")
-    p.add_argument("--game", default=None, help="--members given as files: their game (a population folder says it)")
+    p.add_argument("--game", default=None, help="the agent's game, where its short name (e.g. random) is another "
+                                                "game's too; --members given as files: their game (a population "
+                                                "folder says it)")
     p.add_argument("--budget", type=_positive_int, default=200,
                    help="at most this many matches played now (default 200)")
     p.add_argument("--more", type=_positive_int, default=None, metavar="N",
@@ -934,6 +946,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("game", help="the game id")
     p.add_argument("--agent", default=None, help="only this agent's matches")
     p.add_argument("--limit", type=_positive_int, default=20, help="how many (default 20)")
+    p.add_argument("--server", default=os.environ.get("ARENA_LEAGUE_URL"),
+                   help="the web service's address, e.g. http://127.0.0.1:8000, to link each match's page in full "
+                        "(default: $ARENA_LEAGUE_URL; without it, the page's path)")
     _league_options(p)
     p.set_defaults(func=cmd_matches)
 
@@ -943,7 +958,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_agents)
 
     p = command("agent", "one agent in full: validation log, populations, placements, recent matches")
-    p.add_argument("name", help="the agent's name")
+    p.add_argument("name", help="the agent's name, or its short name on a board (random for random@GAME)")
+    p.add_argument("--game", default=None, help="the agent's game, where its short name is another game's too")
     _league_options(p)
     p.set_defaults(func=cmd_agent)
 
@@ -966,7 +982,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_token)
 
     p = command("reinstate", "make a suspended agent active again (its next forfeit suspends it again)")
-    p.add_argument("name", help="the suspended agent's name")
+    p.add_argument("name", help="the suspended agent's name (or its short name on a board)")
+    p.add_argument("--game", default=None, help="the agent's game, where its short name is another game's too")
     _league_options(p)
     p.set_defaults(func=cmd_reinstate)
 
@@ -1018,12 +1035,15 @@ def build_parser() -> argparse.ArgumentParser:
     _league_options(p)
     p.set_defaults(func=cmd_scheduler)
 
-    p = command("replay", "summarise an MCAP match replay; export a GIF of its top-down view")
-    p.add_argument("file", help="the .mcap replay (see `arena-league matches GAME`)")
+    p = command("replay", "summarise a match's MCAP replay; export a GIF of its top-down view")
+    p.add_argument("file", help="a match id (as `arena-league matches GAME` and its page show it, e.g. 265) or an "
+                                ".mcap replay file")
+    p.add_argument("--record", action="store_true",
+                   help="a match without a replay: play it again here and record it first (it ends as stored)")
     p.add_argument("--gif", default=None, help="also write the top-down view as an animated GIF here")
     p.add_argument("--fps", type=float, default=10.0, help="GIF frames per second (default 10)")
     p.add_argument("--every", type=_positive_int, default=1, help="keep one frame in N (default 1)")
-    _json_option(p)
+    _league_options(p)
     p.set_defaults(func=cmd_replay)
 
     p = command("population", "populations: list, build GAME, import FOLDER, export, pull GAME [NAME], index")

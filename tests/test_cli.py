@@ -133,7 +133,7 @@ def test_default_quickstart_ranks_the_example_against_crossroads_base_population
 
 
 def test_leaderboard_of_an_empty_league_says_what_to_do(capsys, league_args):
-    code, doc = run(capsys, "leaderboard", GAME, *league_args, "--json")
+    code, doc = run(capsys, "leaderboard", "Crossroads-2T1P-v1", *league_args, "--json")  # no base ships for it
     assert code == 2 and "arena-league evaluate" in doc["error"]
 
 

@@ -203,7 +203,7 @@ def test_every_option_has_help_and_every_league_command_takes_home_and_db():
 
 def test_errors_are_one_line_on_stderr_and_debug_shows_the_traceback(capsys, home):
     code, doc, err = run(capsys, "rank", "nobody", "--json")
-    assert code == 2 and doc["kind"] == "ValueError" and "Traceback" not in err
+    assert code == 2 and doc["kind"] == "NotFoundError" and "Traceback" not in err
     with pytest.raises(ValueError, match="no agent"):
         main(["rank", "nobody", "--debug"])
 

@@ -20,7 +20,7 @@ sync_api = playwright_or_skip()
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory) -> Server:
-    with running_server(tmp_path_factory.mktemp("play") / "home", workers=0) as running:
+    with running_server(tmp_path_factory.mktemp("play") / "home", workers=1) as running:  # its worker imports
         yield running
 
 
@@ -28,6 +28,12 @@ def server(tmp_path_factory) -> Server:
 def browser():
     with chromium(sync_api) as launched:
         yield launched
+
+
+def wait_for_the_base(page) -> None:
+    """A game's first play page queues the import of its shipped base population (a worker's job,
+    never the page's) and reloads itself once the job is done."""
+    sync_api.expect(page.locator("#importing")).to_have_count(0, timeout=180_000)
 
 
 def gobang_cells(size: int = 15) -> list[tuple[int, int]]:
@@ -46,8 +52,10 @@ def test_a_person_plays_gobang_to_the_end_by_clicking_and_lands_on_the_leaderboa
     page.goto(f"{server.url}/signin?next=/play/GoBang-2T1P-v1")
     page.fill('input[name="token"]', token)
     page.click('button[type="submit"]')
+    # the first page of the league's game queues the import of its shipped base population
+    sync_api.expect(page.locator("#importing")).to_contain_text("Importing base-v2 of GoBang-2T1P-v1 (job ")
+    wait_for_the_base(page)
     page.click('[data-role="start"]')
-    # the first game of the league imports the shipped base population, then the match begins
     sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "your-move", timeout=120_000)
     seats = page.locator('[data-role="seats"] li')
     sync_api.expect(seats).to_have_count(2)
@@ -92,6 +100,7 @@ def test_a_guest_turns_a_snake_with_the_arrow_keys(server, browser):
     page = browser.new_page(viewport={"width": 1280, "height": 1000})
     page.set_default_timeout(60_000)
     page.goto(f"{server.url}/play/Snake-2T2P-v1")
+    wait_for_the_base(page)
     page.fill('[data-role="guest"]', "snaky")
     page.click('[data-role="start"]')
     sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "playing", timeout=120_000)

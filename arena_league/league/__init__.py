@@ -32,7 +32,7 @@ from arena_league import lazy_exports
 
 #: Submodule -> the names this package offers from it.
 _EXPORTS: dict[str, tuple[str, ...]] = {
-    "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent"),
+    "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent", "resolve_agent"),
     "catalog": ("check_game", "game_ids", "game_rows", "verify_social_tree"),
     "errors": (
         "USER_ERRORS", "ForbiddenError", "JobCancelledError", "JobFailedError", "JobInterrupted", "NotFoundError",
@@ -44,11 +44,12 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "human": ("Ladder", "LiveMatch", "play_human"),
     "live": ("LivePlay", "player_of"),
     "jobs": ("cancel_job", "evaluation_payload", "follow_job", "job_detail", "job_rows"),
-    "matches": ("match_replay", "match_view", "queue_replay"),
+    "matches": ("find_match", "match_page", "match_replay", "match_replay_file", "match_view", "queue_replay"),
     "leaderboards": ("Leaderboard", "render_terminal"),
     "populations": (
-        "describe_population", "ensure_population", "export_population", "game_population", "import_population",
-        "list_populations", "list_shipped", "queue_import", "shipped_population",
+        "base_import", "base_to_import", "describe_population", "ensure_population", "export_population",
+        "game_population", "import_population", "list_populations", "list_shipped", "queue_import",
+        "shipped_population",
     ),
     "population_index": ("index_differences", "pull_population", "shipped_rows", "write_index"),
     "replays": ("replay_document", "replay_summary"),

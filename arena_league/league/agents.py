@@ -12,11 +12,12 @@ from typing import Any
 
 from arena_league import registry as reg
 from arena_league.league.errors import NotFoundError
-from arena_league.league.home import did_you_mean
+from arena_league.league.home import did_you_mean, short_name
 from arena_league.league.versions import version_rows
 from arena_league.registry import League
 
-__all__ = ["agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent", "require_agent"]
+__all__ = ["agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent", "require_agent",
+           "resolve_agent"]
 
 
 def latest_placements(session: Any, game_id: str | None = None, *, base: str | None = None
@@ -59,13 +60,42 @@ def frozen_ratings(session: Any, game_id: str | None) -> dict[str, tuple[float, 
     return ratings
 
 
-def require_agent(session: Any, name: str) -> reg.Agent:
-    """The agent ``name``; a missing one raises with the closest names."""
+def require_agent(session: Any, name: str, game_id: str | None = None) -> reg.Agent:
+    """The agent ``name``: its full name, or the short name a board shows (``random`` for
+    ``random@<game>``) when one agent (of ``game_id``, when given) carries it. A missing or
+    ambiguous name raises, naming the agents it could be and the fix."""
     agent = reg.get_agent(session, name)
-    if agent is None:
-        every = [a.name for a in reg.list_agents(session)]
-        raise NotFoundError(f"there is no agent {name!r}.{did_you_mean(name, every)} See `arena-league agents`")
-    return agent
+    if agent is not None and (game_id is None or agent.game_id == game_id):
+        return agent
+    every = reg.list_agents(session)
+    if agent is not None:
+        raise NotFoundError(f"agent {name} plays {agent.game_id}, not {game_id}; give an agent of {game_id} (see "
+                            f"`arena-league agents {game_id}`)")
+    same = [a for a in every if short_name(a.name, a.game_id) == name and a.name != name]
+    if game_id is not None:
+        mine = [a for a in same if a.game_id == game_id]
+        if not mine and same:
+            raise NotFoundError(f"{game_id} has no agent {name!r}; {' and '.join(a.name for a in same)} "
+                                f"{'play' if len(same) > 1 else 'plays'} another game (see "
+                                f"`arena-league agents {game_id}`)")
+        same = mine
+    if len(same) == 1:
+        return same[0]
+    if same:
+        names = ", ".join(sorted(a.name for a in same))
+        raise NotFoundError(f"{name!r} is the short name of {len(same)} agents ({names}); give the full name, or "
+                            "the game with --game GAME")
+    pool = [a for a in every if game_id is None or a.game_id == game_id]
+    known = {a.name for a in pool} | {short_name(a.name, a.game_id) for a in pool}
+    where = f" of {game_id}" if game_id else ""
+    listing = f"`arena-league agents{' ' + game_id if game_id else ''}`"
+    raise NotFoundError(f"there is no agent {name!r}{where}.{did_you_mean(name, known)} See {listing}")
+
+
+def resolve_agent(league: League, name: str, game_id: str | None = None) -> str:
+    """The full name of the agent ``name`` (see :func:`require_agent`)."""
+    with league.reading() as session:
+        return require_agent(session, name, game_id).name
 
 
 def agent_rows(league: League, game_id: str | None = None) -> list[dict[str, Any]]:
@@ -94,11 +124,11 @@ def agent_rows(league: League, game_id: str | None = None) -> list[dict[str, Any
         return rows
 
 
-def agent_detail(league: League, name: str, *, matches: int = 10) -> dict[str, Any]:
-    """One agent in full: its record, validation log, populations, placements (newest first) and
-    its last ``matches`` matches."""
+def agent_detail(league: League, name: str, *, matches: int = 10, game_id: str | None = None) -> dict[str, Any]:
+    """One agent in full (``name`` as :func:`require_agent` takes it): its record, validation log,
+    populations, placements (newest first) and its last ``matches`` matches."""
     with league.reading() as session:
-        agent = require_agent(session, name)
+        agent = require_agent(session, name, game_id)
         placements = [placement_result(job.result) for job in reg.list_jobs(session, status="done", kind="rank")
                       if (job.result or {}).get("agent") == agent.name]
         populations = [f"{p.name}:{p.version}" for p in reg.list_populations(session, game_id=agent.game_id)
@@ -122,24 +152,33 @@ def agent_detail(league: League, name: str, *, matches: int = 10) -> dict[str, A
         }
 
 
-def reinstate_agent(league: League, name: str) -> dict[str, Any]:
+def reinstate_agent(league: League, name: str, game_id: str | None = None) -> dict[str, Any]:
     """Make a suspended agent active again (its forfeits stay counted: the next one suspends it
     again); returns its name, status and the forfeits it carries."""
     with league.transaction() as session:
-        agent = require_agent(session, name)
+        agent = require_agent(session, name, game_id)
         if agent.status != "suspended":
-            raise ValueError(f"agent {name} is {agent.status}, not suspended; only a suspended agent is reinstated")
+            raise ValueError(f"agent {agent.name} is {agent.status}, not suspended; only a suspended agent is reinstated")
         reg.set_agent_status(session, agent, "active")
         forfeited = reg.forfeit_counts(session, [agent.id]).get(agent.id, 0)
         return {"name": agent.name, "status": agent.status, "matches_forfeited": forfeited}
 
 
-def recent_matches(league: League, game_id: str, *, agent: str | None = None, limit: int = 20) -> list[dict[str, Any]]:
-    """The last ``limit`` matches of a game (optionally those of one agent), newest first."""
+def recent_matches(league: League, game_id: str, *, agent: str | None = None, limit: int = 20,
+                   server: str | None = None) -> list[dict[str, Any]]:
+    """The last ``limit`` matches of a game (optionally those of one agent), newest first: each
+    with its id (the one its page, ``/matches/<id>``, and ``arena-league replay`` take), its stored
+    key, seed, replay file and seats; ``page`` is the page's path, or its address on ``server``."""
+    from arena_league.envs import game_spec
+    from arena_league.league.matches import match_page
+
+    game_spec(game_id)  # an unknown id raises with the valid ones
+    match_page(0, server)  # a malformed address raises before the league is read
     with league.reading() as session:
-        agent_id = reg.require_agent(session, agent).id if agent else None
+        agent_id = require_agent(session, agent, game_id).id if agent else None
         matches = reg.list_matches(session, game_id, agent_id=agent_id)[-limit:]
-        return [{"match_key": m.match_key, "seed": m.seed, "replay": m.replay_path,
+        return [{"id": m.id, "page": match_page(m.id, server), "match_key": m.match_key, "seed": m.seed,
+                 "replay": m.replay_path,
                  "created_at": m.created_at.isoformat(timespec="seconds"),
                  "seats": [{"seat": s.seat, "agent": s.agent.name, "team": s.team, "score": s.score,
                             "outcome": s.outcome, "position": s.position} for s in m.seats]}

@@ -62,6 +62,12 @@ def _summary(job: reg.Job) -> str:
         return f"a social tree of {payload.get('game_id')}, {payload.get('samples')} sampled pairs"
     if job.kind == "preview":
         return f"one match of {payload.get('game_id')} under a social tree"
+    if job.kind == "import":
+        return f"{payload.get('population')} of {payload.get('game_id')}, shipped with arena-league"
+    if job.kind == "replay":
+        return f"match {payload.get('match')} played again and recorded"
+    if job.kind == "validate":
+        return f"{payload.get('agent')}, uploaded"
     return ""
 
 

@@ -17,7 +17,8 @@ from arena_league import registry as reg
 from arena_league.league.errors import NotFoundError
 from arena_league.registry import League
 
-__all__ = ["handle_replay", "match_replay", "match_view", "queue_replay"]
+__all__ = ["find_match", "handle_replay", "match_page", "match_replay", "match_replay_file", "match_view",
+           "queue_replay"]
 
 _JOB_MATCH_KEY = re.compile(r"^job:(?P<job>[0-9]+):(?P<match>[0-9]+)$")
 
@@ -27,6 +28,57 @@ def _match(session: Any, match_id: int) -> reg.Match:
     if match is None:
         raise NotFoundError(f"there is no match {match_id}")
     return match
+
+
+def match_page(match_id: int, server: str | None = None) -> str:
+    """Where the web service shows a match (the same id everywhere): its page's path, or its whole
+    address on ``server`` (e.g. ``http://127.0.0.1:8000``) when given."""
+    path = f"/matches/{match_id}"
+    if not server:
+        return path
+    if not server.startswith(("http://", "https://")):
+        raise ValueError(f"the server address {server!r} must start with http:// or https://, e.g. "
+                         "http://127.0.0.1:8000")
+    return server.rstrip("/") + path
+
+
+def find_match(session: Any, match: str | int, game_id: str | None = None) -> reg.Match:
+    """The match ``match``: its id (``265``, as ``arena-league matches`` and its page show it) or
+    its stored key (``job:6:6291471``); of ``game_id`` when given. A miss raises with the fix."""
+    text = str(match).strip()
+    found = None
+    if text.isdigit():
+        found = reg.get_match_by_id(session, int(text))
+    elif _JOB_MATCH_KEY.match(text):
+        found = reg.get_match(session, text)
+    else:
+        raise ValueError(f"{text!r} is not a match id; give the number `arena-league matches GAME` shows in its "
+                         "match column (e.g. 265)")
+    if found is None:
+        raise NotFoundError(f"there is no match {text}; `arena-league matches GAME` lists the stored ones")
+    if game_id is not None and found.game_id != game_id:
+        raise NotFoundError(f"match {text} is a match of {found.game_id}, not {game_id}; see `arena-league matches "
+                            f"{game_id}`")
+    return found
+
+
+def match_replay_file(league: League, match: str | int, *, record: bool = False) -> tuple[int, Path]:
+    """The id and replay file of the match ``match`` (see :func:`find_match`); with ``record``, a
+    match without one is played again here and recorded first (as the job of :func:`queue_replay`)."""
+    with league.reading() as session:
+        found = find_match(session, match)
+        match_id, path = found.id, found.replay_path
+    if path and Path(path).is_file():
+        return match_id, Path(path)
+    if not record:
+        raise NotFoundError(f"match {match_id} has no recorded replay yet; record it with `arena-league replay "
+                            f"{match_id} --record` (or on its page {match_page(match_id)})")
+    from arena_league.league.service import job_handlers
+
+    job_id = queue_replay(league, match_id)
+    reg.run_job_now(league, job_id, job_handlers())
+    with league.reading() as session:
+        return match_id, Path(find_match(session, match_id).replay_path)
 
 
 def match_view(league: League, match_id: int) -> dict[str, Any]:

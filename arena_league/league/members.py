@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from arena_league import registry as reg
-from arena_league.league.home import did_you_mean
+from arena_league.league.agents import require_agent
+from arena_league.league.errors import NotFoundError
 from arena_league.rating.aggregate import stratified_bootstrap_ci
 
 __all__ = ["MembersReport", "member_sources", "rank_members"]
@@ -107,15 +107,12 @@ def rank_members(league: Any, members: Sequence[str], *, game_id: str | None = N
             sources += found
             continue
         with league.reading() as session:
-            agent = reg.get_agent(session, item)
-            if agent is None:
-                every = [a.name for a in reg.list_agents(session)]
-                raise ValueError(f"{item!r} is neither a path nor an agent of this league."
-                                 f"{did_you_mean(item, every)} See `arena-league agents`")
-            if game_id and agent.game_id != game_id:
-                raise ValueError(f"{item} plays {agent.game_id}, not {game_id}: a population's members play one game")
+            try:
+                agent = require_agent(session, item, game_id)
+            except NotFoundError as error:
+                raise ValueError(f"{item!r} is neither a path nor an agent to rank here: {error}") from None
             game_id = agent.game_id
-        names.append(item)
+        names.append(agent.name)
     if sources and game_id is None:
         raise ValueError("the members' game is not known from their files; give it with --game GAME")
     for path, name in sources:

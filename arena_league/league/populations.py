@@ -59,6 +59,8 @@ from arena_league.registry import League
 __all__ = [
     "POPULATION_MANIFEST",
     "SHIPPED_POPULATIONS",
+    "base_import",
+    "base_to_import",
     "default_population",
     "describe_population",
     "ensure_population",
@@ -168,14 +170,31 @@ def game_population(league: League, game_id: str, *, import_shipped: bool = True
 
 def default_population(league: League, game_id: str, *, import_shipped: bool = True) -> tuple[str | None, bool]:
     """:func:`game_population` and whether it imported the shipped population just now."""
-    shipped = shipped_populations(game_id) if import_shipped else []
-    superseded = set(shipped[:-1])  # shipped populations with a newer one shipped
     with league.reading() as session:
         frozen = [p for p in reg.list_populations(session, game_id=game_id) if p.frozen]
         newest = max(frozen, key=lambda p: (p.created_at, p.id)) if frozen else None
-        if newest is not None and newest.name not in superseded:
-            return f"{newest.name}:{newest.version}", False
-    return (import_shipped_population(league, game_id, shipped[-1])[0], True) if shipped else (None, False)
+        label = f"{newest.name}:{newest.version}" if newest is not None else None
+    name = base_to_import(league, game_id) if import_shipped else None
+    if name is None:
+        return label, False
+    return import_shipped_population(league, game_id, name)[0], True
+
+
+def base_to_import(league: League, game_id: str) -> str | None:
+    """The name of the shipped population :func:`game_population` would import now (the league
+    has no frozen population of the game, or only shipped ones the package has since superseded),
+    or None."""
+    shipped = shipped_populations(game_id)
+    if not shipped:
+        return None
+    from sqlalchemy import select
+
+    superseded = set(shipped[:-1])  # shipped populations with a newer one shipped
+    with league.reading() as session:  # the newest frozen one's name alone: boards ask this on every view
+        newest = session.scalar(select(reg.Population.name)
+                                .where(reg.Population.game_id == game_id, reg.Population.frozen.is_(True))
+                                .order_by(reg.Population.created_at.desc(), reg.Population.id.desc()).limit(1))
+    return shipped[-1] if newest is None or newest in superseded else None
 
 
 def ensure_population(league: League, game_id: str, population: str = "base-v1") -> tuple[str, bool]:
@@ -438,7 +457,7 @@ def export_population(league: League, population: str, destination: str | Path, 
 def queue_import(league: League, game_id: str, population: str | None = None) -> int:
     """Queue the import of a population shipped with arena-league for ``game_id`` (default: the
     newest shipped; its members are validated: agent code, run by a worker, never by the caller);
-    returns the job id."""
+    returns the job id: that of the import of the same population already queued or running, if any."""
     shipped = shipped_populations(game_id)
     if population is None:
         population = shipped[-1] if shipped else "base-v1"
@@ -450,8 +469,36 @@ def queue_import(league: League, game_id: str, population: str | None = None) ->
         raise ValueError(f"the population {name} shipped for {game_id} is not on this machine; fetch it with "
                          f"`arena-league population pull {game_id} {name}`")
     register_game(league, game_id)
+    payload = {"game_id": game_id, "population": name}
     with league.transaction() as session:
-        return reg.enqueue(session, "import", {"game_id": game_id, "population": name}, priority=80).id
+        for status in ("running", "queued"):
+            for job in reg.list_jobs(session, status=status, kind="import"):
+                if job.payload == payload:
+                    return job.id
+        return reg.enqueue(session, "import", payload, priority=80).id
+
+
+def base_import(league: League, game_id: str) -> dict[str, Any] | None:
+    """For a view that needs the base population of ``game_id`` while the league lacks the shipped
+    one (:func:`base_to_import`): its import, queued now unless one is queued, running or has
+    failed (a failed one is shown, not retried on every view), as ``game_id``, ``population``,
+    ``job`` and its ``state`` and ``error``. None when there is nothing to import."""
+    name = base_to_import(league, game_id)
+    if name is None:
+        return None
+    if locate_population(game_id, name) is None:  # shipped, but its files are not on this machine
+        return {"game_id": game_id, "population": name, "job": None, "state": "missing",
+                "error": f"the population {name} shipped for {game_id} is not on this machine; fetch it with "
+                         f"`arena-league population pull {game_id} {name}`"}
+    payload = {"game_id": game_id, "population": name}
+    with league.reading() as session:
+        last = next((job for job in reg.list_jobs(session, kind="import") if job.payload == payload), None)
+        seen = None if last is None else (last.id, last.status, (last.error or "").strip().splitlines())
+    if seen is None or seen[1] == "cancelled":
+        job_id = queue_import(league, game_id, name)
+        seen = (job_id, "queued", [])
+    return {"game_id": game_id, "population": name, "job": seen[0], "state": seen[1],
+            "error": seen[2][-1] if seen[2] else None}
 
 
 def handle_import(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:

@@ -42,7 +42,13 @@ from arena_league.league.leaderboards import (
     compute_leaderboard,
     population_leaderboard,
 )
-from arena_league.league.populations import ensure_population, game_population, require_population
+from arena_league.league.populations import (
+    base_to_import,
+    ensure_population,
+    game_population,
+    require_population,
+    shipped_population,
+)
 from arena_league.matchmaking import (
     AgentRef,
     MatchResult,
@@ -978,7 +984,8 @@ def _nash_of(rows: list[dict[str, Any]], agents: list[str], nash_averaging) -> t
 # --- leaderboards ----------------------------------------------------------------------------------
 
 def leaderboard(league: League, game_id: str, method: str = "bt", *, population: str | None = None,
-                rounds: int = 100, seed: int = 0, save: bool = True, import_shipped: bool = True) -> Leaderboard:
+                rounds: int = 100, seed: int = 0, save: bool = True, import_shipped: bool = True,
+                log: Callable[[str], None] | None = None) -> Leaderboard:
     """The leaderboard of ``game_id`` by ``method`` (bt, elo, openskill, nash or alpharank); its
     ratings are kept as a snapshot in the registry.
 
@@ -996,14 +1003,19 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
     their frozen ratings and intervals, every other active or retired agent of the game at its
     latest placement against that population (the result of its newest finished ``rank`` job
     against it), or pending until it has one. Any other board re-rates its agents (the
-    population's members, or every agent) from the matches stored among them.
+    population's members, or every agent) from the matches stored among them. ``log`` hears of a
+    shipped population imported first.
     """
     game_spec(game_id)
+    imports = population is None and method == "bt" and import_shipped
     with league.reading() as session:
-        if reg.get_game(session, game_id) is None:
-            raise ValueError(f"no matches of {game_id} in this league yet; play some with "
-                             f"`arena-league evaluate {game_id}`")
+        known = reg.get_game(session, game_id) is not None
+    if not known and not (imports and shipped_population(game_id) is not None):
+        raise ValueError(_no_board(game_id, method))
     if population is None and method == "bt":
+        if imports and log is not None and (folder := base_to_import(league, game_id)) is not None:
+            log(f"importing {folder.name} of {game_id}, shipped with arena-league (first use: every member is "
+                "validated once)")
         population = game_population(league, game_id, import_shipped=import_shipped)
     scope = None if population in (None, LEAGUE_WIDE) else population
     with league.reading() as session:
@@ -1038,6 +1050,17 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
                 population=snapshot_population, scope="placements" if snapshot_population else scope or "all",
                 params={"rounds": rounds, "seed": seed, "basis": board.basis})
     return board
+
+
+def _no_board(game_id: str, method: str) -> str:
+    """Why a game the league has never seen has no board, and what makes one."""
+    shipped = shipped_population(game_id)
+    if shipped is not None:
+        return (f"{game_id} has no agents in this league yet, so its {method} board is empty; `arena-league "
+                f"leaderboard {game_id}` imports the shipped base population {shipped.name} and shows it")
+    return (f"{game_id} has no agents in this league yet and no base population ships for it; submit agents "
+            f"(`arena-league submit PATH --game {game_id} --name NAME`), then play them (`arena-league evaluate "
+            f"{game_id}`)")
 
 
 def _frozen_ratings(population: reg.Population) -> dict[str, FrozenRating] | None:

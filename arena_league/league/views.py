@@ -2,8 +2,9 @@
 
 Each page of ``arena-league serve`` renders one of these documents, and its ``.json`` twin returns
 it as it is, so a page never knows more than its JSON. They read the registry only: nothing here
-runs agent code or imports a population (a board of a game whose shipped base is not imported yet
-is the league-wide one until a job imports it).
+runs agent code or imports a population: a page that needs a game's shipped base population
+before the league has it queues the job that imports it (once) and says so, showing the board the
+league has until the job is done.
 
 Leaderboards are the expensive part (a bootstrap over every stored match), so
 :class:`LeaderboardCache` keeps each board computed once per state of the league: a board is
@@ -134,7 +135,7 @@ class LeaderboardCache:
     def _compute(self, league: League, game_id: str, method: str, state: tuple) -> dict[str, Any]:
         from arena_league.league.service import leaderboard
 
-        if state[0] is None:  # no match of the game yet
+        if state[0] is None and not state[3]:  # no match of the game yet, and no frozen population to show
             return {"game_id": game_id, "method": method, "rows": [], "n_matches": 0, "n_agents": 0,
                     "population": None, "basis": "matches", "rating_label": "rating", "level": 0.95}
         return leaderboard(league, game_id, method, import_shipped=False).to_dict()
@@ -172,8 +173,13 @@ def game_view(league: League, cache: LeaderboardCache, game_id: str, *, method: 
               kind: str | None = None, owner: str | None = None, sort: str | None = None,
               viewer: Identity | None = None) -> dict[str, Any]:
     """A game's page: its board by ``method`` (rows filtered by ``kind`` and ``owner``, sorted by
-    ``sort``), the viewer's own agents marked, the scale of the interval bars, and the win-rate
-    heatmap of the top agents."""
+    ``sort``), the viewer's own agents marked, the scale of the interval bars, the win-rate
+    heatmap of the top agents, and (``importing``) the import of the game's shipped base population
+    while the league lacks it (:func:`~arena_league.league.populations.base_import`)."""
+    from arena_league.league.populations import base_import
+
+    _require_game(game_id)
+    importing = base_import(league, game_id) if method == "bt" else None
     board = cache.board(league, game_id, method)
     with league.reading() as session:
         owners = {a.name: a.owner for a in reg.list_agents(session, game_id=game_id)}
@@ -202,7 +208,7 @@ def game_view(league: League, cache: LeaderboardCache, game_id: str, *, method: 
             "level": board.get("level"), "n_matches": board.get("n_matches"), "n_agents": len(rows),
             "rank_legend": board.get("rank_legend"), "notes": board.get("notes") or [],
             "filters": {"kind": kind, "owner": owner, "sort": sort, "kinds": kinds, "owners": listed_owners},
-            "scale": scale, "rows": shown, "heatmap": _heatmap(league, game_id, board, rows)}
+            "scale": scale, "rows": shown, "heatmap": _heatmap(league, game_id, board, rows), "importing": importing}
 
 
 def _heatmap(league: League, game_id: str, board: dict[str, Any], rows: Sequence[dict[str, Any]]
@@ -289,8 +295,8 @@ def agent_view(league: League, name: str, *, viewer: Identity | None = None,
         against.sort(key=lambda r: (r["rating"] is None, r["rating"] or 0.0))
     view = {key: detail[key] for key in ("name", "game_id", "kind", "status", "owner", "created_at", "reason",
                                          "matches_played", "matches_forfeited", "populations")}
-    view.update(standing=_standing(league, boards, game_id, name) if boards is not None else None,
-                versions=series_versions(league, name), placements=detail["placements"], against=against,
+    view.update(standing=_standing(league, boards, game_id, detail["name"]) if boards is not None else None,
+                versions=series_versions(league, detail["name"]), placements=detail["placements"], against=against,
                 recent_matches=matches, private=private, mine=viewer is not None and viewer.owner == detail["owner"])
     if private:
         view.update(validation_log=detail["validation_log"], forfeits=detail["forfeits"])
@@ -330,7 +336,9 @@ def agent_log(league: League, name: str, viewer: Identity | None) -> dict[str, A
 # --- jobs ---------------------------------------------------------------------------------------------
 
 def job_view(league: League, job_id: int) -> dict[str, Any]:
-    """A job as a page shows it: state, progress, result (the error's last line when it failed)."""
+    """A job as a page shows it: state, progress (a bar that ends where the job ended, with a line
+    saying so), result (the error's last line when it failed), and in words: ``summary``, what the
+    job found or made, and ``links`` to it (the agent's page, the match and its replay, the board)."""
     from arena_league.league.jobs import job_detail
 
     try:
@@ -339,9 +347,89 @@ def job_view(league: League, job_id: int) -> dict[str, Any]:
         raise NotFoundError(f"there is no job {job_id}") from None
     error = (detail["error"] or "").strip().splitlines()
     payload = detail["payload"] or {}
-    return {"id": detail["id"], "kind": detail["kind"], "state": detail["status"], "progress": detail["progress"],
-            "result": detail["result"], "error": error[-1] if error else None, "what": detail["what"],
+    state, result = detail["status"], detail["result"]
+    finished = state in ("done", "failed", "cancelled")
+    summary, links = _job_outcome(detail["id"], detail["kind"], state, payload, result if isinstance(result, dict) else {},
+                                  error[-1] if error else None)
+    return {"id": detail["id"], "kind": detail["kind"], "state": state,
+            "progress": _job_progress(detail["kind"], state, payload, detail["progress"], result, error),
+            "result": result, "error": error[-1] if error else None, "what": detail["what"],
             "game_id": detail["game_id"], "agent": payload.get("agent"), "attempts": detail["attempts"],
             "created_at": detail["created_at"], "started_at": detail["started_at"],
             "finished_at": detail["finished_at"], "matches_stored": detail["matches_stored"],
-            "finished": detail["status"] in ("done", "failed", "cancelled")}
+            "finished": finished, "summary": summary, "links": links}
+
+
+def _job_progress(kind: str, state: str, payload: dict[str, Any], progress: dict[str, Any] | None, result: Any,
+                  error: list[str]) -> dict[str, Any] | None:
+    """``done`` of ``total`` and the ``label`` beside the bar; a finished job's bar is full, its
+    label saying how far it got when it stopped short of its total, and why."""
+    done = int((progress or {}).get("done") or 0)
+    total = int((progress or {}).get("total") or 0)
+    if state in ("queued", "running"):
+        return None if progress is None else {"done": done, "total": total, "label": f"{done} / {total}"}
+    if state == "done" and kind == "rank" and isinstance(result, dict) and result.get("matches") is not None:
+        done, total = int(result["matches"]), int(payload.get("budget") or total or result["matches"])
+        if done < total:
+            width = payload.get("target_half_width")
+            target = f" (±{width:g} places)" if isinstance(width, (int, float)) else ""
+            return {"done": total, "total": total,
+                    "label": f"stopped after {done} of {total}: the rank interval was narrow enough{target}"}
+    if state == "done":
+        total = total or 1
+        return {"done": total, "total": total, "label": f"{total} / {total}" if progress else "done"}
+    why = "cancelled" if state == "cancelled" else (error[-1] if error else "failed")
+    total = total or 1
+    return {"done": total, "total": total, "label": f"stopped after {done} of {total}: {why}"}
+
+
+def _whole(value: Any) -> str:
+    return "?" if value is None else f"{float(value):.0f}"
+
+
+def _job_outcome(job_id: int, kind: str, state: str, payload: dict[str, Any], result: dict[str, Any],
+                 error: str | None) -> tuple[str, list[dict[str, str]]]:
+    """What a job found or made, in one sentence, and links to it (``text``, ``href``, and a
+    ``role`` for the agent's page)."""
+    game = result.get("game_id") or payload.get("game_id")
+    board = [{"text": f"the {game} board", "href": f"/games/{game}"}] if game else []
+    agent = result.get("agent") or payload.get("agent")
+    agent_link = [{"text": f"{agent}'s page", "href": f"/agents/{agent}", "role": "agent"}] if agent else []
+    match = result.get("match") or payload.get("match")
+    match_link = [{"text": f"match {match}", "href": f"/matches/{match}"}] if match else []
+    if state == "failed":
+        return f"The {kind} job failed: {error or 'no reason was recorded'}.", agent_link + match_link + board
+    if state == "cancelled":
+        return f"The {kind} job was cancelled; matches it had stored stay stored.", agent_link + match_link + board
+    if state != "done":
+        return f"The {kind} job is {state}.", agent_link + match_link + board
+    if kind == "rank":
+        lower = result.get("rank_lower", result.get("rank_best"))
+        upper = result.get("rank_upper", result.get("rank_worst"))
+        size = int(result.get("base_size") or 0) + 1
+        rating, low, high = (_whole(result.get(key)) for key in ("rating", "lower", "upper"))
+        return (f"{agent} placed against {result.get('base')}: rank {result.get('rank')} of {size} ({lower}..{upper}), "
+                f"rating {rating} ({low}..{high}), after {result.get('matches')} matches.", agent_link + board)
+    if kind == "validate":
+        reason = f": {result['reason']}" if result.get("reason") else ""
+        return f"{agent} was validated: {result.get('status')}{reason}.", agent_link + board
+    if kind == "replay":
+        return (f"Match {match} was played again and ended as stored ({result.get('steps')} steps); its replay is "
+                "kept.", [*match_link, {"text": "its replay frames", "href": f"/api/matches/{match}/replay"}])
+    if kind == "evaluate":
+        agents = result.get("agents") or []
+        suspended = result.get("suspended") or {}
+        more = f"; suspended: {', '.join(suspended)}" if suspended else ""
+        played = int(result.get("played") or 0)
+        return (f"Played {played} match{'' if played == 1 else 'es'} ({result.get('stored')} new) among "
+                f"{len(agents)} agents of {game}{more}.", board)
+    if kind == "import":
+        how = "imported" if result.get("imported") else "was already imported"
+        return f"{result.get('population')} of {game} {how}.", board
+    if kind == "verify":
+        verdict = "every node behaves as declared" if result.get("ok") else "some nodes differ from their scheme"
+        return f"The social tree of {game} was verified: {verdict}.", []
+    if kind == "preview":
+        return (f"A match of {game} under the social tree was recorded ({result.get('steps')} steps).",
+                [{"text": "its replay frames", "href": f"/api/trees/previews/{job_id}"}])
+    return f"The {kind} job is done.", board

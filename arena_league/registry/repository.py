@@ -918,14 +918,15 @@ def forfeit_counts(session: Session, agent_ids: Sequence[int]) -> dict[int, int]
 
 
 def agent_forfeits(session: Session, agent: Agent, *, limit: int = 20) -> list[dict[str, Any]]:
-    """The agent's most recent forfeits, newest first: ``match_key``, ``job_id``, ``reason``, ``at``."""
+    """The agent's most recent forfeits, newest first: ``match`` (its id), ``match_key``, ``job_id``,
+    ``reason``, ``at``."""
     query = (
-        select(Match.match_key, Match.job_id, MatchSeat.forfeit, Match.created_at)
+        select(Match.id, Match.match_key, Match.job_id, MatchSeat.forfeit, Match.created_at)
         .join(MatchSeat, MatchSeat.match_id == Match.id)
         .where(MatchSeat.agent_id == agent.id, MatchSeat.forfeit.is_not(None))
         .group_by(Match.id, Match.match_key, Match.job_id, MatchSeat.forfeit, Match.created_at)
         .order_by(Match.id.desc())
         .limit(limit)
     )
-    return [{"match_key": key, "job_id": job_id, "reason": reason, "at": at}
-            for key, job_id, reason, at in session.execute(query)]
+    return [{"match": match_id, "match_key": key, "job_id": job_id, "reason": reason, "at": at}
+            for match_id, key, job_id, reason, at in session.execute(query)]

@@ -69,13 +69,18 @@ class JobState(BaseModel):
     id: int
     kind: str
     state: str = Field(description="queued, running, done, failed or cancelled")
-    progress: dict[str, Any] | None = Field(description="{'done': n, 'total': m} while it runs")
+    progress: dict[str, Any] | None = Field(description="{'done': n, 'total': m, 'label': text}: while it runs, how "
+                                                         "far it got; once it finished, a full bar and a label "
+                                                         "saying where it stopped and why")
     result: Any = None
     error: str | None = None
     what: str = ""
     game_id: str | None = None
     agent: str | None = None
     finished: bool
+    summary: str = Field("", description="what the job found or made, in words")
+    links: list[dict[str, str]] = Field([], description="{'text', 'href'} of what the job made: the agent's page, "
+                                                         "the match and its replay, the board")
 
 
 class RankRequest(BaseModel):
@@ -127,13 +132,20 @@ def games(request: Request) -> list[dict[str, Any]]:
 
 @router.get("/games/{game}/leaderboard", summary="the game's leaderboard (the `leaderboard --json` document)",
             response_class=Response, responses={200: {"content": {"application/json": {"schema": {"type": "object"}}},
-                                                      "description": "the board: rows with rating and rank intervals"}})
+                                                      "description": "the board: rows with rating and rank "
+                                                                     "intervals; while the game's shipped base "
+                                                                     "population is being imported, `importing` "
+                                                                     "names the job"}})
 def game_leaderboard(request: Request, game: str,
                      method: Method = "bt"
                      ) -> Response:
+    league = league_of(request)
+    importing = ops.base_import(league, game) if method == "bt" and game in ops.game_ids() else None
+    if importing is not None:  # the board the league has, and the import of the shipped base under way
+        board = request.app.state.boards.board(league, game, method)
+        return Response(json.dumps({**board, "importing": importing}, allow_nan=False), media_type="application/json")
     # computed once per state of the game, encoded once: a cached board is bytes off the shelf
-    return Response(request.app.state.boards.board_json(league_of(request), game, method),
-                    media_type="application/json")
+    return Response(request.app.state.boards.board_json(league, game, method), media_type="application/json")
 
 
 @router.post("/games/{game}/population", response_model=Queued, status_code=202,
@@ -169,7 +181,9 @@ def agent_log(request: Request, name: str, viewer: Viewer) -> dict[str, Any]:
 def rank(request: Request, name: str, who: Writer, options: Annotated[RankRequest | None, Body()] = None
          ) -> dict[str, int]:
     options = options or RankRequest()
-    return {"job": ops.queue_rank(league_of(request), name, budget=options.budget, seed=options.seed, who=who)}
+    league = league_of(request)
+    return {"job": ops.queue_rank(league, ops.resolve_agent(league, name), budget=options.budget, seed=options.seed,
+                                  who=who)}
 
 
 @router.post("/agents/{name}/reinstate", summary="let a suspended agent play again (administrators)")

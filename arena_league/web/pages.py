@@ -108,7 +108,9 @@ def rank(request: Request, name: str, viewer: Viewer) -> RedirectResponse:
     who = _signed_in(viewer, f"/agents/{name}")
     if isinstance(who, RedirectResponse):
         return who
-    return RedirectResponse(f"/jobs/{ops.queue_rank(league_of(request), name, who=who)}", status_code=303)
+    league = league_of(request)
+    return RedirectResponse(f"/jobs/{ops.queue_rank(league, ops.resolve_agent(league, name), who=who)}",
+                            status_code=303)
 
 
 # --- matches ------------------------------------------------------------------------------------

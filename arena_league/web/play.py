@@ -53,7 +53,8 @@ def play_index_json(request: Request) -> dict[str, Any]:
 @router.get("/play/{game}", response_class=HTMLResponse)
 def play_page(request: Request, game: str, viewer: Viewer) -> HTMLResponse:
     ops.check_game(game)  # an unknown game is a 400 naming the valid ones
-    return _page(request, "play.html", {"game_id": game}, viewer, "/play.json")
+    importing = ops.base_import(league_of(request), game)
+    return _page(request, "play.html", {"game_id": game, "importing": importing}, viewer, "/play.json")
 
 
 @router.websocket("/ws/play/{game}")
@@ -83,6 +84,16 @@ async def _session(websocket: WebSocket, league: Any, game: str, idle: float) ->
                       "as a guest")
         return
     try:
+        ops.check_game(game)
+        importing = await asyncio.to_thread(ops.base_import, league, game)
+        if importing is not None:  # importing validates agent code: a worker's job, never this connection's
+            job = f"job {importing['job']}, /jobs/{importing['job']}"
+            await _refuse(websocket, _TRY_LATER, importing["error"] if importing["state"] == "missing" else (
+                f"the import of {game}'s base population {importing['population']} failed ({job}): "
+                f"{importing['error']}; an administrator imports it again" if importing["state"] == "failed" else
+                f"{game}'s base population {importing['population']} is being imported ({job}); play once it is "
+                "done"))
+            return
         player, owner = ops.player_of(identity.owner if identity else None, websocket.query_params.get("guest"))
         live = await asyncio.to_thread(ops.LivePlay, league, game, player=player, owner=owner)
     except ops.USER_ERRORS as error:

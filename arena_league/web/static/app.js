@@ -140,6 +140,8 @@
     var state = box.querySelector('[data-role="state"]');
     var bar = box.querySelector('[data-role="progress"]');
     var count = box.querySelector('[data-role="count"]');
+    var summary = box.querySelector('[data-role="summary"]');
+    var links = box.querySelector('[data-role="links"]');
     var result = box.querySelector('[data-role="result"]');
     function show(view) {
       box.setAttribute("data-state", view.state);
@@ -147,12 +149,17 @@
       if (view.progress) {
         bar.max = view.progress.total || 1;
         bar.value = view.progress.done || 0;
-        count.textContent = view.progress.done + " / " + view.progress.total;
+        count.textContent = view.progress.label;
       }
-      if (view.finished) {
-        if (view.result) result.replaceChildren(el("pre", { "class": "log" }, JSON.stringify(view.result, null, 2)));
-        if (view.error) result.replaceChildren(el("p", { "class": "reason", "data-role": "error" }, view.error));
-        if (view.state === "done" || view.state === "failed") bar.value = bar.max;
+      summary.textContent = view.summary;
+      summary.className = view.state === "failed" ? "reason" : "summary";
+      if (!view.finished) return;
+      links.replaceChildren.apply(links, (view.links || []).map(function (link) {
+        return el("li", {}, el("a", { href: link.href, "data-role": link.role || null }, link.text));
+      }));
+      if (view.result !== null && view.result !== undefined) {
+        result.querySelector("pre").textContent = JSON.stringify(view.result, null, 2);
+        result.hidden = false;
       }
     }
     watchJob(box.getAttribute("data-job"), show).catch(function () {
@@ -160,9 +167,18 @@
     });
   }
 
+  /* A page waiting for the import of its game's base population shows it once the job is done. */
+  function followImport(notice) {
+    watchJob(notice.getAttribute("data-job")).then(function () { window.location.reload(); }, function () {
+      setTimeout(function () { window.location.reload(); }, 5000);
+    });
+  }
+
   document.addEventListener("DOMContentLoaded", function () {
     Array.prototype.forEach.call(document.querySelectorAll("table.sortable"), makeSortable);
     var job = document.getElementById("job");
     if (job && ["done", "failed", "cancelled"].indexOf(job.getAttribute("data-state")) < 0) followJob(job);
+    var importing = document.getElementById("importing");
+    if (importing && ["queued", "running"].indexOf(importing.getAttribute("data-state")) >= 0) followImport(importing);
   });
 })();
