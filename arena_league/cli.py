@@ -126,9 +126,10 @@ def _league(args: argparse.Namespace):
     return open_home(args.home, args.db)
 
 
-def _print_table(title: str, columns: tuple[str, ...], rows: list[tuple[str, ...]]) -> None:
+def _print_table(title: str, columns: tuple[str, ...], rows: list[tuple[str, ...]], caption: str | None = None
+                 ) -> None:
     """A table of text cells on stdout; long cells fold rather than being cut."""
-    table = Table(title=title)
+    table = Table(title=title, caption=caption)
     for column in columns:
         table.add_column(column, overflow="fold")
     for row in rows:
@@ -300,17 +301,11 @@ def cmd_matches(args: argparse.Namespace) -> int:
     if args.json:
         emit_json({"game_id": args.game, "matches": matches})
         return 0
-    rows = []
-    for m in matches:
-        teams: dict[int, list[str]] = {}
-        for seat in m["seats"]:
-            teams.setdefault(seat["team"], [])
-            if seat["agent"] not in teams[seat["team"]]:
-                teams[seat["team"]].append(f"{seat['agent']} ({seat['outcome']})")
-        rows.append((str(m["id"]), str(m["seed"]), " vs ".join("+".join(v) for v in teams.values()), m["page"],
-                     m["replay"] or f"none: `arena-league replay {m['id']} --record`"))
-    _print_table(f"last {len(matches)} matches of {args.game}", ("match", "seed", "result", "page", "replay"),
-                 [tuple(escape(cell) for cell in row) for row in rows])
+    rows = [(str(m["id"]), m["result"], m["page"], m["replay"] or "-") for m in matches]
+    caption = "a match without a replay records one with `arena-league replay ID --record`; seeds in --json" \
+        if any(m["replay"] is None for m in matches) else "seeds in --json"
+    _print_table(f"last {len(matches)} matches of {args.game}", ("match", "result", "page", "replay"),
+                 [tuple(escape(cell) for cell in row) for row in rows], caption=caption)
     return 0
 
 
@@ -330,7 +325,7 @@ def cmd_worker(args: argparse.Namespace) -> int:
             summary = run_worker(league, worker_id=args.worker_id, lease_seconds=args.lease,
                                  poll_seconds=args.poll, max_jobs=args.max_jobs, until_idle=args.until_idle)
         except KeyboardInterrupt:
-            stderr.print("worker stopped; the job it was running went back to the queue")
+            stderr.print("worker stopped; a job it was running, if any, went back to the queue")
             return 130
     if args.json:
         emit_json(summary.to_dict())

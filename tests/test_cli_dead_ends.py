@@ -107,3 +107,19 @@ def test_matches_links_each_page_on_the_server_it_is_given(two_games, capsys):
     assert code == 0 and match["page"] == f"http://127.0.0.1:8000/matches/{match['id']}"
     code, _, err = run(capsys, "matches", GOBANG, "--server", "localhost:8000")
     assert code == 2 and "must start with http:// or https://" in err
+
+
+def test_a_match_reads_as_one_result_per_team_in_the_table_and_its_json(two_games, capsys):
+    code, listed, _ = run(capsys, "matches", CROSSROADS, "--json")
+    assert code == 0
+    [match] = listed["matches"]
+    teams = {}
+    for seat in match["seats"]:
+        teams.setdefault(seat["team"], (short_name(seat["agent"], CROSSROADS), seat["outcome"]))
+    # two seats of a team held by one agent name it once, with the team's outcome
+    assert match["result"] == " vs ".join(f"{name} ({outcome})" for name, outcome in teams.values())
+    from arena_league.cli import main
+
+    main(["matches", CROSSROADS])
+    table = capsys.readouterr().out
+    assert all(name in table for name, _ in teams.values()) and f"@{CROSSROADS}" not in table

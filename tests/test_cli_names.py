@@ -62,6 +62,8 @@ def test_a_placement_budget_over_the_league_limit_is_refused_before_it_plays(cap
     assert code == 0, err
     code, doc, _ = run(capsys, "rank", "alice", "--budget", "21", "--json")
     assert code == 2 and "over 20" in doc["error"]
+    code, doc, _ = run(capsys, "rank", "alice", "--more", "1000000", "--json")
+    assert code == 2 and "--more 1000000 is over 20" in doc["error"]  # more matches have the same bound
     code, jobs, _ = run(capsys, "jobs", "--json")
     assert jobs["jobs"] == []  # refused before anything was queued
 

@@ -16,8 +16,8 @@ from arena_league.league.home import did_you_mean, short_name
 from arena_league.league.versions import version_rows
 from arena_league.registry import League
 
-__all__ = ["agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent", "require_agent",
-           "resolve_agent"]
+__all__ = ["agent_detail", "agent_rows", "latest_placements", "match_result", "recent_matches", "reinstate_agent",
+           "require_agent", "resolve_agent"]
 
 
 def latest_placements(session: Any, game_id: str | None = None, *, base: str | None = None
@@ -177,9 +177,24 @@ def recent_matches(league: League, game_id: str, *, agent: str | None = None, li
     with league.reading() as session:
         agent_id = require_agent(session, agent, game_id).id if agent else None
         matches = reg.list_matches(session, game_id, agent_id=agent_id)[-limit:]
-        return [{"id": m.id, "page": match_page(m.id, server), "match_key": m.match_key, "seed": m.seed,
+        rows = [{"id": m.id, "page": match_page(m.id, server), "match_key": m.match_key, "seed": m.seed,
                  "replay": m.replay_path,
                  "created_at": m.created_at.isoformat(timespec="seconds"),
                  "seats": [{"seat": s.seat, "agent": s.agent.name, "team": s.team, "score": s.score,
                             "outcome": s.outcome, "position": s.position} for s in m.seats]}
                 for m in reversed(matches)]
+    for row in rows:
+        row["result"] = match_result(row["seats"], game_id)
+    return rows
+
+
+def match_result(seats: list[dict[str, Any]], game_id: str) -> str:
+    """A match's result in a line: each team's agents (short names, each once) and its outcome,
+    e.g. ``example-mlp (loss) vs base-v1.sp-s0-sp-5120 (win)``."""
+    teams: dict[int, tuple[list[str], str]] = {}
+    for seat in seats:
+        names, _ = teams.setdefault(seat["team"], ([], seat["outcome"] or "-"))
+        name = short_name(seat["agent"], game_id)
+        if name not in names:
+            names.append(name)
+    return " vs ".join(f"{' + '.join(names)} ({outcome})" for names, outcome in teams.values())

@@ -768,11 +768,9 @@ def rank(league: League, agent: str, *, budget: int = 200, population: str | Non
     stored match of the entrant and the base. The job is followed wherever it runs (a server's
     worker may take it, see :func:`~arena_league.league.jobs.follow_job`); a queued or running
     placement asking the same is followed rather than queued twice."""
-    if more is not None and (isinstance(more, bool) or not isinstance(more, int) or more < 1):
-        raise ValueError(f"more must be a whole number of matches, at least 1, not {more!r}")
     from arena_league.league.settings import check_rank_budget
 
-    check_rank_budget(league, budget)
+    check_rank_budget(league, budget, more)
     say = log or (lambda line: None)
     game_id = _entrant_game(league, agent)
     label, names, ratings = base_population(league, game_id, agent, population)
@@ -863,12 +861,10 @@ def queue_rank(league: League, agent: str, *, budget: int = 200, population: str
     (importing the shipped one on first use, which validates its members: agent code, never run in
     the caller's request). ``seed`` and ``more`` as in :func:`rank`: a seed the stored placement
     holds gives it back without playing. With ``who``, only the agent's owner (or an administrator) may."""
-    if more is not None and (isinstance(more, bool) or not isinstance(more, int) or more < 1):
-        raise ValueError(f"more must be a whole number of matches, at least 1, not {more!r}")
     from arena_league.league.errors import NotFoundError
     from arena_league.league.settings import check_rank_budget
 
-    check_rank_budget(league, budget)
+    check_rank_budget(league, budget, more)
     game_id = _entrant_game(league, agent, who, NotFoundError)
     with league.transaction() as session:
         return reg.enqueue(session, "rank", {"game_id": game_id, "agent": agent, "population": population,

@@ -125,14 +125,19 @@ def suspend_after(league: League, values: Mapping[str, Mapping[str, Any]] | None
     return int(values["forfeits.suspend_after"]["value"])
 
 
-def check_rank_budget(league: League, budget: Any) -> None:
+def check_rank_budget(league: League, budget: Any, more: Any = None) -> None:
     """Refuse a placement's budget that is not a whole number of matches from 2 to the league's
-    ``rank.max_budget``, with the same message whichever front end asked."""
+    ``rank.max_budget``, or ``more`` matches that are not a whole number from 1 to that limit,
+    with the same message whichever front end asked."""
     if isinstance(budget, bool) or not isinstance(budget, int) or budget < 2:
         raise ValueError(f"a placement's budget is a whole number of matches, at least 2, not {budget!r}; give "
                          "--budget 200 (the default), for example")
+    if more is not None and (isinstance(more, bool) or not isinstance(more, int) or more < 1):
+        raise ValueError(f"more must be a whole number of matches, at least 1, not {more!r}; give --more 50, "
+                         "for example")
     limit = int(league_settings(league)["rank.max_budget"]["value"])
-    if budget > limit:
-        raise ValueError(f"a budget of {budget} matches is over {limit}, the most one placement may play in this "
-                         f"league (the setting rank.max_budget); give --budget {limit} or less, or raise the "
+    flag, asked = ("--budget", budget) if more is None else ("--more", more)  # with more, the budget is not played
+    if asked > limit:
+        raise ValueError(f"{flag} {asked} is over {limit}, the most matches one placement may play in this "
+                         f"league (the setting rank.max_budget); give {flag} {limit} or less, or raise the "
                          "setting with `arena-league settings set rank.max_budget N`")

@@ -86,7 +86,10 @@ class JobState(BaseModel):
 class RankRequest(BaseModel):
     budget: int = Field(200, description="at most this many matches: from 2 to the league's setting rank.max_budget "
                                          "(5000 unless its operator changed it)")
-    seed: int = Field(0, ge=0, le=2**31)
+    seed: int = Field(0, ge=0, le=2**31, description="a seed the agent's stored placement holds returns it without "
+                                                     "playing; another adds evidence to it")
+    more: int | None = Field(None, ge=1, description="play this many more matches under the seed after the stored "
+                                                     "placement: its matches only grow")
 
 
 class TreeSpec(BaseModel):
@@ -183,7 +186,7 @@ def rank(request: Request, name: str, who: Writer, options: Annotated[RankReques
     options = options or RankRequest()
     league = league_of(request)
     return {"job": ops.queue_rank(league, ops.resolve_agent(league, name), budget=options.budget, seed=options.seed,
-                                  who=who)}
+                                  more=options.more, who=who)}
 
 
 @router.post("/agents/{name}/reinstate", summary="let a suspended agent play again (administrators)")
