@@ -832,11 +832,11 @@ def _json_option(p: argparse.ArgumentParser) -> None:
 
 
 def _seed_option(p: argparse.ArgumentParser, what: str = "the matches' seeds") -> None:
-    p.add_argument("--seed", type=int, default=0, help=f"seed of {what} (default 0): same seed, same result")
+    p.add_argument("--seed", type=_seed, default=0, help=f"seed of {what} (default 0): same seed, same result")
 
 
 def _evaluation_seed_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--seed", type=int, default=0,
+    p.add_argument("--seed", type=_seed, default=0,
                    help="seed of the matches (default 0), mixed with the job's id so that no two evaluations play "
                         "the same match: the same commands on the same league state play the same matches")
 
@@ -900,7 +900,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "robin that counts against --budget)")
     p.add_argument("--half-width", type=float, default=3.0,
                    help="stop early at this rank-interval half-width, in places (default 3)")
-    p.add_argument("--seed", type=int, default=0,
+    p.add_argument("--seed", type=_seed, default=0,
                    help="seed of the placement's matches (default 0): they depend on the seed, the agent and the "
                         "base only, so the same seed gives the same placement in any league, and asking again with "
                         "a seed the stored placement holds returns it without playing. Another seed adds its "
@@ -1189,6 +1189,8 @@ def _int_at_least(minimum: int, requirement: str, maximum: int | None = None) ->
 _positive_int = _int_at_least(1, "a positive integer")
 _non_negative_int = _int_at_least(0, "0 or more")
 _port = _int_at_least(1, "a port number from 1 to 65535", 65535)
+#: Seeds as the web takes them: 0 to 2**31.
+_seed = _int_at_least(0, "a whole number from 0 to 2147483648", 2**31)
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
