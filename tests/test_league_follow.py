@@ -214,7 +214,8 @@ def test_rank_from_a_terminal_beside_the_server_prints_the_placement(tmp_path):
         assert command.returncode == 0, log.read_text()
         assert f"job {job_id} already places alice against scripted:1 with seed 0" in log.read_text()
         assert f"job {job_id} is run by worker {owner}; following it here" in log.read_text()
-        assert "alice on Crossroads-2T2P-v1 against scripted:1 (2 agents)" in out and "rank        " in out
+        assert "alice on Crossroads-2T2P-v1 against scripted:1 of Crossroads-2T2P-v1 (2 agents," in out
+        assert "rank        " in out
         assert server.wait_job(job_id)["state"] == "done"
         again = server.command("rank", "alice", "--budget", "30")  # asked again: the stored placement
         assert f"from the stored placement (job {job_id}, seed 0)" in again.stdout

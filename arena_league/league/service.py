@@ -47,7 +47,7 @@ from arena_league.league.populations import (
     ensure_population,
     game_population,
     require_population,
-    shipped_population,
+    shipped_populations,
 )
 from arena_league.matchmaking import (
     AgentRef,
@@ -1006,11 +1006,11 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
     imports = population is None and method == "bt" and import_shipped
     with league.reading() as session:
         known = reg.get_game(session, game_id) is not None
-    if not known and not (imports and shipped_population(game_id) is not None):
+    if not known and not (imports and shipped_populations(game_id)):
         raise ValueError(_no_board(game_id, method))
     if population is None and method == "bt":
-        if imports and log is not None and (folder := base_to_import(league, game_id)) is not None:
-            log(f"importing {folder.name} of {game_id}, shipped with arena-league (first use: every member is "
+        if imports and log is not None and (shipped := base_to_import(league, game_id)) is not None:
+            log(f"importing {shipped} of {game_id}, shipped with arena-league (first use: every member is "
                 "validated once)")
         population = game_population(league, game_id, import_shipped=import_shipped)
     scope = None if population in (None, LEAGUE_WIDE) else population
@@ -1050,10 +1050,10 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
 
 def _no_board(game_id: str, method: str) -> str:
     """Why a game the league has never seen has no board, and what makes one."""
-    shipped = shipped_population(game_id)
-    if shipped is not None:
+    shipped = shipped_populations(game_id)
+    if shipped:
         return (f"{game_id} has no agents in this league yet, so its {method} board is empty; `arena-league "
-                f"leaderboard {game_id}` imports the shipped base population {shipped.name} and shows it")
+                f"leaderboard {game_id}` imports the shipped base population {shipped[-1]} and shows it")
     return (f"{game_id} has no agents in this league yet and no base population ships for it; submit agents "
             f"(`arena-league submit PATH --game {game_id} --name NAME`), then play them (`arena-league evaluate "
             f"{game_id}`)")
