@@ -10,9 +10,9 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import pytest
+from placement_helpers import scripted_base_with_entrant
 from web_helpers import running_server
 
 from arena_league.league import (
@@ -27,18 +27,13 @@ from arena_league.league import (
     open_home,
     queue_evaluation,
     queue_rank,
-    submit,
 )
 from arena_league.registry import (
-    add_population_member,
     cancel_job,
     claim_job,
     count_matches,
-    create_population,
     enqueue,
     fail_job,
-    freeze_population,
-    get_agent,
     get_job,
     run_claimed_job,
     run_worker,
@@ -47,7 +42,6 @@ from arena_league.registry import (
 
 GAME = "GoBang-2T1P-v1"
 CROSSROADS = "Crossroads-2T2P-v1"
-EXAMPLE = Path(__file__).resolve().parent.parent / "submissions" / "crossroads-2t2p-mlp.onnx"
 
 
 def _status(league, job_id: int) -> str:
@@ -173,21 +167,10 @@ def test_ctrl_c_in_the_terminal_cancels_its_job_and_says_so_in_one_line(tmp_path
         assert _status(league, 1) == "cancelled"
 
 
-def _scripted_base_with_entrant(home: Path) -> None:
-    with open_home(home) as league:
-        names = ensure_scripted_agents(league, CROSSROADS)
-        with league.transaction() as session:
-            population = create_population(session, "scripted", CROSSROADS, provenance={"made_by": "test"})
-            for name, rating in zip(names, (900.0, 1100.0)):
-                add_population_member(session, population, get_agent(session, name), {"rating": rating})
-            freeze_population(session, population)
-        assert submit(league, EXAMPLE, CROSSROADS, "alice").status == "active"
-
-
 @pytest.mark.slow
 def test_rank_from_a_terminal_beside_the_server_prints_the_placement(tmp_path):
     home = tmp_path / "league"
-    _scripted_base_with_entrant(home)
+    scripted_base_with_entrant(home, CROSSROADS)
     with running_server(home) as server:
         # the race made certain: the server's worker has the placement when the terminal asks for it
         with open_home(home) as league:

@@ -8,38 +8,22 @@ import json
 from pathlib import Path
 
 import pytest
+from placement_helpers import scripted_base_with_entrant
 
 from arena_league.cli import main
-from arena_league.league import ensure_scripted_agents, evaluate, leaderboard, open_home, rank, submit
+from arena_league.league import leaderboard, open_home, rank
 from arena_league.registry import (
-    add_population_member,
     count_matches,
-    create_population,
-    freeze_population,
-    get_agent,
     match_seat_rows,
 )
 
 GAME = "Crossroads-2T2P-v1"
-EXAMPLE = Path(__file__).resolve().parent.parent / "submissions" / "crossroads-2t2p-mlp.onnx"
 PLACEMENT = ("rating", "lower", "upper", "rank", "rank_lower", "rank_upper", "percentile", "percentile_lower",
              "percentile_upper", "matches", "seeds", "stopped", "stop_reason")
 
 
 def seed_league(home: Path, *, history: bool = False) -> None:
-    """The example entrant and a frozen base of the two scripted agents; with ``history``, jobs and
-    matches played first (so job ids and stored matches differ from a fresh league's)."""
-    with open_home(home) as league:
-        names = ensure_scripted_agents(league, GAME)
-        if history:
-            evaluate(league, GAME, names, matches_per_pair=4, seed=9)
-            evaluate(league, GAME, names, matches_per_pair=6, seed=9)
-        with league.transaction() as session:
-            population = create_population(session, "scripted", GAME, provenance={"made_by": "test"})
-            for name, rating in zip(names, (900.0, 1100.0)):
-                add_population_member(session, population, get_agent(session, name), {"rating": rating})
-            freeze_population(session, population)
-        assert submit(league, EXAMPLE, GAME, "alice").status == "active"
+    scripted_base_with_entrant(home, GAME, history=history)
 
 
 def placement(report) -> dict:
