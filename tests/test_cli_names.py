@@ -52,6 +52,18 @@ def test_names_refused_by_the_command_are_refused_as_the_web_refuses_them(capsys
     assert [a["name"] for a in listed["agents"]] == ["alice"]
 
 
+def test_a_board_short_name_is_refused_as_a_submitted_name(capsys, home, tmp_path):
+    # a board shows random@GAME and base members without @GAME; a submission under that short name
+    # would make one name on the board mean two agents
+    agent = gobang_agent(tmp_path / "a", 1)
+    for name in ("random", "heuristic", "base-v1.cc-s0-cc-100352"):
+        code, doc, err = run(capsys, "submit", agent, "--game", GAME, "--name", name, "--json")
+        assert code == 2 and "reserved for the league" in doc["error"] and "--name my-" in doc["error"], doc
+        assert "Traceback" not in err
+    code, listed, _ = run(capsys, "agents", "--json")
+    assert listed["agents"] == []
+
+
 def test_a_placement_budget_over_the_league_limit_is_refused_before_it_plays(capsys, home, tmp_path):
     run(capsys, "submit", gobang_agent(tmp_path / "a", 1), "--game", GAME, "--name", "alice")
     code, doc, _ = run(capsys, "rank", "alice", "--budget", "5001", "--json")

@@ -174,7 +174,8 @@ def reserved_name_reason(name: str) -> str | None:
 
     Reserved: the built-in scripted agents of every game (``random@<game>``, ``heuristic@<game>``,
     see :func:`scripted_agent_name`) and the members of the populations shipped under
-    ``checkpoints/`` (registered when the league imports them). The league itself still creates
+    ``checkpoints/`` (registered when the league imports them), by their full names and by the
+    short names boards show (``random``, a member without ``@<game>``). The league itself still creates
     them (:func:`ensure_scripted_agents`, importing a shipped population); :func:`submit` refuses them.
     """
     from arena_league.envs import list_games
@@ -183,8 +184,14 @@ def reserved_name_reason(name: str) -> str | None:
     scripted, at, game = name.partition("@")
     if at and scripted in SCRIPTED_AGENTS and game in list_games():
         return f"{name} is the league's built-in {scripted} agent of {game}"
-    if name in shipped_member_names():
+    if name in SCRIPTED_AGENTS:
+        return f"{name} is the name boards show for the league's built-in {name} agents ({name}@<game>)"
+    members = shipped_member_names()
+    if name in members:
         return f"{name} is a member of a base population shipped with arena-league"
+    # boards show members without @<game>: that short name would otherwise mean two agents
+    if any(member.rpartition("@")[0] == name for member in members):
+        return f"{name} is the name boards show for a member of a base population shipped with arena-league"
     return None
 
 
