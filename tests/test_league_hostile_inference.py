@@ -164,13 +164,12 @@ def test_rank_of_an_entrant_that_always_fails_ends_with_it_suspended(league_home
                          "bad")
     code, report, err, _ = command(league_home, "rank", "bad", "--budget", 40)
     assert code == 0, err
-    # a placement plays two matches at once (one per side): both forfeit, then two more, and the
-    # third forfeit passes the league's limit of 3
-    assert report["forfeits"] == report["matches"] == 4
-    assert "suspended after forfeiting 4 matches (the league suspends at 3)" in report["suspended"]
-    assert report["rank"] == report["base_size"] + 1  # four losses: last
+    # a placement plays one match at a time: the third forfeit reaches the league's limit of 3
+    assert report["forfeits"] == report["matches"] == 3
+    assert "suspended after forfeiting 3 matches (the league suspends at 3)" in report["suspended"]
+    assert report["rank"] == report["base_size"] + 1  # three losses: last
     assert report["stopped"] == "suspended" and report["stop_reason"].startswith(
-        "the entrant was suspended after 4 new matches (suspended after forfeiting 4 matches")
+        "the entrant was suspended after 3 new matches (suspended after forfeiting 3 matches")
     code, agent, _, _ = command(league_home, "agent", "bad")
     assert agent["status"] == "suspended"
 

@@ -102,3 +102,14 @@ def test_rank_says_why_it_stopped_and_when_it_is_stored(tmp_path, capsys):
     assert grown["played"] == 4 and grown["stopped"] == "more" and not grown["stored"]
     assert main(["rank", "--members", "alice", "--more", "4", *league_args]) == 2
     assert "--more continues one agent's placement" in capsys.readouterr().err
+
+
+def test_a_placement_stores_only_the_matches_it_counts(tmp_path):
+    # an odd --more ends mid-pair: the pair's second match must not be played and stored uncounted
+    seed_league(tmp_path / "league")
+    with open_home(tmp_path / "league") as league:
+        first = rank(league, "alice", budget=6, seed=2)
+        grown = rank(league, "alice", more=3)
+        assert grown.played == 3 and grown.matches == first.matches + 3
+        with league.reading() as session:
+            assert count_matches(session, GAME) == grown.matches  # alice played every match of this league

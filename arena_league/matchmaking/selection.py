@@ -158,8 +158,8 @@ def play_adaptive(entrant: str, opponents: Sequence[str], chooser: OpponentChoos
     plays its next opponent twice (entrant on team 0, then on team 1) with ``play`` (e.g.
     ``lambda specs: play_matches(specs, agents)``) and records the entrant's score of each match
     (1 win, 0.5 draw, 0 loss). Match ids run on from ``first_match_id``. Placement stops early
-    when ``play`` returns no result for a pair of specs (their agents were skipped, e.g. an entrant
-    past its forfeits)."""
+    when ``play`` returns no result for a spec (its agents were skipped, e.g. an entrant past its
+    forfeits)."""
     results: list[MatchResult] = []
     match_id = first_match_id
     while not chooser.done and len(results) < max_matches:
@@ -169,13 +169,15 @@ def play_adaptive(entrant: str, opponents: Sequence[str], chooser: OpponentChoos
         opponent = opponents[k]
         specs = specs_for_seatings(game_id, [(entrant, opponent), (opponent, entrant)], league_seed, match_id)
         match_id += len(specs)
-        played = play(specs)
-        if not played:
-            break
-        for result in played:
-            team = result.teams[result.seats.index(entrant)]
-            chooser.record(k, result.team_scores()[team])
-            results.append(result)
+        # one match per call: once the chooser is done, the pair's second match is neither played nor stored
+        for spec in specs:
+            played = play([spec])
+            if not played:
+                return results
+            for result in played:
+                team = result.teams[result.seats.index(entrant)]
+                chooser.record(k, result.team_scores()[team])
+                results.append(result)
             if chooser.done:
                 break
     return results
