@@ -113,3 +113,17 @@ def test_a_placement_stores_only_the_matches_it_counts(tmp_path):
         assert grown.played == 3 and grown.matches == first.matches + 3
         with league.reading() as session:
             assert count_matches(session, GAME) == grown.matches  # alice played every match of this league
+
+
+def test_the_queue_says_what_a_queued_placement_will_play(tmp_path):
+    from arena_league.league import job_rows, queue_rank
+
+    home = tmp_path / "league"
+    seed_league(home)
+    with open_home(home) as league:
+        queue_rank(league, "alice", seed=3, more=7)
+        queue_rank(league, "alice", budget=50)
+        what = [row["what"] for row in job_rows(league, kind="rank")]
+    # the base is found when the job runs; until then the row says whose it will be
+    assert sorted(what) == ["alice against its game's base population, 7 more matches, seed 3",
+                            "alice against its game's base population, budget 50, seed 0"]

@@ -167,23 +167,23 @@ def test_a_tampered_file_is_refused_and_nothing_is_kept(capsys, server, mirror, 
     blob.write_bytes(bytes(content))
     code, _, _, err = cli(capsys, "population", "pull", GAME, "--mirror", server.url)
     assert code == 2 and "SHA-256 is not the one the index names" in err and "nothing was kept" in err
-    assert [e for e in _cache_entries(tmp_path) if e != GAME] == []
+    assert _cache_entries(tmp_path) == []  # not even the game's folder
     blob.write_bytes(bytes(content) + b"more")  # longer than the index says: the read stops past the size
     code, _, _, err = cli(capsys, "population", "pull", GAME, "--mirror", server.url)
     assert code == 2 and f"more than the {BLOB_BYTES} bytes" in err
-    assert [e for e in _cache_entries(tmp_path) if e != GAME] == []
+    assert _cache_entries(tmp_path) == []  # not even the game's folder
 
 
 def test_a_transfer_broken_off_or_a_missing_file_leaves_no_folder(capsys, server, mirror, tmp_path):
     server.breaking = True
     code, _, _, err = cli(capsys, "population", "pull", GAME, "--mirror", server.url)
     assert code == 2 and f"sent {BLOB_BYTES // 2} bytes, not the {BLOB_BYTES}" in err and "nothing was kept" in err
-    assert [e for e in _cache_entries(tmp_path) if e != GAME] == []
+    assert _cache_entries(tmp_path) == []  # not even the game's folder
     server.breaking = False
     (mirror / GAME / NAME / "README.md").unlink()
     code, _, _, err = cli(capsys, "population", "pull", GAME, "--mirror", server.url)
     assert code == 2 and "HTTP 404" in err and "--mirror URL" in err
-    assert [e for e in _cache_entries(tmp_path) if e != GAME] == []
+    assert _cache_entries(tmp_path) == []  # not even the game's folder
 
 
 def test_bad_pulls_name_the_problem_and_the_fix(capsys, mirror, tmp_path):
@@ -197,7 +197,7 @@ def test_bad_pulls_name_the_problem_and_the_fix(capsys, mirror, tmp_path):
     assert code == 2 and "cannot reach http://127.0.0.1:9/" in err
     code, _, _, err = cli(capsys, "population", "list", "--game", "Snak-2T2P-v1")
     assert code == 2 and "Did you mean 'Snake-2T2P-v1'" in err
-    assert [e for e in _cache_entries(tmp_path) if e != GAME] == []
+    assert _cache_entries(tmp_path) == []  # not even the game's folder
 
 
 def test_the_quickstart_names_the_pull_when_the_base_is_not_here_then_uses_the_pulled_one(capsys, mirror, tmp_path):

@@ -52,7 +52,9 @@ def stamp(moment: Any) -> str | None:
 def _summary(job: reg.Job) -> str:
     payload = job.payload or {}
     if job.kind == "rank":
-        return f"{payload.get('agent')} against {payload.get('base_label')}, budget {payload.get('budget')}"
+        base = payload.get("base_label") or payload.get("population") or "its game's base population"
+        plays = f"{payload['more']} more matches" if payload.get("more") else f"budget {payload.get('budget')}"
+        return f"{payload.get('agent')} against {base}, {plays}, seed {payload.get('seed', 0)}"
     if job.kind == "evaluate":
         agents = payload.get("agents")
         who = f"{len(agents)} agents" if agents else "every active agent"

@@ -18,6 +18,7 @@ renamed into place only when whole.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import http.client
@@ -384,6 +385,8 @@ def _pull_one(game_id: str, name: str, base: str, root: Path) -> PullReport:
             scratch.rename(dest)
     except BaseException:
         shutil.rmtree(scratch, ignore_errors=True)
+        with contextlib.suppress(OSError):  # the game's folder, when this pull made it and it stayed empty
+            dest.parent.rmdir()
         raise
     return PullReport(game_id, name, str(dest), files, total, True, base)
 
