@@ -55,6 +55,7 @@ from arena_league.league.population_index import (
     verified_population,
 )
 from arena_league.registry import League
+from arena_league.registry.jobs import live_jobs
 
 __all__ = [
     "POPULATION_MANIFEST",
@@ -471,10 +472,9 @@ def queue_import(league: League, game_id: str, population: str | None = None) ->
     register_game(league, game_id)
     payload = {"game_id": game_id, "population": name}
     with league.transaction() as session:
-        for status in ("running", "queued"):
-            for job in reg.list_jobs(session, status=status, kind="import"):
-                if job.payload == payload:
-                    return job.id
+        for job in live_jobs(session, "import"):
+            if job.payload == payload:
+                return job.id
         return reg.enqueue(session, "import", payload, priority=80).id
 
 
