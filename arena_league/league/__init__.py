@@ -42,7 +42,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "gc": ("collect_garbage",),
     "home": ("did_you_mean", "league_location", "open_home", "register_game", "short_name"),
     "human": ("Ladder", "LiveMatch", "play_human"),
-    "live": ("LivePlay", "player_of"),
+    "live": ("LivePlay", "check_json_nesting", "player_of", "read_message"),
     "jobs": ("cancel_job", "evaluation_payload", "follow_job", "job_detail", "job_rows"),
     "matches": ("find_match", "match_page", "match_replay", "match_replay_file", "match_view", "queue_replay"),
     "leaderboards": ("Leaderboard", "render_terminal"),

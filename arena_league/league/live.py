@@ -25,12 +25,16 @@ Messages to the browser (dicts, sent as JSON):
 
 Messages from the browser: ``{"type": "act", "text": ...}`` or ``{"type": "act", "point": [x,
 y]}`` (a click on the view, in world units), ``{"type": "next"}`` (the next match) and
-``{"type": "resign"}``. In a game with a pace the server steps on its own (:meth:`LivePlay.tick`)
+``{"type": "resign"}``, each read by :func:`read_message` within bounds on its size and nesting.
+Only a move the game takes (:meth:`LivePlay.act` not refused, ``next``, a ``resign`` that ends a
+match) counts as the person being there; the web server closes a socket that sends no move for its
+idle time whatever else it sends. In a game with a pace the server steps on its own (:meth:`LivePlay.tick`)
 and the person's newest answer holds; otherwise every step the person acts waits for an answer.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import time
@@ -40,12 +44,14 @@ from typing import Any
 import numpy as np
 
 from arena_league import registry as reg
+from arena_league.envs.bounded import check_json_nesting
 from arena_league.league.human import Ladder, LiveMatch
 from arena_league.league.replays import frames_bounds, scene_shapes, shape_points, team_hex
 from arena_league.replay.scenes import scene_entities
 from arena_league.replay.writer import STEP_NS
 
-__all__ = ["GUEST_PREFIX", "LivePlay", "player_of"]
+__all__ = ["GUEST_PREFIX", "MESSAGE_BYTES", "MESSAGE_DEPTH", "LivePlay", "check_json_nesting", "player_of",
+           "read_message"]
 
 #: Guests play under ``guest-<name>``, which no token's owner can take over.
 GUEST_PREFIX = "guest-"
@@ -56,6 +62,19 @@ _LABEL_COLOUR = "rgba(20,20,20,1)"
 _YOU_COLOUR = "rgba(240,190,20,1)"
 #: Event kinds too common to report in words (every GoBang move).
 _QUIET = frozenset({"move"})
+#: The most one message from the page may hold, and how deep it may nest (a click's is 2 deep).
+MESSAGE_BYTES, MESSAGE_DEPTH = 4096, 8
+_MESSAGE_FORM = "a message is one JSON object such as {\"type\": \"act\", \"text\": \"w\"}"
+
+
+def read_message(text: str) -> Any:
+    """One message from the page parsed, its size and nesting checked before the parser sees it;
+    ``ValueError`` with one line saying what a message is."""
+    check_json_nesting(text, "a play message", max_depth=MESSAGE_DEPTH, max_bytes=MESSAGE_BYTES)
+    try:
+        return json.loads(text)
+    except ValueError:
+        raise ValueError(_MESSAGE_FORM) from None
 
 
 def player_of(owner: str | None, guest: str | None) -> tuple[str, str]:

@@ -74,6 +74,10 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
             "steps a game on the server); 0 turns /play off"),
     Setting("web.live_idle_seconds", int, 600, 10, 86400, "seconds a browser game waits for its player's move (or "
             "a next match) before it resigns the match and closes"),
+    Setting("web.live_games_per_owner", int, 2, 1, 10**4, "browser games one owner (a guest: one guest name) may "
+            "have open on one web server at once"),
+    Setting("web.live_games_per_address", int, 4, 1, 10**4, "browser games one network address may have open on "
+            "one web server at once (guests and owners together)"),
 )}
 
 

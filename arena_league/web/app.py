@@ -35,6 +35,7 @@ from fastapi.staticfiles import StaticFiles
 from arena_league import league as ops
 from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
+from arena_league.web.bodies import JsonNesting
 from arena_league.web.deps import STATUS_OF, status_of
 
 __all__ = ["create_app"]
@@ -172,6 +173,7 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
     def upload_limit() -> int:
         return ops.upload_limits(league)[0] + FORM_SLACK_BYTES
 
+    app.add_middleware(JsonNesting)  # inside BodyLimit, which bounds what it holds
     app.add_middleware(BodyLimit, limit=upload_limit)
 
     @app.middleware("http")

@@ -8,7 +8,9 @@ anyone else gives a guest name (``?guest=NAME``) and plays as ``guest-NAME``.
 
 The server steps a paced game by itself (the person's newest move holding) and waits for the
 person in the others. Leaving a match, or being idle past the league's ``web.live_idle_seconds``,
-resigns it (a loss); at most ``web.live_games`` people play on one server at once.
+resigns it (a loss): only moves the game takes count, not other messages. At most
+``web.live_games`` people play on one server at once, ``web.live_games_per_owner`` sockets per
+owner (a guest's owner is its guest name) and ``web.live_games_per_address`` per client address.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import asyncio
 import json
 import logging
 import time
+from collections import Counter
 from typing import Any
 
 from fastapi import APIRouter, Request, WebSocket, WebSocketDisconnect
@@ -69,14 +72,46 @@ async def play_socket(websocket: WebSocket, game: str) -> None:
         await _refuse(websocket, _TRY_LATER, f"this server already has {limit} game(s) in play (the league's "
                       "web.live_games); try again in a few minutes")
         return
+    address = ("address", websocket.client.host if websocket.client else "")
+    if not await _hold(websocket, address, int(settings["web.live_games_per_address"]["value"]),
+                       "web.live_games_per_address", "from your address"):
+        return
     app.state.live_games += 1
     try:
-        await _session(websocket, league, game, idle)
+        await _session(websocket, league, game, idle, int(settings["web.live_games_per_owner"]["value"]))
     finally:
         app.state.live_games -= 1
+        _release(websocket, address)
 
 
-async def _session(websocket: WebSocket, league: Any, game: str, idle: float) -> None:
+def _holders(websocket: WebSocket) -> Counter:
+    """Open play sockets per ``("owner", name)`` and ``("address", host)`` on this server."""
+    state = websocket.app.state
+    if not hasattr(state, "live_holders"):
+        state.live_holders = Counter()
+    return state.live_holders
+
+
+async def _hold(websocket: WebSocket, holder: tuple[str, str], limit: int, key: str, whose: str) -> bool:
+    """Count one more socket for ``holder``; False (the socket refused, naming ``key``) when it
+    already holds ``limit``."""
+    holders = _holders(websocket)
+    if holders[holder] >= limit:
+        await _refuse(websocket, _TRY_LATER, f"{limit} game(s) already open {whose} (the league's {key}); close one "
+                      "to play here")
+        return False
+    holders[holder] += 1
+    return True
+
+
+def _release(websocket: WebSocket, holder: tuple[str, str]) -> None:
+    holders = _holders(websocket)
+    holders[holder] -= 1
+    if holders[holder] <= 0:
+        del holders[holder]
+
+
+async def _session(websocket: WebSocket, league: Any, game: str, idle: float, per_owner: int) -> None:
     # headers and cookies, as a request's; the token lookup reads the database: off the event loop
     identity = await asyncio.to_thread(optional_identity, websocket)  # type: ignore[arg-type]
     if identity is None and token_of(websocket) is not None:  # type: ignore[arg-type]
@@ -85,6 +120,20 @@ async def _session(websocket: WebSocket, league: Any, game: str, idle: float) ->
         return
     try:
         ops.check_game(game)
+        player, owner = ops.player_of(identity.owner if identity else None, websocket.query_params.get("guest"))
+    except ops.USER_ERRORS as error:
+        await _refuse(websocket, _POLICY, str(error))
+        return
+    if not await _hold(websocket, ("owner", owner), per_owner, "web.live_games_per_owner", f"as {owner}"):
+        return
+    try:
+        await _start(websocket, league, game, idle, player, owner)
+    finally:
+        _release(websocket, ("owner", owner))
+
+
+async def _start(websocket: WebSocket, league: Any, game: str, idle: float, player: str, owner: str) -> None:
+    try:
         importing = await asyncio.to_thread(ops.base_import, league, game)
         if importing is not None:  # importing validates agent code: a worker's job, never this connection's
             job = f"job {importing['job']}, /jobs/{importing['job']}"
@@ -94,39 +143,50 @@ async def _session(websocket: WebSocket, league: Any, game: str, idle: float) ->
                 f"{game}'s base population {importing['population']} is being imported ({job}); play once it is "
                 "done"))
             return
-        player, owner = ops.player_of(identity.owner if identity else None, websocket.query_params.get("guest"))
         live = await asyncio.to_thread(ops.LivePlay, league, game, player=player, owner=owner)
     except ops.USER_ERRORS as error:
         await _refuse(websocket, _POLICY, str(error))
         return
     log.info("play %s starts %s", player, game)
     await websocket.send_json(live.hello())
+    await _play(websocket, live, player, game, idle)
+
+
+async def _play(websocket: WebSocket, live: Any, player: str, game: str, idle: float) -> None:
+    """Answer the page's messages and step a paced game, until the page goes away or ``idle``
+    seconds pass without a move (other messages, whatever they are, do not count)."""
     inbox: asyncio.Queue[str | None] = asyncio.Queue(maxsize=64)
     reader = asyncio.create_task(_read(websocket, inbox))
     next_tick: float | None = None
+    idle_at = time.monotonic() + idle
     try:
         while True:
-            pace = live.pace
-            if pace:
-                next_tick = next_tick or time.monotonic() + 1.0 / pace
-                wait = max(0.0, next_tick - time.monotonic())
-            else:
-                next_tick, wait = None, idle
-            try:
-                text = await asyncio.wait_for(inbox.get(), timeout=wait)
-            except TimeoutError:
-                if pace:
-                    out = await asyncio.to_thread(live.tick)
-                    next_tick = max(time.monotonic(), next_tick + 1.0 / pace)
-                    await _send(websocket, out)
-                    continue
+            now = time.monotonic()
+            if now >= idle_at:
                 await _send(websocket, await asyncio.to_thread(live.resign))
                 await _refuse(websocket, _POLICY, f"no move for {idle:.0f} s: the match is resigned and the game "
                               "closed; reload the page to play again")
                 return
+            pace = live.pace
+            if pace:
+                next_tick = next_tick or now + 1.0 / pace
+                wait = min(max(0.0, next_tick - now), idle_at - now)
+            else:
+                next_tick, wait = None, idle_at - now
+            try:
+                text = await asyncio.wait_for(inbox.get(), timeout=wait)
+            except TimeoutError:
+                if pace and next_tick is not None and time.monotonic() >= next_tick:
+                    out = await asyncio.to_thread(live.tick)
+                    next_tick = max(time.monotonic(), next_tick + 1.0 / pace)
+                    await _send(websocket, out)
+                continue
             if text is None:  # the page went away
                 break
-            await _send(websocket, await _answer(live, text))
+            out, moved = await _answer(live, text)
+            if moved:
+                idle_at = time.monotonic() + idle
+            await _send(websocket, out)
     except WebSocketDisconnect:
         pass
     finally:
@@ -148,23 +208,27 @@ async def _read(websocket: WebSocket, inbox: asyncio.Queue) -> None:
             inbox.put_nowait(message.get("text") or "")
 
 
-async def _answer(live: Any, text: str) -> list[dict[str, Any]]:
-    """What to send back for one message from the page."""
+async def _answer(live: Any, text: str) -> tuple[list[dict[str, Any]], bool]:
+    """What to send back for one message from the page, and whether it was a move the game took
+    (the only messages that keep a game open)."""
     try:
-        message = json.loads(text)
-    except json.JSONDecodeError:
-        return [{"type": "error", "detail": "a message is one JSON object such as {\"type\": \"act\", \"text\": \"w\"}"}]
+        message = ops.read_message(text)
+    except ValueError as error:
+        return [{"type": "error", "detail": str(error)}], False
     kind = message.get("type") if isinstance(message, dict) else None
     try:
         if kind == "act":
-            return await asyncio.to_thread(live.act, message)
-        if kind == "next":
-            return await asyncio.to_thread(live.start)
-        if kind == "resign":
-            return await asyncio.to_thread(live.resign)
+            out = await asyncio.to_thread(live.act, message)
+        elif kind == "next":
+            out = await asyncio.to_thread(live.start)
+        elif kind == "resign":
+            out = await asyncio.to_thread(live.resign)
+            return out, bool(out)  # resigning with no match in progress changes nothing
+        else:
+            return [{"type": "error", "detail": f"unknown message type {kind!r}; send act, next or resign"}], False
     except ValueError as error:
-        return [{"type": "error", "detail": str(error)}]
-    return [{"type": "error", "detail": f"unknown message type {kind!r}; send act, next or resign"}]
+        return [{"type": "error", "detail": str(error)}], False
+    return out, not any(m.get("type") == "refused" for m in out)
 
 
 async def _send(websocket: WebSocket, messages: list[dict[str, Any]]) -> None:

@@ -24,8 +24,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
+from arena_league.envs.bounded import MAX_TEXT_BYTES, BoundedInputError, load_json, load_yaml
 from arena_league.envs.social.rewards import (
     SCHEMES,
     NodeView,
@@ -312,20 +312,29 @@ def _scheme_help() -> str:
 
 
 def load_tree_spec(spec: Any) -> Any:
-    """A spec given as a dict stays; a path (str or Path) to a .yaml/.yml/.json file is read."""
+    """A spec given as a dict stays; a path (str or Path) to a .yaml/.yml/.json file is read, and a
+    string starting with ``{`` is JSON; either within :mod:`arena_league.envs.bounded`'s bounds
+    (size, nesting, no YAML aliases)."""
     if isinstance(spec, (str, Path)) and not (isinstance(spec, str) and spec.strip().startswith("{")):
         path = Path(spec)
-        if not path.exists():
-            raise TreeSpecError(f"social tree file {path} does not exist")
-        text = path.read_text()
+        if not path.is_file():
+            raise TreeSpecError(f"social tree file {path} does not exist" if not path.exists() else
+                                f"social tree file {path} is not a file; give a .yaml or .json file")
+        what = f"social tree file {path}"
+        size = path.stat().st_size
+        if size > MAX_TEXT_BYTES:  # refused before it is read
+            raise TreeSpecError(f"{what} is {size} bytes, over the limit of {MAX_TEXT_BYTES}; a social tree is a few "
+                                "kilobytes")
         try:
-            loaded = json.loads(text) if path.suffix == ".json" else yaml.safe_load(text)
-        except (json.JSONDecodeError, yaml.YAMLError) as exc:
-            raise TreeSpecError(f"social tree file {path} is not valid {path.suffix.lstrip('.') or 'YAML'}: {exc}") from exc
-        return loaded
+            text = path.read_text(encoding="utf-8")
+            return load_json(text, what) if path.suffix == ".json" else load_yaml(text, what)
+        except UnicodeDecodeError as exc:
+            raise TreeSpecError(f"{what} is not UTF-8 text ({exc.reason}); save it as UTF-8") from None
+        except BoundedInputError as exc:
+            raise TreeSpecError(str(exc)) from None
     if isinstance(spec, str):
         try:
-            return json.loads(spec)
-        except json.JSONDecodeError as exc:
-            raise TreeSpecError(f"social tree given as a string is not valid JSON: {exc}") from exc
+            return load_json(spec, "social tree given as a string")
+        except BoundedInputError as exc:
+            raise TreeSpecError(str(exc)) from None
     return spec
