@@ -116,7 +116,7 @@ def test_tree_from_yaml_file(tmp_path):
     env = make_line_race(n_teams=2, players=1, tree=str(path))
     assert [n.scheme for n in env.tree.nodes] == ["CP"]
     (tmp_path / "bad.yaml").write_text("scheme: [unclosed\n")
-    with pytest.raises(TreeSpecError, match="not valid yaml"):
+    with pytest.raises(TreeSpecError, match="not valid YAML"):
         make_line_race(n_teams=2, players=1, tree=str(tmp_path / "bad.yaml"))
 
 
