@@ -35,6 +35,7 @@ from fastapi.staticfiles import StaticFiles
 from arena_league import league as ops
 from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
+from arena_league.web.csrf import Guard
 from arena_league.web.deps import STATUS_OF, status_of
 
 __all__ = ["create_app"]
@@ -173,6 +174,7 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
         return ops.upload_limits(league)[0] + FORM_SLACK_BYTES
 
     app.add_middleware(BodyLimit, limit=upload_limit)
+    app.add_middleware(Guard)  # outside the body limit: a forged write is refused before its body is read
 
     @app.middleware("http")
     async def log_requests(request: Request, call_next: Any) -> Response:
