@@ -260,7 +260,8 @@ def test_no_request_path_reaches_the_filesystem(server):
         assert client.get("/static/replay.js").status_code == 200
         # a sign-in redirect goes to this site only
         token = server.token("visitor")
-        response = client.post("/signin", data={"token": token, "next": "https://evil.example/x"},
+        form = client.get("/signin").cookies["arena_league_signin"]  # the sign-in form's own CSRF token
+        response = client.post("/signin", data={"csrf_token": form, "token": token, "next": "https://evil.example/x"},
                                follow_redirects=False)
     assert response.status_code == 303 and response.headers["location"] == "/"
 

@@ -36,6 +36,7 @@ from arena_league import league as ops
 from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
 from arena_league.web.bodies import JsonNesting
+from arena_league.web.csrf import Guard
 from arena_league.web.deps import STATUS_OF, status_of
 
 __all__ = ["create_app"]
@@ -175,6 +176,7 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
 
     app.add_middleware(JsonNesting)  # inside BodyLimit, which bounds what it holds
     app.add_middleware(BodyLimit, limit=upload_limit)
+    app.add_middleware(Guard)  # outside the body limit: a forged write is refused before its body is read
 
     @app.middleware("http")
     async def log_requests(request: Request, call_next: Any) -> Response:

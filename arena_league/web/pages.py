@@ -2,7 +2,9 @@
 shows (:mod:`arena_league.league.views`). Reading needs no token; the forms that write (sign in,
 submit, rank, record a replay) use the sign-in cookie and answer with a redirect to the page that
 shows what happened (``303 See Other``). The social-tree editor (``/trees/new``, ``/trees/{id}``)
-is a script that talks to ``/api/trees`` with the same cookie."""
+is a script that talks to ``/api/trees`` with the same cookie. Every form that writes carries the
+session's CSRF token as its first field, and every page has it in a ``csrf-token`` meta tag for
+its scripts (:mod:`.csrf` checks them)."""
 
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ from fastapi.templating import Jinja2Templates
 from arena_league import league as ops
 from arena_league.league import Identity
 from arena_league.web.auth import COOKIE
+from arena_league.web.csrf import SIGNIN_COOKIE, new_signin_token, page_token
 from arena_league.web.deps import Method, RowId, Viewer, league_of, status_of
 
 __all__ = ["router", "templates"]
@@ -44,6 +47,7 @@ def _here(request: Request) -> str:
 
 
 templates.env.globals["here"] = _here
+templates.env.globals["csrf_token"] = page_token
 
 
 def _seen(request: Request, query: dict[str, Any]) -> str:
@@ -210,9 +214,21 @@ def submit(request: Request, viewer: Viewer, game: Annotated[str, Form()], name:
     return RedirectResponse(f"/jobs/{queued['job']}", status_code=303)
 
 
+def _signin_page(request: Request, viewer: Identity | None, next: str, **extra: Any) -> HTMLResponse:
+    # the form and a cookie carry the same pre-session token: a page of another site cannot read it
+    known = request.cookies.get(SIGNIN_COOKIE)
+    token = known or new_signin_token()
+    response = _page(request, "signin.html", None, viewer, "/api/games", next=_local(next), signin_token=token,
+                     **extra)
+    if known is None:
+        response.set_cookie(SIGNIN_COOKIE, token, path="/signin", httponly=True, samesite="strict",
+                            secure=request.url.scheme == "https")
+    return response
+
+
 @router.get("/signin", response_class=HTMLResponse)
 def signin_form(request: Request, viewer: Viewer, next: str = "/") -> HTMLResponse:
-    return _page(request, "signin.html", None, viewer, "/api/games", next=_local(next))
+    return _signin_page(request, viewer, next)
 
 
 @router.post("/signin", response_model=None)
@@ -220,8 +236,7 @@ def signin(request: Request, token: Annotated[str, Form()], next: Annotated[str,
            ) -> RedirectResponse | HTMLResponse:
     identity = ops.authenticate(league_of(request), token.strip())
     if identity is None:
-        response = _page(request, "signin.html", None, None, "/api/games", next=_local(next),
-                         error="this token is not valid (unknown or revoked)")
+        response = _signin_page(request, None, next, error="this token is not valid (unknown or revoked)")
         response.status_code = 401
         return response
     response = RedirectResponse(_local(next), status_code=303)

@@ -3,7 +3,8 @@
 ``/play`` lists the games a person can play; ``/play/{game}`` is the page (``static/play.js``
 draws the frames and sends the moves); ``/ws/play/{game}`` is the socket behind it, one
 :class:`~arena_league.league.live.LivePlay` per connection (its messages are documented there).
-A signed-in browser plays as its token's owner (the cookie comes with the socket's handshake);
+A signed-in browser plays as its token's owner (the cookie comes with the socket's handshake, and
+the session's CSRF token in its ``csrf`` query parameter; a page of another origin is refused);
 anyone else gives a guest name (``?guest=NAME``) and plays as ``guest-NAME``.
 
 The server steps a paced game by itself (the person's newest move holding) and waits for the
@@ -27,6 +28,7 @@ from fastapi.responses import HTMLResponse
 
 from arena_league import league as ops
 from arena_league.web.auth import optional_identity, token_of
+from arena_league.web.csrf import socket_problem
 from arena_league.web.deps import Viewer, league_of
 from arena_league.web.pages import _page
 
@@ -65,6 +67,10 @@ async def play_socket(websocket: WebSocket, game: str) -> None:
     app = websocket.app
     league = app.state.league
     await websocket.accept()
+    forged = socket_problem(websocket)  # a page of another origin, or the cookie without its CSRF token
+    if forged is not None:
+        await _refuse(websocket, _POLICY, forged)
+        return
     settings = await asyncio.to_thread(ops.league_settings, league)
     limit = int(settings["web.live_games"]["value"])
     idle = float(settings["web.live_idle_seconds"]["value"])

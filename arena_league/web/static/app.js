@@ -1,7 +1,7 @@
 // arena-league pages: sortable tables and a job's live progress. Plain JavaScript, no build step;
 // every page works without it (the server sorts with ?sort=, a job page refreshes itself).
 // It loads first on every page and shares its helpers as window.Arena: el, request, messageOf,
-// watchJob.
+// watchJob, csrfToken.
 (function () {
   "use strict";
 
@@ -38,11 +38,19 @@
     return undefined;
   }
 
-  /* A JSON request on this site with the sign-in cookie; resolves with the parsed body, rejects
-     with an Error holding the server's one-line detail (error.detail: the detail alone, or the
-     body's text when it has none; error.status, error.statusText). */
+  /* The session's CSRF token the server put in the page ("" when not signed in): a write made
+     with the sign-in cookie carries it, which a page of another site cannot read. */
+  function csrfToken() {
+    var meta = document.querySelector('meta[name="csrf-token"]');
+    return meta ? meta.getAttribute("content") || "" : "";
+  }
+
+  /* A JSON request on this site with the sign-in cookie (and, writing, the CSRF token); resolves
+     with the parsed body, rejects with an Error holding the server's one-line detail (error.detail:
+     the detail alone, or the body's text when it has none; error.status, error.statusText). */
   function request(method, url, body) {
     var init = { method: method, credentials: "same-origin", headers: { Accept: "application/json" } };
+    if (method !== "GET" && method !== "HEAD" && csrfToken()) init.headers["X-CSRF-Token"] = csrfToken();
     if (body !== undefined) {
       init.headers["Content-Type"] = "application/json";
       init.body = JSON.stringify(body);
@@ -100,7 +108,7 @@
     });
   }
 
-  window.Arena = { el: el, request: request, messageOf: messageOf, watchJob: watchJob };
+  window.Arena = { el: el, request: request, messageOf: messageOf, watchJob: watchJob, csrfToken: csrfToken };
 
   function cellValue(row, index, numeric) {
     var cell = row.cells[index];

@@ -54,8 +54,11 @@
   // --- connection -----------------------------------------------------------------------------
   function connect(guest) {
     var scheme = location.protocol === "https:" ? "wss:" : "ws:";
+    // a signed-in browser's socket carries the session's CSRF token (the cookie alone is not enough)
+    var query = [guest ? "guest=" + encodeURIComponent(guest) : "",
+                 window.Arena.csrfToken() ? "csrf=" + encodeURIComponent(window.Arena.csrfToken()) : ""].filter(Boolean);
     var url = scheme + "//" + location.host + "/ws/play/" + encodeURIComponent(game) +
-      (guest ? "?guest=" + encodeURIComponent(guest) : "");
+      (query.length ? "?" + query.join("&") : "");
     setState("connecting");
     say("Connecting… (the first game of a league imports its base population, a few seconds)");
     socket = new WebSocket(url);
