@@ -75,15 +75,15 @@ def live_jobs_of(where: tuple[Path, str | None], owner: str) -> int:
 def test_an_owner_past_the_quota_is_refused_until_their_jobs_end(tmp_path: Path) -> None:
     with open_home(tmp_path / "home") as league:
         set_setting(league, "jobs.live_per_owner", 3)
-        jobs = [queue_verify(league, GAME, TREE, samples=2, who=ALICE) for _ in range(2)]
+        jobs = [queue_verify(league, GAME, TREE, samples=4, who=ALICE) for _ in range(2)]
         jobs.append(queue_preview(league, GAME, TREE, who=ALICE))  # every kind counts
         with pytest.raises(RateLimitedError, match=r"alice already has 3 jobs .*jobs\.live_per_owner.*cancel"):
-            queue_verify(league, GAME, TREE, samples=2, who=ALICE)
-        queue_verify(league, GAME, TREE, samples=2, who=BOB)  # another owner's quota is their own
+            queue_verify(league, GAME, TREE, samples=4, who=ALICE)
+        queue_verify(league, GAME, TREE, samples=4, who=BOB)  # another owner's quota is their own
         for _ in range(4):  # the league's operator is not limited
-            queue_verify(league, GAME, TREE, samples=2, who=ROOT)
+            queue_verify(league, GAME, TREE, samples=4, who=ROOT)
         cancel_job(league, jobs[0])
-        queue_verify(league, GAME, TREE, samples=2, who=ALICE)
+        queue_verify(league, GAME, TREE, samples=4, who=ALICE)
         with league.reading() as session:
             owners = Counter(job.owner for job in reg.list_jobs(session, status="queued"))
     assert owners == {"alice": 3, "bob": 1, "root": 4}
@@ -92,7 +92,7 @@ def test_an_owner_past_the_quota_is_refused_until_their_jobs_end(tmp_path: Path)
 def test_concurrent_requests_cannot_pass_the_job_quota(where: tuple[Path, str | None]) -> None:
     with open_home(*where) as league:
         set_setting(league, "jobs.live_per_owner", 5)
-    outcome = at_once(where, lambda league, i: queue_verify(league, GAME, TREE, samples=2, seed=i, who=ALICE))
+    outcome = at_once(where, lambda league, i: queue_verify(league, GAME, TREE, samples=4, seed=i, who=ALICE))
     assert outcome == {"accepted": 5, "refused": CONCURRENT - 5}
     assert live_jobs_of(where, "alice") == 5
 
@@ -128,7 +128,7 @@ def test_concurrent_http_uploads_and_verifications_keep_to_the_limits(tmp_path: 
             assert Counter(pool.map(post, range(CONCURRENT))) == {202: 5, 429: CONCURRENT - 5}
         # no worker runs: the 5 validations stay queued, and count against the default quota of 10 jobs
         with httpx.Client(base_url=server.url, headers=headers, timeout=60) as client:
-            verify = {"game": GAME, "spec": TREE, "samples": 2}
+            verify = {"game": GAME, "spec": TREE, "samples": 4}
             assert [client.post("/api/trees/verify", json=verify).status_code for _ in range(5)] == [202] * 5
             refused = client.post("/api/trees/verify", json=verify)
         assert refused.status_code == 429 and "jobs.live_per_owner" in refused.json()["detail"]
