@@ -5,6 +5,7 @@ injected clock; no worker runs."""
 
 from __future__ import annotations
 
+import threading
 from datetime import UTC, datetime, timedelta
 
 from alembic import command
@@ -111,3 +112,20 @@ def test_a_league_made_before_job_owners_upgrades(fresh_league: League) -> None:
         assert first is not None and first.id == old.id  # the league's own and older: both never served
     finally:
         reopened.close()
+
+
+def test_concurrent_fair_claims_take_each_job_once(league: League) -> None:
+    for owner in ("alice", "bob", "carol", "dave"):
+        queue(league, owner, 10)
+    claimed: list[int] = []
+
+    def claim_all(worker: str) -> None:
+        while (job := claim_job(league, worker)) is not None:
+            claimed.append(job.id)
+
+    threads = [threading.Thread(target=claim_all, args=(f"w{i}",)) for i in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert sorted(claimed) == sorted(set(claimed)) and len(claimed) == 40
