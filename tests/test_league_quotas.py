@@ -77,7 +77,7 @@ def test_an_owner_past_the_quota_is_refused_until_their_jobs_end(tmp_path: Path)
         set_setting(league, "jobs.live_per_owner", 3)
         jobs = [queue_verify(league, GAME, TREE, samples=4, who=ALICE) for _ in range(2)]
         jobs.append(queue_preview(league, GAME, TREE, who=ALICE))  # every kind counts
-        with pytest.raises(RateLimitedError, match=r"alice already has 3 jobs .*jobs\.live_per_owner.*cancel"):
+        with pytest.raises(RateLimitedError, match=r"alice already has 3 jobs .*jobs\.live_per_owner.*jobs cancel"):
             queue_verify(league, GAME, TREE, samples=4, who=ALICE)
         queue_verify(league, GAME, TREE, samples=4, who=BOB)  # another owner's quota is their own
         for _ in range(4):  # the league's operator is not limited

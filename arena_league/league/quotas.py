@@ -44,5 +44,6 @@ def enqueue_owned(session: Session, who: Identity | None, kind: str, payload: di
         if live >= limit:
             raise RateLimitedError(
                 f"{who.owner} already has {live} jobs queued or running, the most this league allows (the "
-                "setting jobs.live_per_owner); wait for them to finish, or cancel some, then try again")
+                "setting jobs.live_per_owner); try again once some have finished (an operator can cancel "
+                "them with `arena-league jobs cancel`)")
     return reg.enqueue(session, kind, payload, priority=priority, owner=who.owner)
