@@ -15,6 +15,8 @@ from typing import Any
 
 from arena_league import registry as reg
 from arena_league.league.errors import NotFoundError
+from arena_league.league.quotas import enqueue_owned, live_job_limit
+from arena_league.league.tokens import Identity
 from arena_league.registry import League
 
 __all__ = ["find_match", "handle_replay", "match_page", "match_replay", "match_replay_file", "match_view",
@@ -116,14 +118,17 @@ def match_replay(league: League, match_id: int) -> dict[str, Any]:
     return replay_document(path)
 
 
-def queue_replay(league: League, match_id: int) -> int:
-    """Queue the recording of a stored match's replay (see the module docstring); the job id."""
+def queue_replay(league: League, match_id: int, *, who: Identity | None = None) -> int:
+    """Queue the recording of a stored match's replay (see the module docstring) for ``who`` (within
+    their quota, :mod:`arena_league.league.quotas`; None: the league's own); the job id."""
+    limit = live_job_limit(league) if who is not None else None
     with league.transaction() as session:
         match = _match(session, match_id)
         if not _JOB_MATCH_KEY.match(match.match_key):
             raise ValueError(f"match {match_id} ({match.match_key}) was not played by a league job, so it cannot "
                              "be played again; only matches of evaluations and placements have replays on demand")
-        return reg.enqueue(session, "replay", {"match": match.id, "game_id": match.game_id}, priority=70).id
+        return enqueue_owned(session, who, "replay", {"match": match.id, "game_id": match.game_id}, priority=70,
+                             limit=limit).id
 
 
 def handle_replay(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:

@@ -54,6 +54,8 @@ from arena_league.league.population_index import (
     shipped_rows,
     verified_population,
 )
+from arena_league.league.quotas import enqueue_owned, live_job_limit
+from arena_league.league.tokens import Identity
 from arena_league.registry import League
 from arena_league.registry.jobs import live_jobs
 
@@ -455,10 +457,11 @@ def export_population(league: League, population: str, destination: str | Path, 
     return dest
 
 
-def queue_import(league: League, game_id: str, population: str | None = None) -> int:
+def queue_import(league: League, game_id: str, population: str | None = None, *, who: Identity | None = None) -> int:
     """Queue the import of a population shipped with arena-league for ``game_id`` (default: the
     newest shipped; its members are validated: agent code, run by a worker, never by the caller);
-    returns the job id: that of the import of the same population already queued or running, if any."""
+    returns the job id: that of the import of the same population already queued or running, if any.
+    ``who`` is recorded as the job's owner (None: the league's own)."""
     shipped = shipped_populations(game_id)
     if population is None:
         population = shipped[-1] if shipped else "base-v1"
@@ -471,11 +474,12 @@ def queue_import(league: League, game_id: str, population: str | None = None) ->
                          f"`arena-league population pull {game_id} {name}`")
     register_game(league, game_id)
     payload = {"game_id": game_id, "population": name}
+    limit = live_job_limit(league) if who is not None else None
     with league.transaction() as session:
         for job in live_jobs(session, "import"):
             if job.payload == payload:
                 return job.id
-        return reg.enqueue(session, "import", payload, priority=80).id
+        return enqueue_owned(session, who, "import", payload, priority=80, limit=limit).id
 
 
 def base_import(league: League, game_id: str) -> dict[str, Any] | None:

@@ -49,6 +49,7 @@ from arena_league.league.populations import (
     require_population,
     shipped_populations,
 )
+from arena_league.league.quotas import enqueue_owned, live_job_limit
 from arena_league.matchmaking import (
     AgentRef,
     MatchResult,
@@ -867,17 +868,18 @@ def queue_rank(league: League, agent: str, *, budget: int = 200, population: str
     frozen one with ratings) for a worker; returns the job id. The job finds the base when it runs
     (importing the shipped one on first use, which validates its members: agent code, never run in
     the caller's request). ``seed`` and ``more`` as in :func:`rank`: a seed the stored placement
-    holds gives it back without playing. With ``who``, only the agent's owner (or an administrator) may."""
+    holds gives it back without playing. With ``who``, only the agent's owner (or an administrator) may,
+    and the job counts against ``who``'s quota (:mod:`arena_league.league.quotas`)."""
     from arena_league.league.errors import NotFoundError
     from arena_league.league.settings import check_rank_budget
 
     check_rank_budget(league, budget, more)
     game_id = _entrant_game(league, agent, who, NotFoundError)
+    limit = live_job_limit(league) if who is not None else None
+    payload = {"game_id": game_id, "agent": agent, "population": population, "budget": int(budget),
+               "target_half_width": float(target_half_width), "seed": int(seed), "more": more, "backend": "inprocess"}
     with league.transaction() as session:
-        return reg.enqueue(session, "rank", {"game_id": game_id, "agent": agent, "population": population,
-                                             "budget": int(budget), "target_half_width": float(target_half_width),
-                                             "seed": int(seed), "more": more, "backend": "inprocess"},
-                           priority=60).id
+        return enqueue_owned(session, who, "rank", payload, priority=60, limit=limit).id
 
 
 def _resolve_base(ctx: reg.JobContext) -> dict[str, Any]:

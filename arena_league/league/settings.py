@@ -64,6 +64,9 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
                      "plus a forward at the largest batch; over it, the submission is rejected"),
     Setting("forfeits.suspend_after", int, 3, 1, 10**6, "forfeits after which an agent is suspended (it plays no "
             "more until an operator makes it active again)"),
+    Setting("jobs.live_per_owner", int, 10, 1, 10**6, "jobs one owner may have queued or running at once "
+            "(uploads' validations, placements, tree verifications and previews, replays; administrators are not "
+            "limited); past it, requests are refused until some finish or are cancelled"),
     Setting("rank.max_budget", int, 5000, 2, 10**7, "the most matches one placement may play (`rank --budget`, "
             "a placement queued on the web); a larger budget is refused"),
     Setting("web.upload_mib", int, 300, 1, 1 << 16, "the most an upload to the web service may hold (MiB); the "

@@ -30,6 +30,7 @@ import yaml
 from arena_league import registry as reg
 from arena_league.league.errors import ForbiddenError, NotFoundError
 from arena_league.league.home import register_game
+from arena_league.league.quotas import enqueue_owned, live_job_limit
 from arena_league.league.tokens import Identity
 from arena_league.registry import League
 
@@ -182,15 +183,18 @@ def _view(tree: reg.Tree, *, yaml: bool = True) -> dict[str, Any]:
 
 # --- jobs -----------------------------------------------------------------------------------------
 
-def queue_verify(league: League, game_id: str, spec: Any, *, samples: int = 64, seed: int = 0) -> int:
-    """Queue the sampling verification of ``spec`` (checked first); the job id."""
+def queue_verify(league: League, game_id: str, spec: Any, *, samples: int = 64, seed: int = 0,
+                 who: Identity | None = None) -> int:
+    """Queue the sampling verification of ``spec`` (checked first) for ``who`` (within their quota,
+    :mod:`arena_league.league.quotas`; None: the league's own); the job id."""
     if isinstance(samples, bool) or not isinstance(samples, int) or not 2 <= samples <= MAX_SAMPLES:
         raise ValueError(f"samples must be a whole number from 2 to {MAX_SAMPLES}, not {samples!r}")
     _checked(game_id, spec)
     register_game(league, game_id)
+    limit = live_job_limit(league) if who is not None else None
     with league.transaction() as session:
-        return reg.enqueue(session, "verify", {"game_id": game_id, "tree": spec, "samples": samples,
-                                               "seed": int(seed)}, priority=60).id
+        return enqueue_owned(session, who, "verify", {"game_id": game_id, "tree": spec, "samples": samples,
+                                                      "seed": int(seed)}, priority=60, limit=limit).id
 
 
 def handle_verify(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
@@ -202,13 +206,15 @@ def handle_verify(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
     return report.to_dict()
 
 
-def queue_preview(league: League, game_id: str, spec: Any, *, seed: int = 0) -> int:
-    """Queue one recorded match of the game's scripted players under ``spec``; the job id."""
+def queue_preview(league: League, game_id: str, spec: Any, *, seed: int = 0, who: Identity | None = None) -> int:
+    """Queue one recorded match of the game's scripted players under ``spec`` for ``who`` (within
+    their quota; None: the league's own); the job id."""
     _checked(game_id, spec)
     register_game(league, game_id)
+    limit = live_job_limit(league) if who is not None else None
     with league.transaction() as session:
-        return reg.enqueue(session, "preview", {"game_id": game_id, "tree": spec, "seed": int(seed)},
-                           priority=60).id
+        return enqueue_owned(session, who, "preview", {"game_id": game_id, "tree": spec, "seed": int(seed)},
+                             priority=60, limit=limit).id
 
 
 def handle_preview(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:

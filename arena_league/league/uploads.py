@@ -29,6 +29,7 @@ from typing import Any, BinaryIO
 from arena_league import registry as reg
 from arena_league.league.errors import NotFoundError, RateLimitedError
 from arena_league.league.home import register_game
+from arena_league.league.quotas import enqueue_owned, live_job_limit
 from arena_league.league.tokens import Identity
 from arena_league.league.versions import (
     check_submitted_name,
@@ -79,9 +80,7 @@ def upload_agent(league: League, who: Identity, game_id: str, name: str,
     with league.reading() as session:
         recent = reg.count_agents_since(session, who.owner, utcnow() - timedelta(hours=1))
         version_name(session, name, game_id, who.owner)  # another owner's name is refused before staging
-    if recent >= per_hour and not who.admin:
-        raise RateLimitedError(f"{who.owner} has uploaded {recent} agents in the last hour, the most this league "
-                               f"allows ({per_hour}, the setting web.uploads_per_hour); try again later")
+    _refuse_over_rate(who, recent, per_hour)  # early, before staging; _reserve counts again under the lock
     staged = _stage(league, files, limit_bytes)
     try:
         agent, job_id = _reserve(league, who, game_id, name, staged)
@@ -128,20 +127,33 @@ def _stage(league: League, files: Iterable[tuple[str, BinaryIO]], limit_bytes: i
 
 def _reserve(league: League, who: Identity, game_id: str, series: str, staged: Path) -> tuple[str, int]:
     """Reserve the series' next version as a pending agent and queue its validation, in one
-    transaction (a concurrent upload of the same series takes the version after)."""
+    transaction (a concurrent upload of the same series takes the version after). The owner's hourly
+    uploads and live jobs are counted in that transaction, under the owner's lock, so concurrent
+    uploads (on any server) cannot together pass ``web.uploads_per_hour`` or ``jobs.live_per_owner``."""
     relative = staged.relative_to(Path(league.home)).as_posix()
+    per_hour, job_limit = upload_limits(league)[1], live_job_limit(league)
     for _ in range(5):
         try:
             with league.transaction() as session:
+                reg.lock_owner(session, who.owner)
+                _refuse_over_rate(who, reg.count_agents_since(session, who.owner, utcnow() - timedelta(hours=1)),
+                                  per_hour)
                 name, version = version_name(session, series, game_id, who.owner)
                 reg.create_agent(session, name, game_id, "submission", owner=who.owner, status="pending",
                                  metadata={"series": series, "version": version, "upload": relative}, reserved=True)
-                job = reg.enqueue(session, "validate", {"game_id": game_id, "agent": name, "upload": relative},
-                                  priority=50)
+                job = enqueue_owned(session, who, "validate", {"game_id": game_id, "agent": name, "upload": relative},
+                                    priority=50, limit=job_limit)
                 return name, job.id
         except NameTakenError:
             continue  # another upload took this version first
     raise ValueError(f"could not reserve a version of {series}: too many uploads of it at once; try again")
+
+
+def _refuse_over_rate(who: Identity, recent: int, per_hour: int) -> None:
+    """RateLimitedError once ``who`` (not an administrator) made ``per_hour`` uploads in the last hour."""
+    if recent >= per_hour and not who.admin:
+        raise RateLimitedError(f"{who.owner} has uploaded {recent} agents in the last hour, the most this league "
+                               f"allows ({per_hour}, the setting web.uploads_per_hour); try again later")
 
 
 def handle_validate(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:

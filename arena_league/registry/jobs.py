@@ -14,6 +14,12 @@ each claim counts one attempt, and a job that has used `max_attempts` is failed 
 kept. The attempt number is a fencing token: renewing, completing or failing a job needs the
 attempt one claimed, so a worker that lost its lease can no longer complete the job.
 
+Claims are fair across owners (`Job.owner`, who queued the job; None for the league's own jobs):
+among the runnable jobs of the highest priority, the claim takes the owner with the fewest jobs
+running, then the owner served least recently (whose last claim is oldest, or who was never
+served), then that owner's oldest job. So a burst of one owner's jobs delays another owner's job
+by at most the length of one job on each worker, not by the whole burst.
+
 Claims never hand one job to two workers:
 - SQLite: one `UPDATE ... WHERE id = (SELECT ... LIMIT 1) RETURNING ...` inside a BEGIN IMMEDIATE
   transaction, which holds the database's single write lock;
@@ -50,7 +56,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime, timedelta
 from typing import Any
 
-from sqlalchemy import and_, func, or_, select, update
+from sqlalchemy import and_, case, func, or_, select, text, update
 from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session
 
@@ -75,6 +81,9 @@ DB_FAILURES_LONG_RUNNING = 10
 MAX_BACKOFF_SECONDS = 60.0
 _PERMANENT_ERRORS = (ReadOnlyDatabaseError, CorruptDatabaseError)
 _DATABASE_ERRORS = (SQLAlchemyError, DatabaseStateError)
+
+# Any constant: the class of the per-owner PostgreSQL advisory locks (the owner's hash is the key).
+_PG_OWNER_LOCK_CLASS = 0x41524F57  # "AROW"
 
 _EXHAUSTED_LEASE_ERROR = (
     "the lease expired on the last allowed attempt (the worker crashed or stalled); not retried"
@@ -136,8 +145,11 @@ def enqueue(
     max_attempts: int = 3,
     run_after: datetime | None = None,
     schedule_id: int | None = None,
+    owner: str | None = None,
 ) -> Job:
-    """Queue a job in the caller's transaction; higher `priority` runs first, then older jobs."""
+    """Queue a job in the caller's transaction; higher `priority` runs first, then the owner served
+    least (see the module docstring), then older jobs. `owner` is who asked for it (None: the
+    league itself)."""
     if max_attempts < 1:
         raise InvalidRecordError(f"max_attempts must be at least 1, not {max_attempts}")
     body = dict(payload or {})
@@ -150,6 +162,7 @@ def enqueue(
         max_attempts=max_attempts,
         run_after=run_after or utcnow(),
         schedule_id=schedule_id,
+        owner=owner,
     )
     session.add(job)
     session.flush()
@@ -202,7 +215,7 @@ def claim_job(
                     ),
                 )
             )
-            .order_by(Job.priority.desc(), Job.id)
+            .order_by(Job.priority.desc(), *_fair_order(), Job.id)
             .limit(1)
         )
         if wanted is not None:
@@ -372,6 +385,38 @@ def live_jobs(session: Session, kind: str, *, exclude_job_id: int | None = None)
     if exclude_job_id is not None:
         query = query.where(Job.id != exclude_job_id)
     return list(session.scalars(query))
+
+
+def _fair_order() -> list[Any]:
+    """The claim's order within one priority: the owner with the fewest running jobs, then the
+    owner served least recently (never served first). Each is one index lookup on (owner, ...) per
+    candidate; the league's own jobs (owner None) count as one owner, looked up once."""
+    peer = Job.__table__.alias("peer")
+
+    def per_owner(value: Any, *where: Any) -> Any:
+        mine = select(value).select_from(peer).where(peer.c.owner == Job.owner, *where).scalar_subquery()
+        league_own = select(value).select_from(peer).where(peer.c.owner.is_(None), *where).scalar_subquery()
+        return case((Job.owner.is_(None), league_own), else_=mine)
+
+    running = per_owner(func.count(), peer.c.status == JobStatus.RUNNING.value)
+    served = per_owner(func.max(peer.c.started_at))
+    return [running.asc(), served.asc().nulls_first()]
+
+
+def lock_owner(session: Session, owner: str) -> None:
+    """Hold ``owner``'s lock until the caller's transaction ends, so that checking a per-owner limit
+    and queueing under it is one step across requests and servers. PostgreSQL: a transaction-level
+    advisory lock on the owner's hash; SQLite: the write transaction's BEGIN IMMEDIATE already holds
+    the database's single write lock. Call it inside `League.transaction()`."""
+    if session.get_bind().dialect.name == "postgresql":
+        session.execute(text("SELECT pg_advisory_xact_lock(:lock_class, hashtext(:owner))"),
+                        {"lock_class": _PG_OWNER_LOCK_CLASS, "owner": owner})
+
+
+def count_live_jobs(session: Session, owner: str) -> int:
+    """How many of ``owner``'s jobs are queued or running."""
+    return int(session.scalar(select(func.count(Job.id)).where(
+        Job.owner == owner, Job.status.in_((JobStatus.QUEUED.value, JobStatus.RUNNING.value)))))
 
 
 def lock_game(session: Session, game_id: str) -> None:

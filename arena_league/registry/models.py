@@ -283,12 +283,16 @@ class Job(Base):
     started_at: Mapped[datetime | None]
     finished_at: Mapped[datetime | None]
     schedule_id: Mapped[int | None] = mapped_column(ForeignKey("schedules.id", ondelete="SET NULL"))
+    #: Who queued it (a token's owner); None for the league's own jobs (schedules, the command line).
+    owner: Mapped[str | None] = mapped_column(String(128))
 
     __table_args__ = (
         CheckConstraint(_one_of("status", JobStatus), name="status"),
         CheckConstraint("max_attempts >= 1", name="max_attempts"),
         Index(None, "status", "priority", "id"),
         Index(None, "schedule_id"),
+        Index(None, "owner", "status"),  # an owner's live jobs: quotas, and the fair claim's running count
+        Index(None, "owner", "started_at"),  # when an owner was last served: the fair claim's tie-break
     )
 
 

@@ -155,7 +155,7 @@ def game_leaderboard(request: Request, game: str,
              summary="import the game's shipped base population (administrators)")
 def import_population(request: Request, game: str, who: Writer) -> dict[str, int]:
     _admin(who)
-    return {"job": ops.queue_import(league_of(request), game)}
+    return {"job": ops.queue_import(league_of(request), game, who=who)}
 
 
 @router.post("/agents", response_model=Uploaded, status_code=202,
@@ -238,7 +238,7 @@ def match_replay(request: Request, match_id: RowId) -> dict[str, Any]:
 @router.post("/matches/{match_id}/replay", response_model=Queued, status_code=202,
              summary="queue a job that plays the match again and records its replay")
 def record_replay(request: Request, match_id: RowId, who: Writer) -> dict[str, int]:
-    return {"job": ops.queue_replay(league_of(request), match_id)}
+    return {"job": ops.queue_replay(league_of(request), match_id, who=who)}
 
 
 @router.get("/games/{game}/tree-catalog", summary="what a social tree of the game may hold: seats, schemes, "
@@ -255,13 +255,14 @@ def check_tree(tree: TreeSpec) -> dict[str, Any]:
 @router.post("/trees/verify", response_model=Queued, status_code=202,
              summary="queue the sampling verification of a social tree; its result paints every node")
 def verify_tree(request: Request, tree: TreeVerify, who: Writer) -> dict[str, int]:
-    return {"job": ops.queue_verify(league_of(request), tree.game, tree.spec, samples=tree.samples, seed=tree.seed)}
+    return {"job": ops.queue_verify(league_of(request), tree.game, tree.spec, samples=tree.samples, seed=tree.seed,
+                                      who=who)}
 
 
 @router.post("/trees/preview", response_model=Queued, status_code=202,
              summary="queue one recorded match of the game's scripted players under a social tree")
 def preview_tree(request: Request, tree: TreePreview, who: Writer) -> dict[str, int]:
-    return {"job": ops.queue_preview(league_of(request), tree.game, tree.spec, seed=tree.seed)}
+    return {"job": ops.queue_preview(league_of(request), tree.game, tree.spec, seed=tree.seed, who=who)}
 
 
 @router.get("/trees/previews/{job_id}", summary="a finished preview's replay, as frames of its top-down scene")

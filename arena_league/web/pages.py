@@ -135,7 +135,7 @@ def record_replay(request: Request, match_id: RowId, viewer: Viewer) -> Redirect
     who = _signed_in(viewer, f"/matches/{match_id}")
     if isinstance(who, RedirectResponse):
         return who
-    return RedirectResponse(f"/jobs/{ops.queue_replay(league_of(request), match_id)}", status_code=303)
+    return RedirectResponse(f"/jobs/{ops.queue_replay(league_of(request), match_id, who=who)}", status_code=303)
 
 
 # --- jobs ---------------------------------------------------------------------------------------
