@@ -16,7 +16,9 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
+from unittest import mock
 from urllib.parse import urlparse
 
 import pytest
@@ -72,29 +74,47 @@ def _tmpfs(folder: Path, size: str) -> Iterator[None]:
         subprocess.run(["umount", "-l", str(folder)], check=False)
 
 
+@dataclass
+class Door:
+    """The module's server, and its tmpfs mounts (None where this machine lets no test mount one)."""
+
+    server: Server
+    uploads: Path | None
+    spool: Path | None
+
+
+def _mount(folder: Path, size: str) -> Path | None:
+    folder.mkdir(parents=True, exist_ok=True)
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)], check=False,
+                          capture_output=True)
+    return folder if done.returncode == 0 else None
+
+
 @pytest.fixture(scope="module")
-def door(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Server, Path]]:
-    """A server whose uploads are at most 1 MiB, 2 in flight per owner and 3 in all, with its
-    uploads folder on a 256 KiB tmpfs when this machine lets tests mount one."""
-    home = tmp_path_factory.mktemp("door") / "home"
+def door(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Door]:
+    """A server whose uploads are at most 2 MiB, 2 in flight per owner and 3 in all, with its
+    uploads folder on a 256 KiB tmpfs and its temporary folder (where a form's files spool) on an
+    8 MiB one, when this machine lets tests mount them."""
+    root = tmp_path_factory.mktemp("door")
+    home = root / "home"
     with open_home(home) as league:
-        set_setting(league, "web.upload_mib", 1)
+        set_setting(league, "web.upload_mib", 2)
         set_setting(league, "web.uploads_in_flight_per_owner", 2)
         set_setting(league, "web.uploads_in_flight", 3)
-    uploads = home / "uploads"
-    uploads.mkdir()
-    small = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(uploads)],
-                           check=False, capture_output=True)
+    uploads, spool = _mount(home / "uploads", "256k"), _mount(root / "spool", "8m")
     try:
-        with running_server(home, workers=0) as server:
-            yield server, uploads if small.returncode == 0 else None
+        with contextlib.ExitStack() as stack:
+            with mock.patch.dict(os.environ, {"TMPDIR": str(spool)} if spool else {}):
+                server = stack.enter_context(running_server(home, workers=0))
+            yield Door(server, uploads, spool)
     finally:
-        if small.returncode == 0:
-            subprocess.run(["umount", "-l", str(uploads)], check=False)
+        for folder in (uploads, spool):
+            if folder is not None:
+                subprocess.run(["umount", "-l", str(folder)], check=False)
 
 
-def test_a_write_is_refused_before_its_body_is_read(door: tuple[Server, Path]) -> None:
-    server, _ = door
+def test_a_write_is_refused_before_its_body_is_read(door: Door) -> None:
+    server = door.server
     alice = server.token("alice")
     big = 250 * MIB
     # anonymous, a bad token, an anonymous page form: answered before the first byte of the body
@@ -120,8 +140,8 @@ def test_a_write_is_refused_before_its_body_is_read(door: tuple[Server, Path]) -
         assert client.get("/api/games").status_code == 200
 
 
-def test_uploads_in_flight_are_bounded_per_owner_and_in_all(door: tuple[Server, Path]) -> None:
-    server, _ = door
+def test_uploads_in_flight_are_bounded_per_owner_and_in_all(door: Door) -> None:
+    server = door.server
     alice, bob, carol = (server.token(owner) for owner in ("alice", "bob", "carol"))
     held: list[socket.socket] = []
     try:
@@ -146,8 +166,8 @@ def test_uploads_in_flight_are_bounded_per_owner_and_in_all(door: tuple[Server, 
         pytest.fail("alice's slots were not given back after her uploads ended")
 
 
-def test_an_oversized_chunked_upload_answers_413(door: tuple[Server, Path]) -> None:
-    server, _ = door
+def test_an_oversized_chunked_upload_answers_413(door: Door) -> None:
+    server = door.server
     alice = server.token("alice")
     boundary = "front-door"
 
@@ -156,7 +176,7 @@ def test_an_oversized_chunked_upload_answers_413(door: tuple[Server, Path]) -> N
                f"--{boundary}\r\nContent-Disposition: form-data; name=\"name\"\r\n\r\nbig\r\n"
                f"--{boundary}\r\nContent-Disposition: form-data; name=\"file\"; filename=\"model.onnx\"\r\n"
                "Content-Type: application/octet-stream\r\n\r\n").encode()
-        for _ in range(3):
+        for _ in range(5):
             yield b"\0" * MIB
         yield f"\r\n--{boundary}--\r\n".encode()
 
@@ -167,8 +187,8 @@ def test_an_oversized_chunked_upload_answers_413(door: tuple[Server, Path]) -> N
     assert "web.upload_mib" in answer.json()["detail"]
 
 
-def test_a_full_uploads_disk_is_named_without_paths(door: tuple[Server, Path]) -> None:
-    server, uploads = door
+def test_a_full_uploads_disk_is_named_without_paths(door: Door) -> None:
+    server, uploads = door.server, door.uploads
     if uploads is None:
         pytest.skip("cannot mount a tmpfs here")
     with server.client(server.token("alice")) as client:
@@ -179,6 +199,26 @@ def test_a_full_uploads_disk_is_named_without_paths(door: tuple[Server, Path]) -
     assert "the league home's uploads/ folder is full" in detail and "free space" in detail
     assert str(server.home) not in detail and "internal error" not in detail
     assert list(uploads.iterdir()) == []  # the staged part was removed
+
+
+def test_a_full_temporary_folder_is_named(door: Door) -> None:
+    server, spool = door.server, door.spool
+    if spool is None:
+        pytest.skip("cannot mount a tmpfs here")
+    filler = spool / "filler"
+    try:
+        with contextlib.suppress(OSError), open(filler, "wb") as out:
+            while True:
+                out.write(b"\0" * 65536)
+                out.flush()
+        with server.client(server.token("alice")) as client:  # over 1 MiB: the form spools it to disk
+            answer = client.post("/api/agents", data={"game": GAME, "name": "spooled"},
+                                 files={"file": ("model.onnx", b"\1" * (MIB + MIB // 2))})
+    finally:
+        filler.unlink()
+    assert answer.status_code == 507, answer.text
+    detail = answer.json()["detail"]
+    assert "the web server's temporary folder (TMPDIR) is full" in detail and str(spool) not in detail
 
 
 def test_a_full_artifact_store_is_named(tmp_path: Path) -> None:

@@ -28,9 +28,11 @@ from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, Request
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import HTTPException, RequestValidationError
 from fastapi.responses import JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from arena_league import league as ops
 from arena_league.registry.errors import DatabaseFullError, DiskFullError, disk_full_error
@@ -143,11 +145,15 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
 
     @app.exception_handler(HTTPException)
     async def http_error(request: Request, error: HTTPException) -> Response:
-        # a body the server could not spool (its temporary folder full) is the server's fault, named
+        return respond(request, error.status_code, str(error.detail), dict(error.headers or {}))
+
+    @app.exception_handler(StarletteHTTPException)
+    async def body_error(request: Request, error: StarletteHTTPException) -> Response:
+        # a body the server could not spool (its temporary folder full) is the server's fault: named
         full = disk_full_error(error.__cause__, "the web server's temporary folder (TMPDIR)") if error.__cause__ else None
         if full is not None:
             return disk_full(request, full)
-        return respond(request, error.status_code, str(error.detail), dict(error.headers or {}))
+        return await http_exception_handler(request, error)
 
     def disk_full(request: Request, error: Exception) -> Response:
         logger.error("%s %s: %s", request.method, request.url.path, error)
