@@ -221,6 +221,24 @@ def test_a_full_temporary_folder_is_named(door: Door) -> None:
     assert "the web server's temporary folder (TMPDIR) is full" in detail and str(spool) not in detail
 
 
+def test_a_full_database_disk_is_named_without_paths(tmp_path: Path) -> None:
+    home = tmp_path / "home"
+    with _tmpfs(home, "4m"), running_server(home, workers=0) as server:
+        alice = server.token("alice")
+        with server.client(alice) as client:
+            assert client.get("/api/me").status_code == 200  # the token's first use is noted while there is room
+            spec = client.get("/api/games/Crossroads-2T2P-v1/tree-catalog").json()["default"]
+            with contextlib.suppress(OSError), open(home / "filler", "wb") as filler:
+                while True:
+                    filler.write(b"\0" * 65536)
+                    filler.flush()
+            answer = client.post("/api/trees", json={"game": "Crossroads-2T2P-v1", "spec": spec, "name": "full"})
+            (home / "filler").unlink()
+    assert answer.status_code == 507, answer.text
+    detail = answer.json()["detail"]
+    assert "the disk holding the league's database is full" in detail and str(home) not in detail
+
+
 def test_a_full_artifact_store_is_named(tmp_path: Path) -> None:
     from arena_league.registry import store_artifact
 
@@ -232,6 +250,7 @@ def test_a_full_artifact_store_is_named(tmp_path: Path) -> None:
         assert [p for p in (home / "artifacts").rglob("*") if p.is_file()] == []
 
 
+@pytest.mark.slow  # the leaderboard imports the game's shipped base population first (about 100 s)
 def test_a_full_disk_in_the_cli_is_one_line_and_an_exit_code(tmp_path: Path) -> None:
     home, full = tmp_path / "home", tmp_path / "full"
     with _tmpfs(full, "64k"):

@@ -39,16 +39,13 @@ from arena_league.registry.errors import DatabaseFullError, DiskFullError, disk_
 from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
 from arena_league.web.deps import STATUS_OF, status_of
-from arena_league.web.guard import FrontDoor
+from arena_league.web.guard import DATABASE_FULL, FULL_RETRY_SECONDS, FrontDoor
 
 __all__ = ["create_app"]
 
 logger = logging.getLogger("arena_league.web")
-#: Seconds a client refused for a full disk is asked to wait.
-FULL_RETRY_SECONDS = 300
-#: The answer to a write the database's full disk refused (its file's path stays in the server's log).
-DATABASE_FULL = ("the disk holding the league's database is full: the league's operator must free space on it (the "
-                 "server's log names the file); the write was rolled back, try again later")
+
+
 def _openapi(app: FastAPI) -> dict[str, Any]:
     """The OpenAPI document, with FastAPI's validation error (a list) replaced by this API's one-line
     ``{"detail": ...}``, which every error answers with."""

@@ -17,6 +17,7 @@ reads it), so a write is authenticated once.
 from __future__ import annotations
 
 import asyncio
+import logging
 from collections import Counter
 from collections.abc import Callable
 from typing import Any
@@ -28,9 +29,13 @@ from fastapi.responses import JSONResponse, RedirectResponse, Response
 
 from arena_league.league import Identity, authenticate
 from arena_league.league.uploads import upload_limits, uploads_in_flight
+from arena_league.registry.errors import DatabaseFullError, DatabaseStateError
 from arena_league.web.auth import IDENTITY_KEY, missing_token_message, token_in_headers
 
-__all__ = ["FORM_SLACK_BYTES", "JSON_BODY_BYTES", "OPEN_WRITES", "UPLOAD_PATHS", "FrontDoor"]
+__all__ = ["DATABASE_FULL", "FORM_SLACK_BYTES", "FULL_RETRY_SECONDS", "JSON_BODY_BYTES", "OPEN_WRITES", "UPLOAD_PATHS",
+           "FrontDoor"]
+
+logger = logging.getLogger("arena_league.web")
 
 #: Methods that may change something: each needs a token unless its route is in :data:`OPEN_WRITES`.
 WRITE_METHODS = frozenset({"POST", "PUT", "PATCH", "DELETE"})
@@ -44,6 +49,14 @@ FORM_SLACK_BYTES = 1 << 20
 JSON_BODY_BYTES = 1 << 20
 #: Seconds a client refused for too many uploads in flight is asked to wait.
 RETRY_IN_FLIGHT_SECONDS = 10
+#: Seconds a client refused for a full disk (or a database out of reach) is asked to wait.
+FULL_RETRY_SECONDS = 300
+#: The answer to a write the database's full disk refused (its file's path stays in the server's log).
+DATABASE_FULL = ("the disk holding the league's database is full: the league's operator must free space on it (the "
+                 "server's log names the file); the write was rolled back, try again later")
+#: The answer to a write the database could not take for another known cause (read-only, unreachable).
+DATABASE_DOWN = ("the league's database cannot take writes now (the server's log says why); the league's operator "
+                 "must fix it, try again later")
 
 #: How a refusal is answered: (the request, status, one line, headers) -> a response; the
 #: application's own error answer, so that pages get a page and the API gets ``{"detail": ...}``.
@@ -80,7 +93,14 @@ class FrontDoor:
         per_owner = in_all = 0
         if (scope["method"], path) not in OPEN_WRITES:
             token = token_in_headers(scope.get("headers") or [])
-            identity, upload_bytes, per_owner, in_all = await asyncio.to_thread(self._admit, token, upload)
+            try:
+                identity, upload_bytes, per_owner, in_all = await asyncio.to_thread(self._admit, token, upload)
+            except DatabaseStateError as error:  # a token's first use is a write: the database may refuse it
+                logger.error("%s %s: %s", scope["method"], path, error)
+                full = isinstance(error, DatabaseFullError)
+                await self._answer(scope, send, 507 if full else 503, DATABASE_FULL if full else DATABASE_DOWN,
+                                   {"Retry-After": str(FULL_RETRY_SECONDS)})
+                return
             if identity is None:
                 await self._refuse_anonymous(scope, send, token is not None)
                 return
