@@ -1228,7 +1228,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # a bug, not the user's input: one line, and the way to the traceback
         if debug:
             raise
-        from arena_league.registry.errors import disk_full_error
+        from arena_league.league.errors import disk_full_error
 
         full = disk_full_error(exc, str(getattr(exc, "filename", None) or "the league home"))
         if full is not None:  # a full disk is the machine's state, not a bug: named, with the fix

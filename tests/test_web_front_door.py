@@ -113,6 +113,7 @@ def door(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Door]:
                 subprocess.run(["umount", "-l", str(folder)], check=False)
 
 
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
 def test_a_write_is_refused_before_its_body_is_read(door: Door) -> None:
     server = door.server
     alice = server.token("alice")
@@ -140,6 +141,7 @@ def test_a_write_is_refused_before_its_body_is_read(door: Door) -> None:
         assert client.get("/api/games").status_code == 200
 
 
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
 def test_uploads_in_flight_are_bounded_per_owner_and_in_all(door: Door) -> None:
     server = door.server
     alice, bob, carol = (server.token(owner) for owner in ("alice", "bob", "carol"))
@@ -166,6 +168,7 @@ def test_uploads_in_flight_are_bounded_per_owner_and_in_all(door: Door) -> None:
         pytest.fail("alice's slots were not given back after her uploads ended")
 
 
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
 def test_an_oversized_chunked_upload_answers_413(door: Door) -> None:
     server = door.server
     alice = server.token("alice")
@@ -187,6 +190,7 @@ def test_an_oversized_chunked_upload_answers_413(door: Door) -> None:
     assert "web.upload_mib" in answer.json()["detail"]
 
 
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
 def test_a_full_uploads_disk_is_named_without_paths(door: Door) -> None:
     server, uploads = door.server, door.uploads
     if uploads is None:
@@ -201,6 +205,7 @@ def test_a_full_uploads_disk_is_named_without_paths(door: Door) -> None:
     assert list(uploads.iterdir()) == []  # the staged part was removed
 
 
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
 def test_a_full_temporary_folder_is_named(door: Door) -> None:
     server, spool = door.server, door.spool
     if spool is None:
@@ -221,6 +226,7 @@ def test_a_full_temporary_folder_is_named(door: Door) -> None:
     assert "the web server's temporary folder (TMPDIR) is full" in detail and str(spool) not in detail
 
 
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
 def test_a_full_database_disk_is_named_without_paths(tmp_path: Path) -> None:
     home = tmp_path / "home"
     with _tmpfs(home, "4m"), running_server(home, workers=0) as server:
@@ -285,6 +291,7 @@ def test_an_empty_database_file_is_not_a_new_league(tmp_path: Path) -> None:
     open_home(home).close()
 
 
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
 def test_a_rejection_reason_carries_no_server_path(tmp_path: Path) -> None:
     from arena_league.league import run_worker
 

@@ -35,7 +35,7 @@ from fastapi.staticfiles import StaticFiles
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from arena_league import league as ops
-from arena_league.registry.errors import DatabaseFullError, DiskFullError, disk_full_error
+from arena_league.league.errors import DatabaseFullError, DiskFullError, disk_full_error
 from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
 from arena_league.web.deps import STATUS_OF, status_of

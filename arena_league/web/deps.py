@@ -9,7 +9,7 @@ from fastapi import Depends, Path, Query, Request
 
 from arena_league import league as ops
 from arena_league.league import Identity
-from arena_league.registry.errors import DatabaseFullError, DiskFullError
+from arena_league.league.errors import DatabaseFullError, DiskFullError
 from arena_league.web.auth import optional_identity, required_identity
 
 __all__ = ["STATUS_OF", "Method", "RowId", "Viewer", "Writer", "league_of", "status_of"]

@@ -28,8 +28,8 @@ from fastapi.exceptions import HTTPException
 from fastapi.responses import JSONResponse, RedirectResponse, Response
 
 from arena_league.league import Identity, authenticate
+from arena_league.league.errors import DatabaseFullError, DatabaseStateError
 from arena_league.league.uploads import upload_limits, uploads_in_flight
-from arena_league.registry.errors import DatabaseFullError, DatabaseStateError
 from arena_league.web.auth import IDENTITY_KEY, missing_token_message, token_in_headers
 
 __all__ = ["DATABASE_FULL", "FORM_SLACK_BYTES", "FULL_RETRY_SECONDS", "JSON_BODY_BYTES", "OPEN_WRITES", "UPLOAD_PATHS",
