@@ -1228,6 +1228,11 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # a bug, not the user's input: one line, and the way to the traceback
         if debug:
             raise
+        from arena_league.league.errors import disk_full_error
+
+        full = disk_full_error(exc, str(getattr(exc, "filename", None) or "the league home"))
+        if full is not None:  # a full disk is the machine's state, not a bug: named, with the fix
+            return _fail(args, str(full), type(full).__name__, 2)
         return _fail(args, f"internal error ({type(exc).__name__}: {exc}); run again with --debug for the "
                            "traceback and report it", type(exc).__name__, 1)
 

@@ -4,16 +4,23 @@ Front ends show these as one line (and an exit code, or an HTTP 4xx), never as a
 ``ValueError`` (a bad option or name), ``FileNotFoundError``, the registry's errors (an unknown
 agent, a duplicate name) and the artifact errors of a refused submission. Three of them say more
 to a web client: :class:`NotFoundError` (404), :class:`ForbiddenError` (403) and
-:class:`RateLimitedError` (429).
+:class:`RateLimitedError` (429); a full disk (:class:`DiskFullError`, :class:`DatabaseFullError`,
+:func:`disk_full_error` for an ``OSError``) is the machine's state, named with its fix (507).
 """
 
 from __future__ import annotations
 
 from arena_league.policies.errors import ArtifactError
-from arena_league.registry.errors import RegistryError
+from arena_league.registry.errors import (
+    DatabaseFullError,
+    DatabaseStateError,
+    DiskFullError,
+    RegistryError,
+    disk_full_error,
+)
 
-__all__ = ["USER_ERRORS", "ForbiddenError", "JobCancelledError", "JobFailedError", "JobInterrupted", "NotFoundError",
-           "RateLimitedError"]
+__all__ = ["USER_ERRORS", "DatabaseFullError", "DatabaseStateError", "DiskFullError", "ForbiddenError",
+           "JobCancelledError", "JobFailedError", "JobInterrupted", "NotFoundError", "RateLimitedError", "disk_full_error"]
 
 
 class NotFoundError(ValueError):

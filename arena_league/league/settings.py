@@ -73,6 +73,10 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
             "artifact's own limits apply as well"),
     Setting("web.uploads_per_hour", int, 30, 1, 10**6, "uploads one owner may make to the web service in an hour "
             "(administrators are not limited)"),
+    Setting("web.uploads_in_flight_per_owner", int, 2, 1, 10**4, "uploads one owner may be sending to one web "
+            "server at once; another is refused (429) before its body is read"),
+    Setting("web.uploads_in_flight", int, 8, 1, 10**5, "uploads one web server receives at once, from everyone; "
+            "another is refused (429) before its body is read"),
     Setting("web.live_games", int, 8, 0, 10**4, "people one web server lets play in the browser at once (each "
             "steps a game on the server); 0 turns /play off"),
     Setting("web.live_idle_seconds", int, 600, 10, 86400, "seconds a browser game waits for its player's move (or "

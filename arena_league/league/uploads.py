@@ -39,11 +39,12 @@ from arena_league.league.versions import (
     version_rows,
 )
 from arena_league.registry import League
-from arena_league.registry.errors import NameTakenError
+from arena_league.registry.errors import NameTakenError, disk_full_error
 from arena_league.registry.jobs import set_job_payload
 from arena_league.registry.models import utcnow
 
-__all__ = ["UPLOADS", "handle_validate", "series_of", "series_versions", "upload_agent", "upload_limits"]
+__all__ = ["UPLOADS", "handle_validate", "series_of", "series_versions", "upload_agent", "upload_limits",
+           "uploads_in_flight"]
 
 #: Folder of the league home where uploads wait for their validation job.
 UPLOADS = "uploads"
@@ -51,6 +52,8 @@ UPLOADS = "uploads"
 _FILE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
 _POLICY_FILES = {"manifest.json", "weights.safetensors", "README.md"}
 _CHUNK = 1 << 20
+#: Where uploads are staged, as a refusal names it (a server's paths are not shown to uploaders).
+_UPLOADS_WORDS = f"the league home's {UPLOADS}/ folder"
 
 
 def series_versions(league: League, name: str) -> list[dict[str, Any]]:
@@ -67,13 +70,25 @@ def upload_limits(league: League) -> tuple[int, int]:
     return int(settings["web.upload_mib"]["value"]) << 20, int(settings["web.uploads_per_hour"]["value"])
 
 
+def uploads_in_flight(league: League) -> tuple[int, int]:
+    """(uploads one owner may be sending to a web server at once, uploads a web server receives at
+    once), from the league's settings."""
+    from arena_league.league.settings import league_settings
+
+    settings = league_settings(league)
+    return (int(settings["web.uploads_in_flight_per_owner"]["value"]),
+            int(settings["web.uploads_in_flight"]["value"]))
+
+
 def upload_agent(league: League, who: Identity, game_id: str, name: str,
                  files: Iterable[tuple[str, BinaryIO]]) -> dict[str, Any]:
     """Stage an upload and queue its validation (see the module docstring); returns
     ``{"name", "version", "status": "pending", "job"}``.
 
     Raises ``ValueError`` for a bad game, name or file set (an empty file included; nothing is
-    kept), :class:`ForbiddenError` when the name is reserved or belongs to another owner, :class:`RateLimitedError` past the hourly limit."""
+    kept), :class:`ForbiddenError` when the name is reserved or belongs to another owner,
+    :class:`RateLimitedError` past the hourly limit, :class:`~arena_league.registry.errors.DiskFullError`
+    when the files do not fit on the league home's disk (nothing is kept)."""
     register_game(league, game_id)
     check_submitted_name(name)
     limit_bytes, per_hour = upload_limits(league)
@@ -94,10 +109,10 @@ def _stage(league: League, files: Iterable[tuple[str, BinaryIO]], limit_bytes: i
     """Write the files under ``uploads/<random>/``; returns the artifact's path there (the ONNX file,
     or the folder of an arena-policy). Nothing stays when the files are refused."""
     folder = Path(league.home) / UPLOADS / uuid.uuid4().hex
-    folder.mkdir(parents=True)
     names: list[str] = []
     total = 0
     try:
+        folder.mkdir(parents=True)
         for filename, stream in files:
             base = filename or ""
             if not _FILE_NAME.match(base) or base in names:  # no folder part, no dot file, once each
@@ -120,8 +135,11 @@ def _stage(league: League, files: Iterable[tuple[str, BinaryIO]], limit_bytes: i
         raise ValueError(f"an upload is one .onnx file (with its .onnx.data when torch wrote one) or an "
                          f"arena-policy folder's manifest.json and weights.safetensors (and README.md); got "
                          f"{', '.join(names) or 'no file'}")
-    except BaseException:
+    except BaseException as error:
         shutil.rmtree(folder, ignore_errors=True)
+        full = disk_full_error(error, _UPLOADS_WORDS)
+        if full is not None:
+            raise full from error
         raise
 
 
@@ -179,7 +197,8 @@ def handle_validate(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]
         try:
             artifact = read_artifact(staged)
         except (ArtifactError, OSError) as error:
-            return _settle(ctx.league, payload["agent"], "rejected", str(error), f"[read] {error}\n")
+            reason = _without_paths(str(error), staged, home)
+            return _settle(ctx.league, payload["agent"], "rejected", reason, f"[read] {reason}\n")
         with ctx.league.reading() as session:
             twin = next(iter(reg.find_agents_by_artifact(session, artifact.digest, game_id=payload["game_id"])), None)
         if twin is not None:
@@ -197,11 +216,27 @@ def handle_validate(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]
                 reg.attach_artifact(session, row, store_validated(session, ctx.league, artifact))
             kept = {k: v for k, v in (row.meta or {}).items() if k != "upload"}  # its files are removed below
             row.meta = {**agent_metadata(kept, artifact, verdict), "digest": artifact.digest}
-            reg.set_agent_status(session, row, status, reason=verdict.reason, log=verdict.log)
-        return {"agent": payload["agent"], "status": status, "reason": verdict.reason,
+            reason = None if verdict.reason is None else _without_paths(verdict.reason, staged, home)
+            reg.set_agent_status(session, row, status, reason=reason, log=_without_paths(verdict.log, staged, home))
+        return {"agent": payload["agent"], "status": status, "reason": reason,
                 "seconds": round(verdict.seconds, 3), "size": verdict.size}
     finally:
         _discard(staged)
+
+
+def _without_paths(text: str, staged: Path, home: Path) -> str:
+    """``text`` with the server's paths of a staged upload replaced by the names its uploader gave
+    (a file's name; "the uploaded folder" for an arena-policy's files), and any other mention of
+    the league home by "the league home": a reason is shown to anyone, a log to the owner."""
+    folder = staged if staged.is_dir() else staged.parent
+    names = sorted((p.name for p in folder.iterdir()), key=len, reverse=True) if folder.is_dir() else [staged.name]
+    for root in {folder, folder.resolve()}:
+        for name in names:
+            text = text.replace(f"{root}/{name}", name)
+        text = text.replace(str(root), "the uploaded folder")
+    for root in sorted({str(home), str(home.resolve())}, key=len, reverse=True):
+        text = text.replace(root, "the league home")
+    return text
 
 
 def _discard(staged: Path) -> None:

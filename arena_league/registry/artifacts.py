@@ -34,7 +34,12 @@ from sqlalchemy.orm import Session, SessionTransaction
 
 from arena_league.policies.address import folder_address
 from arena_league.registry.db import ARTIFACTS_DIRNAME
-from arena_league.registry.errors import ArtifactError, ArtifactTooLargeError, InvalidRecordError
+from arena_league.registry.errors import (
+    ArtifactError,
+    ArtifactTooLargeError,
+    InvalidRecordError,
+    disk_full_error,
+)
 from arena_league.registry.models import Agent, Artifact, ArtifactFormat
 from arena_league.registry.repository import insert_ignoring_conflict
 
@@ -66,7 +71,19 @@ def store_artifact(
         ArtifactTooLargeError: the content is over `max_bytes` (nothing was read or written).
         ArtifactError: the path is missing, or a folder holds a link or a special file.
         InvalidRecordError: unknown format, or the same content is already stored as another format.
+        DiskFullError: the store's disk is full (nothing was added to it).
     """
+    try:
+        return _store_artifact(session, home, source, format, max_bytes)
+    except OSError as error:
+        full = disk_full_error(error, f"the league home's {ARTIFACTS_DIRNAME}/ folder")
+        if full is None:
+            raise
+        raise full from error
+
+
+def _store_artifact(session: Session, home: str | os.PathLike[str], source: bytes | str | os.PathLike[str],
+                    format: ArtifactFormat | str, max_bytes: int | None) -> Artifact:
     artifact_format = _parse_format(format)
     home_path = Path(home)
     incoming = home_path / ARTIFACTS_DIRNAME / _INCOMING_DIRNAME

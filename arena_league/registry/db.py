@@ -15,8 +15,8 @@ is switched off (`isolation_level = None`) and SQLAlchemy's "begin" event emits 
 
 `open_league` migrates the schema to this code's head with Alembic (programmatically; no
 alembic.ini). It first checks what it is opening, and refuses, without writing a byte, a file
-that is not an SQLite database, a database holding some other application's tables, and a
-database migrated by a newer arena-league.
+that is not an SQLite database (an empty file included: only a missing file is a new league), a
+database holding some other application's tables, and a database migrated by a newer arena-league.
 
 Every command of a league may write (a game registered, a job claimed, a rating snapshot kept),
 so an SQLite league that cannot be written is refused when it is opened
@@ -33,6 +33,7 @@ goes on as SQLAlchemy raised it.
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -65,6 +66,10 @@ ARTIFACTS_DIRNAME = "artifacts"
 MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
 
 _SQLITE_HEADER = b"SQLite format 3\x00"
+#: An empty database file this recent may be a league another process is creating right now ...
+_CREATION_WINDOW_S = 10.0
+#: ... and is given this long to receive its first page before it is refused as empty.
+_CREATION_GRACE_S = 5.0
 _READ_ONLY_OPTION = "arena_league_read_only"
 # Any constant: serialises concurrent migrations of one PostgreSQL database.
 _PG_MIGRATION_LOCK = 0x4172656E61  # "Arena"
@@ -289,12 +294,29 @@ def _refuse_non_sqlite_file(path: Path) -> None:
     )
     if not path.is_file():
         raise NotADatabaseError(f"league database path {path} is not a file; {fix}")
+    if _stays_empty(path):
+        raise NotADatabaseError(
+            f"the league database {path} is an empty file (0 bytes), not a league: a new league is made "
+            "only where no database file exists. If it should hold your league, restore it from a backup; "
+            f"to start a new league here, delete the empty file (rm {path}); the file was not changed"
+        )
     with path.open("rb") as handle:
         header = handle.read(len(_SQLITE_HEADER))
     if header and header != _SQLITE_HEADER:
         raise NotADatabaseError(
             f"{path} is not an SQLite database (it starts with {header!r}, not the SQLite header); {fix}"
         )
+
+
+def _stays_empty(path: Path) -> bool:
+    """Whether ``path`` is an empty file that no one is creating the league in: a file made in the
+    last seconds is given a moment to receive its first page from the process that made it."""
+    size, modified = path.stat().st_size, path.stat().st_mtime
+    deadline = time.monotonic() + _CREATION_GRACE_S
+    while size == 0 and time.time() - modified < _CREATION_WINDOW_S and time.monotonic() < deadline:
+        time.sleep(0.05)
+        size = path.stat().st_size
+    return size == 0
 
 
 def _refuse_read_only_file(path: Path) -> None:

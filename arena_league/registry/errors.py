@@ -11,6 +11,12 @@ input that would corrupt them.
 
 from __future__ import annotations
 
+import errno
+import os
+
+#: The errors a write meets when its disk (or the process's file size limit) has no room.
+DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG})
+
 
 class RegistryError(Exception):
     """Base class of every error the registry raises on purpose."""
@@ -36,6 +42,24 @@ class DatabaseFullError(DatabaseStateError):
 
 class CorruptDatabaseError(DatabaseStateError):
     """The SQLite file fails its integrity check: a page is damaged. Nothing is written to it."""
+
+
+class DiskFullError(RegistryError):
+    """A file of the league (an upload, an artifact, a replay) could not be written: its disk is
+    full, or the process's file size limit was reached. The message names where, and the fix."""
+
+
+def disk_full_error(error: BaseException, where: str) -> DiskFullError | None:
+    """The :class:`DiskFullError` naming ``where`` (words, such as "the league home's uploads/
+    folder") for an ``OSError`` of a full disk, or None for any other error."""
+    if not isinstance(error, OSError) or error.errno not in DISK_FULL_ERRNOS:
+        return None
+    if error.errno == errno.EFBIG:
+        return DiskFullError(f"a file under {where} reached the most this process may write ({os.strerror(error.errno)}: "
+                             "its file size limit, `ulimit -f`); raise that limit and try again")
+    return DiskFullError(f"the disk holding {where} is full ({os.strerror(error.errno)}): free space on it (old "
+                         "replays under the league home's replays/ folder are safe to delete, and `arena-league gc` "
+                         "removes artifact files no agent uses), then try again")
 
 
 class WorkerGaveUpError(DatabaseStateError):

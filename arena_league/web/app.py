@@ -7,12 +7,12 @@ Besides the routes (:mod:`.api`, :mod:`.pages`) it sets up
 * job workers: with ``workers=N`` (the ``serve`` default is 1), N ``arena-league worker``
   processes run beside the server, on the same league, and are stopped with it; with 0, jobs wait
   for workers started elsewhere (several, on PostgreSQL, across machines);
-* a limit on request bodies (the league's ``web.upload_mib`` setting plus room for the form), so an
-  upload over it is refused with 413 while it streams, before it fills a disk;
+* the front door (:mod:`.guard`): a write's token, its size and the uploads in flight are checked
+  before its body is read (401, 413, 429), and a body is counted as it streams (413 past its limit);
 * one log line per request on stderr (method, path, status, milliseconds, owner);
 * errors as ``{"detail": ...}`` (the API and the ``.json`` twins) or as a page: 400 for bad input,
-  401, 403, 404 and 429 as their names say, 500 for a bug (logged with its traceback, answered
-  with one line).
+  401, 403, 404 and 429 as their names say, 507 for a full disk (naming which, without the
+  server's paths), 500 for a bug (logged with its traceback, answered with one line).
 """
 
 from __future__ import annotations
@@ -28,85 +28,24 @@ from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, Request
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import HTTPException, RequestValidationError
 from fastapi.responses import JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from arena_league import league as ops
+from arena_league.league.errors import DatabaseFullError, DiskFullError, disk_full_error
 from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
 from arena_league.web.bodies import JsonNesting
 from arena_league.web.csrf import Guard
 from arena_league.web.deps import STATUS_OF, status_of
+from arena_league.web.guard import DATABASE_FULL, FULL_RETRY_SECONDS, FrontDoor
 
 __all__ = ["create_app"]
 
 logger = logging.getLogger("arena_league.web")
-#: Room a multipart form needs beyond the files it carries.
-FORM_SLACK_BYTES = 1 << 20
-_UPLOAD_PATHS = ("/api/agents", "/submit")
-#: The most any other request body (a JSON document, a form) may hold.
-JSON_BODY_BYTES = 1 << 20
-
-
-class _BodyTooLarge(Exception):
-    pass
-
-
-class BodyLimit:
-    """ASGI middleware: refuse an upload whose body is over the league's upload limit (any other
-    body over :data:`JSON_BODY_BYTES`), by its Content-Length at once, or, without one, as soon as
-    that much has streamed in."""
-
-    def __init__(self, app: Any, limit: Any) -> None:
-        self.app = app
-        self.limit = limit  # a callable: the limit in bytes now
-
-    async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
-        if scope["type"] != "http" or scope["method"] not in ("POST", "PUT", "PATCH"):
-            await self.app(scope, receive, send)
-            return
-        limit = self.limit() if scope["path"] in _UPLOAD_PATHS else JSON_BODY_BYTES
-        declared = dict(scope.get("headers") or []).get(b"content-length")
-        if declared is not None and declared.isdigit() and int(declared) > limit:
-            await _refuse(scope, send, limit)
-            return
-        received = 0
-        started = False
-
-        async def counted() -> dict:
-            nonlocal received
-            message = await receive()
-            if message["type"] == "http.request":
-                received += len(message.get("body", b""))
-                if received > limit:
-                    raise _BodyTooLarge
-            return message
-
-        async def watched(message: dict) -> None:
-            nonlocal started
-            started = started or message["type"] == "http.response.start"
-            await send(message)
-
-        try:
-            await self.app(scope, counted, watched)
-        except _BodyTooLarge:
-            if not started:
-                await _refuse(scope, send, limit)
-
-
-async def _refuse(scope: dict, send: Any, limit: int) -> None:
-    if scope["path"] in _UPLOAD_PATHS:
-        detail = (f"the upload is over {(limit - FORM_SLACK_BYTES) >> 20} MiB, the most this league takes (the "
-                  "setting web.upload_mib)")
-    else:
-        detail = f"the request body is over {limit >> 20} MiB, the most a request other than an upload may carry"
-    response = JSONResponse({"detail": detail}, status_code=413)
-    await response(scope, _no_body, send)
-
-
-async def _no_body() -> dict:
-    return {"type": "http.disconnect"}
 
 
 def _openapi(app: FastAPI) -> dict[str, Any]:
@@ -171,12 +110,20 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
     app.openapi = lambda: _openapi(app)
     app.mount("/static", StaticFiles(directory=str(Path(__file__).parent / "static")), name="static")
 
-    def upload_limit() -> int:
-        return ops.upload_limits(league)[0] + FORM_SLACK_BYTES
+    def respond(request: Request, status: int, message: str, headers: dict[str, str] | None = None) -> Response:
+        wants_page = (not request.url.path.startswith("/api/") and not request.url.path.endswith(".json")
+                      and "text/html" in request.headers.get("accept", ""))
+        if wants_page:
+            page = pages.templates.TemplateResponse(request, "error.html", {
+                "status": status, "message": message, "viewer": None, "json_url": "/api/games"}, status_code=status, headers=headers)
+            return page
+        return JSONResponse({"detail": message}, status_code=status, headers=headers)
 
-    app.add_middleware(JsonNesting)  # inside BodyLimit, which bounds what it holds
-    app.add_middleware(BodyLimit, limit=upload_limit)
-    app.add_middleware(Guard)  # outside the body limit: a forged write is refused before its body is read
+    # outermost last: the request log, then the front door (a token and the limits, before any byte of
+    # body), then the CSRF guard (it reads at most a form's first field), then the JSON nesting bound
+    app.add_middleware(JsonNesting)
+    app.add_middleware(Guard)
+    app.add_middleware(FrontDoor, league=league, answer=respond)
 
     @app.middleware("http")
     async def log_requests(request: Request, call_next: Any) -> Response:
@@ -187,24 +134,32 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
                     1e3 * (time.perf_counter() - started), owner)
         return response
 
-    def respond(request: Request, status: int, message: str, headers: dict[str, str] | None = None) -> Response:
-        wants_page = (not request.url.path.startswith("/api/") and not request.url.path.endswith(".json")
-                      and "text/html" in request.headers.get("accept", ""))
-        if wants_page:
-            page = pages.templates.TemplateResponse(request, "error.html", {
-                "status": status, "message": message, "viewer": None, "json_url": "/api/games"}, status_code=status)
-            return page
-        return JSONResponse({"detail": message}, status_code=status, headers=headers)
-
     for kind in STATUS_OF:
         @app.exception_handler(kind)
         async def refused(request: Request, error: Exception) -> Response:
             status = status_of(error)
             return respond(request, status, str(error), {"Retry-After": "3600"} if status == 429 else None)
 
+    @app.exception_handler(DatabaseFullError)
+    async def database_full(request: Request, error: DatabaseFullError) -> Response:
+        logger.error("%s %s: %s", request.method, request.url.path, error)  # the operator's line names the file
+        return respond(request, 507, DATABASE_FULL, {"Retry-After": str(FULL_RETRY_SECONDS)})
+
     @app.exception_handler(HTTPException)
     async def http_error(request: Request, error: HTTPException) -> Response:
         return respond(request, error.status_code, str(error.detail), dict(error.headers or {}))
+
+    @app.exception_handler(StarletteHTTPException)
+    async def body_error(request: Request, error: StarletteHTTPException) -> Response:
+        # a body the server could not spool (its temporary folder full) is the server's fault: named
+        full = disk_full_error(error.__cause__, "the web server's temporary folder (TMPDIR)") if error.__cause__ else None
+        if full is not None:
+            return disk_full(request, full)
+        return await http_exception_handler(request, error)
+
+    def disk_full(request: Request, error: Exception) -> Response:
+        logger.error("%s %s: %s", request.method, request.url.path, error)
+        return respond(request, 507, str(error), {"Retry-After": str(FULL_RETRY_SECONDS)})
 
     @app.exception_handler(RequestValidationError)
     async def invalid(request: Request, error: RequestValidationError) -> Response:
@@ -216,8 +171,15 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
         async def bad_input(request: Request, error: Exception) -> Response:
             return respond(request, 400, str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__)
 
+    @app.exception_handler(DiskFullError)
+    async def storage_full(request: Request, error: DiskFullError) -> Response:
+        return disk_full(request, error)
+
     @app.exception_handler(Exception)
     async def bug(request: Request, error: Exception) -> Response:
+        full = disk_full_error(error, "the league home")  # a write the league did not name itself
+        if full is not None:
+            return disk_full(request, full)
         logger.error("%s %s failed", request.method, request.url.path, exc_info=error)
         return respond(request, 500, f"internal error ({type(error).__name__}); the server's log has the traceback")
 

@@ -9,12 +9,14 @@ from fastapi import Depends, Path, Query, Request
 
 from arena_league import league as ops
 from arena_league.league import Identity
+from arena_league.league.errors import DatabaseFullError, DiskFullError
 from arena_league.web.auth import optional_identity, required_identity
 
 __all__ = ["STATUS_OF", "Method", "RowId", "Viewer", "Writer", "league_of", "status_of"]
 
 #: The HTTP status of the league's errors that say more than "bad input" (400).
-STATUS_OF: dict[type[Exception], int] = {ops.NotFoundError: 404, ops.ForbiddenError: 403, ops.RateLimitedError: 429}
+STATUS_OF: dict[type[Exception], int] = {ops.NotFoundError: 404, ops.ForbiddenError: 403, ops.RateLimitedError: 429,
+                                         DiskFullError: 507, DatabaseFullError: 507}
 
 #: The requester's identity, or None (reads are open).
 Viewer = Annotated[Identity | None, Depends(optional_identity)]
