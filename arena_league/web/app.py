@@ -39,7 +39,7 @@ from arena_league.league.errors import DatabaseFullError, DiskFullError, disk_fu
 from arena_league.web import api, pages, play
 from arena_league.web.auth import token_of
 from arena_league.web.bodies import JsonNesting
-from arena_league.web.csrf import Guard
+from arena_league.web.csrf import Guard, SecurityHeaders, add_security_headers
 from arena_league.web.deps import STATUS_OF, status_of
 from arena_league.web.guard import DATABASE_FULL, FULL_RETRY_SECONDS, FrontDoor
 
@@ -119,11 +119,12 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
             return page
         return JSONResponse({"detail": message}, status_code=status, headers=headers)
 
-    # outermost last: the request log, then the front door (a token and the limits, before any byte of
+    # outermost last: the request log, the security headers, then the front door (a token and the limits, before any byte of
     # body), then the CSRF guard (it reads at most a form's first field), then the JSON nesting bound
     app.add_middleware(JsonNesting)
     app.add_middleware(Guard)
     app.add_middleware(FrontDoor, league=league, answer=respond)
+    app.add_middleware(SecurityHeaders)
 
     @app.middleware("http")
     async def log_requests(request: Request, call_next: Any) -> Response:
@@ -181,6 +182,9 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
         if full is not None:
             return disk_full(request, full)
         logger.error("%s %s failed", request.method, request.url.path, exc_info=error)
-        return respond(request, 500, f"internal error ({type(error).__name__}); the server's log has the traceback")
+        response = respond(request, 500, f"internal error ({type(error).__name__}); the server's log has the traceback")
+        # a bug's answer comes from outside every middleware: it takes the security headers here
+        add_security_headers(response.headers, docs=False)
+        return response
 
     return app

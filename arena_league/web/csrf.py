@@ -20,8 +20,8 @@ this server never answers, so it needs none of this (the CLI, scripts). The play
 (:mod:`.play`) checks the same with :func:`socket_problem`, its token in the ``csrf`` query
 parameter.
 
-:class:`Guard`, an ASGI middleware, refuses such a write with 403 before any route reads it, and
-adds :data:`SECURITY_HEADERS` to every HTTP response.
+:class:`Guard`, an ASGI middleware, refuses such a write with 403 before any route reads it;
+:class:`SecurityHeaders` adds :data:`SECURITY_HEADERS` to every HTTP response.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from starlette.responses import JSONResponse
 
 from arena_league.web.auth import COOKIE
 
-__all__ = ["FIELD", "SECURITY_HEADERS", "SIGNIN_COOKIE", "Guard", "new_signin_token", "page_token",
+__all__ = ["FIELD", "SECURITY_HEADERS", "SIGNIN_COOKIE", "Guard", "SecurityHeaders", "add_security_headers", "new_signin_token", "page_token",
            "session_token", "socket_problem"]
 
 #: The form field (first in the form) and the header that carry the CSRF token.
@@ -216,7 +216,25 @@ async def _write_problem(scope: dict, receive: Any) -> tuple[str | None, list[di
 
 class Guard:
     """ASGI middleware: refuse a cookie-authenticated write that lacks its origin or CSRF token
-    (403, one line), and add :data:`SECURITY_HEADERS` to every HTTP response."""
+    (403, one line)."""
+
+    def __init__(self, app: Any) -> None:
+        self.app = app
+
+    async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
+        if scope["type"] == "http" and scope["method"] in _WRITES:
+            problem, messages = await _write_problem(scope, receive)
+            if problem is not None:
+                await _refuse(scope, problem)(scope, _gone, send)
+                return
+            if messages:
+                receive = _replaying(messages, receive)
+        await self.app(scope, receive, send)
+
+
+class SecurityHeaders:
+    """ASGI middleware: add :data:`SECURITY_HEADERS` to every HTTP response (outermost, so that the
+    refusals of the middleware inside it carry them too)."""
 
     def __init__(self, app: Any) -> None:
         self.app = app
@@ -229,19 +247,17 @@ class Guard:
 
         async def with_headers(message: dict) -> None:
             if message["type"] == "http.response.start":
-                headers = MutableHeaders(scope=message)
-                for name, value in SECURITY_HEADERS.items():
-                    headers.setdefault(name, _DOCS_CSP if docs and name == "Content-Security-Policy" else value)
+                add_security_headers(MutableHeaders(scope=message), docs=docs)
             await send(message)
 
-        if scope["method"] in _WRITES:
-            problem, messages = await _write_problem(scope, receive)
-            if problem is not None:
-                await _refuse(scope, problem)(scope, _gone, with_headers)
-                return
-            if messages:
-                receive = _replaying(messages, receive)
         await self.app(scope, receive, with_headers)
+
+
+def add_security_headers(headers: MutableHeaders, *, docs: bool = False) -> None:
+    """Set each of :data:`SECURITY_HEADERS` a response does not set itself (the API's interactive
+    docs get the looser policy FastAPI's page needs)."""
+    for name, value in SECURITY_HEADERS.items():
+        headers.setdefault(name, _DOCS_CSP if docs and name == "Content-Security-Policy" else value)
 
 
 def _replaying(messages: list[dict], receive: Any) -> Any:
