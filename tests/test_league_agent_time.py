@@ -13,7 +13,7 @@ from onnx import TensorProto, helper
 
 from arena_league import registry as reg
 from arena_league.envs import game_spec
-from arena_league.league import evaluate, open_home, register_game, set_setting
+from arena_league.league import ensure_scripted_agents, evaluate, open_home, rank, register_game, set_setting
 from arena_league.matchmaking import AgentRef, MatchSpec, play_matches
 from arena_league.policies import SandboxLimits, largest_batch
 from arena_league.policies.validation import validate_submission
@@ -182,3 +182,17 @@ def test_an_evaluation_past_its_wall_time_reports_its_remaining_matches_as_not_p
         with league.reading() as session:
             assert reg.count_matches(session, GAME) == 0
             assert reg.list_agents(session, game_id=GAME, status="active")
+
+
+def test_a_placement_past_its_wall_time_stops_with_the_matches_it_played(tmp_path):
+    with open_home(tmp_path / "league") as league:
+        base = ensure_scripted_agents(league, GAME)
+        evaluate(league, GAME, base, matches_per_pair=2)  # the base's ratings, under the default bound
+        register_unvalidated(league, save(slow_always(GAME), tmp_path / "slow.onnx"), "slow")
+        set_setting(league, "jobs.max_seconds", 1)
+        set_setting(league, "sandbox.overage_seconds", 3600)
+        report = rank(league, "slow", budget=10, population="league")
+        assert report.stopped == "time" and report.played == report.matches == 0 and report.forfeits == 0
+        assert report.stop_reason.startswith("the job reached its wall-time bound of 1 s (the setting "
+                                             "jobs.max_seconds) after 0 new matches; 10 more of its 10 were not played")
+        assert report.suspended is None
