@@ -74,8 +74,8 @@ def submit(home: Path, path: Path, game_id: str, name: str) -> tuple[int, dict, 
 
 @pytest.mark.parametrize(("label", "model", "words"), [
     ("a Loop of 10^15 iterations", hostile.hanging, ["ran past its 0.5 s budget"]),
-    ("a hang only in the validation match (4 rows: one per seat)", lambda g: hostile.hanging(g, exactly=4),
-     ["failed in the validation match at step 0", "ran past its 0.5 s budget"]),
+    ("a hang only at the validation match's size (4 rows: one per seat), timed before the match",
+     lambda g: hostile.hanging(g, exactly=4), ["at a batch of 4 rows", "ran past its 0.5 s budget"]),
     ("a hang only past 100 rows", lambda g: hostile.hanging(g, above=100),
      ["largest batch (256 rows", "ran past its 0.5 s budget"]),
     ("a failure only past 100 rows", lambda g: hostile.failing(g, above=100),

@@ -299,6 +299,10 @@ class EvaluationReport:
     forfeits: dict[str, int] = field(default_factory=dict)
     #: Agent -> why this evaluation suspended it.
     suspended: dict[str, str] = field(default_factory=dict)
+    #: Matches not played because the job reached its wall-time bound (``jobs.max_seconds``).
+    not_played: int = 0
+    #: Why the evaluation stopped before its plan was played (empty when it played it all).
+    stop_reason: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -499,35 +503,67 @@ class _Recorder:
 
 @dataclass
 class _Sandboxing:
-    """How one job's agents play: the league's sandbox budgets, and how many matches each sandboxed
+    """How one job's agents play: the league's sandbox budgets, how many matches each sandboxed
     agent could still forfeit before it is suspended when the job began (its recorder counts the
-    job's own forfeits)."""
+    job's own forfeits), and the job's wall-time bound (``deadline``, a ``time.time()``)."""
 
     limits: Any
     suspend_after: int
     allowance: dict[str, int]
+    max_seconds: int = 3600
+    deadline: float = float("inf")
 
     @classmethod
     def of(cls, league: League, refs: Mapping[str, AgentRef], ids: Mapping[str, int]) -> _Sandboxing:
         """For the agents ``refs`` of one game, ``ids`` their registry ids."""
-        from arena_league.league.settings import league_settings, sandbox_limits, suspend_after
+        from arena_league.league.settings import (
+            job_max_seconds,
+            league_settings,
+            sandbox_limits,
+            suspend_after,
+        )
 
         values = league_settings(league)
+        max_seconds = job_max_seconds(league, values)
         limit = suspend_after(league, values)
         sandboxed = [name for name, ref in refs.items() if ref.sandboxed]
         with league.reading() as session:
             counts = reg.forfeit_counts(session, [ids[name] for name in sandboxed])
         return cls(sandbox_limits(league, values), limit,
-                   {name: max(0, limit - counts.get(ids[name], 0)) for name in sandboxed})
+                   {name: max(0, limit - counts.get(ids[name], 0)) for name in sandboxed}, max_seconds,
+                   time.time() + max_seconds)
 
     def play(self, specs: Sequence[MatchSpec], refs: Mapping[str, AgentRef], ctx: reg.JobContext,
              recorder: _Recorder, **options: Any) -> list[MatchResult]:
         """``play_matches`` under the budgets, storing through ``recorder``, beating the job's heart;
         each agent may forfeit what it had left when the job began, less the job's forfeits so far."""
-        left = {name: self.allowance.get(name, 0) - recorder.forfeits.get(name, 0)
+        if self.out_of_time():
+            return []
+        return play_matches(specs, refs, sandbox_limits=self.limits, forfeit_limit=self.left(recorder),
+                            heartbeat=ctx.heartbeat, on_result=recorder, deadline=self.deadline, **options)
+
+    def left(self, recorder: _Recorder) -> dict[str, int]:
+        """Forfeits each sandboxed agent may still make in this job."""
+        return {name: self.allowance.get(name, 0) - recorder.forfeits.get(name, 0)
                 for name in {*self.allowance, *recorder.forfeits}}
-        return play_matches(specs, refs, sandbox_limits=self.limits, forfeit_limit=left, heartbeat=ctx.heartbeat,
-                            on_result=recorder, **options)
+
+    def out_of_time(self) -> bool:
+        """Whether the job has passed its wall-time bound."""
+        return time.time() > self.deadline
+
+    def not_played(self, specs: Sequence[MatchSpec], results: Sequence[MatchResult], recorder: _Recorder
+                   ) -> tuple[int, str]:
+        """The matches of ``specs`` without a result that the wall-time bound left unplayed (those of
+        an agent past its forfeits were skipped for that), and why, in words."""
+        if not self.out_of_time():
+            return 0, ""
+        done = {result.match_id for result in results}
+        spent = {name for name, left in self.left(recorder).items() if left <= 0}
+        count = sum(1 for spec in specs if spec.match_id not in done and not spent.intersection(spec.seats))
+        if not count:
+            return 0, ""
+        return count, (f"the job reached its wall-time bound of {self.max_seconds} s (the setting jobs.max_seconds) "
+                       f"after {len(done)} matches; {count} were not played")
 
     def suspend(self, league: League, forfeits: Mapping[str, int]) -> dict[str, str]:
         """Suspend each agent of ``forfeits`` that reached the limit; returns name -> reason."""
@@ -587,14 +623,16 @@ def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> di
     specs = [s for s in specs if match_key(ctx.job.id, s.match_id) not in done_keys]
     recorder = _Recorder(ctx, game_id, len(specs), progress)
     sandboxing = _Sandboxing.of(ctx.league, refs, recorder.ids)
-    sandboxing.play(specs, refs, ctx, recorder, backend=payload.get("backend", "inprocess"),
-                    workers=payload.get("workers"), recording=_recording(ctx.league, payload))
+    results = sandboxing.play(specs, refs, ctx, recorder, backend=payload.get("backend", "inprocess"),
+                              workers=payload.get("workers"), recording=_recording(ctx.league, payload))
     recorder.flush()
     suspended = sandboxing.suspend(ctx.league, recorder.forfeits)
+    not_played, why = sandboxing.not_played(specs, results, recorder)
     return {"job_id": ctx.job.id, "game_id": game_id, "agents": names,
             "matches_per_pair": int(payload["matches_per_pair"]), "played": recorder.played,
             "stored": recorder.stored, "steps": recorder.steps, "seconds": round(time.perf_counter() - start, 3),
-            "skipped": len(specs) - recorder.played, "forfeits": recorder.forfeits, "suspended": suspended}
+            "skipped": len(specs) - recorder.played - not_played, "forfeits": recorder.forfeits,
+            "suspended": suspended, "not_played": not_played, "stop_reason": why}
 
 
 def _plan_seatings(ctx: reg.JobContext, game_id: str, names: list[str]) -> list[tuple[str, ...]]:
@@ -652,8 +690,10 @@ class RankReport:
     #: True when the placement was read back from an earlier job (``job_id``) without playing.
     stored: bool = False
     #: Why the placement stopped: ``target`` (the rank interval narrowed to the target half-width),
-    #: ``budget`` (the budget ran out first), ``more`` (the matches --more asked for were played) or
-    #: ``suspended`` (the entrant was suspended, or is past its forfeits); ``stop_reason`` says it in words.
+    #: ``budget`` (the budget ran out first), ``more`` (the matches --more asked for were played),
+    #: ``suspended`` (the entrant was suspended, or is past its forfeits) or ``time`` (the job reached
+    #: its wall-time bound, ``jobs.max_seconds``; the placement is that of the matches played);
+    #: ``stop_reason`` says it in words.
     stopped: str = ""
     stop_reason: str = ""
 
@@ -937,7 +977,8 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
         evidence.append([seed, r.match_id, next(s for s in r.seats if s != agent),
                          float(r.team_scores()[r.teams[r.seats.index(agent)]])])
     placement = chooser.placement
-    stopped, why = _stop_reason(chooser, len(results), cap, more, target, suspended.get(agent))
+    stopped, why = _stop_reason(chooser, len(results), cap, more, target, suspended.get(agent),
+                                sandboxing.max_seconds if sandboxing.out_of_time() else None)
     # Nash score of the entrant in the meta-game of base + entrant (logit win rates, smoothed by PSEUDO_COUNT)
     everyone = [*names, agent]
     with ctx.league.reading() as session:
@@ -961,11 +1002,16 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
             "seeds": seeds, "stored": False, "stopped": stopped, "stop_reason": why, "evidence": evidence}
 
 
-def _stop_reason(chooser: Any, played: int, cap: int, more: int | None, target: float, suspended: str | None
-                 ) -> tuple[str, str]:
-    """Why a placement stopped, as a code and in words (see :attr:`RankReport.stopped`)."""
+def _stop_reason(chooser: Any, played: int, cap: int, more: int | None, target: float, suspended: str | None,
+                 out_of_time: int | None = None) -> tuple[str, str]:
+    """Why a placement stopped, as a code and in words (see :attr:`RankReport.stopped`);
+    ``out_of_time``: the job's wall-time bound, when it was reached."""
     total = chooser.matches
     if played < cap and not chooser.done:
+        if out_of_time is not None and not suspended:
+            return "time", (f"the job reached its wall-time bound of {out_of_time} s (the setting jobs.max_seconds) "
+                            f"after {played} new matches; {cap - played} more of its {cap} were not played, and the "
+                            f"placement is that of the {total} matches played")
         if suspended:
             return "suspended", f"the entrant was suspended after {played} new matches ({suspended})"
         return "suspended", (f"the entrant's matches were skipped after {played} new matches: it is past its "

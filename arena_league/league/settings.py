@@ -17,8 +17,8 @@ from arena_league.league.home import did_you_mean
 from arena_league.policies.sandbox import SandboxLimits
 from arena_league.registry import League
 
-__all__ = ["SETTINGS", "Setting", "check_rank_budget", "league_settings", "reset_setting", "sandbox_limits",
-           "set_setting", "suspend_after"]
+__all__ = ["SETTINGS", "Setting", "check_rank_budget", "job_max_seconds", "league_settings", "reset_setting",
+           "sandbox_limits", "set_setting", "suspend_after"]
 
 _DEFAULT_LIMITS = SandboxLimits()
 
@@ -60,6 +60,10 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
     _sandbox_setting("call_seconds", 0.05, 600, "wall-clock seconds one submitted agent's forward may take in a "
                      "step (all its seats); over it, the agent forfeits its matches in flight"),
     _sandbox_setting("load_seconds", 1, 3600, "wall-clock seconds loading one submitted agent may take"),
+    _sandbox_setting("step_seconds", 0.001, 600, "wall-clock seconds a submitted agent may take each step of a "
+                     "match; what it takes beyond them is drawn from its overage bank for that match"),
+    _sandbox_setting("overage_seconds", 0, 86400, "seconds over the step allowance a submitted agent may spend "
+                     "in all of one match; past them, it forfeits that match"),
     _sandbox_setting("agent_memory_mib", 16, 1 << 20, "memory (MiB) an agent may use in validation: loaded, "
                      "plus a forward at the largest batch; over it, the submission is rejected"),
     Setting("forfeits.suspend_after", int, 3, 1, 10**6, "forfeits after which an agent is suspended (it plays no "
@@ -67,6 +71,8 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
     Setting("jobs.live_per_owner", int, 10, 1, 10**6, "jobs one owner may have queued or running at once "
             "(uploads' validations, placements, tree verifications and previews, replays; administrators are not "
             "limited); past it, requests are refused until some finish or are cancelled"),
+    Setting("jobs.max_seconds", int, 3600, 1, 7 * 86400, "wall-clock seconds an evaluation or placement job may "
+            "play; past them it stops, and reports the matches it did not play"),
     Setting("rank.max_budget", int, 5000, 2, 10**7, "the most matches one placement may play (`rank --budget`, "
             "a placement queued on the web); a larger budget is refused"),
     Setting("web.upload_mib", int, 300, 1, 1 << 16, "the most an upload to the web service may hold (MiB); the "
@@ -134,6 +140,12 @@ def suspend_after(league: League, values: Mapping[str, Mapping[str, Any]] | None
     """Forfeits after which an agent is suspended (from ``values`` when given)."""
     values = values if values is not None else league_settings(league)
     return int(values["forfeits.suspend_after"]["value"])
+
+
+def job_max_seconds(league: League, values: Mapping[str, Mapping[str, Any]] | None = None) -> int:
+    """Wall-clock seconds an evaluation or placement job may play (from ``values`` when given)."""
+    values = values if values is not None else league_settings(league)
+    return int(values["jobs.max_seconds"]["value"])
 
 
 def check_rank_budget(league: League, budget: Any, more: Any = None) -> None:

@@ -370,11 +370,17 @@ def _job_progress(kind: str, state: str, payload: dict[str, Any], progress: dict
         return None if progress is None else {"done": done, "total": total, "label": f"{done} / {total}"}
     if state == "done" and kind == "rank" and isinstance(result, dict) and result.get("matches") is not None:
         done, total = int(result["matches"]), int(payload.get("budget") or total or result["matches"])
+        if done < total and result.get("stopped") == "time" and result.get("stop_reason"):
+            return {"done": total, "total": total, "label": f"stopped after {done} of {total}: {result['stop_reason']}"}
         if done < total:
             width = payload.get("target_half_width")
             target = f" (±{width:g} places)" if isinstance(width, (int, float)) else ""
             return {"done": total, "total": total,
                     "label": f"stopped after {done} of {total}: the rank interval was narrow enough{target}"}
+    if state == "done" and isinstance(result, dict) and result.get("not_played"):
+        total = int(result.get("played", 0)) + int(result.get("skipped", 0)) + int(result["not_played"])
+        return {"done": total, "total": total,
+                "label": f"stopped after {result.get('played', 0)} of {total}: {result.get('stop_reason', '')}"}
     if state == "done":
         total = total or 1
         return {"done": total, "total": total, "label": f"{total} / {total}" if progress else "done"}

@@ -54,15 +54,15 @@ _WORKER_POLICIES: dict[tuple[AgentRef, ...], dict[str, Policy]] = {}
 
 def play_chunk(game_id: str, agents: Mapping[str, AgentRef], specs: Sequence[MatchSpec], batch_size: int,
                env_kwargs: Mapping[str, Any] | None, recording: MatchRecording | None,
-               sandbox_limits: SandboxLimits | None = None, forfeit_limit: int | Mapping[str, int] | None = None
-               ) -> list[MatchResult]:
+               sandbox_limits: SandboxLimits | None = None, forfeit_limit: int | Mapping[str, int] | None = None,
+               deadline: float | None = None) -> list[MatchResult]:
     """Plays one chunk of specs of one game in this process (the unit of work of the process-pool
     and Ray backends); in-process policies are loaded once per process and kept, sandboxed ones
     live in the process's sandbox (which keeps the same set loaded from chunk to chunk)."""
     if any(ref.sandboxed for ref in agents.values()):
         return play_in_sandbox(game_id, specs, agents, batch_size=batch_size, env_kwargs=env_kwargs,
                                recording=recording, forfeit_limit=forfeit_limit, heartbeat=_pool_heartbeat(),
-                               sandbox_limits=sandbox_limits)
+                               sandbox_limits=sandbox_limits, deadline=deadline)
     refs = set(agents.values())
     cache_key = tuple(sorted(refs, key=lambda ref: (ref.key, ref.game_id, str(ref.action_type))))
     policies = _WORKER_POLICIES.get(cache_key)
@@ -72,7 +72,7 @@ def play_chunk(game_id: str, agents: Mapping[str, AgentRef], specs: Sequence[Mat
     seat_policies = {key: policies[ref.key] for key, ref in agents.items()}
     runner = LockstepRunner(game_id, seat_policies, batch_size=batch_size, env_kwargs=env_kwargs,
                             recording=recording)
-    return runner.play(specs, forfeit_limit=forfeit_limit, heartbeat=_pool_heartbeat())
+    return runner.play(specs, forfeit_limit=forfeit_limit, heartbeat=_pool_heartbeat(), deadline=deadline)
 
 
 def _pool_heartbeat() -> Callable[[], None] | None:
@@ -118,7 +118,7 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
                  env_kwargs: Mapping[str, Any] | None = None, recording: MatchRecording | None = None,
                  on_result: Callable[[MatchResult], None] | None = None,
                  sandbox_limits: SandboxLimits | None = None, forfeit_limit: int | Mapping[str, int] | None = None,
-                 heartbeat: Callable[[], None] | None = None) -> list[MatchResult]:
+                 heartbeat: Callable[[], None] | None = None, deadline: float | None = None) -> list[MatchResult]:
     """Plays ``specs`` and returns their results in the same order.
 
     Args:
@@ -144,6 +144,8 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
             its own. Skipped specs have no result, so fewer results than specs may come back.
         heartbeat: called whenever play makes progress (in-process: every step; the process pool:
             when its workers stepped since the last look; Ray: as each chunk returns).
+        deadline: a ``time.time()`` past which play stops; the matches not finished by then have no
+            result (a job's wall-time bound).
     """
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; valid: {', '.join(BACKENDS)}")
@@ -165,12 +167,14 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
                 # submitted agents: the whole game's lockstep loop runs in the sandbox's child
                 played = play_in_sandbox(game_id, game_specs, {k: agents[k] for k in keys}, batch_size=batch_size,
                                          env_kwargs=env_kwargs, recording=recording, forfeit_limit=forfeit_limit,
-                                         on_result=on_result, heartbeat=heartbeat, sandbox_limits=sandbox_limits)
+                                         on_result=on_result, heartbeat=heartbeat, sandbox_limits=sandbox_limits,
+                                         deadline=deadline)
             else:
                 policies = load_agents({k: agents[k] for k in keys}, sandbox_limits)
                 runner = LockstepRunner(game_id, policies, batch_size=batch_size, env_kwargs=env_kwargs,
                                         recording=recording)
-                played = runner.play(game_specs, on_result, forfeit_limit=forfeit_limit, heartbeat=heartbeat)
+                played = runner.play(game_specs, on_result, forfeit_limit=forfeit_limit, heartbeat=heartbeat,
+                                     deadline=deadline)
             _place(results, played, specs, indices)
         return [r for r in results if r is not None]
 
@@ -186,7 +190,7 @@ def play_matches(specs: Sequence[MatchSpec], agents: Mapping[str, AgentRef | Pol
             part = indices[start: start + size]
             refs = {k: agents[k] for k in _keys_of(specs, part)}
             tasks.append((part, (game_id, refs, [specs[i] for i in part], batch_size, env_kwargs, recording,
-                                 sandbox_limits, forfeit_limit)))
+                                 sandbox_limits, forfeit_limit, deadline)))
 
     def collect(part: list[int], chunk_results: list[MatchResult]) -> None:
         _place(results, chunk_results, specs, part)

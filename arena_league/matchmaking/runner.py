@@ -31,6 +31,12 @@ and the slot takes the next spec. With ``forfeit_limit``, an agent that has forf
 matches is not seated again: the specs that name it are skipped (no result). Without a guard, a
 policy that fails raises, as a bug would.
 
+Time: with a :class:`StepBudget` (the sandbox's child holds submitted agents to one), each match
+keeps an overage bank per budgeted agent, in the manner of Kaggle's simulations: a step's call may
+take ``step_seconds``, what it takes beyond that is drawn from the bank, and an agent whose bank
+is overdrawn forfeits that match. With a ``deadline`` (a job's wall-time bound), the runner stops
+once it has passed: the matches in flight and those not started have no result.
+
 Stepping paths: a result needs the rules' outcome, not the social-tree rewards, so unless a replay
 is recorded (or observations carry broadcast boards or the global state) the runner steps each
 match's game rules directly, or, for games whose rules declare a whole-array engine
@@ -41,6 +47,7 @@ match's game rules directly, or, for games whose rules declare a whole-array eng
 from __future__ import annotations
 
 import sys
+import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
@@ -52,7 +59,8 @@ from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import ActionSpec, Policy, invalid_actions, valid_actions_text
 from arena_league.policies.sandbox import ENGINE_BATCH_MATCHES
 
-__all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "UnitGuard", "action_spec_of", "policy_units"]
+__all__ = ["PATHS", "LockstepRunner", "PolicyError", "PolicyUnit", "StepBudget", "UnitGuard", "action_spec_of",
+           "policy_units"]
 
 #: How a runner steps its matches (see :class:`LockstepRunner`).
 PATHS = ("auto", "env", "rules", "engine")
@@ -77,6 +85,24 @@ class UnitGuard(Protocol):
 
     def __call__(self, index: int, unit: PolicyUnit, obs: np.ndarray, uniforms: np.ndarray, owners: np.ndarray,
                  mask: np.ndarray | None, state: np.ndarray | None) -> tuple[Any, Any, dict[int, str]]: ...
+
+
+@dataclass(frozen=True)
+class StepBudget:
+    """Time per match for the agents ``agents`` (keys): each step, ``step_seconds`` for the call
+    that holds the agent's seats; beyond it, the match's bank of ``overage_seconds`` pays; once the
+    bank is overdrawn, the agent forfeits the match. ``clock`` times the calls."""
+
+    step_seconds: float
+    overage_seconds: float
+    agents: frozenset[str]
+    clock: Callable[[], float] = time.perf_counter
+
+    def overdrawn(self, seconds: float, step: int) -> str:
+        """The forfeit's reason, for a bank overdrawn at ``step`` by a call of ``seconds``."""
+        return (f"ran out of time in the match: its overage bank of {self.overage_seconds:g} s (time over "
+                f"{self.step_seconds:g} s a step, summed over the match) was used up at step {step}, whose call "
+                f"took {seconds:.3g} s")
 
 
 class PolicyError(RuntimeError):
@@ -363,14 +389,17 @@ class LockstepRunner:
     def play(self, specs: Iterable[MatchSpec], on_result: Callable[[MatchResult], None] | None = None, *,
              forfeit_limit: int | Mapping[str, int] | None = None,
              heartbeat: Callable[[], None] | None = None,
-             on_start: Callable[[int], None] | None = None) -> list[MatchResult]:
+             on_start: Callable[[int], None] | None = None, step_budget: StepBudget | None = None,
+             deadline: float | None = None) -> list[MatchResult]:
         """Plays every spec; returns the results in the order of ``specs``. ``on_result`` is called
         as each match ends (in the order they end); ``heartbeat`` once per step (a sign of progress);
         ``on_start`` with a spec's position in ``specs`` as its match starts.
 
         ``forfeit_limit``: how many matches an agent (by key, or every agent) may forfeit before its
         remaining specs are skipped (see the module docstring); None never skips. Skipped specs have
-        no result, so the list may be shorter than ``specs``."""
+        no result, so the list may be shorter than ``specs``. ``step_budget``: the agents held to a
+        time budget per match (guarded calls only, see the module docstring). ``deadline``: a
+        ``time.time()`` past which play stops, leaving the matches not finished without a result."""
         specs = list(specs)
         for spec in specs:
             self._check_spec(spec)
@@ -395,6 +424,9 @@ class LockstepRunner:
         queue = iter(enumerate(specs))
         matches = self._matches(width)
         stopped = {key for key, left in allowance.items() if key and left <= 0}  # past their forfeit allowance
+        budget = step_budget if self.guard is not None else None
+        banks: list[dict[str, float]] = [{} for _ in range(width)]  # per slot: agent -> overage left
+        unit_seconds: dict[int, float] = {}
 
         def start(position: int) -> None:
             nxt = next(queue, None)
@@ -406,6 +438,8 @@ class LockstepRunner:
                 row_unit[base: base + n] = -1
                 return
             order, spec = nxt
+            if budget is not None:
+                banks[position] = {key: float(budget.overage_seconds) for key in spec.seats if key in budget.agents}
             slot = _Slot(order, spec, spec.seat_rng(), [self._initial_state(key) for key in spec.seats])
             matches.start(position, spec)
             if on_start is not None:
@@ -429,6 +463,8 @@ class LockstepRunner:
                 start(position)
             live = [p for p, slot in enumerate(slots) if slot is not None]
             while live:
+                if deadline is not None and time.time() > deadline:
+                    break  # the job's time is up: what is in flight stays unplayed
                 # gather: observations, masks and who acts; every live match draws its seats' uniforms
                 matches.gather(live, obs, mask, acting)
                 for position in live:
@@ -436,12 +472,18 @@ class LockstepRunner:
                 # act: one call per policy unit over all its acting rows (sandboxed units in one message)
                 acting &= row_unit >= 0
                 actions[...] = 0
-                failures = self._act_all(acting, obs, uniforms, mask, actions, row_unit, row_owner, row_key, slots)
+                failures = self._act_all(acting, obs, uniforms, mask, actions, row_unit, row_owner, row_key, slots,
+                                         unit_seconds, None if budget is None else budget.clock)
                 # matches in flight of an agent whose call failed end as forfeits; the others step
                 forfeited = {}
                 if failures:
                     forfeited = {p: {key: failures[key] for key in slots[p].spec.seats if key in failures}
                                  for p in live if failures.keys() & set(slots[p].spec.seats)}
+                if budget is not None:
+                    for position, forfeits in self._overdrawn(budget, live, banks, unit_seconds, acting, failures,
+                                                              slots, matches).items():
+                        forfeited.setdefault(position, {}).update(forfeits)
+                if forfeited:
                     for forfeits in forfeited.values():
                         for key in forfeits:
                             forfeit_counts[key] = forfeit_counts.get(key, 0) + 1
@@ -515,11 +557,38 @@ class LockstepRunner:
         state = policy.initial_state(1)
         return None if state is None else np.asarray(state)[0]
 
+    def _overdrawn(self, budget: StepBudget, live: list[int], banks: list[dict[str, float]],
+                   unit_seconds: Mapping[int, float], acting: np.ndarray, failures: Mapping[str, str], slots: list,
+                   matches: Any) -> dict[int, dict[str, str]]:
+        """Charge this step's calls to the banks of the matches they served; the matches whose bank
+        of an agent is overdrawn, with that agent's forfeit reason. A call serving many matches is
+        charged in full to each: every one of them waited that long for the agent, and dividing the
+        time would let an agent hide a slow forward behind the number of matches in flight."""
+        n = self.n_agents
+        overdrawn: dict[int, dict[str, str]] = {}
+        for position in live:
+            bank = banks[position]
+            seats = slots[position].spec.seats
+            for key in bank:
+                seconds = unit_seconds.get(self._unit_of_key[key])
+                if seconds is None or key in failures:
+                    continue
+                if not any(acting[position * n + seat] for seat, k in enumerate(seats) if k == key):
+                    continue  # not its turn: it waited for no one
+                bank[key] -= max(0.0, seconds - budget.step_seconds)
+                if bank[key] < 0:
+                    overdrawn.setdefault(position, {})[key] = budget.overdrawn(seconds, matches.steps_of(position))
+        return overdrawn
+
     def _act_all(self, acting: np.ndarray, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None,
                  actions: np.ndarray, row_unit: np.ndarray, row_owner: np.ndarray, row_key: list,
-                 slots: list) -> dict[str, str]:
+                 slots: list, unit_seconds: dict[int, float] | None = None,
+                 clock: Callable[[], float] | None = None) -> dict[str, str]:
         """Every unit's actions for the acting rows; with a ``guard``, returns the agents whose call
-        failed (key -> reason), whose rows get a legal filler action that no match uses."""
+        failed (key -> reason), whose rows get a legal filler action that no match uses. With a
+        ``clock``, ``unit_seconds`` is refilled with each guarded unit's time for this step."""
+        if unit_seconds is not None:
+            unit_seconds.clear()
         acting_rows = np.flatnonzero(acting)
         units = row_unit[acting_rows]
         order = np.argsort(units, kind="stable")
@@ -535,8 +604,11 @@ class LockstepRunner:
             unit = self._units[unit_index]
             unit_obs, state = self._unit_inputs(unit, group, obs, slots)
             owners = row_owner[group]
+            started = clock() if clock is not None else 0.0
             out, next_state, errors = self.guard(unit_index, unit, unit_obs, uniforms[group], owners,
                                                  None if mask is None else mask[group], state)
+            if clock is not None and unit_seconds is not None:
+                unit_seconds[unit_index] = clock() - started
             self._take(unit, group, owners, out, next_state, errors, mask, actions, slots, failures)
         return failures
 

@@ -25,6 +25,10 @@ What an agent's failure costs is the same as in the step-by-step path:
   blamed: its agents are computed apart from then on, and the replay finds the one at fault;
 * an agent that cannot be loaded forfeits each of its matches without a step.
 
+A submitted agent's time is bounded per call (the sandbox's budget) and per match (an overage bank,
+:class:`~arena_league.matchmaking.runner.StepBudget`, with the sandbox's ``step_seconds`` and
+``overage_seconds``); an overdrawn bank is a forfeit of that match, as a failed call is.
+
 ``forfeit_limit`` caps each agent's forfeits across all of this (see
 :meth:`~arena_league.matchmaking.runner.LockstepRunner.play`): past it, its matches are skipped.
 """
@@ -37,7 +41,13 @@ from typing import Any
 import numpy as np
 
 from arena_league.matchmaking.agents import AgentRef
-from arena_league.matchmaking.runner import LockstepRunner, MatchRecording, allowed, forfeit_allowance
+from arena_league.matchmaking.runner import (
+    LockstepRunner,
+    MatchRecording,
+    StepBudget,
+    allowed,
+    forfeit_allowance,
+)
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
 from arena_league.policies.policy import Policy
 from arena_league.policies.sandbox import (
@@ -56,9 +66,11 @@ def play_in_sandbox(game_id: str, specs: Sequence[MatchSpec], agents: Mapping[st
                     recording: MatchRecording | None = None, forfeit_limit: int | Mapping[str, int] | None = None,
                     on_result: Callable[[MatchResult], None] | None = None,
                     heartbeat: Callable[[], None] | None = None,
-                    sandbox_limits: SandboxLimits | None = None) -> list[MatchResult]:
+                    sandbox_limits: SandboxLimits | None = None, deadline: float | None = None
+                    ) -> list[MatchResult]:
     """Plays ``specs`` (one game) in this process's sandbox child and returns their results in
-    spec order, skipped specs left out (see the module docstring)."""
+    spec order, skipped specs left out (see the module docstring); past ``deadline`` (a
+    ``time.time()``), the matches not finished are left out too."""
     from arena_league.envs import game_spec
 
     game = game_spec(game_id)
@@ -82,7 +94,8 @@ def play_in_sandbox(game_id: str, specs: Sequence[MatchSpec], agents: Mapping[st
         play.round_started()
         try:
             sandbox.run(_play_task, (game_id, [(i, specs[i]) for i in pending], loaded, batch_size,
-                                     dict(env_kwargs or {}), recording, play.allowance(), sorted(apart), timed),
+                                     dict(env_kwargs or {}), recording, play.allowance(), sorted(apart), timed,
+                                     (sandbox.limits.step_seconds, sandbox.limits.overage_seconds), deadline),
                         on_message=play.receive, on_tick=heartbeat, what="a call")
             break  # what has no result now was skipped: its agents were past their forfeits
         except SandboxDied as death:
@@ -190,10 +203,11 @@ class _Apart(Policy):
 def _play_task(child: Any, emit: Callable[[Any], None], game_id: str, indexed: list[tuple[int, MatchSpec]],
                loaded: Mapping[str, str], batch_size: int, env_kwargs: dict[str, Any],
                recording: MatchRecording | None, allowance: Mapping[str, float], apart: list[str],
-               timed: list[str]) -> None:
+               timed: list[str], per_step: tuple[float, float], deadline: float | None) -> None:
     """Runs in the sandbox child: plays ``indexed`` (spec index, spec) with the child's agents,
-    every unit call guarded (held to the call budget when the unit holds a seat of ``timed``),
-    emitting the units, each match's start (with the step) and result."""
+    every unit call guarded (held to the call budget when the unit holds a seat of ``timed``, whose
+    agents also have ``per_step``: seconds a step and the overage bank of a match), emitting the
+    units, each match's start (with the step) and result, until ``deadline``."""
     wrapped: dict[str, Policy] = {}
     for key in set(loaded.values()):
         policy = child.policies[key]
@@ -220,4 +234,5 @@ def _play_task(child: Any, emit: Callable[[Any], None], game_id: str, indexed: l
     def on_result(result: MatchResult) -> None:
         emit(("result", indexed[awaiting[result.spec].pop(0)][0], result))
 
-    runner.play(specs, on_result, forfeit_limit=dict(allowance), heartbeat=child.tick, on_start=on_start)
+    runner.play(specs, on_result, forfeit_limit=dict(allowance), heartbeat=child.tick, on_start=on_start,
+                step_budget=StepBudget(per_step[0], per_step[1], frozenset(timed)), deadline=deadline)

@@ -10,7 +10,11 @@ process per worker (per process that plays matches), holding every agent that pr
 * a wall-clock budget per call (:attr:`SandboxLimits.call_seconds`: one policy's forward over all
   the seats it holds in one step) and per agent loaded (:attr:`SandboxLimits.load_seconds`).
   The child marks the call it is in (an index and its start time, in shared memory); the parent
-  watches the mark and kills the child when a call runs over, and then knows whom to blame.
+  watches the mark and kills the child when a call runs over, and then knows whom to blame;
+* a budget per match, in the manner of Kaggle's simulations: each step an agent may take
+  :attr:`SandboxLimits.step_seconds`, and what it takes beyond that is drawn from a bank of
+  :attr:`SandboxLimits.overage_seconds` per match; an agent whose bank runs dry forfeits that
+  match (the runner keeps the banks, see :class:`~arena_league.matchmaking.runner.StepBudget`).
 
 The child serves two kinds of work. Validation asks it for single forwards of one agent
 (:class:`SandboxedPolicy`: ``act``, ``forward``, ``measure`` of time and memory); a failure comes
@@ -23,8 +27,11 @@ streams messages back (results as matches end); when the child dies or is stoppe
 :class:`SandboxDied` names the marked call, and the next request starts a new child with the
 same agents (:mod:`arena_league.matchmaking.sandboxed` replays what was in flight).
 
-A guarded call never hands an agent more rows than :func:`largest_batch` of its game, the size
-validation probes at, so an agent that passed validation never sees a batch it was not tried on.
+A guarded call of a submitted agent has exactly one of the sizes validation times
+(:func:`timed_batch_sizes`: powers of two up to :func:`largest_batch`, and that one): a call of
+more rows than the largest goes in chunks, and one of fewer is padded with copies of its last row
+up to the next timed size (:func:`padded_rows`), so an agent that passed validation never sees a
+batch it was not timed on.
 
 The child is forked from the multiprocessing fork server (which has the policy modules imported),
 dies with its parent (``PR_SET_PDEATHSIG``), ignores Ctrl-C (the parent handles it), and computes
@@ -64,8 +71,10 @@ __all__ = [
     "SandboxLimits",
     "SandboxedPolicy",
     "largest_batch",
+    "padded_rows",
     "process_context",
     "process_sandbox",
+    "timed_batch_sizes",
 ]
 
 MiB = 1024 * 1024
@@ -92,16 +101,24 @@ class SandboxLimits:
     load_seconds: float = 30.0
     #: Validation: the most memory an agent may add, loaded and computing its largest batch.
     agent_memory_mib: int = 512
+    #: Wall-clock seconds an agent may take each step of a match without drawing on its overage bank
+    #: (the base populations' forwards take about a millisecond at the largest batch).
+    step_seconds: float = 0.25
+    #: Seconds over ``step_seconds`` an agent may spend in all of one match; past them it forfeits it.
+    overage_seconds: float = 30.0
 
     def __post_init__(self) -> None:
         for name in ("memory_mib", "agent_memory_mib"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 16:
                 raise ValueError(f"{name} must be a whole number of MiB, at least 16, not {value!r}")
-        for name in ("call_seconds", "load_seconds"):
+        for name in ("call_seconds", "load_seconds", "step_seconds"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value <= 3600:
                 raise ValueError(f"{name} must be a number of seconds in (0, 3600], not {value!r}")
+        value = self.overage_seconds
+        if isinstance(value, bool) or not isinstance(value, int | float) or not 0 <= value <= 86400:
+            raise ValueError(f"overage_seconds must be a number of seconds in [0, 86400], not {value!r}")
 
 
 def largest_batch(game_id: str) -> int:
@@ -111,6 +128,24 @@ def largest_batch(game_id: str) -> int:
 
     spec = game_spec(game_id)
     return ENGINE_BATCH_MATCHES * spec.n_teams * spec.players_per_team
+
+
+def timed_batch_sizes(largest: int) -> list[int]:
+    """The call sizes validation times an agent at, for a game whose largest call has ``largest``
+    rows: the powers of two below it, and itself. A few sizes rather than every one, because a slow
+    agent would make timing each of hundreds of sizes take minutes."""
+    sizes = []
+    size = 1
+    while size < largest:
+        sizes.append(size)
+        size *= 2
+    return [*sizes, largest]
+
+
+def padded_rows(rows: int, largest: int) -> int:
+    """The size a call of ``rows`` rows (at most ``largest``) is padded to: the smallest of
+    :func:`timed_batch_sizes` that holds it."""
+    return min(largest, 1 << max(0, rows - 1).bit_length())
 
 
 @dataclass(frozen=True)
@@ -615,14 +650,25 @@ class _Child:
         chunks of at most ``limit`` rows: ``(actions, next_state, failures)``, where failures names
         the owners (positions in the unit) whose call failed (an error, invalid actions or state)
         and why; their rows are not valid. An untimed call (``timed=False``: a unit of trusted
-        agents only) is marked but not held to the call budget."""
+        agents only) is marked but not held to the call budget; a timed one of fewer rows than
+        ``limit`` is padded up to the next size validation timed (:func:`padded_rows`)."""
         n = len(obs)
         if limit is not None and n > limit:
             parts = [self.guarded(index, group, obs[i: i + limit], uniforms[i: i + limit], owners[i: i + limit],
                                   None if mask is None else mask[i: i + limit],
-                                  None if state is None else state[i: i + limit], timed=timed)
+                                  None if state is None else state[i: i + limit], limit=limit, timed=timed)
                      for i in range(0, n, limit)]
             return _joined(parts, n)
+        size = padded_rows(n, limit) if limit is not None and timed and n else n
+        if size > n:
+            # copies of the last row: the agent computes rows apart (validation checks), so they change nothing
+            def pad(array: Any) -> Any:
+                return None if array is None else np.concatenate([array, np.repeat(array[-1:], size - n, axis=0)])
+
+            actions, next_state, failures = self.guarded(index, group, pad(obs), pad(uniforms), pad(owners),
+                                                         pad(mask), pad(state), limit=limit, timed=timed)
+            return (None if actions is None else actions[:n],
+                    None if next_state is None else np.asarray(next_state)[:n], failures)
         self._mark(index, n, timed)
         try:
             actions, next_state = group.act(obs, uniforms, owners, mask, state)

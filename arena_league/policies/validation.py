@@ -11,10 +11,13 @@ of the candidate; it must finish without error. The stages, each written to the 
 3. ``size``: at the largest batch the engine hands a policy
    (:func:`~arena_league.policies.sandbox.largest_batch`, rows of real play), the memory the agent
    holds (loaded, plus its forwards' peak) must stay within
-   :attr:`~arena_league.policies.sandbox.SandboxLimits.agent_memory_mib`, and the time of a forward
-   (the median of three) within half the sandbox's budget per call (headroom for a busy machine);
-   the figures are logged, and named in the reason when over. This comes before the probes, so an
-   agent that is slow or swells at full size is refused after three forwards;
+   :attr:`~arena_league.policies.sandbox.SandboxLimits.agent_memory_mib`; then at that size and at
+   every other size the engine hands a call (:func:`~arena_league.policies.sandbox.timed_batch_sizes`:
+   the sandbox pads every call of a submitted agent up to one of them), the time of a forward (the
+   median of three) must stay within half the sandbox's budget per call (headroom for a busy
+   machine) and within the time a step allows (past it, the agent would draw on its overage bank
+   every step). The figures are logged, and named in the reason when over. This comes before the
+   probes, so an agent that is slow or swells at some size is refused after a few forwards;
 4. ``probe``: on probe observations (random normal, random uniform in [-1, 1], zeros, real
    observations from a few steps of random play, and those of the largest batch) the outputs are
    finite, continuous actions lie in [-1, 1], the same input gives the same output, and a row's
@@ -56,6 +59,7 @@ from arena_league.policies.sandbox import (
     SandboxedPolicy,
     SandboxLimits,
     largest_batch,
+    timed_batch_sizes,
 )
 from arena_league.policies.scripted import RandomPolicy
 from arena_league.policies.spaces import action_types
@@ -85,7 +89,8 @@ class ValidationResult:
     seconds: float = 0.0
     #: The validation match: steps played and each team's result.
     match: dict[str, Any] = field(default_factory=dict)
-    #: At the largest batch: ``rows``, ``seconds`` (median forward), ``memory_mib`` (load + peak).
+    #: At the largest batch: ``rows``, ``seconds`` (median forward), ``memory_mib`` (load + peak);
+    #: ``timed``: ``[rows, seconds]`` of the median forward at every size the engine hands a call.
     size: dict[str, Any] = field(default_factory=dict)
     #: The artifact error class that stopped validation at reading or loading (e.g.
     #: ``"CorruptArtifactError"``), None otherwise.
@@ -290,13 +295,11 @@ def _stage_probe(policy: SandboxedPolicy, info: AgentInfo, real: np.ndarray, big
 
 
 def _stage_size(sandbox: InferenceSandbox, policy: SandboxedPolicy, obs: np.ndarray, log: Any) -> dict[str, Any]:
-    """Time and memory of a forward at the largest batch, against the sandbox's budgets."""
+    """Memory of a forward at the largest batch, and the time of a forward at every size the engine
+    hands a call, against the sandbox's budgets."""
     limits = sandbox.limits
     rows = len(obs)
-    try:
-        figures = policy.measure(obs, policy.initial_state(rows), repeats=3)
-    except ForfeitError as error:
-        raise _Rejected(f"at the largest batch ({rows} rows) it {error.reason}") from None
+    figures = _measured(policy, obs, f"at the largest batch ({rows} rows)")
     seconds = float(np.median(figures["seconds"]))
     load_mib = sandbox.memory_of(policy.key)
     memory = max(figures["peak_mib"], load_mib)
@@ -306,14 +309,38 @@ def _stage_size(sandbox: InferenceSandbox, policy: SandboxedPolicy, obs: np.ndar
         raise _Rejected(f"uses too much memory: {memory:.0f} MiB at a forward of {rows} rows (the largest batch the "
                         f"league plays; {load_mib:.0f} MiB once loaded), over the {limits.agent_memory_mib} MiB an "
                         "agent may use; submit a smaller network")
-    budget = limits.call_seconds * TIME_HEADROOM
-    if seconds > budget:
-        raise _Rejected(f"too slow: a forward of {rows} rows (the largest batch the league plays) takes "
-                        f"{1e3 * seconds:.0f} ms, over {1e3 * budget:.0f} ms (half the {limits.call_seconds:g} s "
-                        "budget per call); submit a smaller or faster network")
+    per_call = limits.call_seconds * TIME_HEADROOM
+    budget = min(per_call, limits.step_seconds)
+    which = (f"half the {limits.call_seconds:g} s budget per call" if per_call <= limits.step_seconds else
+             f"the {limits.step_seconds:g} s a step allows before the agent draws on its overage bank")
+    timed = [[rows, seconds]]
+    # the largest first (the size most agents are slowest at), then every smaller size a call is padded to
+    for batch in [rows, *timed_batch_sizes(rows)[:-1]]:
+        if batch != rows:
+            part = obs[:batch]
+            taken = float(np.median(_measured(policy, part, f"at a batch of {batch} rows")["seconds"]))
+            timed.append([batch, taken])
+        else:
+            taken = seconds
+        if taken > budget:
+            label = f"{rows} rows (the largest batch the league plays)" if batch == rows else f"{batch} rows"
+            raise _Rejected(f"too slow: a forward of {label} takes {1e3 * taken:.0f} ms, over {1e3 * budget:.0f} ms "
+                            f"({which}); submit a smaller or faster network")
+    size["timed"] = timed
+    slowest = max(timed, key=lambda pair: pair[1])
     log("size", f"a forward of {rows} rows (the largest batch) takes {1e3 * seconds:.2f} ms (budget "
                 f"{1e3 * budget:.0f} ms) and the agent uses {memory:.1f} MiB (budget {limits.agent_memory_mib} MiB)")
+    log("size", f"timed at every batch size the league hands a call ({', '.join(str(b) for b, _ in timed)} rows): "
+                f"the slowest, {slowest[0]} rows, takes {1e3 * slowest[1]:.2f} ms")
     return size
+
+
+def _measured(policy: SandboxedPolicy, obs: np.ndarray, where: str) -> dict[str, Any]:
+    """Three forwards of ``obs`` measured in the sandbox; a failure rejects the agent, saying ``where``."""
+    try:
+        return policy.measure(obs, policy.initial_state(len(obs)), repeats=3)
+    except ForfeitError as error:
+        raise _Rejected(f"{where} it {error.reason}") from None
 
 
 def _stage_match(policy: Policy, game_id: str, info: AgentInfo, match_cycles: int, seed: int, max_seconds: float,
