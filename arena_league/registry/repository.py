@@ -55,9 +55,10 @@ from arena_league.registry.models import (
 )
 
 GAME_ID_PATTERN = re.compile(
-    r"^(?P<name>[A-Za-z][A-Za-z0-9]*)-(?P<teams>\d+)T(?P<players>\d+)P-v(?P<version>\d+)$"
+    r"^(?P<name>[A-Za-z][A-Za-z0-9]*)-(?P<teams>\d+)T(?P<players>\d+)P-v(?P<version>\d+)\Z"
 )
-AGENT_NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:@+-]{0,127}$")
+#: Letters and digits of any script first; ends at ``\Z``, since ``$`` also matches before a final newline.
+AGENT_NAME_PATTERN = re.compile(r"^[^\W_][\w.:@+-]{0,127}\Z")
 
 
 def plain_name(name: str) -> bool:
@@ -371,11 +372,16 @@ def attach_artifact(session: Session, agent: Agent, sha256: str) -> Agent:
 def series_agents(session: Session, series: str) -> list[Agent]:
     """The versions of a name: the agent ``series`` itself (version 1) and ``series:v2``,
     ``series:v3``, ..., in version order."""
-    pattern = re.compile(rf"^{re.escape(series)}:v([0-9]+)$")
+    pattern = re.compile(rf"^{re.escape(series)}:v([0-9]+)\Z")
     found = session.scalars(select(Agent).where(or_(Agent.name == series, Agent.name.like(f"{series}:v%")))).all()
     versions = [(1, a) for a in found if a.name == series]
     versions += [(int(m.group(1)), a) for a in found if (m := pattern.match(a.name))]
     return [a for _, a in sorted(versions, key=lambda pair: pair[0])]
+
+
+def agent_names(session: Session, game_id: str) -> list[str]:
+    """The names of every agent of ``game_id`` (no rows loaded: a league may hold thousands)."""
+    return list(session.scalars(select(Agent.name).where(Agent.game_id == game_id)))
 
 
 def count_agents_since(session: Session, owner: str, since: Any) -> int:
