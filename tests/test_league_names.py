@@ -59,7 +59,7 @@ def test_hidden_characters_and_other_forms_are_refused_with_one_line(league, tmp
         assert reg.agent_names(session, GAME) == []
 
 
-@pytest.mark.parametrize("twin", ["\u0430lice-a1", "a1ice-a1", "aIice-a1"])  # Cyrillic а, digit one, capital I
+@pytest.mark.parametrize("twin", ["\u0430lice-a1", "a1ice-a1", "aIice-a1"])  # Cyrillic a, digit one, capital I
 def test_a_look_alike_of_an_agent_of_the_game_is_refused_and_free_in_another_game(league, tmp_path, twin):
     holder(league, "alice-a1")
     with pytest.raises(ForbiddenError, match="can be mistaken for 'alice-a1'"):
@@ -70,7 +70,7 @@ def test_a_look_alike_of_an_agent_of_the_game_is_refused_and_free_in_another_gam
         assert version_name(session, "alice-a1", GAME, "alice") == ("alice-a1:v2", 2)  # her own name: a version
 
 
-@pytest.mark.parametrize("name", [f"alice@{GAME}", f"guest-carol@{GAME}", "guest-carol", "Guest-x", f"x@G\u043eBang-2T1P-v1"])
+@pytest.mark.parametrize("name", [f"alice@{GAME}", f"guest-carol@{GAME}", "guest-carol", "Guest-x", "x@G\u043eBang-2T1P-v1"])
 def test_the_names_people_play_as_cannot_be_submitted(league, tmp_path, name):
     with pytest.raises(ForbiddenError, match="reserved for the league") as refused:
         submit(league, tmp_path / "never-read.onnx", GAME, name, owner="mallory")
@@ -83,7 +83,7 @@ def test_the_names_people_play_as_cannot_be_submitted(league, tmp_path, name):
 
 
 @pytest.mark.parametrize(("owner", "words"), [
-    ("guest-carol", "keeps for guests"), ("gu\u0435st-carol", "keeps for guests"),  # Cyrillic е too
+    ("guest-carol", "keeps for guests"), ("gu\u0435st-carol", "keeps for guests"),  # with a Cyrillic e too
     ("carol@example.org", "holds '@'"), ("alice\n", "U+000A"), ("\uff41lice", "'alice'"),
     ("a1ice", "can be mistaken for 'alice'"),
 ])
@@ -138,5 +138,6 @@ def test_uploads_cannot_take_or_imitate_the_names_people_play_as(tmp_path):
                 assert taken.status_code == 403 and "reserved for the league" in taken.json()["detail"], taken.text
             hidden = client.post("/api/agents", data={"game": GAME, "name": "alice-a1\n"}, files=onnx)
             assert hidden.status_code == 400 and "U+000A" in hidden.json()["detail"]
-        assert play_hello(server.url, token=alice)["agent"] == f"alice@{GAME}"
-        assert play_hello(server.url, "?guest=carol")["agent"] == f"guest-carol@{GAME}"
+        signed_in, guest = play_hello(server.url, token=alice), play_hello(server.url, "?guest=carol")
+        assert signed_in.get("agent") == f"alice@{GAME}", signed_in
+        assert guest.get("agent") == f"guest-carol@{GAME}", guest

@@ -3,15 +3,15 @@
 A name shows on public pages next to others, so it must look like what it is and like no one
 else's:
 
-* **one form**: a name is refused unless it already is its Unicode NFKC form (``ａlice`` is
-  refused, naming ``alice``), so two spellings never show as the same name;
+* **one form**: a name is refused unless it already is its Unicode NFKC form (``alice`` with a
+  fullwidth ``a`` is refused, naming ``alice``), so two spellings never show as the same name;
 * **nothing hidden**: no control, format (zero-width, right-to-left override), private-use,
   unassigned or space character anywhere (only a saved tree's name may hold plain spaces between
   words); a name starts with a letter or digit of any script and holds letters, digits and
   ``. _ @ + -``;
 * **no look-alike**: a new agent name may not share its UTS #39 skeleton (ICU's
-  ``SpoofChecker.getSkeleton``: ``a1ice`` and Cyrillic ``аlice`` both read ``alice``) with
-  another name of the same game, nor a new owner with another owner;
+  ``SpoofChecker.getSkeleton``: ``a1ice`` and ``alice`` with a Cyrillic ``a`` both read
+  ``alice``) with another name of the same game, nor a new owner with another owner;
 * **the human namespace**: a person who plays in the browser is the agent ``<owner>@<game>``, a
   guest ``guest-<name>@<game>``. No upload may take a name of that shape (``@`` then a game id,
   or one starting ``guest-``, look-alikes included), and no owner may be named ``guest-...`` or
@@ -25,6 +25,7 @@ from __future__ import annotations
 import unicodedata
 from collections.abc import Iterable
 from functools import lru_cache
+from typing import Any
 
 from arena_league.league.errors import ForbiddenError
 
@@ -49,8 +50,9 @@ def _describe(char: str) -> str:
     return f"U+{ord(char):04X} {unicodedata.name(char, '').lower()}".rstrip()
 
 
-def _form_problem(name: object, what: str, punctuation: str, longest: int) -> str | None:
-    """Why ``name`` is not a well-formed name (one line naming the fix), or None."""
+def _form_problem(name: object, what: str, punctuation: str, longest: int, later: str = "") -> str | None:
+    """Why ``name`` is not a well-formed name (one line naming the fix), or None; characters of
+    ``later`` pass here for the caller to refuse with its own reason."""
     allowed = (f"use 1 to {longest} letters, digits and {' '.join(p if p != ' ' else 'spaces' for p in punctuation)}"
                ", starting with a letter or digit")
     if not isinstance(name, str) or not name:
@@ -71,7 +73,7 @@ def _form_problem(name: object, what: str, punctuation: str, longest: int) -> st
     if not name[0].isalnum():
         return f"{what} {name!r} does not start with a letter or digit: {allowed}"
     for char in name:
-        if not (char.isalnum() or char in punctuation):
+        if not (char.isalnum() or char in punctuation or char in later):
             return f"{what} {name!r} holds {char!r} ({_describe(char)}), which names may not hold: {allowed}"
     if punctuation.startswith(" ") and name.endswith(" "):
         return f"{what} {name!r} ends in a space: {allowed}"
@@ -79,7 +81,7 @@ def _form_problem(name: object, what: str, punctuation: str, longest: int) -> st
 
 
 @lru_cache(maxsize=1)
-def _checker():  # noqa: ANN202 - an ICU object, built once: building it reads ICU's confusables data
+def _checker() -> Any:  # built once: building it reads ICU's confusables data
     import icu
 
     return icu.SpoofChecker()
@@ -127,7 +129,7 @@ def human_name_reason(name: str, game_ids: Iterable[str]) -> str | None:
 
 def agent_name_problem(name: object) -> str | None:
     """Why ``name`` is no well-formed agent name to submit under (one line), or None."""
-    problem = _form_problem(name, "agent name", _AGENT_PUNCTUATION, 128)
+    problem = _form_problem(name, "agent name", _AGENT_PUNCTUATION, 128, later=":")
     if problem is None and ":" in str(name):
         problem = f"agent name {name!r} holds ':' (versions are named for you: name:v2, name:v3 ...)"
     return problem

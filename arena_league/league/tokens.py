@@ -19,8 +19,8 @@ from datetime import timedelta
 from typing import Any
 
 from arena_league import registry as reg
-from arena_league.registry import League
 from arena_league.league.names import check_owner_name
+from arena_league.registry import League
 from arena_league.registry.models import utcnow
 
 __all__ = ["TOKEN_PREFIX", "Identity", "authenticate", "create_token", "list_tokens", "revoke_token"]

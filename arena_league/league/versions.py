@@ -13,13 +13,14 @@ before anything is stored.
 from __future__ import annotations
 
 import re
+import threading
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 from arena_league import registry as reg
 from arena_league.league.errors import ForbiddenError
-from arena_league.league.names import agent_name_problem, refuse_confusable, suggested_name
+from arena_league.league.names import agent_name_problem, refuse_confusable, skeleton, suggested_name
 
 __all__ = ["artifact_files", "check_submitted_name", "refuse_empty", "series_of", "version_name", "version_rows"]
 
@@ -71,6 +72,42 @@ def artifact_files(path: str | Path) -> list[tuple[str, int]]:
     return [(path.name, path.stat().st_size)] if path.is_file() else []
 
 
+class _GameSkeletons:
+    """The series names of one game by UTS #39 skeleton, as of ``count`` agents up to id ``newest``."""
+
+    def __init__(self) -> None:
+        self.count, self.newest = 0, 0
+        self.by_skeleton: dict[str, set[str]] = {}
+
+    def add(self, rows: list[tuple[int, str]]) -> None:
+        for agent_id, name in rows:
+            series = series_of(name)[0]
+            self.by_skeleton.setdefault(skeleton(series), set()).add(series)
+            self.newest = max(self.newest, agent_id)
+        self.count += len(rows)
+
+
+#: Per league and game: brought up to date by the agents added since, so a check over thousands of
+#: names reads two numbers and a few new rows instead of every name.
+_SKELETONS: dict[tuple[str, str], _GameSkeletons] = {}
+_SKELETONS_LOCK = threading.Lock()
+
+
+def _look_alikes(session: Any, game_id: str, name: str) -> set[str]:
+    """The series names of ``game_id`` that share ``name``'s skeleton."""
+    key = (str(session.get_bind().url), game_id)
+    count, newest = reg.agent_span(session, game_id)
+    with _SKELETONS_LOCK:
+        known = _SKELETONS.get(key)
+        if known is None or (known.count, known.newest) != (count, newest):
+            rows = reg.agent_names(session, game_id, after_id=known.newest) if known is not None else []
+            if known is None or known.count + len(rows) != count:  # agents removed: read every name again
+                known, rows = _GameSkeletons(), reg.agent_names(session, game_id)
+            known.add(rows)
+            _SKELETONS[key] = known
+        return set(known.by_skeleton.get(skeleton(name), ()))
+
+
 def version_name(session: Any, name: str, game_id: str, owner: str | None) -> tuple[str, int]:
     """The name and version that new bytes submitted as ``name`` by ``owner`` get: ``name`` itself
     when it is free, else the series' next version. Refused when the name is another owner's, is
@@ -78,8 +115,7 @@ def version_name(session: Any, name: str, game_id: str, owner: str | None) -> tu
     another of the game."""
     existing = reg.series_agents(session, name)
     if not existing:
-        series = {series_of(other)[0] for other in reg.agent_names(session, game_id)}
-        refuse_confusable(name, series, "agent name", f"an agent of {game_id}")
+        refuse_confusable(name, _look_alikes(session, game_id, name), "agent name", f"an agent of {game_id}")
         return name, 1
     first = existing[0]
     if first.kind != "submission":

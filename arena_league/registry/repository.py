@@ -379,9 +379,18 @@ def series_agents(session: Session, series: str) -> list[Agent]:
     return [a for _, a in sorted(versions, key=lambda pair: pair[0])]
 
 
-def agent_names(session: Session, game_id: str) -> list[str]:
-    """The names of every agent of ``game_id`` (no rows loaded: a league may hold thousands)."""
-    return list(session.scalars(select(Agent.name).where(Agent.game_id == game_id)))
+def agent_names(session: Session, game_id: str, *, after_id: int = 0) -> list[tuple[int, str]]:
+    """(id, name) of the agents of ``game_id`` with an id above ``after_id``, by id (names only: a
+    league may hold thousands)."""
+    query = select(Agent.id, Agent.name).where(Agent.game_id == game_id, Agent.id > after_id).order_by(Agent.id)
+    return [(int(row.id), row.name) for row in session.execute(query)]
+
+
+def agent_span(session: Session, game_id: str) -> tuple[int, int]:
+    """(how many agents ``game_id`` has, the newest one's id): whether a copy of its names is current."""
+    count, newest = session.execute(select(func.count(Agent.id), func.max(Agent.id))
+                                    .where(Agent.game_id == game_id)).one()
+    return int(count), int(newest or 0)
 
 
 def count_agents_since(session: Session, owner: str, since: Any) -> int:
