@@ -29,9 +29,8 @@ from typing import Any
 
 from arena_league.league.errors import ForbiddenError
 
-__all__ = ["GUEST_PREFIX", "agent_name_problem", "check_agent_name", "check_guest_name", "check_owner_name",
-           "check_tree_name", "confusable_twin", "human_name_reason", "refuse_confusable", "skeleton",
-           "suggested_name"]
+__all__ = ["GUEST_PREFIX", "agent_name_problem", "check_guest_name", "check_owner_name", "check_tree_name",
+           "confusable_twin", "human_name_reason", "refuse_confusable", "skeleton", "suggested_name"]
 
 #: Guests play under ``guest-<name>``, a prefix no owner and no upload can take.
 GUEST_PREFIX = "guest-"
@@ -131,15 +130,9 @@ def agent_name_problem(name: object) -> str | None:
     """Why ``name`` is no well-formed agent name to submit under (one line), or None."""
     problem = _form_problem(name, "agent name", _AGENT_PUNCTUATION, 128, later=":")
     if problem is None and ":" in str(name):
-        problem = f"agent name {name!r} holds ':' (versions are named for you: name:v2, name:v3 ...)"
+        problem = (f"agent name {name!r} is not allowed: it holds ':', and versions are named for you (name:v2, "
+                   "name:v3 ...); submit under the name alone")
     return problem
-
-
-def check_agent_name(name: object) -> None:
-    """Refuse (``ValueError``) an agent name that is not well formed."""
-    problem = agent_name_problem(name)
-    if problem is not None:
-        raise ValueError(problem)
 
 
 def check_owner_name(owner: object, existing: Iterable[str] = ()) -> None:
