@@ -46,6 +46,7 @@ import numpy as np
 from arena_league import registry as reg
 from arena_league.envs.bounded import check_json_nesting
 from arena_league.league.human import Ladder, LiveMatch
+from arena_league.league.names import GUEST_PREFIX, check_guest_name
 from arena_league.league.replays import frames_bounds, scene_shapes, shape_points, team_hex
 from arena_league.replay.scenes import scene_entities
 from arena_league.replay.writer import STEP_NS
@@ -53,9 +54,6 @@ from arena_league.replay.writer import STEP_NS
 __all__ = ["GUEST_PREFIX", "MESSAGE_BYTES", "MESSAGE_DEPTH", "LivePlay", "check_json_nesting", "player_of",
            "read_message"]
 
-#: Guests play under ``guest-<name>``, which no token's owner can take over.
-GUEST_PREFIX = "guest-"
-_GUEST_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,31}$")
 #: Scene entities that draw one seat: ``agent/<seat>`` and ``snake/<seat>``.
 _SEAT_ENTITY = re.compile(r"^(?:agent|snake)/(\d+)$")
 _LABEL_COLOUR = "rgba(20,20,20,1)"
@@ -79,12 +77,17 @@ def read_message(text: str) -> Any:
 
 def player_of(owner: str | None, guest: str | None) -> tuple[str, str]:
     """(player name, owner) of someone who plays: a signed-in owner plays as themself; a guest as
-    ``guest-<name>``. A bad guest name raises ``ValueError`` saying what is allowed."""
+    ``guest-<name>`` (a prefix no owner may take). A bad guest name raises ``ValueError`` saying
+    what is allowed, as does an owner named ``guest-...`` from before owners were kept out of the
+    guests' names, who would otherwise share a guest's agent."""
     if owner is not None:
+        if owner.startswith(GUEST_PREFIX):
+            raise ValueError(f"owner {owner!r} is named like a guest, so playing would share guest "
+                             f"{owner.removeprefix(GUEST_PREFIX)!r}'s agent; ask an administrator for a token under "
+                             "another name")
         return owner, owner
-    if not guest or not _GUEST_NAME.match(guest):
-        raise ValueError(f"guest name {guest!r} is not allowed: 1 to 32 letters, digits and . _ -, starting with a "
-                         "letter or digit (or sign in to play as yourself)")
+    check_guest_name(guest)
+    assert isinstance(guest, str)
     return GUEST_PREFIX + guest, GUEST_PREFIX + guest
 
 

@@ -5,7 +5,9 @@ its SHA-256 hash (a token has 256 random bits, so a hash without salt cannot be 
 guessing). A request presents it as ``Authorization: Bearer <token>`` (or, on the web pages, in
 the cookie set by signing in); :func:`authenticate` turns it into an :class:`Identity`.
 Submitters own the agents they upload; administrators may also manage populations, schedules and
-suspended agents, and read every agent's log.
+suspended agents, and read every agent's log. An owner's name follows the league's name policy
+(:func:`~arena_league.league.names.check_owner_name`): never ``guest-...`` nor with ``@`` (the
+names of the agents people play as), nor a look-alike of another owner.
 """
 
 from __future__ import annotations
@@ -17,9 +19,9 @@ from datetime import timedelta
 from typing import Any
 
 from arena_league import registry as reg
+from arena_league.league.names import check_owner_name
 from arena_league.registry import League
 from arena_league.registry.models import utcnow
-from arena_league.registry.repository import plain_name
 
 __all__ = ["TOKEN_PREFIX", "Identity", "authenticate", "create_token", "list_tokens", "revoke_token"]
 
@@ -47,12 +49,13 @@ def _hash(token: str) -> str:
 
 
 def create_token(league: League, owner: str, *, admin: bool = False) -> dict[str, Any]:
-    """A new token for ``owner``; the returned ``token`` is the only time it is shown."""
-    if not plain_name(owner):
-        raise ValueError(f"owner {owner!r} is not allowed: use 1 to 128 letters, digits and . _ @ + -, starting "
-                         "with a letter or digit (it names who owns the agents uploaded with the token)")
+    """A new token for ``owner``; the returned ``token`` is the only time it is shown. Raises
+    ``ValueError`` for a malformed owner name, :class:`~arena_league.league.errors.ForbiddenError` for one the league keeps
+    for people who play or one that looks like another owner's."""
+    check_owner_name(owner)
     token = TOKEN_PREFIX + secrets.token_urlsafe(32)
     with league.transaction() as session:
+        check_owner_name(owner, {row.owner for row in reg.list_tokens(session)})
         row = reg.create_token(session, owner, _hash(token), token[: len(TOKEN_PREFIX) + 6], admin=admin)
         return {"id": row.id, "owner": owner, "admin": admin, "prefix": row.prefix, "token": token}
 

@@ -30,6 +30,7 @@ import yaml
 from arena_league import registry as reg
 from arena_league.league.errors import ForbiddenError, NotFoundError
 from arena_league.league.home import register_game
+from arena_league.league.names import check_tree_name
 from arena_league.league.quotas import enqueue_owned, live_job_limit
 from arena_league.league.tokens import Identity
 from arena_league.registry import League
@@ -49,7 +50,6 @@ MAX_BOARD = 64
 MAX_SAMPLES = 512
 #: Folder of the league home that keeps preview replays.
 PREVIEWS = "previews"
-_TREE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 ._-]{0,63}$")
 _NODE_PATH = re.compile(r"^social tree node (\S+): ")
 
 
@@ -127,9 +127,7 @@ def _bound(spec: Any) -> None:
 
 def save_tree(league: League, who: Identity, name: str, game_id: str, spec: Any) -> dict[str, Any]:
     """Keep ``spec`` (checked) as ``who``'s tree ``name`` of ``game_id``; its view."""
-    if not isinstance(name, str) or not _TREE_NAME.match(name):
-        raise ValueError(f"tree name {name!r} is not allowed: 1 to 64 letters, digits, spaces and . _ -, starting "
-                         "with a letter or digit")
+    check_tree_name(name)
     _checked(game_id, spec)
     register_game(league, game_id)
     with league.transaction() as session:

@@ -55,9 +55,10 @@ from arena_league.registry.models import (
 )
 
 GAME_ID_PATTERN = re.compile(
-    r"^(?P<name>[A-Za-z][A-Za-z0-9]*)-(?P<teams>\d+)T(?P<players>\d+)P-v(?P<version>\d+)$"
+    r"^(?P<name>[A-Za-z][A-Za-z0-9]*)-(?P<teams>\d+)T(?P<players>\d+)P-v(?P<version>\d+)\Z"
 )
-AGENT_NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:@+-]{0,127}$")
+#: Letters and digits of any script first; ends at ``\Z``, since ``$`` also matches before a final newline.
+AGENT_NAME_PATTERN = re.compile(r"^[^\W_][\w.:@+-]{0,127}\Z")
 
 
 def plain_name(name: str) -> bool:
@@ -371,11 +372,25 @@ def attach_artifact(session: Session, agent: Agent, sha256: str) -> Agent:
 def series_agents(session: Session, series: str) -> list[Agent]:
     """The versions of a name: the agent ``series`` itself (version 1) and ``series:v2``,
     ``series:v3``, ..., in version order."""
-    pattern = re.compile(rf"^{re.escape(series)}:v([0-9]+)$")
+    pattern = re.compile(rf"^{re.escape(series)}:v([0-9]+)\Z")
     found = session.scalars(select(Agent).where(or_(Agent.name == series, Agent.name.like(f"{series}:v%")))).all()
     versions = [(1, a) for a in found if a.name == series]
     versions += [(int(m.group(1)), a) for a in found if (m := pattern.match(a.name))]
     return [a for _, a in sorted(versions, key=lambda pair: pair[0])]
+
+
+def agent_names(session: Session, game_id: str, *, after_id: int = 0) -> list[tuple[int, str]]:
+    """(id, name) of the agents of ``game_id`` with an id above ``after_id``, by id (names only: a
+    league may hold thousands)."""
+    query = select(Agent.id, Agent.name).where(Agent.game_id == game_id, Agent.id > after_id).order_by(Agent.id)
+    return [(int(row.id), row.name) for row in session.execute(query)]
+
+
+def agent_span(session: Session, game_id: str) -> tuple[int, int]:
+    """(how many agents ``game_id`` has, the newest one's id): whether a copy of its names is current."""
+    count, newest = session.execute(select(func.count(Agent.id), func.max(Agent.id))
+                                    .where(Agent.game_id == game_id)).one()
+    return int(count), int(newest or 0)
 
 
 def count_agents_since(session: Session, owner: str, since: Any) -> int:
