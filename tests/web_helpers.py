@@ -85,7 +85,9 @@ def running_server(home: Path, db: str | None = None, workers: int = 1,
     log_path = home.parent / f"serve-{port}.log"
     log = open(log_path, "w")  # noqa: SIM115 - closed with the server below
     limit = None if memory_mib is None else (lambda: _limit_memory(memory_mib))
-    process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT, preexec_fn=limit)
+    # the child only calls setrlimit between fork and exec: no lock another thread could hold
+    process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT,
+                               preexec_fn=limit)  # noqa: PLW1509
     url = f"http://127.0.0.1:{port}"
     try:
         deadline = time.monotonic() + 90
