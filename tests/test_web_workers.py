@@ -88,8 +88,6 @@ def ending(pids: set[int]):
 def test_a_killed_worker_is_logged_restarted_and_the_queue_goes_on(tmp_path):
     with running_server(tmp_path / "home", workers=1) as server:
         (first,) = until("serve's worker", lambda: workers_of(server))
-        with server.client() as client:
-            assert client.get("/api/health").json()["workers"] == {"started_here": 1, "alive": 1, "restarts": 0}
         os.kill(first, signal.SIGKILL)
         until("a log line naming the dead worker", lambda: f"job worker pid {first} was killed by signal SIGKILL"
               in server.log.read_text())
