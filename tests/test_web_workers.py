@@ -6,6 +6,7 @@ is killed with ``kill -9``, handing a running job back to the queue. A real ``se
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import sys
@@ -19,10 +20,10 @@ from web_helpers import Server, running_server
 
 from arena_league import registry as reg
 from arena_league.league import open_home
+from arena_league.web.workers import RESTARTS_PER_MINUTE, SLOW_RESTART_SECONDS, WorkerPool
 
 GAME = "GoBang-2T1P-v1"
-pytestmark = [pytest.mark.slow,
-              pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads processes from /proc")]
+linux_only = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads processes from /proc")
 
 
 def running(pid: int) -> bool:
@@ -85,6 +86,8 @@ def ending(pids: set[int]):
                     os.kill(pid, signal.SIGKILL)
 
 
+@pytest.mark.slow
+@linux_only
 def test_a_killed_worker_is_logged_restarted_and_the_queue_goes_on(tmp_path):
     with running_server(tmp_path / "home", workers=1) as server:
         (first,) = until("serve's worker", lambda: workers_of(server))
@@ -100,6 +103,8 @@ def test_a_killed_worker_is_logged_restarted_and_the_queue_goes_on(tmp_path):
         assert workers_of(server) == {second}
 
 
+@pytest.mark.slow
+@linux_only
 def test_health_names_the_queue_and_a_server_without_workers(tmp_path):
     with running_server(tmp_path / "home", workers=0) as server:
         upload(server, server.token("alice"), "waits", tmp_path, seed=2)
@@ -110,6 +115,8 @@ def test_health_names_the_queue_and_a_server_without_workers(tmp_path):
     assert "jobs wait for `arena-league worker` processes started elsewhere" in health["workers"]["note"]
 
 
+@pytest.mark.slow
+@linux_only
 def test_killing_serve_ends_its_workers_and_hands_their_job_back(tmp_path):
     with running_server(tmp_path / "home", workers=2) as server:
         workers = until("serve's two workers", lambda: len(workers_of(server)) == 2 and workers_of(server))
@@ -124,6 +131,8 @@ def test_killing_serve_ends_its_workers_and_hands_their_job_back(tmp_path):
             assert (row.status, row.lease_owner, row.attempts) == ("queued", None, 0)
 
 
+@pytest.mark.slow
+@linux_only
 def test_stopping_serve_stops_its_workers_and_hands_their_job_back(tmp_path):
     with running_server(tmp_path / "home", workers=1) as server:
         workers = until("serve's worker", lambda: workers_of(server))
@@ -136,3 +145,30 @@ def test_stopping_serve_stops_its_workers_and_hands_their_job_back(tmp_path):
             assert not any(running(pid) for pid in workers)
             row = job_row(server, job)
             assert (row.status, row.lease_owner, row.attempts) == ("queued", None, 0)
+
+
+def test_restarts_slow_down_past_the_bound_and_go_on(caplog):
+    """A worker that dies at once, on an injected clock that stands still: restarted at once
+    RESTARTS_PER_MINUTE times, then only once SLOW_RESTART_SECONDS have passed."""
+    moment = [0.0]
+    pool = WorkerPool([sys.executable, "-c", "raise SystemExit(3)"], 1, clock=lambda: moment[0])
+    caplog.set_level(logging.WARNING, logger="arena_league.web.workers")
+    try:
+        pool.check()  # the first start; a process just started is still running
+        assert len(pool.pids()) == 1
+        for restart in range(1, RESTARTS_PER_MINUTE + 2):
+            until("the worker ending", lambda: pool.alive() == 0, seconds=30)
+            pool.check()
+            assert pool.restarts == restart
+            assert len(pool.pids()) == (1 if restart <= RESTARTS_PER_MINUTE else 0)
+        assert "exited with code 3; starting another" in caplog.text
+        assert (f"after {RESTARTS_PER_MINUTE} restarts in the last minute; starting another in "
+                f"{SLOW_RESTART_SECONDS:.0f} s") in caplog.text
+        moment[0] += SLOW_RESTART_SECONDS - 1
+        pool.check()
+        assert pool.pids() == []
+        moment[0] += 1
+        pool.check()  # the slow restart is due
+        assert len(pool.pids()) == 1
+    finally:
+        pool.stop()
