@@ -77,7 +77,11 @@ class WorkerPool:
 
     def start(self) -> None:
         """Start the workers and their supervisor; returns once the workers were started."""
-        if self.size == 0 or self._thread is not None:
+        if self.size == 0:
+            logger.info("this server runs no job worker: jobs wait for `arena-league worker` processes started "
+                        "elsewhere")
+            return
+        if self._thread is not None:
             return
         # the supervising thread starts every worker: Linux sends a parent-death signal when the
         # thread that started a process ends, and this one lives as long as the pool
