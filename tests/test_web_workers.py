@@ -113,6 +113,7 @@ def test_health_names_the_queue_and_a_server_without_workers(tmp_path):
     assert health["jobs"] == {"queued": 1, "running": 0}
     assert health["workers"]["started_here"] == 0 and health["workers"]["alive"] == 0
     assert "jobs wait for `arena-league worker` processes started elsewhere" in health["workers"]["note"]
+    assert "this server runs no job worker" in server.log.read_text()
 
 
 @pytest.mark.slow
