@@ -127,7 +127,9 @@ class WorkerPool:
 
     def _spawn(self, slot: int, now: float) -> None:
         try:
-            process = subprocess.Popen(self._command, stdin=subprocess.DEVNULL)
+            # a group of its own: Ctrl-C at a terminal reaches serve alone, which stops its workers
+            # itself, rather than the workers too, which the supervisor would then start again
+            process = subprocess.Popen(self._command, stdin=subprocess.DEVNULL, process_group=0)
         except OSError as error:
             self._due[slot] = now + SLOW_RESTART_SECONDS
             logger.error("cannot start a job worker (%s); trying again in %.0f s", error, SLOW_RESTART_SECONDS)
