@@ -173,3 +173,31 @@ def test_restarts_slow_down_past_the_bound_and_go_on(caplog):
         assert len(pool.pids()) == 1
     finally:
         pool.stop()
+
+
+def test_an_orphaned_worker_hands_its_job_back_at_the_next_lease_renewal(tmp_path, monkeypatch):
+    """The portable check (no signal): the worker's parent pid changes while a job runs."""
+    league = reg.open_league(None, home=tmp_path / "home")
+    with league.transaction() as session:
+        job_id = reg.enqueue(session, "wait").id
+    parent = [os.getppid()]
+    monkeypatch.setattr(os, "getppid", lambda: parent[0])
+
+    def wait(context: reg.JobContext) -> None:
+        parent[0] = 1  # serve ended: the worker now belongs to init
+        while True:
+            context.heartbeat()
+            context.raise_if_lease_lost()
+            time.sleep(0.01)
+
+    try:
+        report = reg.run_worker(league, {"wait": wait}, lease_seconds=0.3, poll_seconds=0.05,
+                                parent_pid=os.getppid())
+        with league.reading() as session:
+            job = reg.get_job(session, job_id)
+            assert (job.status, job.lease_owner, job.attempts) == ("queued", None, 0)
+        assert report.job_ids == [job_id] and report.completed == 0
+        parent[0] = 2
+        assert reg.run_worker(league, {"wait": wait}, poll_seconds=0.05, parent_pid=1).job_ids == []
+    finally:
+        league.close()
