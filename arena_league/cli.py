@@ -323,7 +323,8 @@ def cmd_worker(args: argparse.Namespace) -> int:
     with _league(args) as league:
         try:
             summary = run_worker(league, worker_id=args.worker_id, lease_seconds=args.lease,
-                                 poll_seconds=args.poll, max_jobs=args.max_jobs, until_idle=args.until_idle)
+                                 poll_seconds=args.poll, max_jobs=args.max_jobs, until_idle=args.until_idle,
+                                 parent_pid=args.parent)
         except KeyboardInterrupt:
             stderr.print("worker stopped; a job it was running, if any, went back to the queue")
             return 130
@@ -1007,6 +1008,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--poll", type=float, default=1.0, help="seconds between looks at an empty queue (default 1)")
     p.add_argument("--max-jobs", type=_positive_int, default=None, help="stop after this many jobs")
     p.add_argument("--until-idle", action="store_true", help="stop when the queue is empty")
+    p.add_argument("--parent", type=_positive_int, default=None, metavar="PID",
+                   help="stop, handing the running job back, when process PID ends (serve starts its workers so)")
     _league_options(p)
     p.set_defaults(func=cmd_worker)
 

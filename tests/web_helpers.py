@@ -1,11 +1,13 @@
 """A real web service for the tests: ``arena-league serve`` in a subprocess on a free loopback
-port, over a league of its own, with one job worker; stopped (with its worker) by its pid.
+port, over a league of its own, with one job worker, under an address-space limit (RLIMIT_AS,
+which its workers and their sandboxes inherit); stopped (with its worker) by its pid.
 PYTEST_DONT_REWRITE
 """
 
 from __future__ import annotations
 
 import os
+import resource
 import signal
 import socket
 import subprocess
@@ -20,6 +22,11 @@ import httpx
 
 from arena_league.league import create_token, open_home
 
+#: The address space (MiB) a test's serve, and each of its workers, may map: about three times a
+#: worker's peak (VmPeak ~1.4 GiB after validating and ranking an ONNX agent, torch and onnxruntime
+#: loaded; serve ~0.7 GiB), leaving the worker's inference sandbox room for the settings' default.
+SERVE_MEMORY_MIB = 4096
+
 
 def free_port() -> int:
     with socket.socket() as probe:
@@ -33,6 +40,7 @@ class Server:
     home: Path
     db: str | None
     process: subprocess.Popen
+    log: Path | None = None
 
     def token(self, owner: str, admin: bool = False) -> str:
         with open_home(self.home, self.db) as league:
@@ -60,15 +68,26 @@ class Server:
         raise TimeoutError(f"job {job} did not finish in {seconds} s")
 
 
+def _limit_memory(mib: int) -> None:
+    resource.setrlimit(resource.RLIMIT_AS, (mib << 20, mib << 20))
+
+
 @contextmanager
-def running_server(home: Path, db: str | None = None, workers: int = 1) -> Iterator[Server]:
+def running_server(home: Path, db: str | None = None, workers: int = 1,
+                   memory_mib: int | None = SERVE_MEMORY_MIB) -> Iterator[Server]:
+    """``serve`` on ``home`` (or ``db``) with ``workers``, each process under ``memory_mib`` MiB
+    of address space (None: no limit)."""
     port = free_port()
     env = dict(os.environ)
     env.pop("ARENA_LEAGUE_DB", None)
     command = [sys.executable, "-m", "arena_league.cli", "serve", "--port", str(port), "--home", str(home),
                "--workers", str(workers), *(["--db", db] if db else [])]
-    log = open(home.parent / f"serve-{port}.log", "w")  # noqa: SIM115 - closed with the server below
-    process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT)
+    log_path = home.parent / f"serve-{port}.log"
+    log = open(log_path, "w")  # noqa: SIM115 - closed with the server below
+    limit = None if memory_mib is None else (lambda: _limit_memory(memory_mib))
+    # the child only calls setrlimit between fork and exec: no lock another thread could hold
+    process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT,
+                               preexec_fn=limit)  # noqa: PLW1509
     url = f"http://127.0.0.1:{port}"
     try:
         deadline = time.monotonic() + 90
@@ -80,9 +99,9 @@ def running_server(home: Path, db: str | None = None, workers: int = 1) -> Itera
                 pass
             if process.poll() is not None or time.monotonic() > deadline:
                 log.flush()
-                raise RuntimeError(f"the server did not start: {(home.parent / f'serve-{port}.log').read_text()}")
+                raise RuntimeError(f"the server did not start: {log_path.read_text()}")
             time.sleep(0.2)
-        yield Server(url, home, db, process)
+        yield Server(url, home, db, process, log_path)
     finally:
         if process.poll() is None:
             process.send_signal(signal.SIGINT)  # uvicorn stops gracefully and stops its workers

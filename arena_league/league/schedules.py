@@ -18,7 +18,7 @@ from arena_league.league.jobs import evaluation_payload
 from arena_league.registry import League
 
 __all__ = ["WorkerSummary", "add_evaluation_schedule", "list_schedules", "remove_schedule", "run_scheduler",
-           "run_worker", "tick"]
+           "run_worker", "tick", "waiting_jobs"]
 
 
 def _schedule_row(schedule: reg.Schedule) -> dict[str, Any]:
@@ -85,12 +85,20 @@ class WorkerSummary:
 
 def run_worker(league: League, *, worker_id: str | None = None, lease_seconds: float = 60.0,
                poll_seconds: float = 1.0, max_jobs: int | None = None, until_idle: bool = False,
-               stop_event: threading.Event | None = None) -> WorkerSummary:
+               stop_event: threading.Event | None = None, parent_pid: int | None = None) -> WorkerSummary:
     """Claim and run queued jobs (evaluations, rankings) with the league's handlers until stopped,
-    ``max_jobs`` ran or, with ``until_idle``, the queue is empty."""
+    ``max_jobs`` ran, with ``until_idle``, the queue is empty or, given ``parent_pid``, the process
+    that started the worker has ended (the job it ran goes back to the queue)."""
     from arena_league.league.service import job_handlers  # the match engine: loaded only to run jobs
 
     report = reg.run_worker(league, job_handlers(), worker_id=worker_id, lease_seconds=lease_seconds,
                             poll_seconds=poll_seconds, max_jobs=max_jobs, stop_event=stop_event,
-                            until_idle=until_idle)
+                            until_idle=until_idle, parent_pid=parent_pid)
     return WorkerSummary(report.completed, report.failed, report.lost, list(report.job_ids))
+
+
+def waiting_jobs(league: League) -> dict[str, int]:
+    """How many jobs wait for a worker (``queued``) and how many workers hold (``running``)."""
+    with league.reading() as session:
+        counts = reg.queue_counts(session)
+    return {"queued": counts["queued"], "running": counts["running"]}

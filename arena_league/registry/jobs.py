@@ -47,7 +47,9 @@ import dataclasses
 import json
 import logging
 import os
+import signal
 import socket
+import sys
 import threading
 import traceback
 import uuid
@@ -84,6 +86,7 @@ _DATABASE_ERRORS = (SQLAlchemyError, DatabaseStateError)
 
 # Any constant: the class of the per-owner PostgreSQL advisory locks (the owner's hash is the key).
 _PG_OWNER_LOCK_CLASS = 0x41524F57  # "AROW"
+_PR_SET_PDEATHSIG = 1  # prctl's option number, from linux/prctl.h
 
 _EXHAUSTED_LEASE_ERROR = (
     "the lease expired on the last allowed attempt (the worker crashed or stalled); not retried"
@@ -473,6 +476,7 @@ def run_worker(
     until_idle: bool = False,
     retry_delay_seconds: float = 0.0,
     max_db_failures: int | None = None,
+    parent_pid: int | None = None,
 ) -> WorkerReport:
     """Claim and run jobs until stopped; returns what was done.
 
@@ -495,6 +499,10 @@ def run_worker(
         max_db_failures: stop after this many claims in a row failed on a database error (see the
             module docstring); default `DB_FAILURES_UNTIL_IDLE` with `until_idle`, else
             `DB_FAILURES_LONG_RUNNING`.
+        parent_pid: the process that started this worker (``serve``): once it is no longer this
+            process's parent (it ended), the worker stops, checked before each claim and at each
+            lease renewal, where the running job is handed back to the queue. On Linux the worker
+            also asks for SIGTERM the moment that parent ends (call this from the main thread).
 
     Raises:
         WorkerGaveUpError: `max_db_failures` claims in a row failed; it names the last cause.
@@ -510,7 +518,12 @@ def run_worker(
     if limit < 1:
         raise InvalidRecordError(f"max_db_failures must be at least 1, not {limit}")
     failures = 0
+    if parent_pid is not None:
+        _end_with_parent()
     while not stop.is_set() and (max_jobs is None or len(report.job_ids) < max_jobs):
+        if _orphaned(parent_pid):
+            logger.warning("worker %s stops: the process that started it (pid %d) has ended", worker, parent_pid)
+            break
         try:
             job = claim_job(league, worker, lease_seconds=lease_seconds, kinds=kinds)
         except _DATABASE_ERRORS as error:  # locked, unreachable, full...: wait longer each time
@@ -538,7 +551,7 @@ def run_worker(
         report.job_ids.append(job.id)
         logger.info("worker %s claimed job %d (%s), attempt %d", worker, job.id, job.kind, job.attempt)
         try:
-            _run_one(league, handlers[job.kind], job, lease_seconds, retry_delay_seconds, report)
+            _run_one(league, handlers[job.kind], job, lease_seconds, retry_delay_seconds, report, parent_pid)
         except _DATABASE_ERRORS as error:  # could not record the outcome: retried after its lease
             if isinstance(error, _PERMANENT_ERRORS):
                 raise
@@ -548,6 +561,22 @@ def run_worker(
                 job.id, _one_line(error),
             )
     return report
+
+
+def _orphaned(parent_pid: int | None) -> bool:
+    """Whether the worker's parent ended (the worker was handed to another process, often init)."""
+    return parent_pid is not None and os.getppid() != parent_pid
+
+
+def _end_with_parent() -> None:
+    """On Linux, have the kernel send SIGTERM when the parent ends, so a job is handed back at
+    once rather than at the next check (the signal is the process's only from its main thread)."""
+    if not sys.platform.startswith("linux") or threading.current_thread() is not threading.main_thread():
+        return
+    import ctypes
+
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
 def _one_line(error: BaseException) -> str:
@@ -609,16 +638,18 @@ def _run_one(
     lease_seconds: float,
     retry_delay_seconds: float,
     report: WorkerReport,
+    parent_pid: int | None = None,
 ) -> None:
     """Run one claimed job under a renewed lease, then complete or fail it."""
     try:
-        result, lease_lost = _under_lease(league, handler, job, lease_seconds)
+        result, lease_lost = _under_lease(league, handler, job, lease_seconds, parent_pid)
     except LeaseLostError:
         report.lost += 1
         logger.warning("job %d: lease lost (the job was cancelled, or another worker took it); stopped", job.id)
         return
     except KeyboardInterrupt:
-        release_job(league, job)
+        with contextlib.suppress(LeaseLostError):  # already handed back (its parent ended) or taken
+            release_job(league, job)
         raise
     except Exception:  # any handler error fails this attempt; the worker goes on
         error = traceback.format_exc()
@@ -647,14 +678,14 @@ def _run_one(
     logger.info("job %d (%s) done", job.id, job.kind)
 
 
-def _under_lease(league: League, handler: Handler, job: ClaimedJob, lease_seconds: float
-                 ) -> tuple[Any, threading.Event]:
+def _under_lease(league: League, handler: Handler, job: ClaimedJob, lease_seconds: float,
+                 parent_pid: int | None = None) -> tuple[Any, threading.Event]:
     """Call the handler while a background thread renews the job's lease; returns its result and
-    the event that tells whether the lease was lost meanwhile."""
+    the event that tells whether the lease was lost meanwhile (or handed back: its parent ended)."""
     context = JobContext(league=league, job=job, lease_lost=threading.Event())
     context.heartbeat()  # the claim itself: the first renewal waits for no step
     done = threading.Event()
-    keeper = threading.Thread(target=_keep_lease, args=(league, job, lease_seconds, context, done),
+    keeper = threading.Thread(target=_keep_lease, args=(league, job, lease_seconds, context, done, parent_pid),
                               name=f"lease-{job.id}", daemon=True)
     keeper.start()
     try:
@@ -665,12 +696,21 @@ def _under_lease(league: League, handler: Handler, job: ClaimedJob, lease_second
 
 
 def _keep_lease(
-    league: League, job: ClaimedJob, lease_seconds: float, context: JobContext, done: threading.Event
+    league: League, job: ClaimedJob, lease_seconds: float, context: JobContext, done: threading.Event,
+    parent_pid: int | None = None,
 ) -> None:
     """Every third of the lease until `done`: renew it if the handler made progress since the last
-    look, else leave it to run out (logged once); stop once it is lost."""
+    look, else leave it to run out (logged once); stop once it is lost. A worker whose parent
+    ended hands the job back to the queue instead, and its handler stops as if the lease were lost."""
     stalled = False
     while not done.wait(lease_seconds / 3):
+        if _orphaned(parent_pid):
+            logger.warning("job %d: the process that started this worker (pid %d) has ended; the job goes "
+                           "back to the queue", job.id, parent_pid)
+            with contextlib.suppress(LeaseLostError, *_DATABASE_ERRORS):  # else its lease runs out
+                release_job(league, job)
+            context.lease_lost.set()
+            return
         if not context.progressed.is_set():
             if not stalled:
                 logger.warning("job %d: no progress for %.0f s; its lease is not renewed", job.id, lease_seconds / 3)

@@ -128,6 +128,13 @@ def me(who: Writer) -> dict[str, Any]:
     return {"owner": who.owner, "admin": who.admin}
 
 
+@router.get("/health", summary="the league's health: its job workers (alive, restarts) and the queue's length")
+def health(request: Request) -> dict[str, Any]:
+    workers = request.app.state.workers.health()
+    return {"ok": workers["alive"] == workers["started_here"], "workers": workers,
+            "jobs": ops.waiting_jobs(league_of(request))}
+
+
 @router.get("/games", response_model=list[Game], summary="every game, and its base populations")
 def games(request: Request) -> list[dict[str, Any]]:
     return ops.games_view(league_of(request))

@@ -5,8 +5,9 @@ Besides the routes (:mod:`.api`, :mod:`.pages`) it sets up
 * the league, opened once, and a :class:`~arena_league.league.LeaderboardCache` shared by the
   requests of this process;
 * job workers: with ``workers=N`` (the ``serve`` default is 1), N ``arena-league worker``
-  processes run beside the server, on the same league, and are stopped with it; with 0, jobs wait
-  for workers started elsewhere (several, on PostgreSQL, across machines);
+  processes run beside the server, on the same league, restarted if one dies and stopped with it
+  (:mod:`.workers`); with 0, jobs wait for workers started elsewhere (several, on PostgreSQL,
+  across machines);
 * the front door (:mod:`.guard`): a write's token, its size and the uploads in flight are checked
   before its body is read (401, 413, 429), and a body is counted as it streams (413 past its limit);
 * one log line per request on stderr (method, path, status, milliseconds, owner);
@@ -20,8 +21,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-import subprocess
-import sys
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
@@ -42,6 +41,7 @@ from arena_league.web.bodies import JsonNesting
 from arena_league.web.csrf import Guard, SecurityHeaders, add_security_headers
 from arena_league.web.deps import STATUS_OF, status_of
 from arena_league.web.guard import DATABASE_FULL, FULL_RETRY_SECONDS, FrontDoor
+from arena_league.web.workers import WorkerPool, worker_command
 
 __all__ = ["create_app"]
 
@@ -69,39 +69,23 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
     if workers < 0:
         raise ValueError(f"workers must be 0 or more, not {workers}")
     league = ops.open_home(home, url)
-    processes: list[subprocess.Popen] = []
-
-    def start_workers() -> None:
-        # the workers open the same league: this home, and the database URL given (or the environment's)
-        command = [sys.executable, "-m", "arena_league.cli", "worker", "--home", str(league.home),
-                   *(["--db", url] if url else [])]
-        processes.extend(subprocess.Popen(command, stdin=subprocess.DEVNULL) for _ in range(workers))
-
-    def stop_workers() -> None:
-        for process in processes:
-            if process.poll() is None:
-                process.terminate()  # a worker hands its job back to the queue and stops
-        for process in processes:
-            try:
-                process.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
-        league.close()
+    pool = WorkerPool(worker_command(league.home, url), workers)  # the workers open this same league
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        await asyncio.to_thread(start_workers)
+        await asyncio.to_thread(pool.start)
         try:
             yield
         finally:
-            await asyncio.to_thread(stop_workers)
+            await asyncio.to_thread(pool.stop)
+            league.close()
 
     app = FastAPI(title="arena-league", lifespan=lifespan,
                   description="A league for multi-agent RL agents: upload an agent with a token, follow its "
                               "validation, rank it against its game's base population, read leaderboards with "
                               "intervals, watch replays. Every write queues a job.")
     app.state.league = league
+    app.state.workers = pool
     app.state.boards = ops.LeaderboardCache()
     app.state.live_games = 0  # people playing in a browser now (see .play)
     app.include_router(api.router)
