@@ -40,7 +40,7 @@ def test_a_token_is_shown_once_kept_as_a_hash_and_revoked(capsys, home):
     with open_home(home) as league:
         assert authenticate(league, token) is None and authenticate(league, admin["token"]) is None
     code, _, err = run(capsys, "token", "create", "a:b")
-    assert code == 2 and "not allowed" in err
+    assert code == 2 and "which names may not hold" in err
 
 
 def test_serve_refuses_a_bad_port_and_one_in_use_in_one_line(capsys, home):

@@ -129,9 +129,16 @@ def test_a_member_that_does_not_play_the_game_is_refused(capsys, home, tmp_path)
     assert_refused(capsys, home, folder, "hostile.m1", "Nothing was imported")
 
 
-def test_a_squatted_member_name_refuses_the_import_and_is_not_adopted(capsys, home, tmp_path):
-    code, _, err = run(capsys, "submit", gobang_agent(tmp_path / "squat"), "--game", GAME,
-                       "--name", f"hostile.m1@{GAME}", "--owner", "mallory")
+def test_a_squatted_member_name_refuses_the_import_and_is_not_adopted(capsys, home, tmp_path, monkeypatch):
+    # a member's name has the shape of the names people play under: no one may submit it now
+    code, doc, _ = run(capsys, "submit", gobang_agent(tmp_path / "squat"), "--game", GAME,
+                       "--name", f"hostile.m1@{GAME}", "--owner", "mallory", "--json")
+    assert code == 2 and "reserved for the league" in doc["error"], doc
+    # a league that took such a name before the rule still holds it: the import must not adopt it
+    with monkeypatch.context() as before_the_rule:
+        before_the_rule.setattr("arena_league.league.versions.check_submitted_name", lambda name: None)
+        code, _, err = run(capsys, "submit", gobang_agent(tmp_path / "squat"), "--game", GAME,
+                           "--name", f"hostile.m1@{GAME}", "--owner", "mallory")
     assert code == 0, err
     folder = population_folder(tmp_path / "pop", ["agents/m0", "agents/m1"])
     assert_refused(capsys, home, folder, f"hostile.m1@{GAME}", "different bytes", "mallory", "Rename the member")
@@ -169,7 +176,7 @@ def test_a_submission_refused_for_a_taken_name_stores_nothing(capsys, home, tmp_
     assert code == 2 and "empty" in doc["error"]
     code, doc, _ = run(capsys, "submit", gobang_agent(tmp_path / "c", seed=3), "--game", GAME, "--name=-bad",
                        "--json")
-    assert code == 2 and "not allowed" in doc["error"]
+    assert code == 2 and "does not start with a letter or digit" in doc["error"]
     assert store_files(home) == before
 
 

@@ -115,6 +115,9 @@ def test_concurrent_uploads_cannot_pass_the_hourly_limit(where: tuple[Path, str 
 def test_concurrent_http_uploads_and_verifications_keep_to_the_limits(tmp_path: Path) -> None:
     with running_server(tmp_path / "home", workers=0) as server:
         server.command("settings", "set", "web.uploads_per_hour", "5")
+        # the uploads in flight have limits of their own (the front door's): here all 20 may stream at once
+        server.command("settings", "set", "web.uploads_in_flight_per_owner", str(CONCURRENT))
+        server.command("settings", "set", "web.uploads_in_flight", str(CONCURRENT))
         headers = {"Authorization": f"Bearer {server.token('alice')}"}
         gate = threading.Barrier(CONCURRENT)
 

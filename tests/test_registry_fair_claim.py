@@ -1,5 +1,5 @@
-"""The fair claim: among runnable jobs of one priority, workers take the owner with the fewest jobs
-running, then the owner served least recently, so one owner's burst never holds back another's
+"""The fair claim: among runnable jobs, workers take the owner with the fewest jobs running, then the
+owner served least recently (priority orders an owner's own jobs), so one owner's burst never holds back another's
 job; and the migration that records jobs' owners upgrades a league made before it. Times are an
 injected clock; no worker runs."""
 
@@ -66,13 +66,19 @@ def test_a_free_worker_takes_the_owner_with_fewest_jobs_running(league: League) 
     assert owners_in_claim_order(league, 3, complete=False) == ["alice", "bob", "alice"]
 
 
-def test_priority_comes_before_fairness(league: League) -> None:
+def test_priority_orders_an_owners_own_jobs(league: League) -> None:
     queue(league, "alice", 3)
     urgent = queue(league, "alice", 1, priority=100)
     queue(league, "bob", 1)
     first = claim_job(league, "w", now=START + timedelta(seconds=1))
     assert first is not None and first.id == urgent[0]
     assert owners_in_claim_order(league, 2, complete=False) == ["bob", "alice"]
+
+
+def test_a_burst_of_a_higher_priority_kind_does_not_pass_another_owner(league: League) -> None:
+    queue(league, "alice", 4, kind="replay", priority=70)
+    queue(league, "bob", 1, kind="rank", priority=60)
+    assert owners_in_claim_order(league, 3, complete=True) == ["alice", "bob", "alice"]
 
 
 def test_the_leagues_own_jobs_count_as_one_owner(league: League) -> None:

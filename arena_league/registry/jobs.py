@@ -218,7 +218,7 @@ def claim_job(
                     ),
                 )
             )
-            .order_by(Job.priority.desc(), *_fair_order(), Job.id)
+            .order_by(*_fair_order(), Job.priority.desc(), Job.id)
             .limit(1)
         )
         if wanted is not None:
@@ -391,7 +391,8 @@ def live_jobs(session: Session, kind: str, *, exclude_job_id: int | None = None)
 
 
 def _fair_order() -> list[Any]:
-    """The claim's order within one priority: the owner with the fewest running jobs, then the
+    """The claim's order across owners, before priority (which orders an owner's own jobs, so that
+    no kind of job lets one owner pass another): the owner with the fewest running jobs, then the
     owner served least recently (never served first). Each is one index lookup on (owner, ...) per
     candidate; the league's own jobs (owner None) count as one owner, looked up once."""
     peer = Job.__table__.alias("peer")
