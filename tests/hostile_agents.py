@@ -61,10 +61,9 @@ def _model(game_id: str, nodes: list[onnx.NodeProto], extra: str, seed: int) -> 
     return model
 
 
-def hanging(game_id: str, above: int | None = None, seed: int = 0, exactly: int | None = None) -> onnx.ModelProto:
-    """Loops :data:`FOREVER` times when the batch has more than ``above`` rows, or exactly ``exactly``
-    rows (always, when both are None)."""
-    body = helper.make_graph(
+def spin_body() -> onnx.GraphProto:
+    """A Loop body that adds one to a float each iteration: a busy loop the model's inputs size."""
+    return helper.make_graph(
         [helper.make_node("Identity", ["cond_in"], ["cond_out"]),
          _const("one", 1.0, np.float32),
          helper.make_node("Add", ["v_in", "one"], ["v_out"])],
@@ -74,6 +73,12 @@ def hanging(game_id: str, above: int | None = None, seed: int = 0, exactly: int 
          helper.make_tensor_value_info("v_in", TensorProto.FLOAT, [])],
         [helper.make_tensor_value_info("cond_out", TensorProto.BOOL, []),
          helper.make_tensor_value_info("v_out", TensorProto.FLOAT, [])])
+
+
+def hanging(game_id: str, above: int | None = None, seed: int = 0, exactly: int | None = None) -> onnx.ModelProto:
+    """Loops :data:`FOREVER` times when the batch has more than ``above`` rows, or exactly ``exactly``
+    rows (always, when both are None)."""
+    body = spin_body()
     nodes = [*_triggered(above, exactly),
              _const("forever", FOREVER, np.int64),
              helper.make_node("Mul", ["on", "forever"], ["trips"]),

@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from hostile_agents import _const, _model, plain, save
+from hostile_agents import _const, _model, plain, save, spin_body
 from onnx import TensorProto, helper
 
 from arena_league import registry as reg
@@ -32,15 +32,7 @@ def _rows() -> list:
 
 def _spin(trips: int, on: str) -> list:
     """A Loop of ``trips`` iterations when ``on`` (int64 scalar, 0 or 1) is 1; its output ``spun``."""
-    body = helper.make_graph(
-        [helper.make_node("Identity", ["cond_in"], ["cond_out"]), _const("one", 1.0, np.float32),
-         helper.make_node("Add", ["v_in", "one"], ["v_out"])],
-        "spin",
-        [helper.make_tensor_value_info("i", TensorProto.INT64, []),
-         helper.make_tensor_value_info("cond_in", TensorProto.BOOL, []),
-         helper.make_tensor_value_info("v_in", TensorProto.FLOAT, [])],
-        [helper.make_tensor_value_info("cond_out", TensorProto.BOOL, []),
-         helper.make_tensor_value_info("v_out", TensorProto.FLOAT, [])])
+    body = spin_body()
     return [_const("trips_each", trips, np.int64), helper.make_node("Mul", [on, "trips_each"], ["trips"]),
             _const("keep_going", True, np.bool_), _const("start", 0.0, np.float32),
             helper.make_node("Loop", ["trips", "keep_going", "start"], ["spun"], body=body)]
