@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import select
 import socket
 import subprocess
 import sys
@@ -24,7 +25,14 @@ from urllib.parse import urlparse
 import pytest
 from web_helpers import Server, running_server
 
-from arena_league.league import authenticate, create_token, open_home, set_setting, upload_agent
+from arena_league.league import (
+    authenticate,
+    create_token,
+    open_home,
+    reset_setting,
+    set_setting,
+    upload_agent,
+)
 from arena_league.registry.errors import DiskFullError, NotADatabaseError
 
 GAME = "GoBang-2T1P-v1"
@@ -166,6 +174,80 @@ def test_uploads_in_flight_are_bounded_per_owner_and_in_all(door: Door) -> None:
         time.sleep(0.1)
     else:
         pytest.fail("alice's slots were not given back after her uploads ended")
+
+
+def _next_answer(sock: socket.socket) -> tuple[int, str]:
+    """The status and the rest of the next answer on ``sock`` after its ``100 Continue``, read until
+    the server closes it (or the socket's timeout, a generous deadline, passes)."""
+    answer = b""
+    with contextlib.suppress(TimeoutError):
+        while chunk := sock.recv(65536):
+            answer += chunk
+    answer = answer.split(b"HTTP/1.1 100 Continue\r\n\r\n", 1)[-1]
+    if not answer.startswith(b"HTTP/1.1 "):
+        return 0, ""
+    return int(answer.split()[1]), answer.decode("latin-1")
+
+
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
+def test_a_stalled_upload_is_abandoned_and_its_slot_given_back(door: Door) -> None:
+    server = door.server
+    dora = server.token("dora")
+    with open_home(server.home, server.db) as league:
+        set_setting(league, "web.body_idle_seconds", 1)
+    held: list[socket.socket] = []
+    try:
+        # dora's two uploads send their headers, get 100 Continue, and then nothing: both her slots held
+        for _ in range(2):
+            assert _head(server, "POST", "/api/agents", MIB, _bearer(dora), held)[0] == 100
+        for sock in held:
+            sock.settimeout(20)
+        answers = [_next_answer(sock) for sock in held]
+        assert [status for status, _ in answers] == [408, 408]
+        assert all("web.body_idle_seconds" in text for _, text in answers)
+        # their slots are back: a third upload is read (100 Continue), not refused (429)
+        assert _head(server, "POST", "/api/agents", MIB, _bearer(dora))[0] == 100
+    finally:
+        for sock in held:
+            sock.close()
+        with open_home(server.home, server.db) as league:
+            reset_setting(league, "web.body_idle_seconds")
+
+
+@pytest.mark.slow  # a real server (its start is most of it) or a validation job
+def test_a_trickled_upload_is_abandoned_and_its_slot_given_back(door: Door) -> None:
+    server = door.server
+    erin = server.token("erin")
+    with open_home(server.home, server.db) as league:
+        set_setting(league, "web.body_idle_seconds", 1)
+        set_setting(league, "web.body_min_kib_per_second", 64)
+    held: list[socket.socket] = []
+    try:
+        # erin's two uploads each send 100 bytes every 0.2 s: never idle for a second, far under 64 KiB/s
+        for _ in range(2):
+            assert _head(server, "POST", "/api/agents", MIB, _bearer(erin), held)[0] == 100
+            held[-1].sendall(b"--front-door\r\nContent-Disposition: form-data; name=\"file\"; "
+                             b"filename=\"model.onnx\"\r\nContent-Type: application/octet-stream\r\n\r\n")
+        for _ in range(100):
+            waiting = [sock for sock in held if not select.select([sock], [], [], 0)[0]]
+            if not waiting:
+                break
+            for sock in waiting:
+                sock.sendall(b"\0" * 100)
+            time.sleep(0.2)
+        for sock in held:
+            sock.settimeout(20)
+        answers = [_next_answer(sock) for sock in held]
+        assert [status for status, _ in answers] == [408, 408]
+        assert all("web.body_min_kib_per_second" in text for _, text in answers)
+        # their slots are back: a third upload is read (100 Continue), not refused (429)
+        assert _head(server, "POST", "/api/agents", MIB, _bearer(erin))[0] == 100
+    finally:
+        for sock in held:
+            sock.close()
+        with open_home(server.home, server.db) as league:
+            reset_setting(league, "web.body_idle_seconds")
+            reset_setting(league, "web.body_min_kib_per_second")
 
 
 @pytest.mark.slow  # a real server (its start is most of it) or a validation job

@@ -83,6 +83,11 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
             "server at once; another is refused (429) before its body is read"),
     Setting("web.uploads_in_flight", int, 8, 1, 10**5, "uploads one web server receives at once, from everyone; "
             "another is refused (429) before its body is read"),
+    Setting("web.body_idle_seconds", int, 30, 1, 3600, "seconds an upload's body may stall (no bytes arrive) "
+            "before the web server abandons it (408) and gives its slot in flight back"),
+    Setting("web.body_min_kib_per_second", int, 16, 0, 10**6, "the slowest an upload's body may arrive on "
+            "average (KiB/s), checked once it has streamed for web.body_idle_seconds; slower, it is abandoned (408) "
+            "and its slot given back; 0 checks no rate"),
     Setting("web.live_games", int, 8, 0, 10**4, "people one web server lets play in the browser at once (each "
             "steps a game on the server); 0 turns /play off"),
     Setting("web.live_idle_seconds", int, 600, 10, 86400, "seconds a browser game waits for its player's move (or "

@@ -43,8 +43,8 @@ from arena_league.registry.errors import NameTakenError, disk_full_error
 from arena_league.registry.jobs import set_job_payload
 from arena_league.registry.models import utcnow
 
-__all__ = ["UPLOADS", "handle_validate", "series_of", "series_versions", "upload_agent", "upload_limits",
-           "uploads_in_flight"]
+__all__ = ["UPLOADS", "body_pace", "handle_validate", "series_of", "series_versions", "upload_agent",
+           "upload_limits", "uploads_in_flight"]
 
 #: Folder of the league home where uploads wait for their validation job.
 UPLOADS = "uploads"
@@ -78,6 +78,16 @@ def uploads_in_flight(league: League) -> tuple[int, int]:
     settings = league_settings(league)
     return (int(settings["web.uploads_in_flight_per_owner"]["value"]),
             int(settings["web.uploads_in_flight"]["value"]))
+
+
+def body_pace(league: League) -> tuple[int, int]:
+    """(seconds a web server waits for the next bytes of an upload's body, the slowest average its
+    body may arrive at in bytes a second once it has streamed that long), from the league's settings;
+    past either, the upload is abandoned."""
+    from arena_league.league.settings import league_settings
+
+    settings = league_settings(league)
+    return int(settings["web.body_idle_seconds"]["value"]), int(settings["web.body_min_kib_per_second"]["value"]) << 10
 
 
 def upload_agent(league: League, who: Identity, game_id: str, name: str,

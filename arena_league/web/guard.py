@@ -8,7 +8,11 @@ then has its declared size checked against the league's ``web.upload_mib`` (413)
 free slot among the uploads in flight on this server, per owner (``web.uploads_in_flight_per_owner``)
 and in all (``web.uploads_in_flight``), or is refused with 429 and ``Retry-After``. Only then does
 the application read the body, counted as it streams: past the limit (an upload's, or
-:data:`JSON_BODY_BYTES` for any other body) the request is answered 413, chunked or not.
+:data:`JSON_BODY_BYTES` for any other body) the request is answered 413, chunked or not. An upload
+whose body stalls (no bytes for ``web.body_idle_seconds``), or arrives slower on average than
+``web.body_min_kib_per_second`` once it has streamed that long, is abandoned with 408, so a client
+that sends headers and then nothing (or a trickle) cannot hold a slot in flight; the slot is given
+back however the request ends (answered, refused, stalled, disconnected, failed).
 
 The identity found here is handed to the routes (:func:`arena_league.web.auth.optional_identity`
 reads it), so a write is authenticated once.
@@ -29,7 +33,7 @@ from fastapi.responses import JSONResponse, RedirectResponse, Response
 
 from arena_league.league import Identity, authenticate
 from arena_league.league.errors import DatabaseFullError, DatabaseStateError
-from arena_league.league.uploads import upload_limits, uploads_in_flight
+from arena_league.league.uploads import body_pace, upload_limits, uploads_in_flight
 from arena_league.web.auth import IDENTITY_KEY, missing_token_message, token_in_headers
 
 __all__ = ["DATABASE_FULL", "FORM_SLACK_BYTES", "FULL_RETRY_SECONDS", "JSON_BODY_BYTES", "OPEN_WRITES", "UPLOAD_PATHS",
@@ -71,6 +75,14 @@ class _BodyTooLarge(HTTPException):
         super().__init__(413, detail)
 
 
+class _BodyStalled(HTTPException):
+    """Raised from ``receive`` once an upload's body sent nothing for its idle time, or came too
+    slowly; an ``HTTPException`` for the same reason as :class:`_BodyTooLarge`."""
+
+    def __init__(self, detail: str) -> None:
+        super().__init__(408, detail)
+
+
 class FrontDoor:
     """ASGI middleware: authenticate a write, bound its size and the uploads in flight, all before
     its body is read (see the module docstring)."""
@@ -91,10 +103,12 @@ class FrontDoor:
         identity: Identity | None = None
         limit = JSON_BODY_BYTES
         per_owner = in_all = 0
+        pace: tuple[int, int] | None = None
         if (scope["method"], path) not in OPEN_WRITES:
             token = token_in_headers(scope.get("headers") or [])
             try:
-                identity, upload_bytes, per_owner, in_all = await asyncio.to_thread(self._admit, token, upload)
+                identity, upload_bytes, per_owner, in_all, pace = await asyncio.to_thread(self._admit, token,
+                                                                                          upload)
             except DatabaseStateError as error:  # a token's first use is a write: the database may refuse it
                 logger.error("%s %s: %s", scope["method"], path, error)
                 full = isinstance(error, DatabaseFullError)
@@ -130,34 +144,56 @@ class FrontDoor:
         self.owners_in_flight[owner] += 1
         self.in_flight += 1
         try:
-            await self._limited(scope, receive, send, limit, upload)
+            await self._limited(scope, receive, send, limit, upload, pace)
         finally:
             self.in_flight -= 1
             self.owners_in_flight[owner] -= 1
             if not self.owners_in_flight[owner]:
                 del self.owners_in_flight[owner]
 
-    def _admit(self, token: str | None, upload: bool) -> tuple[Identity | None, int, int, int]:
-        """(the token's identity, the upload size limit, uploads in flight per owner, in all); the
-        limits only for an upload, read from the league's settings now (one database read)."""
+    def _admit(self, token: str | None, upload: bool) -> tuple[Identity | None, int, int, int, tuple[int, int] | None]:
+        """(the token's identity, the upload size limit, uploads in flight per owner, in all, its
+        body's pace); the limits only for an upload, read from the league's settings now."""
         identity = authenticate(self.league, token)
         if identity is None or not upload:
-            return identity, 0, 0, 0
-        return identity, upload_limits(self.league)[0], *uploads_in_flight(self.league)
+            return identity, 0, 0, 0, None
+        return (identity, upload_limits(self.league)[0], *uploads_in_flight(self.league),
+                body_pace(self.league))
 
-    async def _limited(self, scope: dict, receive: Any, send: Any, limit: int, upload: bool) -> None:
-        """Run the application with the body counted as it streams in: past ``limit``, 413."""
+    async def _limited(self, scope: dict, receive: Any, send: Any, limit: int, upload: bool,
+                       pace: tuple[int, int] | None = None) -> None:
+        """Run the application with the body counted as it streams in: past ``limit``, 413; with
+        ``pace`` (idle seconds, bytes a second), a wait of more than the idle seconds for its next
+        bytes, or an average under the rate once it has streamed that long, is a 408."""
+        loop = asyncio.get_running_loop()
+        began: float | None = None
         received = 0
-        over = started = replaced = False
+        refusal: HTTPException | None = None
+        started = replaced = ended = False
 
         async def counted() -> dict:
-            nonlocal received, over
-            message = await receive()
+            nonlocal received, refusal, ended, began
+            # only the body's bytes are waited for with a bound: after it, a receive waits for the disconnect
+            if pace is None or ended or started:
+                message = await receive()
+            else:
+                began = loop.time() if began is None else began
+                try:
+                    message = await asyncio.wait_for(receive(), pace[0])
+                except TimeoutError:
+                    refusal = _BodyStalled(_stalled(pace[0]))
+                    raise refusal from None
             if message["type"] == "http.request":
+                ended = not message.get("more_body", False)
                 received += len(message.get("body", b""))
                 if received > limit:
-                    over = True
-                    raise _BodyTooLarge(_too_large(limit, upload))
+                    refusal = _BodyTooLarge(_too_large(limit, upload))
+                    raise refusal
+                if pace is not None and began is not None and not ended:
+                    streamed = loop.time() - began
+                    if streamed > pace[0] and received < pace[1] * streamed:
+                        refusal = _BodyStalled(_too_slow(pace[1]))
+                        raise refusal
             return message
 
         async def watched(message: dict) -> None:
@@ -166,17 +202,18 @@ class FrontDoor:
                 return
             if message["type"] == "http.response.start":
                 started = True
-                if over and message["status"] != 413:  # whatever the body's parser made of it, it is a 413
+                # whatever the body's parser made of it, it is the front door's refusal
+                if refusal is not None and message["status"] != refusal.status_code:
                     replaced = True
-                    await self._answer(scope, send, 413, _too_large(limit, upload))
+                    await self._answer(scope, send, refusal.status_code, refusal.detail)
                     return
             await send(message)
 
         try:
             await self.app(scope, counted, watched)
-        except _BodyTooLarge:
+        except (_BodyTooLarge, _BodyStalled) as error:
             if not started:
-                await self._answer(scope, send, 413, _too_large(limit, upload))
+                await self._answer(scope, send, error.status_code, error.detail)
 
     async def _refuse_anonymous(self, scope: dict, send: Any, presented: bool) -> None:
         if scope["path"].startswith("/api/"):
@@ -207,6 +244,16 @@ def _too_large(limit: int, upload: bool) -> str:
         return (f"the upload is over {(limit - FORM_SLACK_BYTES) >> 20} MiB, the most this league takes (the "
                 "setting web.upload_mib)")
     return f"the request body is over {limit >> 20} MiB, the most a request other than an upload may carry"
+
+
+def _stalled(idle: int) -> str:
+    return (f"the upload stalled: no bytes for {idle} s (the setting web.body_idle_seconds); send it "
+            "again")
+
+
+def _too_slow(rate: int) -> str:
+    return (f"the upload arrived slower than {rate >> 10} KiB/s on average (the setting "
+            "web.body_min_kib_per_second); send it again over a faster link")
 
 
 async def _no_body() -> dict:
