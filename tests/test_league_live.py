@@ -104,6 +104,22 @@ def test_resigning_is_a_loss_and_the_next_match_changes_sides(home):
             live.start()
 
 
+def test_matches_a_minute_are_bounded_by_the_clock(home):
+    now = [1000.0]
+    with open_home(home) as league:
+        live = LivePlay(league, GAME, player="cy", owner="cy", matches_per_minute=2, clock=lambda: now[0])
+        for _ in range(2):
+            live.start()
+            now[0] += 1.0
+            assert live.resign()[0]["type"] == "end"
+        with pytest.raises(ValueError, match=r"^at most 2 match\(es\) a minute .*web.live_matches_per_minute\); "
+                           r"the next can start in 58 s$"):
+            live.start()
+        assert not live.playing
+        now[0] = 1060.0  # a minute after the first started
+        assert live.start()[0]["type"] == "match"
+
+
 def test_the_same_moves_give_the_same_frames(home):
     def session(player: str) -> list[list[dict]]:
         with open_home(home) as league:

@@ -1,8 +1,9 @@
 """Play sockets that cannot hold a server: a real ``arena-league serve`` on loopback, GoBang's base
 population imported beforehand, real WebSocket clients.
 
-Only moves keep a game open (a socket sending invalid text, binary frames, unknown types and pings
-is closed for idleness while a socket that moves plays on); one owner (a guest name, or a token's
+Only moves keep a game open (a socket sending invalid text, binary frames, unknown types and pings,
+or starting and resigning matches, is closed for idleness while a socket that moves plays on); a
+socket starts at most its setting of matches a minute, past it answered with the wait; one owner (a guest name, or a token's
 owner) and one address hold at most their settings' number of sockets, refused with 1013 naming
 the setting; a message nested 60,000 deep is answered with one line and the game goes on. Each
 test connects from an address of its own (127.0.0.x) so the per-address counts stay apart.
@@ -171,3 +172,71 @@ def test_only_moves_keep_a_game_open(server):
             move(mover, cells)  # the mover, who sent as many messages, plays on
     finally:
         setting(server, "web.live_idle_seconds", 600)
+
+
+def start_and_resign(socket: ClientConnection) -> dict:
+    """Start a match and resign it at once; the last message (``end``, or an error)."""
+    socket.send(json.dumps({"type": "next"}))
+    while (message := receive(socket))["type"] in ("match", "frame") and message.get("waiting") is not True:
+        pass
+    if message["type"] == "error":
+        return message
+    socket.send(json.dumps({"type": "resign"}))
+    return receive(socket)
+
+
+@pytest.mark.slow
+def test_starting_and_resigning_matches_does_not_keep_a_game_open(server):
+    setting(server, "web.live_idle_seconds", 10)  # the least the setting takes
+    setting(server, "web.live_matches_per_minute", 600)  # the idle time is what closes it, not the rate
+    try:
+        with play(server, "127.0.0.7", guest="looper") as looper, play(server, "127.0.0.7", guest="goer") as goer:
+            assert receive(looper)["type"] == receive(goer)["type"] == "hello"
+            goer.send(json.dumps({"type": "next"}))
+            while receive(goer).get("waiting") is not True:
+                pass
+            cells = iter([(r, c) for r in range(SIZE) for c in range(SIZE)])
+            looped = 0
+            for _ in range(40):
+                try:
+                    message = start_and_resign(looper)
+                except ConnectionClosed as closed:
+                    code, reason = closed.rcvd.code, closed.rcvd.reason
+                    break
+                if message["type"] == "error" and message["detail"].startswith("no move for"):
+                    with pytest.raises(ConnectionClosed) as closed:
+                        looper.recv(timeout=60)
+                    code, reason = closed.value.rcvd.code, closed.value.rcvd.reason
+                    break
+                assert message["type"] == "end" and message["resigned"], message
+                looped += 1
+                move(goer, cells)
+                time.sleep(1.0)
+            else:
+                raise AssertionError(f"the socket starting and resigning matches was open after {looped} matches")
+            assert code == 1008 and reason.startswith("no move for 10 s"), (code, reason)
+            assert looped >= 4  # its matches were played (and it was not closed) until the idle time
+            move(goer, cells)  # the one who moves plays on
+    finally:
+        setting(server, "web.live_idle_seconds", 600)
+        setting(server, "web.live_matches_per_minute", 6)
+
+
+def test_a_socket_starts_at_most_its_setting_of_matches_a_minute(server):
+    setting(server, "web.live_matches_per_minute", 2)
+    try:
+        with play(server, "127.0.0.8", guest="hasty") as socket:
+            assert receive(socket)["type"] == "hello"
+            assert start_and_resign(socket)["type"] == start_and_resign(socket)["type"] == "end"
+            socket.send(json.dumps({"type": "next"}))
+            message = receive(socket)
+            assert message["type"] == "error", message
+            head, wait = message["detail"].rsplit(" in ", 1)
+            assert head == ("at most 2 match(es) a minute start on one play page (the league's "
+                            "web.live_matches_per_minute); the next can start")
+            assert wait.endswith(" s") and 0 < int(wait.removesuffix(" s")) <= 60, wait
+            socket.send(json.dumps({"type": "resign"}))  # no match was started: nothing to resign
+            socket.send(json.dumps({"type": "dance"}))
+            assert "unknown message type" in receive(socket)["detail"]
+    finally:
+        setting(server, "web.live_matches_per_minute", 6)

@@ -26,9 +26,10 @@ Messages to the browser (dicts, sent as JSON):
 Messages from the browser: ``{"type": "act", "text": ...}`` or ``{"type": "act", "point": [x,
 y]}`` (a click on the view, in world units), ``{"type": "next"}`` (the next match) and
 ``{"type": "resign"}``, each read by :func:`read_message` within bounds on its size and nesting.
-Only a move the game takes (:meth:`LivePlay.act` not refused, ``next``, a ``resign`` that ends a
-match) counts as the person being there; the web server closes a socket that sends no move for its
-idle time whatever else it sends. In a game with a pace the server steps on its own (:meth:`LivePlay.tick`)
+Only a move the game takes (:meth:`LivePlay.act` not refused) counts as the person being there;
+the web server closes a socket that sends no move for its idle time whatever else it sends
+(``next`` and ``resign`` included), and :meth:`LivePlay.start` refuses a match past
+``matches_per_minute`` in the last minute, since each match played writes rows and a rank job. In a game with a pace the server steps on its own (:meth:`LivePlay.tick`)
 and the person's newest answer holds; otherwise every step the person acts waits for an answer.
 """
 
@@ -38,6 +39,8 @@ import json
 import math
 import re
 import time
+from collections import deque
+from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
@@ -96,7 +99,8 @@ class LivePlay:
     matches stepped on demand (see the module docstring for the messages)."""
 
     def __init__(self, league: reg.League, game_id: str, *, player: str, owner: str, against: str | None = None,
-                 seed: int = 0, climb: int | None = None) -> None:
+                 seed: int = 0, climb: int | None = None, matches_per_minute: int | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.ladder = Ladder(game_id, against, league, player=player, owner=owner, climb=climb)
         self.game_id = game_id
         self.seed = int(seed)
@@ -107,6 +111,10 @@ class LivePlay:
         self.labels: list[str] = []
         self.controls: dict[str, Any] = {}
         """How the page plays the match in progress (its controls' ``web()``)."""
+        self.matches_per_minute = matches_per_minute
+        self.clock = clock
+        self.started: deque[float] = deque()
+        """When (``clock``) the matches of the last minute started."""
 
     # --- what the page asks -------------------------------------------------------------------------
     def hello(self) -> dict[str, Any]:
@@ -129,6 +137,7 @@ class LivePlay:
         (a turn-based opponent moving first), or its first frame."""
         if self.match is not None:
             raise ValueError("a match is in progress: finish or resign it first")
+        self._count_start()
         match = self.ladder.next_match(self.seed)
         self.match, self.pending, self.controls = match, None, match.controls.web()
         n, seat = match.n, match.seat
@@ -185,6 +194,19 @@ class LivePlay:
         if self.match is None:
             raise ValueError("no match in progress: send {\"type\": \"next\"} to start one")
         return self.match
+
+    def _count_start(self) -> None:
+        """Count a match starting now; ``ValueError`` naming the limit and the wait when
+        ``matches_per_minute`` matches already started in the last minute."""
+        now = self.clock()
+        while self.started and self.started[0] <= now - 60.0:
+            self.started.popleft()
+        limit = self.matches_per_minute
+        if limit is not None and len(self.started) >= limit:
+            wait = math.ceil(self.started[0] + 60.0 - now)
+            raise ValueError(f"at most {limit} match(es) a minute start on one play page (the league's "
+                             f"web.live_matches_per_minute); the next can start in {wait} s")
+        self.started.append(now)
 
     def _parse(self, match: LiveMatch, message: dict[str, Any]) -> tuple[Any, str | None]:
         point = message.get("point")

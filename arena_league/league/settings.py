@@ -90,8 +90,10 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
             "and its slot given back; 0 checks no rate"),
     Setting("web.live_games", int, 8, 0, 10**4, "people one web server lets play in the browser at once (each "
             "steps a game on the server); 0 turns /play off"),
-    Setting("web.live_idle_seconds", int, 600, 10, 86400, "seconds a browser game waits for its player's move (or "
-            "a next match) before it resigns the match and closes"),
+    Setting("web.live_idle_seconds", int, 600, 10, 86400, "seconds a browser game waits for its player's move "
+            "(nothing else counts) before it resigns the match and closes"),
+    Setting("web.live_matches_per_minute", int, 6, 1, 600, "matches one browser game may start in a minute (each "
+            "played match is stored and ranked); past it the next waits"),
     Setting("web.live_games_per_owner", int, 2, 1, 10**4, "browser games one owner (a guest: one guest name) may "
             "have open on one web server at once"),
     Setting("web.live_games_per_address", int, 4, 1, 10**4, "browser games one network address may have open on "

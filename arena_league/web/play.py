@@ -9,7 +9,8 @@ anyone else gives a guest name (``?guest=NAME``) and plays as ``guest-NAME``.
 
 The server steps a paced game by itself (the person's newest move holding) and waits for the
 person in the others. Leaving a match, or being idle past the league's ``web.live_idle_seconds``,
-resigns it (a loss): only moves the game takes count, not other messages. At most
+resigns it (a loss): only moves the game takes count, not other messages (``next`` and ``resign``
+included), and one socket starts at most ``web.live_matches_per_minute`` matches a minute. At most
 ``web.live_games`` people play on one server at once, ``web.live_games_per_owner`` sockets per
 owner (a guest's owner is its guest name) and ``web.live_games_per_address`` per client address.
 """
@@ -74,6 +75,7 @@ async def play_socket(websocket: WebSocket, game: str) -> None:
     settings = await asyncio.to_thread(ops.league_settings, league)
     limit = int(settings["web.live_games"]["value"])
     idle = float(settings["web.live_idle_seconds"]["value"])
+    per_minute = int(settings["web.live_matches_per_minute"]["value"])
     if app.state.live_games >= limit:
         await _refuse(websocket, _TRY_LATER, f"this server already has {limit} game(s) in play (the league's "
                       "web.live_games); try again in a few minutes")
@@ -84,7 +86,8 @@ async def play_socket(websocket: WebSocket, game: str) -> None:
         return
     app.state.live_games += 1
     try:
-        await _session(websocket, league, game, idle, int(settings["web.live_games_per_owner"]["value"]))
+        await _session(websocket, league, game, idle, int(settings["web.live_games_per_owner"]["value"]),
+                       per_minute)
     finally:
         app.state.live_games -= 1
         _release(websocket, address)
@@ -117,7 +120,8 @@ def _release(websocket: WebSocket, holder: tuple[str, str]) -> None:
         del holders[holder]
 
 
-async def _session(websocket: WebSocket, league: Any, game: str, idle: float, per_owner: int) -> None:
+async def _session(websocket: WebSocket, league: Any, game: str, idle: float, per_owner: int,
+                   per_minute: int) -> None:
     # headers and cookies, as a request's; the token lookup reads the database: off the event loop
     identity = await asyncio.to_thread(optional_identity, websocket)  # type: ignore[arg-type]
     if identity is None and token_of(websocket) is not None:  # type: ignore[arg-type]
@@ -133,12 +137,13 @@ async def _session(websocket: WebSocket, league: Any, game: str, idle: float, pe
     if not await _hold(websocket, ("owner", owner), per_owner, "web.live_games_per_owner", f"as {owner}"):
         return
     try:
-        await _start(websocket, league, game, idle, player, owner)
+        await _start(websocket, league, game, idle, player, owner, per_minute)
     finally:
         _release(websocket, ("owner", owner))
 
 
-async def _start(websocket: WebSocket, league: Any, game: str, idle: float, player: str, owner: str) -> None:
+async def _start(websocket: WebSocket, league: Any, game: str, idle: float, player: str, owner: str,
+                 per_minute: int) -> None:
     try:
         importing = await asyncio.to_thread(ops.base_import, league, game)
         if importing is not None:  # importing validates agent code: a worker's job, never this connection's
@@ -149,7 +154,8 @@ async def _start(websocket: WebSocket, league: Any, game: str, idle: float, play
                 f"{game}'s base population {importing['population']} is being imported ({job}); play once it is "
                 "done"))
             return
-        live = await asyncio.to_thread(ops.LivePlay, league, game, player=player, owner=owner)
+        live = await asyncio.to_thread(ops.LivePlay, league, game, player=player, owner=owner,
+                                     matches_per_minute=per_minute)
     except ops.USER_ERRORS as error:
         await _refuse(websocket, _POLICY, str(error))
         return
@@ -160,7 +166,7 @@ async def _start(websocket: WebSocket, league: Any, game: str, idle: float, play
 
 async def _play(websocket: WebSocket, live: Any, player: str, game: str, idle: float) -> None:
     """Answer the page's messages and step a paced game, until the page goes away or ``idle``
-    seconds pass without a move (other messages, whatever they are, do not count)."""
+    seconds pass without a move (other messages, ``next`` and ``resign`` included, do not count)."""
     inbox: asyncio.Queue[str | None] = asyncio.Queue(maxsize=64)
     reader = asyncio.create_task(_read(websocket, inbox))
     next_tick: float | None = None
@@ -216,7 +222,8 @@ async def _read(websocket: WebSocket, inbox: asyncio.Queue) -> None:
 
 async def _answer(live: Any, text: str) -> tuple[list[dict[str, Any]], bool]:
     """What to send back for one message from the page, and whether it was a move the game took
-    (the only messages that keep a game open)."""
+    (the only messages that keep a game open: starting and resigning matches cost the server a
+    stored match each, so they must not hold a socket open)."""
     try:
         message = ops.read_message(text)
     except ValueError as error:
@@ -226,15 +233,14 @@ async def _answer(live: Any, text: str) -> tuple[list[dict[str, Any]], bool]:
         if kind == "act":
             out = await asyncio.to_thread(live.act, message)
         elif kind == "next":
-            out = await asyncio.to_thread(live.start)
+            return await asyncio.to_thread(live.start), False
         elif kind == "resign":
-            out = await asyncio.to_thread(live.resign)
-            return out, bool(out)  # resigning with no match in progress changes nothing
+            return await asyncio.to_thread(live.resign), False
         else:
             return [{"type": "error", "detail": f"unknown message type {kind!r}; send act, next or resign"}], False
     except ValueError as error:
         return [{"type": "error", "detail": str(error)}], False
-    return out, not any(m.get("type") == "refused" for m in out)
+    return out, not any(m.get("type") == "refused" for m in out)  # only act gets here
 
 
 async def _send(websocket: WebSocket, messages: list[dict[str, Any]]) -> None:
