@@ -91,7 +91,7 @@ def test_verify_refuses_the_billion_laughs_in_one_line_under_a_memory_limit(tmp_
     laughs = tmp_path / "laughs.yaml"
     laughs.write_text(billion_laughs())
     done = subprocess.run([sys.executable, "-m", "arena_league.cli", "verify", GAME, "--tree", str(laughs),
-                           "--samples", "2"], check=False, capture_output=True, text=True, timeout=60,
+                           "--samples", "4"], check=False, capture_output=True, text=True, timeout=60,
                            preexec_fn=_two_gib)
     lines = done.stderr.strip().splitlines()
     assert done.returncode == 2, done.stderr[-2000:]

@@ -70,7 +70,9 @@ def test_a_look_alike_of_an_agent_of_the_game_is_refused_and_free_in_another_gam
         assert version_name(session, "alice-a1", GAME, "alice") == ("alice-a1:v2", 2)  # her own name: a version
 
 
-@pytest.mark.parametrize("name", [f"alice@{GAME}", f"guest-carol@{GAME}", "guest-carol", "Guest-x", "x@G\u043eBang-2T1P-v1"])
+@pytest.mark.parametrize("name", [f"alice@{GAME}", f"guest-carol@{GAME}", "guest-carol", "Guest-x", "x@G\u043eBang-2T1P-v1",
+                                  "alice@gobang-2t1p-v1", "alice@GOBANG-2T1P-V1", "base-v9.top", "BASE-V1.sp-s0-sp-5120",
+                                  "b\u0430se-v2.top"])
 def test_the_names_people_play_as_cannot_be_submitted(league, tmp_path, name):
     with pytest.raises(ForbiddenError, match="reserved for the league") as refused:
         submit(league, tmp_path / "never-read.onnx", GAME, name, owner="mallory")
@@ -82,10 +84,31 @@ def test_the_names_people_play_as_cannot_be_submitted(league, tmp_path, name):
     assert player_of(None, "carol") == ("guest-carol", "guest-carol")
 
 
+@pytest.mark.parametrize(("name", "end"), [
+    (f"alice@{GAME}.", "."), ("alice@GoBang-2T1P-v1-", "-"), ("base-v1.dppo-s0-seat3-20480@Crossroads-2T2P-v1.", "."),
+    ("alice_", "_"), ("alice+", "+"), ("alice@", "@"),
+])
+def test_an_agent_name_must_end_in_a_letter_or_digit(league, tmp_path, name, end):
+    with pytest.raises(ValueError, match="must end in a letter or digit") as refused:
+        submit(league, tmp_path / "never-read.onnx", GAME, name, owner="mallory")
+    assert f"ends in {end!r}" in str(refused.value) and "\n" not in str(refused.value)
+    with league.reading() as session:
+        assert reg.agent_names(session, GAME) == []
+
+
+def test_names_like_a_member_only_in_part_stay_free():
+    from arena_league.league.names import member_name_reason
+
+    assert member_name_reason("base-v9.top") is not None
+    assert all(member_name_reason(name) is None for name in ("base-vx.top", "base-v9", "my-base-v9.top", "base-v.x"))
+
+
 @pytest.mark.parametrize(("owner", "words"), [
     ("guest-carol", "keeps for guests"), ("gu\u0435st-carol", "keeps for guests"),  # with a Cyrillic e too
     ("carol@example.org", "holds '@'"), ("alice\n", "U+000A"), ("\uff41lice", "'alice'"),
-    ("a1ice", "can be mistaken for 'alice'"),
+    ("a1ice", "can be mistaken for 'alice'"), ("ALICE", "can be mistaken for 'alice'"),
+    ("A1ICE", "can be mistaken for 'alice'"), ("carol.", "must end in a letter or digit"),
+    ("carol-", "must end in a letter or digit"), ("carol_", "must end in a letter or digit"),
 ])
 def test_owner_names_stay_out_of_the_guests_and_look_like_no_other_owner(league, owner, words):
     create_token(league, "alice")

@@ -14,9 +14,11 @@ from arena_league.league import (
     ForbiddenError,
     Identity,
     NotFoundError,
+    RateLimitedError,
     check_spec,
     collect_garbage,
     delete_saved_tree,
+    job_rows,
     job_view,
     list_tree_views,
     open_home,
@@ -24,11 +26,13 @@ from arena_league.league import (
     queue_preview,
     queue_verify,
     save_tree,
+    set_setting,
     tree_catalog,
     tree_text,
     tree_view,
 )
 from arena_league.league.schedules import run_worker
+from arena_league.league.trees import MAX_SPEC_BYTES, MAX_TEXT
 
 GAME = "Crossroads-2T2P-v1"
 ALICE = Identity("alice", False)
@@ -140,6 +144,56 @@ def test_the_api_keeps_trees_behind_tokens(tmp_path):
         assert client.delete(f"/api/trees/{tree_id}", headers={"Authorization": f"Bearer {bob}"}).status_code == 403
         assert client.get("/trees").status_code == 200 and "waiting" in client.get("/trees").text
         assert client.get(f"/trees/{tree_id}").status_code == 200
+        assert [t["id"] for t in client.get("/api/trees?limit=1").json()] == [tree_id]  # still a list
+        assert client.get("/api/trees?limit=501").status_code == 422
+        few = client.post("/api/trees/verify", json={"game": GAME, "spec": CASE_STUDY_TREES["all_CL"], "samples": 2},
+                          headers={"Authorization": f"Bearer {alice}"})
+        assert few.status_code == 422
         huge = b'{"game": "' + b"x" * (2 << 20) + b'", "spec": {}}'
         assert client.post("/api/trees/check", content=huge,
                            headers={"content-type": "application/json"}).status_code == 413
+
+
+def test_a_spec_is_bounded_in_bytes_and_in_each_string():
+    named = copy.deepcopy(CASE_STUDY_TREES["CL_under_CP"])
+    named["name"] = "x" * 900_000
+    huge = check_spec(GAME, named)
+    assert not huge["ok"] and f"limit of {MAX_SPEC_BYTES}" in huge["error"] and "\n" not in huge["error"]
+    named["name"] = "x" * (MAX_TEXT + 1)
+    long = check_spec(GAME, named)
+    assert not long["ok"] and f"limit of {MAX_TEXT}" in long["error"] and "node's name" in long["error"]
+    keyed = copy.deepcopy(CASE_STUDY_TREES["CL_under_CP"])
+    keyed["params"] = {"k" * 200: 1}
+    assert f"limit of {MAX_TEXT}" in check_spec(GAME, keyed)["error"]
+    named["name"] = "x" * MAX_TEXT
+    assert check_spec(GAME, named)["ok"]
+    assert tree_catalog(GAME)["limits"]["bytes"] == MAX_SPEC_BYTES
+
+
+def test_an_owner_keeps_at_most_trees_per_owner_and_a_listing_is_one_page(tmp_path):
+    with open_home(tmp_path / "home") as league:
+        set_setting(league, "trees.per_owner", 3)
+        for i in range(3):
+            save_tree(league, ALICE, f"t{i}", GAME, CASE_STUDY_TREES["all_IS"])
+        with pytest.raises(RateLimitedError, match="trees.per_owner") as refused:
+            save_tree(league, ALICE, "t3", GAME, CASE_STUDY_TREES["all_IS"])
+        assert "\n" not in str(refused.value)
+        save_tree(league, BOB, "b0", GAME, CASE_STUDY_TREES["all_IS"])  # another owner's quota is their own
+        for i in range(3):
+            save_tree(league, ADMIN, f"r{i}", GAME, CASE_STUDY_TREES["all_IS"])  # administrators are not limited
+        delete_saved_tree(league, ALICE, list_tree_views(league, owner="alice")[0]["id"])
+        save_tree(league, ALICE, "t3", GAME, CASE_STUDY_TREES["all_IS"])  # room again once one is deleted
+        assert [t["name"] for t in list_tree_views(league, limit=2)] == ["t3", "r2"]  # newest first
+        assert len(list_tree_views(league)) == 7
+        for wrong in (0, 501):
+            with pytest.raises(ValueError, match="limit"):
+                list_tree_views(league, limit=wrong)
+
+
+def test_verify_refuses_fewer_than_four_samples_at_once(tmp_path):
+    with open_home(tmp_path / "home") as league:
+        for samples in (2, 3):
+            with pytest.raises(ValueError, match="at least 4 paired samples") as refused:
+                queue_verify(league, GAME, CASE_STUDY_TREES["CL_under_CP"], samples=samples, who=ALICE)
+            assert "\n" not in str(refused.value)
+        assert job_rows(league) == []  # nothing queued to fail later

@@ -15,13 +15,20 @@ else's:
 * **the human namespace**: a person who plays in the browser is the agent ``<owner>@<game>``, a
   guest ``guest-<name>@<game>``. No upload may take a name of that shape (``@`` then a game id,
   or one starting ``guest-``, look-alikes included), and no owner may be named ``guest-...`` or
-  hold an ``@``, so a guest, an owner and a submission can never share an agent.
+  hold an ``@``, so a guest, an owner and a submission can never share an agent. The game part
+  is compared casefolded (``alice@gobang-2t1p-v1`` is refused too);
+* **the league's members**: a member of a base population is ``base-v<N>.<member>@<game>``, so no
+  upload may start ``base-v<N>.``;
+* **a clean end**: an agent or owner name ends in a letter or digit, so ``alice@GoBang-2T1P-v1.``
+  cannot pass for ``alice@GoBang-2T1P-v1``; and no owner may be another owner in other case
+  (``ALICE`` beside ``alice``).
 
 Names already stored keep working; the policy applies where a name enters the league.
 """
 
 from __future__ import annotations
 
+import re
 import unicodedata
 from collections.abc import Iterable
 from functools import lru_cache
@@ -30,7 +37,8 @@ from typing import Any
 from arena_league.league.errors import ForbiddenError
 
 __all__ = ["GUEST_PREFIX", "agent_name_problem", "check_guest_name", "check_owner_name", "check_tree_name",
-           "confusable_twin", "human_name_reason", "refuse_confusable", "skeleton", "suggested_name"]
+           "confusable_twin", "human_name_reason", "member_name_reason", "refuse_confusable", "skeleton",
+           "suggested_name"]
 
 #: Guests play under ``guest-<name>``, a prefix no owner and no upload can take.
 GUEST_PREFIX = "guest-"
@@ -43,17 +51,21 @@ _AGENT_PUNCTUATION = "._@+-"
 _OWNER_PUNCTUATION = "._+-"
 _GUEST_PUNCTUATION = "._-"
 _TREE_PUNCTUATION = " ._-"
+#: The head of a base population's member name, ``base-v<N>`` (before its ``.``).
+_POPULATION_HEAD = re.compile(r"(.*?)(\d+)")
 
 
 def _describe(char: str) -> str:
     return f"U+{ord(char):04X} {unicodedata.name(char, '').lower()}".rstrip()
 
 
-def _form_problem(name: object, what: str, punctuation: str, longest: int, later: str = "") -> str | None:
+def _form_problem(name: object, what: str, punctuation: str, longest: int, later: str = "",
+                  clean_end: bool = False) -> str | None:
     """Why ``name`` is not a well-formed name (one line naming the fix), or None; characters of
-    ``later`` pass here for the caller to refuse with its own reason."""
+    ``later`` pass here for the caller to refuse with its own reason; ``clean_end``: it must end
+    in a letter or digit too."""
     allowed = (f"use 1 to {longest} letters, digits and {' '.join(p if p != ' ' else 'spaces' for p in punctuation)}"
-               ", starting with a letter or digit")
+               f", starting {'and ending ' if clean_end else ''}with a letter or digit")
     if not isinstance(name, str) or not name:
         return f"{what} is empty: {allowed}"
     if len(name) > 4 * longest:  # no normal form shortens a name this much: refused before reading it
@@ -76,6 +88,9 @@ def _form_problem(name: object, what: str, punctuation: str, longest: int, later
             return f"{what} {name!r} holds {char!r} ({_describe(char)}), which names may not hold: {allowed}"
     if punctuation.startswith(" ") and name.endswith(" "):
         return f"{what} {name!r} ends in a space: {allowed}"
+    if clean_end and not name[-1].isalnum():
+        return (f"{what} {name!r} ends in {name[-1]!r}: a name must end in a letter or digit (so it cannot pass "
+                "for another name); drop the trailing punctuation or end the name with a letter or digit")
     return None
 
 
@@ -118,17 +133,29 @@ def human_name_reason(name: str, game_ids: Iterable[str]) -> str | None:
     if skeleton(name.casefold()).startswith(skeleton(GUEST_PREFIX)):
         return f"{name} starts with {GUEST_PREFIX!r}, which names the agents of guests who play in the browser"
     if "@" in name:
-        games = {skeleton(game): game for game in game_ids}
+        games = {skeleton(game.casefold()): game for game in game_ids}
         for part in name.split("@")[1:]:
-            if skeleton(part) in games:
-                return (f"{name} has the shape <player>@{games[skeleton(part)]}, which names the agent a person "
-                        "plays as in the browser")
+            game = games.get(skeleton(part.casefold()))
+            if game is not None:
+                return (f"{name} has the shape <player>@{game}, which names the agent a person plays as in the "
+                        "browser")
+    return None
+
+
+def member_name_reason(name: str) -> str | None:
+    """Why ``name`` has the shape of a base population's member, ``base-v<N>.<member>`` (look-alikes
+    and other case included), or None."""
+    head, dot, _ = name.partition(".")
+    found = _POPULATION_HEAD.fullmatch(head)
+    if dot and found and skeleton(found[1].casefold()) == skeleton("base-v"):
+        return (f"{name} starts with {head + dot!r}, the shape of a member of the league's base population "
+                f"{head} (base-v<N>.<member>)")
     return None
 
 
 def agent_name_problem(name: object) -> str | None:
     """Why ``name`` is no well-formed agent name to submit under (one line), or None."""
-    problem = _form_problem(name, "agent name", _AGENT_PUNCTUATION, 128, later=":")
+    problem = _form_problem(name, "agent name", _AGENT_PUNCTUATION, 128, later=":", clean_end=True)
     if problem is None and ":" in str(name):
         problem = (f"agent name {name!r} is not allowed: it holds ':', and versions are named for you (name:v2, "
                    "name:v3 ...); submit under the name alone")
@@ -137,18 +164,23 @@ def agent_name_problem(name: object) -> str | None:
 
 def check_owner_name(owner: object, existing: Iterable[str] = ()) -> None:
     """Refuse an owner name that is malformed (``ValueError``), in the guests' namespace or
-    holding ``@``, or a look-alike of an owner of ``existing`` (:class:`ForbiddenError`)."""
+    holding ``@``, or a look-alike of an owner of ``existing`` in any case (:class:`ForbiddenError`)."""
     if isinstance(owner, str) and "@" in owner:
         raise ForbiddenError(f"owner {owner!r} holds '@', which the league keeps for the agents people play as "
                              f"(<owner>@<game>); name the owner e.g. {owner.replace('@', '-')!r}")
-    problem = _form_problem(owner, "owner", _OWNER_PUNCTUATION, 128)
+    problem = _form_problem(owner, "owner", _OWNER_PUNCTUATION, 128, clean_end=True)
     if problem is not None:
         raise ValueError(problem + " (it names who owns the agents uploaded with the token)")
     assert isinstance(owner, str)
     if skeleton(owner.casefold()).startswith(skeleton(GUEST_PREFIX)):
         raise ForbiddenError(f"owner {owner!r} starts with {GUEST_PREFIX!r}, which the league keeps for guests who "
                              f"play in the browser; name the owner e.g. {suggested_name(owner)!r}")
-    refuse_confusable(owner, existing, "owner", "an owner of this league")
+    mark = skeleton(owner.casefold())
+    twin = next((other for other in existing if other != owner and skeleton(other.casefold()) == mark), None)
+    if twin is not None:
+        raise ForbiddenError(f"owner {owner!r} can be mistaken for {twin!r}, already an owner of this league (they "
+                             "look alike in other case or under Unicode's confusables table, UTS #39); choose a "
+                             "name that looks like no other")
 
 
 def check_guest_name(guest: object) -> None:

@@ -177,12 +177,13 @@ def reserved_name_reason(name: str) -> str | None:
     see :func:`scripted_agent_name`), the members of the populations shipped under
     ``checkpoints/`` (registered when the league imports them), by their full names and by the
     short names boards show (``random``, a member without ``@<game>``), and the names of the agents
-    people play as (``<owner>@<game>``, ``guest-...``; see :mod:`arena_league.league.names`). The
+    people play as (``<owner>@<game>``, ``guest-...``) and any of a member's shape (``base-v<N>.``;
+    see :mod:`arena_league.league.names`). The
     league itself still creates them (:func:`ensure_scripted_agents`, importing a shipped
     population, a person's first match); :func:`submit` refuses them.
     """
     from arena_league.envs import list_games
-    from arena_league.league.names import human_name_reason
+    from arena_league.league.names import human_name_reason, member_name_reason
     from arena_league.league.populations import shipped_member_names
 
     scripted, at, game = name.partition("@")
@@ -196,7 +197,7 @@ def reserved_name_reason(name: str) -> str | None:
     # boards show members without @<game>: that short name would otherwise mean two agents
     if any(member.rpartition("@")[0] == name for member in members):
         return f"{name} is the name boards show for a member of a base population shipped with arena-league"
-    return human_name_reason(name, list_games())
+    return member_name_reason(name) or human_name_reason(name, list_games())
 
 
 def _agent_with_bytes(league: League, game_id: str, digest: str, requested: str, start: float

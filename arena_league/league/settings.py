@@ -75,6 +75,8 @@ SETTINGS: dict[str, Setting] = {s.key: s for s in (
             "play; past them it stops, and reports the matches it did not play"),
     Setting("rank.max_budget", int, 5000, 2, 10**7, "the most matches one placement may play (`rank --budget`, "
             "a placement queued on the web); a larger budget is refused"),
+    Setting("trees.per_owner", int, 100, 1, 10**6, "social trees one owner may keep saved (administrators are not "
+            "limited); past it, saving another is refused until some are deleted"),
     Setting("web.upload_mib", int, 300, 1, 1 << 16, "the most an upload to the web service may hold (MiB); the "
             "artifact's own limits apply as well"),
     Setting("web.uploads_per_hour", int, 30, 1, 10**6, "uploads one owner may make to the web service in an hour "

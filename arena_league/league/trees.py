@@ -11,7 +11,8 @@ reward function. Here a tree is a JSON/YAML spec that :func:`arena_league.envs.m
 * :func:`check_spec`: the library's own check, as ``{"ok", "nodes"}`` or ``{"ok": False, "error",
   "path"}`` (the node the message names), after bounds that keep a hostile spec small;
 * :func:`save_tree`, :func:`tree_view`, :func:`list_tree_views`, :func:`delete_saved_tree`: trees
-  kept in the registry, owned like agents (only the owner or an administrator deletes one);
+  kept in the registry, owned like agents (only the owner or an administrator deletes one; an
+  owner keeps at most ``trees.per_owner``, a listing returns a page of the newest);
   :func:`tree_text` writes one as YAML or JSON;
 * jobs, run by a league worker: ``verify`` (the paper's sampling verification,
   :func:`handle_verify`) and ``preview`` (one recorded match of the game's scripted players under
@@ -28,7 +29,7 @@ from typing import Any
 import yaml
 
 from arena_league import registry as reg
-from arena_league.league.errors import ForbiddenError, NotFoundError
+from arena_league.league.errors import ForbiddenError, NotFoundError, RateLimitedError
 from arena_league.league.home import register_game
 from arena_league.league.names import check_tree_name
 from arena_league.league.quotas import enqueue_owned, live_job_limit
@@ -36,7 +37,7 @@ from arena_league.league.tokens import Identity
 from arena_league.registry import League
 
 __all__ = [
-    "MAX_BOARD", "MAX_DEPTH", "MAX_NODES", "PREVIEWS", "check_spec", "delete_saved_tree", "handle_preview",
+    "MAX_BOARD", "MAX_DEPTH", "MAX_LISTED", "MAX_NODES", "MAX_SPEC_BYTES", "MAX_TEXT", "MIN_SAMPLES", "PREVIEWS", "check_spec", "delete_saved_tree", "handle_preview",
     "handle_verify", "list_tree_views", "preview_replay", "queue_preview", "queue_verify", "save_tree",
     "tree_catalog", "tree_text", "tree_view",
 ]
@@ -46,8 +47,16 @@ __all__ = [
 MAX_DEPTH = 16
 MAX_NODES = 256
 MAX_BOARD = 64
-#: Samples a verification may ask for.
+#: A spec's size as compact JSON, and the characters of any one string in it (a node's name, a
+#: reward, a parameter and their keys): a saved tree is served to anyone who lists trees.
+MAX_SPEC_BYTES = 64 * 1024
+MAX_TEXT = 64
+#: Samples a verification may ask for: fewer than 4 pairs cannot estimate a sign.
+MIN_SAMPLES = 4
 MAX_SAMPLES = 512
+#: Saved trees one listing returns at most (newest first), and by default.
+MAX_LISTED = 500
+LISTED = 100
 #: Folder of the league home that keeps preview replays.
 PREVIEWS = "previews"
 _NODE_PATH = re.compile(r"^social tree node (\S+): ")
@@ -69,7 +78,8 @@ def tree_catalog(game_id: str) -> dict[str, Any]:
             "schemes": [{"name": name, "doc": doc} for name, doc in SCHEMES.items()],
             "rewards": reward_catalog(game_id), "default": default_tree(game_id),
             "examples": example_trees(game_id),
-            "limits": {"depth": MAX_DEPTH, "nodes": MAX_NODES, "board": MAX_BOARD}}
+            "limits": {"depth": MAX_DEPTH, "nodes": MAX_NODES, "board": MAX_BOARD, "bytes": MAX_SPEC_BYTES,
+                       "text": MAX_TEXT}}
 
 
 def check_spec(game_id: str, spec: Any) -> dict[str, Any]:
@@ -121,16 +131,54 @@ def _bound(spec: Any) -> None:
                 stack.extend((child, depth + 1) for child in children)
             if "agent" in node:
                 stack.append((node["agent"], depth + 1))
+    try:
+        size = len(json.dumps(spec, separators=(",", ":"), allow_nan=True).encode())
+    except (TypeError, ValueError, RecursionError) as exc:
+        raise TreeSpecError(f"social tree cannot be written as JSON ({type(exc).__name__}); write it as plain "
+                            "objects, lists, strings and numbers") from None
+    if size > MAX_SPEC_BYTES:
+        raise TreeSpecError(f"social tree is {size} bytes as JSON, over the limit of {MAX_SPEC_BYTES}; a tree of "
+                            f"{MAX_NODES} nodes fits well within it")
+    _bound_text(spec)
+
+
+def _bound_text(spec: Any) -> None:
+    """Refuse a spec with a string (a value or a key) over :data:`MAX_TEXT` characters."""
+    from arena_league.envs import TreeSpecError
+
+    stack = [spec]
+    while stack:
+        item = stack.pop()
+        texts: list[Any] = []
+        if isinstance(item, dict):
+            texts, values = list(item), list(item.values())
+        else:
+            values = list(item) if isinstance(item, list) else [item]
+        for text in [*texts, *(v for v in values if isinstance(v, str))]:
+            if isinstance(text, str) and len(text) > MAX_TEXT:
+                raise TreeSpecError(f"social tree holds a string of {len(text)} characters ({text[:24]!r}...), over "
+                                    f"the limit of {MAX_TEXT}; shorten the node's name or field")
+        stack.extend(v for v in values if isinstance(v, (dict, list)))
 
 
 # --- saved trees ----------------------------------------------------------------------------------
 
 def save_tree(league: League, who: Identity, name: str, game_id: str, spec: Any) -> dict[str, Any]:
-    """Keep ``spec`` (checked) as ``who``'s tree ``name`` of ``game_id``; its view."""
+    """Keep ``spec`` (checked) as ``who``'s tree ``name`` of ``game_id``; its view. An owner keeps
+    at most ``trees.per_owner`` trees (administrators are not limited): past it,
+    :class:`RateLimitedError` names the setting and the fix."""
+    from arena_league.league.settings import league_settings
+
     check_tree_name(name)
     _checked(game_id, spec)
     register_game(league, game_id)
+    limit = int(league_settings(league)["trees.per_owner"]["value"])
     with league.transaction() as session:
+        reg.lock_owner(session, who.owner)  # the count and the insert in one step, as for jobs
+        kept = reg.count_trees(session, who.owner)
+        if not who.admin and kept >= limit:
+            raise RateLimitedError(f"{who.owner} already keeps {kept} saved trees, the most this league allows (the "
+                                   "setting trees.per_owner); delete some before saving another")
         tree = reg.create_tree(session, name, game_id, who.owner, spec)
         return _view(tree)
 
@@ -141,10 +189,14 @@ def tree_view(league: League, tree_id: int) -> dict[str, Any]:
         return _view(_tree(session, tree_id))
 
 
-def list_tree_views(league: League, game_id: str | None = None, owner: str | None = None) -> list[dict[str, Any]]:
-    """Saved trees, newest first (of one game or owner when given), without their YAML."""
+def list_tree_views(league: League, game_id: str | None = None, owner: str | None = None,
+                    limit: int = LISTED) -> list[dict[str, Any]]:
+    """The newest ``limit`` saved trees (1 to :data:`MAX_LISTED`; of one game or owner when given),
+    newest first, without their YAML."""
+    if isinstance(limit, bool) or not isinstance(limit, int) or not 1 <= limit <= MAX_LISTED:
+        raise ValueError(f"limit must be a whole number from 1 to {MAX_LISTED}, not {limit!r}")
     with league.reading() as session:
-        return [_view(t, yaml=False) for t in reg.list_trees(session, game_id=game_id, owner=owner)]
+        return [_view(t, yaml=False) for t in reg.list_trees(session, game_id=game_id, owner=owner, limit=limit)]
 
 
 def delete_saved_tree(league: League, who: Identity, tree_id: int) -> dict[str, Any]:
@@ -185,8 +237,9 @@ def queue_verify(league: League, game_id: str, spec: Any, *, samples: int = 64, 
                  who: Identity | None = None) -> int:
     """Queue the sampling verification of ``spec`` (checked first) for ``who`` (within their quota,
     :mod:`arena_league.league.quotas`; None: the league's own); the job id."""
-    if isinstance(samples, bool) or not isinstance(samples, int) or not 2 <= samples <= MAX_SAMPLES:
-        raise ValueError(f"samples must be a whole number from 2 to {MAX_SAMPLES}, not {samples!r}")
+    if isinstance(samples, bool) or not isinstance(samples, int) or not MIN_SAMPLES <= samples <= MAX_SAMPLES:
+        raise ValueError(f"samples must be a whole number from {MIN_SAMPLES} to {MAX_SAMPLES} (verification needs at "
+                         f"least {MIN_SAMPLES} paired samples to estimate a sign), not {samples!r}")
     _checked(game_id, spec)
     register_game(league, game_id)
     limit = live_job_limit(league) if who is not None else None

@@ -130,7 +130,7 @@ from arena_league.registry.schedules import (
 )
 from arena_league.registry.settings import delete_setting, read_settings, write_setting
 from arena_league.registry.tokens import create_token, find_token, list_tokens, revoke_tokens
-from arena_league.registry.trees import create_tree, delete_tree, get_tree, list_trees
+from arena_league.registry.trees import count_trees, create_tree, delete_tree, get_tree, list_trees
 
 __all__ = [
     "Agent",
@@ -191,6 +191,7 @@ __all__ = [
     "count_agents_since",
     "count_live_jobs",
     "count_matches",
+    "count_trees",
     "create_agent",
     "create_population",
     "create_token",

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from arena_league.registry.models import Tree, utcnow
 from arena_league.registry.repository import require_game
 
-__all__ = ["create_tree", "delete_tree", "get_tree", "list_trees"]
+__all__ = ["count_trees", "create_tree", "delete_tree", "get_tree", "list_trees"]
 
 
 def create_tree(session: Session, name: str, game_id: str, owner: str, spec: dict[str, Any]) -> Tree:
@@ -26,9 +26,15 @@ def get_tree(session: Session, tree_id: int) -> Tree | None:
     return session.get(Tree, tree_id)
 
 
-def list_trees(session: Session, *, game_id: str | None = None, owner: str | None = None) -> list[Tree]:
-    """Saved trees, newest first, optionally of one game or owner."""
-    query = select(Tree).order_by(Tree.id.desc())
+def count_trees(session: Session, owner: str) -> int:
+    """How many saved trees ``owner`` keeps."""
+    return int(session.scalar(select(func.count(Tree.id)).where(Tree.owner == owner)))
+
+
+def list_trees(session: Session, *, game_id: str | None = None, owner: str | None = None,
+               limit: int | None = None) -> list[Tree]:
+    """Saved trees, newest first, optionally of one game or owner, the newest ``limit`` when given."""
+    query = select(Tree).order_by(Tree.id.desc()).limit(limit)
     if game_id is not None:
         query = query.where(Tree.game_id == game_id)
     if owner is not None:

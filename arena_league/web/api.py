@@ -102,7 +102,7 @@ class TreeSave(TreeSpec):
 
 
 class TreeVerify(TreeSpec):
-    samples: int = Field(64, ge=2, le=512, description="paired episodes to sample")
+    samples: int = Field(64, ge=4, le=512, description="paired episodes to sample (at least 4 to estimate a sign)")
     seed: int = Field(0, ge=0, le=2**31)
 
 
@@ -277,9 +277,11 @@ def tree_preview_replay(request: Request, job_id: RowId) -> dict[str, Any]:
     return ops.preview_replay(league_of(request), job_id)
 
 
-@router.get("/trees", summary="saved social trees, newest first")
-def trees(request: Request, game: str | None = None, owner: str | None = None) -> list[dict[str, Any]]:
-    return ops.list_tree_views(league_of(request), game_id=game, owner=owner)
+@router.get("/trees", summary="saved social trees, the newest `limit` of them, newest first")
+def trees(request: Request, game: str | None = None, owner: str | None = None,
+          limit: Annotated[int, Query(ge=1, le=500, description="how many of the newest trees")] = 100,
+          ) -> list[dict[str, Any]]:
+    return ops.list_tree_views(league_of(request), game_id=game, owner=owner, limit=limit)
 
 
 @router.post("/trees", status_code=201, summary="save a social tree (checked first); yours to delete")

@@ -152,21 +152,23 @@ def job_page(request: Request, job_id: RowId, viewer: Viewer) -> HTMLResponse:
 
 # --- social trees -------------------------------------------------------------------------------
 
-def _trees(request: Request, game: str | None, owner: str | None) -> dict[str, Any]:
+def _trees(request: Request, game: str | None, owner: str | None, limit: int) -> dict[str, Any]:
     league = league_of(request)
-    return {"trees": ops.list_tree_views(league, game_id=game or None, owner=owner or None),
+    return {"trees": ops.list_tree_views(league, game_id=game or None, owner=owner or None, limit=limit),
             "games": ops.game_ids(), "filters": {"game": game, "owner": owner}}
 
 
 @router.get("/trees.json")
-def trees_json(request: Request, game: str | None = None, owner: str | None = None) -> dict[str, Any]:
-    return _trees(request, game, owner)
+def trees_json(request: Request, game: str | None = None, owner: str | None = None, limit: int = 100
+               ) -> dict[str, Any]:
+    return _trees(request, game, owner, limit)
 
 
 @router.get("/trees", response_class=HTMLResponse)
-def trees_page(request: Request, viewer: Viewer, game: str | None = None, owner: str | None = None) -> HTMLResponse:
-    return _page(request, "trees.html", _trees(request, game, owner), viewer, _seen(request, {"game": game,
-                                                                                               "owner": owner}))
+def trees_page(request: Request, viewer: Viewer, game: str | None = None, owner: str | None = None,
+               limit: int = 100) -> HTMLResponse:
+    return _page(request, "trees.html", _trees(request, game, owner, limit), viewer,
+                 _seen(request, {"game": game, "owner": owner, "limit": limit if limit != 100 else None}))
 
 
 @router.get("/trees/new", response_class=HTMLResponse)
