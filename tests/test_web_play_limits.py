@@ -135,41 +135,48 @@ def move(socket: ClientConnection, cells: Iterator[tuple[int, int]]) -> None:
     raise AssertionError("no free cell left")
 
 
+def closed_for_idleness(server, address: str, poke, rounds: int) -> tuple[int, str, int]:
+    """Two guests on ``address``: one pokes its socket with ``poke(socket, round)`` (which returns
+    the answer it reads) once a second, the other moves; returns the poker's close code, reason and
+    how many pokes were answered before it was closed. The mover must still play afterwards."""
+    with play(server, address, guest="poker") as poker, play(server, address, guest="mover") as mover:
+        assert receive(poker)["type"] == receive(mover)["type"] == "hello"
+        mover.send(json.dumps({"type": "next"}))
+        while receive(mover).get("waiting") is not True:
+            pass
+        cells = iter([(r, c) for r in range(SIZE) for c in range(SIZE)])
+        for round_ in range(rounds):
+            try:
+                message = poke(poker, round_)
+            except ConnectionClosed as closed:
+                return closed.rcvd.code, closed.rcvd.reason, round_
+            if message["type"] == "error" and message["detail"].startswith("no move for"):
+                with pytest.raises(ConnectionClosed) as closed:
+                    poker.recv(timeout=60)
+                move(mover, cells)  # the mover, who sent as many messages, plays on
+                return closed.value.rcvd.code, closed.value.rcvd.reason, round_
+            move(mover, cells)
+            time.sleep(1.0)
+        raise AssertionError(f"the poking socket was still open after {rounds} answers")
+
+
 @pytest.mark.slow
 def test_only_moves_keep_a_game_open(server):
-    setting(server, "web.live_idle_seconds", 10)  # the least the setting takes
     junk = [lambda s: s.send("not json"), lambda s: s.send(b"\x00\x01"),
             lambda s: s.send(json.dumps({"type": "dance"})), lambda s: s.send(json.dumps({"type": "act", "text": "w"}))]
+
+    def send_junk(socket: ClientConnection, round_: int) -> dict:
+        junk[round_ % len(junk)](socket)
+        socket.ping()
+        message = receive(socket)
+        assert message["type"] == "error", message  # answered, junk or the idle notice
+        return message
+
+    setting(server, "web.live_idle_seconds", 10)  # the least the setting takes
     try:
-        with play(server, "127.0.0.6", guest="idler") as idler, play(server, "127.0.0.6", guest="mover") as mover:
-            assert receive(idler)["type"] == receive(mover)["type"] == "hello"
-            mover.send(json.dumps({"type": "next"}))
-            while receive(mover).get("waiting") is not True:
-                pass
-            cells = iter([(r, c) for r in range(SIZE) for c in range(SIZE)])
-            answered = 0
-            for round_ in range(60):
-                try:
-                    junk[round_ % len(junk)](idler)
-                    idler.ping()
-                    message = receive(idler)
-                except ConnectionClosed as closed:
-                    code, reason = closed.rcvd.code, closed.rcvd.reason
-                    break
-                if message["type"] == "error" and message["detail"].startswith("no move for"):
-                    with pytest.raises(ConnectionClosed) as closed:
-                        idler.recv(timeout=60)
-                    code, reason = closed.value.rcvd.code, closed.value.rcvd.reason
-                    break
-                assert message["type"] == "error", message
-                answered += 1
-                move(mover, cells)
-                time.sleep(1.0)
-            else:
-                raise AssertionError(f"the socket sending only junk was still open after {answered} answers")
-            assert code == 1008 and reason.startswith("no move for 10 s"), (code, reason)
-            assert answered >= 4  # it was answered (and not closed) while it sent junk
-            move(mover, cells)  # the mover, who sent as many messages, plays on
+        code, reason, answered = closed_for_idleness(server, "127.0.0.6", send_junk, 60)
+        assert code == 1008 and reason.startswith("no move for 10 s"), (code, reason)
+        assert answered >= 4  # it was answered (and not closed) while it sent junk
     finally:
         setting(server, "web.live_idle_seconds", 600)
 
@@ -187,36 +194,18 @@ def start_and_resign(socket: ClientConnection) -> dict:
 
 @pytest.mark.slow
 def test_starting_and_resigning_matches_does_not_keep_a_game_open(server):
+    def loop_a_match(socket: ClientConnection, round_: int) -> dict:
+        message = start_and_resign(socket)
+        assert (message["type"] == "end" and message["resigned"]) or message["detail"].startswith("no move for"), \
+            message
+        return message
+
     setting(server, "web.live_idle_seconds", 10)  # the least the setting takes
     setting(server, "web.live_matches_per_minute", 600)  # the idle time is what closes it, not the rate
     try:
-        with play(server, "127.0.0.7", guest="looper") as looper, play(server, "127.0.0.7", guest="goer") as goer:
-            assert receive(looper)["type"] == receive(goer)["type"] == "hello"
-            goer.send(json.dumps({"type": "next"}))
-            while receive(goer).get("waiting") is not True:
-                pass
-            cells = iter([(r, c) for r in range(SIZE) for c in range(SIZE)])
-            looped = 0
-            for _ in range(40):
-                try:
-                    message = start_and_resign(looper)
-                except ConnectionClosed as closed:
-                    code, reason = closed.rcvd.code, closed.rcvd.reason
-                    break
-                if message["type"] == "error" and message["detail"].startswith("no move for"):
-                    with pytest.raises(ConnectionClosed) as closed:
-                        looper.recv(timeout=60)
-                    code, reason = closed.value.rcvd.code, closed.value.rcvd.reason
-                    break
-                assert message["type"] == "end" and message["resigned"], message
-                looped += 1
-                move(goer, cells)
-                time.sleep(1.0)
-            else:
-                raise AssertionError(f"the socket starting and resigning matches was open after {looped} matches")
-            assert code == 1008 and reason.startswith("no move for 10 s"), (code, reason)
-            assert looped >= 4  # its matches were played (and it was not closed) until the idle time
-            move(goer, cells)  # the one who moves plays on
+        code, reason, looped = closed_for_idleness(server, "127.0.0.7", loop_a_match, 40)
+        assert code == 1008 and reason.startswith("no move for 10 s"), (code, reason)
+        assert looped >= 4  # its matches were played (and it was not closed) until the idle time
     finally:
         setting(server, "web.live_idle_seconds", 600)
         setting(server, "web.live_matches_per_minute", 6)
