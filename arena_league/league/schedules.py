@@ -8,6 +8,7 @@ runs them with the league's job handlers.
 
 from __future__ import annotations
 
+import importlib
 import threading
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -90,6 +91,11 @@ def run_worker(league: League, *, worker_id: str | None = None, lease_seconds: f
     ``max_jobs`` ran, with ``until_idle``, the queue is empty or, given ``parent_pid``, the process
     that started the worker has ended (the job it ran goes back to the queue)."""
     from arena_league.league.service import job_handlers  # the match engine: loaded only to run jobs
+
+    # load what a job runs (onnxruntime, torch, the sandbox) before claiming one: a stop signal that
+    # lands in a native module's import becomes an ImportError the job fails with, not a hand-back
+    importlib.import_module("arena_league.policies.onnx_policy")
+    importlib.import_module("arena_league.policies.validation")
 
     report = reg.run_worker(league, job_handlers(), worker_id=worker_id, lease_seconds=lease_seconds,
                             poll_seconds=poll_seconds, max_jobs=max_jobs, stop_event=stop_event,
