@@ -43,8 +43,8 @@ from arena_league.registry.errors import NameTakenError, disk_full_error
 from arena_league.registry.jobs import set_job_payload
 from arena_league.registry.models import utcnow
 
-__all__ = ["UPLOADS", "body_pace", "handle_validate", "series_of", "series_versions", "upload_agent",
-           "upload_limits", "uploads_in_flight"]
+__all__ = ["UPLOADS", "handle_validate", "series_of", "series_versions", "upload_admission", "upload_agent",
+           "upload_limits"]
 
 #: Folder of the league home where uploads wait for their validation job.
 UPLOADS = "uploads"
@@ -70,24 +70,21 @@ def upload_limits(league: League) -> tuple[int, int]:
     return int(settings["web.upload_mib"]["value"]) << 20, int(settings["web.uploads_per_hour"]["value"])
 
 
-def uploads_in_flight(league: League) -> tuple[int, int]:
-    """(uploads one owner may be sending to a web server at once, uploads a web server receives at
-    once), from the league's settings."""
+def upload_admission(league: League) -> tuple[int, int, int, tuple[int, int]]:
+    """What a web server checks before it reads an upload, from one read of the league's settings:
+    (bytes an upload may hold, uploads one owner may be sending to the server at once, uploads the
+    server receives at once, (seconds it waits for the body's next bytes, the slowest average in
+    bytes a second the body may arrive at once it has streamed that long)); past the last two, the
+    upload is abandoned."""
     from arena_league.league.settings import league_settings
 
     settings = league_settings(league)
-    return (int(settings["web.uploads_in_flight_per_owner"]["value"]),
-            int(settings["web.uploads_in_flight"]["value"]))
 
+    def value(key: str) -> int:
+        return int(settings[key]["value"])
 
-def body_pace(league: League) -> tuple[int, int]:
-    """(seconds a web server waits for the next bytes of an upload's body, the slowest average its
-    body may arrive at in bytes a second once it has streamed that long), from the league's settings;
-    past either, the upload is abandoned."""
-    from arena_league.league.settings import league_settings
-
-    settings = league_settings(league)
-    return int(settings["web.body_idle_seconds"]["value"]), int(settings["web.body_min_kib_per_second"]["value"]) << 10
+    return (value("web.upload_mib") << 20, value("web.uploads_in_flight_per_owner"), value("web.uploads_in_flight"),
+            (value("web.body_idle_seconds"), value("web.body_min_kib_per_second") << 10))
 
 
 def upload_agent(league: League, who: Identity, game_id: str, name: str,

@@ -33,7 +33,7 @@ from fastapi.responses import JSONResponse, RedirectResponse, Response
 
 from arena_league.league import Identity, authenticate
 from arena_league.league.errors import DatabaseFullError, DatabaseStateError
-from arena_league.league.uploads import body_pace, upload_limits, uploads_in_flight
+from arena_league.league.uploads import upload_admission
 from arena_league.web.auth import IDENTITY_KEY, missing_token_message, token_in_headers
 
 __all__ = ["DATABASE_FULL", "FORM_SLACK_BYTES", "FULL_RETRY_SECONDS", "JSON_BODY_BYTES", "OPEN_WRITES", "UPLOAD_PATHS",
@@ -157,8 +157,7 @@ class FrontDoor:
         identity = authenticate(self.league, token)
         if identity is None or not upload:
             return identity, 0, 0, 0, None
-        return (identity, upload_limits(self.league)[0], *uploads_in_flight(self.league),
-                body_pace(self.league))
+        return (identity, *upload_admission(self.league))
 
     async def _limited(self, scope: dict, receive: Any, send: Any, limit: int, upload: bool,
                        pace: tuple[int, int] | None = None) -> None:
