@@ -4,6 +4,7 @@ games API, the game page and ``arena-league games`` list them from the same decl
 from __future__ import annotations
 
 import json
+import sys
 
 import pytest
 
@@ -27,6 +28,19 @@ def test_the_grid_and_robot_games_declare_every_option_they_take():
     assert names["RunToGoal"] == ["field_length", "start_jitter", "frame_skip", "anneal"]
     assert names["YouShallNotPass"] == ["field_length", "blocker_distance", "start_jitter", "frame_skip", "anneal"]
     assert names["PushBox"] == ["target_radius", "box_distance", "start_jitter", "frame_skip", "anneal"]
+
+
+@pytest.mark.parametrize("name", DECLARED)
+def test_each_manual_names_every_declared_option_and_its_default(name):
+    rules = next(r for r in game_rules_classes() if r.name == name)
+    manual = sys.modules[rules.__module__].__doc__
+    section = manual[manual.index("Game kwargs"):]
+    section = " ".join(section[:section.index("\n\n")].split())
+    for option in rules.options:
+        assert f"``{option.name}`` (" in section, option.name
+        mentioned = section[section.index(f"``{option.name}`` ("):]
+        assert f"default {option.default_words()}" in mentioned[:mentioned.index(")")], option.name
+    assert f"{rules.__name__}.options" in section
 
 
 @pytest.mark.parametrize("game_id", ["GoBang-2T1P-v1", "Snake-2T2P-v1", "Sumo-2T1P-v1", "PushBox-2T2P-v1"])
