@@ -8,12 +8,11 @@ to their declared bounds, the seats' frames, and the compass moves a discrete ac
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
 from arena_league.envs.core import GameRules, ReplayedMatch
-from arena_league.envs.options import Option, check_options
 from arena_league.envs.physics2d.cells import CellLayout
 
 __all__ = ["COMPASS_MOVES", "COMPASS_MOVE_NAMES", "MIRRORED_MOVE", "Physics2DRules", "mirror_signs"]
@@ -36,18 +35,15 @@ def mirror_signs(team_of: np.ndarray) -> np.ndarray:
 
 
 class Physics2DRules(ReplayedMatch, GameRules):
-    """Rules over the 2D engine; a game declares :attr:`options` and builds its
+    """Rules over the 2D engine; a game declares its ``options`` and builds its
     :class:`~arena_league.envs.physics2d.world.World` in ``__init__`` after calling this one.
 
     After this constructor, ``self.settings`` holds every option's value by name.
     """
 
-    #: The game's keyword options (see :mod:`arena_league.envs.options`).
-    options: ClassVar[tuple[Option, ...]] = ()
-
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs: Any) -> None:
         self.check_layout(n_teams, players_per_team, action_type)
-        self.settings = check_options(self.name, kwargs, self.options)
+        self.settings = self.checked_options(kwargs)
         super().__init__(n_teams, players_per_team, action_type)
         self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
         self._calls = []
