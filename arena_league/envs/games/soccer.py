@@ -129,12 +129,11 @@ from typing import Any, ClassVar
 import numpy as np
 
 from arena_league.envs import scene
-from arena_league.envs.controls import CompassControls
+from arena_league.envs.controls import MirroredCompassControls
 from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
     COMPASS_MOVES,
-    MIRRORED_MOVE,
     ONE,
     Bodies,
     CellLayout,
@@ -587,15 +586,12 @@ class SoccerRules(Physics2DRules):
 
 
 
-class SoccerControls(CompassControls):
+class SoccerControls(MirroredCompassControls):
     """Compass moves on the field as drawn (E = right), mirrored for the team that sees the field
     flipped."""
 
     move = "move on the field as drawn"
     key_hint = "Arrow keys or W A S D run on the field as drawn (two at once: diagonally); let go to stop."
-
-    def seat_move(self, action: int) -> int:
-        return int(MIRRORED_MOVE[action]) if int(self.rules.team_of[self.seat]) == 1 else action
 
 
 RULES = SoccerRules

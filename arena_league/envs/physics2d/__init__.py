@@ -28,7 +28,6 @@ from arena_league.envs.physics2d.link import (
 from arena_league.envs.physics2d.rules import (
     COMPASS_MOVE_NAMES,
     COMPASS_MOVES,
-    MIRRORED_MOVE,
     Physics2DRules,
     mirror_signs,
 )
@@ -38,7 +37,6 @@ __all__ = [
     "COMPASS_MOVES",
     "COMPASS_MOVE_NAMES",
     "DIRECT_AVAILABLE",
-    "MIRRORED_MOVE",
     "ONE",
     "SPARE_CELLS",
     "Bodies",

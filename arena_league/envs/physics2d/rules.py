@@ -15,7 +15,7 @@ import numpy as np
 from arena_league.envs.core import GameRules, ReplayedMatch
 from arena_league.envs.physics2d.cells import CellLayout
 
-__all__ = ["COMPASS_MOVES", "COMPASS_MOVE_NAMES", "MIRRORED_MOVE", "Physics2DRules", "mirror_signs"]
+__all__ = ["COMPASS_MOVES", "COMPASS_MOVE_NAMES", "Physics2DRules", "mirror_signs"]
 
 #: The 2D games' discrete moves, in the seat frame: noop, then a unit thrust counter-clockwise from
 #: ``+x`` (E), 45 degrees apart.
@@ -23,9 +23,6 @@ COMPASS_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
 COMPASS_MOVES = np.array([(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)])
 COMPASS_MOVES[np.abs(COMPASS_MOVES) < 1e-12] = 0.0
 COMPASS_MOVES.flags.writeable = False
-#: Each compass move seen mirrored in x (E <-> W): a seat of a mirrored team and the field as drawn.
-MIRRORED_MOVE = np.array([0, 5, 4, 3, 2, 1, 8, 7, 6])
-MIRRORED_MOVE.flags.writeable = False
 
 
 def mirror_signs(team_of: np.ndarray) -> np.ndarray:
