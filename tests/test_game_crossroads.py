@@ -296,13 +296,15 @@ def test_box_agents_play_too():
 
 
 def test_unknown_or_bad_kwargs_are_refused_with_the_valid_ones_listed():
-    with pytest.raises(TypeError, match=r"unknown game kwargs \['speed_limit'\]; valid: arrival_radius"):
+    with pytest.raises(ValueError, match=r"Crossroads has no option 'speed_limit'; its options: arrival_radius: "
+                                         r".*agent_shape"):
         CrossroadsRules(2, 2, "discrete", speed_limit=3)
-    with pytest.raises(ValueError, match="arrival_radius must be a number"):
+    with pytest.raises(ValueError, match=r"Crossroads option arrival_radius must be a number in \(0.0, 8.0\) "
+                                         r"\(default 1.0"):
         CrossroadsRules(2, 2, "discrete", arrival_radius=-1)
-    with pytest.raises(ValueError, match="agent_shape must be one of"):
+    with pytest.raises(ValueError, match=r"Crossroads option agent_shape must be one of 'circle', 'box'"):
         CrossroadsRules(2, 2, "discrete", agent_shape="triangle")
-    with pytest.raises(ValueError, match="no 3T1P layout; offered: 2T1P, 2T2P, 2T3P, 2T4P, 4T1P"):
+    with pytest.raises(ValueError, match="no 3T1P layout; valid layouts: 2T1P, 2T2P, 2T3P, 2T4P, 4T1P"):
         CrossroadsRules(3, 1, "discrete")
     with pytest.raises(ValueError, match="action_type 'analog' is not offered"):
         CrossroadsRules(2, 2, "analog")

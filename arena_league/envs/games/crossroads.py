@@ -89,8 +89,9 @@ Heuristic
     Steer toward the target (toward the crossing first when pushed into a cross road), swerve to
     the right of active agents close ahead, turn toward that direction, then drive.
 
-Game kwargs
-    ``arrival_radius`` (float > 0, default 1.0), ``agent_shape`` (``"circle"`` or ``"box"``).
+Game options (``OPTIONS``)
+    ``arrival_radius`` (a number in (0, 8), default 1.0): how close to its target a seat's centre
+    must come to arrive; ``agent_shape`` (``"circle"``, the default, or ``"box"``).
 
 Playing it (``arena-league play``)
     A coarse text view of the top-down picture (team digits, ``#`` the road's edges); a move is an
@@ -125,8 +126,23 @@ import pymunk
 
 from arena_league.envs import scene
 from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
-from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
-from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, body_cells, space_link
+from arena_league.envs.core import cell_bounds
+from arena_league.envs.options import Option
+from arena_league.envs.physics2d import (
+    SPARE_CELLS,
+    Bodies,
+    BodyFields,
+    CellLayout,
+    Field,
+    Material,
+    Physics2DRules,
+    Run,
+    Walls,
+    World,
+    body_cells,
+)
+from arena_league.envs.physics2d.contacts import ContactImpulses
+from arena_league.envs.physics2d.gather import Gather
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Distance from the centre to the end of each arm.
@@ -136,6 +152,11 @@ ROAD_HALF_WIDTH = 2.5
 #: Radius of an agent disc (half the side of an agent box).
 AGENT_RADIUS = 0.5
 AGENT_MASS = 1.0
+#: Walls are pymunk segments this thick on each side of the road's edge.
+WALL_RADIUS = 0.05
+#: Restitution and friction of agents and walls alike.
+ELASTICITY = 0.5
+FRICTION = 0.2
 #: Seconds of simulation per env step.
 DT = 0.1
 #: Physics steps per env step. Chipmunk sees a contact only once two shapes overlap; at full
@@ -144,6 +165,10 @@ DT = 0.1
 SUBSTEPS = 2
 #: Seconds per physics step.
 PHYSICS_DT = DT / SUBSTEPS
+#: Overlap tolerated without correction, and the share of a deeper overlap left after a second
+#: (half of it fixed per physics step).
+COLLISION_SLOP = 0.02
+COLLISION_BIAS = 0.5 ** (1.0 / PHYSICS_DT)
 #: Force of full thrust.
 THRUST_FORCE = 6.0
 #: Turning rate (rad/s) of a full turn action.
@@ -167,6 +192,10 @@ AVOID_RANGE = 2.0
 #: never takes an agent past ``TOP_SPEED`` and contacts only a little beyond; faster is clipped.
 VELOCITY_BOUND = 2.0
 
+OPTIONS = (Option("arrival_radius", float, 1.0, "how close to its target a seat's centre must come to arrive",
+                  0.0, START_DISTANCE, open_ends=("low", "high")),
+           Option("agent_shape", str, "circle", "a disc of radius 0.5 or a 1 x 1 box", choices=("circle", "box")))
+
 #: Direction of travel of each team: west->east, south->north, east->west, north->south.
 _TRAVEL = np.array([(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)])
 
@@ -178,9 +207,6 @@ _NOOP, _FORWARD, _LEFT, _RIGHT = 0, 1, 3, 4
 _OWN_CELLS = 10
 _OTHER_CELLS = 5
 _STATE_CELLS = 9
-_AGENT_SHAPES = ("circle", "box")
-_GAME_KWARGS = {"arrival_radius": "float > 0, default 1.0",
-                "agent_shape": "'circle' (default) or 'box'"}
 
 #: Per discrete action and activity: (turn rate, thrust force, energy); an inactive seat's row
 #: (index + 5) is all zeros, so its action is ignored.
@@ -189,12 +215,10 @@ _DISCRETE_TABLE = np.concatenate([
                      0.5 * (_DISCRETE_CONTROL ** 2).sum(axis=1)]),
     np.zeros((len(ACTION_MEANINGS), 3))])
 
-
 #: Body fields read after every step (x, y, angle, vx, vy per body) and written before every
 #: physics step (angular velocity, fx, fy per body).
 _READ_FIELDS = BodyFields.POSITION | BodyFields.ANGLE | BodyFields.VELOCITY
 _WRITE_FIELDS = BodyFields.ANGULAR_VELOCITY | BodyFields.FORCE
-_READ_CELLS = body_cells(_READ_FIELDS)
 _WRITE_CELLS = body_cells(_WRITE_FIELDS)
 
 
@@ -203,6 +227,32 @@ def _wall_outline() -> list[tuple[float, float]]:
     L, H = ARM_LENGTH, ROAD_HALF_WIDTH
     return [(-L, -H), (-H, -H), (-H, -L), (H, -L), (H, -H), (L, -H),
             (L, H), (H, H), (H, L), (-H, L), (-H, H), (-L, H)]
+
+
+def crossroads_field(n_agents: int, agent_shape: str) -> Field:
+    """The agents (added, and batch-read, in seat order; contacts push them but never spin them),
+    then the road's edges, each wall added on its own."""
+    outline = _wall_outline()
+    material = Material(ELASTICITY, FRICTION)
+    return Field(dt=PHYSICS_DT, damping=DAMPING, collision_slop=COLLISION_SLOP, collision_bias=COLLISION_BIAS,
+                 substeps=SUBSTEPS, parts=(
+                     Bodies("agent", n_agents, AGENT_RADIUS, AGENT_MASS, material, square=agent_shape == "box"),
+                     Walls(tuple(zip(outline, outline[1:] + outline[:1])), WALL_RADIUS, material, one_by_one=True)))
+
+
+def crossroads_observation(n_agents: int) -> CellLayout:
+    """The observation's runs (team frame; see the module's table)."""
+    unit, v = (-1, 1), (-VELOCITY_BOUND, VELOCITY_BOUND)
+    runs = [Run("position", 2, unit, "own position / L"), Run("velocity", 2, v, "own velocity / V"),
+            Run("heading", 2, unit, "own heading (cos, sin)"),
+            Run("to_target", 2, unit, "target position minus own position / (2 L)"),
+            Run("distance", 1, (0, math.sqrt(2)), "distance to target / (2 L)"),
+            Run("active", 1, (0, 1), "own active flag")]
+    for k in range(n_agents - 1):
+        runs += [Run(f"other_{k}", 2, unit, "another seat's position minus own / (2 L)"),
+                 Run(f"other_{k}_velocity", 2, v, "its velocity minus own / (2 V)"),
+                 Run(f"other_{k}_active", 1, (0, 1), "its active flag")]
+    return CellLayout(runs)
 
 
 def _leaf(seat: int) -> dict:
@@ -240,7 +290,7 @@ class CrossroadsControls(ActionControls):
                             "coast.", release="noop")
 
 
-class CrossroadsRules(ReplayedMatch, GameRules):
+class CrossroadsRules(Physics2DRules):
     """Crossroads rules: pymunk bodies driven to targets across a crossing (see the module)."""
 
     def human_controls(self, seat: int) -> CrossroadsControls:
@@ -263,63 +313,42 @@ class CrossroadsRules(ReplayedMatch, GameRules):
     geometry: ClassVar[dict[str, float]] = {"arm_length": ARM_LENGTH, "road_half_width": ROAD_HALF_WIDTH,
                                             "agent_radius": AGENT_RADIUS, "top_speed": TOP_SPEED}
     summary: ClassVar[str] = "teams drive across a crossing to targets on the far side; physical collisions"
+    options = OPTIONS
 
     n_actions = len(ACTION_MEANINGS)
     act_dim = 2
     action_meanings = ACTION_MEANINGS
 
-    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete",
-                 **game_kwargs) -> None:
-        unknown = sorted(set(game_kwargs) - set(_GAME_KWARGS))
-        if unknown:
-            valid = "; ".join(f"{k} ({v})" for k, v in _GAME_KWARGS.items())
-            raise TypeError(f"Crossroads got unknown game kwargs {unknown}; valid: {valid}")
-        if (n_teams, players_per_team) not in self.layouts:
-            offered = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
-            raise ValueError(f"Crossroads has no {n_teams}T{players_per_team}P layout; offered: {offered}")
-        if action_type not in self.action_types:
-            raise ValueError(f"Crossroads action_type {action_type!r} is not offered; "
-                             f"choose one of {self.action_types}")
-        arrival_radius = game_kwargs.get("arrival_radius", 1.0)
-        if (isinstance(arrival_radius, bool) or not isinstance(arrival_radius, (int, float))
-                or not 0 < arrival_radius < START_DISTANCE):
-            raise ValueError(f"arrival_radius must be a number in (0, {START_DISTANCE}), got {arrival_radius!r}")
-        agent_shape = game_kwargs.get("agent_shape", "circle")
-        if agent_shape not in _AGENT_SHAPES:
-            raise ValueError(f"agent_shape must be one of {_AGENT_SHAPES}, got {agent_shape!r}")
-        super().__init__(n_teams, players_per_team, action_type)
-        self._arguments = ((n_teams, players_per_team, action_type), dict(game_kwargs))
-        self._calls = []
-        self.arrival_radius = float(arrival_radius)
-        self.agent_shape = agent_shape
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs: Any) -> None:
+        super().__init__(n_teams, players_per_team, action_type, **kwargs)
+        self.arrival_radius = self.settings["arrival_radius"]
+        self.agent_shape = self.settings["agent_shape"]
         n = self.n_agents
-        self.obs_dim = _OWN_CELLS + _OTHER_CELLS * (n - 1)
+        self.layout = crossroads_observation(n)
+        self.obs_dim = self.layout.size
         self.state_dim = _STATE_CELLS * n
         self._travel = _TRAVEL[self.team_of]  # (n, 2) world direction of travel of each seat
 
-        # One flat float64 vector ``z`` holds everything observations and state are gathered from;
-        # pymunk writes the bodies' state straight into its first block.
-        read_len = _READ_CELLS * (n + 1) + SPARE_CELLS  # agents + static body
-        self._z_motion = read_len  # per seat: vx, vy, cos, sin
-        self._z_target = self._z_motion + 4 * n
-        self._z_active = self._z_target + 2 * n
-        self._z_distance = self._z_active + n
-        self._z_zero = self._z_distance + n  # always 0.0
-        self._z = z = np.zeros(self._z_zero + 1)
-        bodies = z[:_READ_CELLS * n].reshape(n, _READ_CELLS)
-        self._position, self._angle, self._velocity = bodies[:, 0:2], bodies[:, 2], bodies[:, 3:5]
-        self._motion = z[self._z_motion:self._z_target].reshape(n, 2, 2)  # [velocity, heading]
+        # The work vector holds everything observations and state are gathered from: the bodies'
+        # x, y, angle, vx, vy, then per seat [vx, vy, cos, sin], its target, active flag and
+        # distance to target, and a constant 0.
+        world = self.world = World(
+            crossroads_field(n, self.agent_shape),
+            slots=(("motion", 4 * n), ("target", 2 * n), ("active", n), ("distance", n), ("zero", 1)),
+            read=_READ_FIELDS, write=_WRITE_FIELDS, contacts=True, spare=SPARE_CELLS)
+        self._work = world.work
+        self._contacts = ContactImpulses(world, "agent")
+        self._collect_contacts = self._contacts.collect
+        agents = world.table[:n]
+        self._position, self._angle, self._velocity = agents[:, 0:2], agents[:, 2], agents[:, 3:5]
+        self._motion = world.view("motion").reshape(n, 2, 2)  # [velocity, heading]
         self._heading = self._motion[:, 1]
-        self._target = z[self._z_target:self._z_active].reshape(n, 2)
-        self._active_z = z[self._z_active:self._z_distance]
-        self._distance = z[self._z_distance:self._z_zero]
-        controls = np.zeros(_WRITE_CELLS * (n + 1) + SPARE_CELLS)
-        control_rows = controls[:_WRITE_CELLS * n].reshape(n, _WRITE_CELLS)
+        self._target = world.view("target").reshape(n, 2)
+        self._active_z = world.view("active")
+        self._distance = world.view("distance")
+        control_rows = world.applied[:_WRITE_CELLS * n].reshape(n, _WRITE_CELLS)
         self._turn_rate, self._force = control_rows[:, 0], control_rows[:, 1:3]
-        # The physics link: chipmunk's batch transfers to and from these arrays, its step, and
-        # the contact impulses of its arbiters.
-        self._link = space_link(_READ_FIELDS, z[:read_len], _WRITE_FIELDS, controls, contacts=True)
-        self._obs_index, self._obs_scale = self._observation_gather()
+        self._observation = self._observation_gather()
         self._state_index, self._state_scale = self._state_gather()
         obs_low, obs_high = self.observation_bounds()
         self._obs_low, self._obs_high = np.tile(obs_low, n), np.tile(obs_high, n)  # the flat seat-major vector
@@ -338,9 +367,6 @@ class CrossroadsRules(ReplayedMatch, GameRules):
         self._safe_distance = np.zeros(n)
         self._dots = np.zeros((n, 2))  # velocity and heading along the unit vector to the target
         self._arriving = np.zeros(n, dtype=bool)
-        self._gathered = np.zeros((2, n * self.obs_dim))
-        self._gathered_flat, self._plus, self._minus = self._gathered.reshape(-1), self._gathered[0], self._gathered[1]
-        self._difference = np.zeros(n * self.obs_dim)
 
         # Measures read straight from the arrays above (views, updated in place every step).
         m = self.measures
@@ -349,13 +375,6 @@ class CrossroadsRules(ReplayedMatch, GameRules):
         if action_type == "discrete":
             m.energy = self._control[:, 2]
         self._views = self._bind_views()
-
-        self._space: pymunk.Space | None = None
-        self._shapes: list[pymunk.Shape] = []
-        self._seat_of_body: dict[int, int] = {}  # pymunk body id -> seat (walls: absent)
-        self._impulses_of: list[list[float]] = [[] for _ in range(n)]  # per seat, this step
-        self._force_set = False
-        self._events: list[dict] = []
         self._step_count = 0
         self._team_finish = np.full(n_teams, -1, dtype=np.int64)
 
@@ -371,50 +390,35 @@ class CrossroadsRules(ReplayedMatch, GameRules):
         mates = [j for j in range(self.n_agents) if j != seat and self.team_of[j] == team]
         return mates + [j for j in range(self.n_agents) if self.team_of[j] != team]
 
-    def _observation_gather(self) -> tuple[np.ndarray, np.ndarray]:
-        """Indices into ``z`` and scales so that, over the flat seat-major observation,
-        ``obs = (z[index[0]] - z[index[1]]) * scale``.
-
-        Team frames are rotations by multiples of 90 degrees, so every observation cell is one
-        entry of ``z``, or a difference of two, times a signed scale: a gather, not a matmul."""
-        n, zero = self.n_agents, self._z_zero
-        index = np.full((2, n * self.obs_dim), zero, dtype=np.intp)
-        scale = np.zeros(n * self.obs_dim)
-
-        def put(cell: int, frame: np.ndarray, row: int, a: int, b: int | None, factor: float) -> None:
-            # Component ``row`` of frame @ (vector at a - vector at b): one nonzero per frame row.
-            k = int(np.flatnonzero(frame[row])[0])
-            index[0, cell] = a + k
-            index[1, cell] = zero if b is None else b + k
-            scale[cell] = frame[row, k] * factor
-
+    def _observation_gather(self) -> Gather:
+        """The flat seat-major observation as a gather from the work vector: team frames are
+        rotations by multiples of 90 degrees, so every cell is one entry, or a difference of two,
+        times a signed scale."""
+        world, layout, n = self.world, self.layout, self.n_agents
+        gather = Gather(world.work, n * self.obs_dim, world.at("zero"))
         L2, V2 = 2 * ARM_LENGTH, 2 * TOP_SPEED
-        pos = [_READ_CELLS * s for s in range(n)]
-        vel = [self._z_motion + 4 * s for s in range(n)]
+        pos = [world.pos(s, 0) for s in range(n)]
+        vel = [world.at("motion", 4 * s) for s in range(n)]
         for s in range(n):
             R, o = self._frame(s), s * self.obs_dim
-            for i in range(2):
-                put(o + i, R, i, pos[s], None, 1 / ARM_LENGTH)
-                put(o + 2 + i, R, i, vel[s], None, 1 / TOP_SPEED)
-                put(o + 4 + i, R, i, vel[s] + 2, None, 1.0)
-                put(o + 6 + i, R, i, self._z_target + 2 * s, pos[s], 1 / L2)
-            index[0, o + 8], scale[o + 8] = self._z_distance + s, 1 / L2
-            index[0, o + 9], scale[o + 9] = self._z_active + s, 1.0
+            gather.put_vector(o + layout.at("position"), R, pos[s], None, 1 / ARM_LENGTH)
+            gather.put_vector(o + layout.at("velocity"), R, vel[s], None, 1 / TOP_SPEED)
+            gather.put_vector(o + layout.at("heading"), R, vel[s] + 2, None, 1.0)
+            gather.put_vector(o + layout.at("to_target"), R, world.at("target", 2 * s), pos[s], 1 / L2)
+            gather.put(o + layout.at("distance"), world.at("distance", s), None, 1 / L2)
+            gather.put(o + layout.at("active"), world.at("active", s), None, 1.0)
             for k, j in enumerate(self._others(s)):
-                q = o + _OWN_CELLS + _OTHER_CELLS * k
-                for i in range(2):
-                    put(q + i, R, i, pos[j], pos[s], 1 / L2)
-                    put(q + 2 + i, R, i, vel[j], vel[s], 1 / V2)
-                index[0, q + 4], scale[q + 4] = self._z_active + j, 1.0
-        return index.ravel(), scale
+                gather.put_vector(o + layout.at(f"other_{k}"), R, pos[j], pos[s], 1 / L2)
+                gather.put_vector(o + layout.at(f"other_{k}_velocity"), R, vel[j], vel[s], 1 / V2)
+                gather.put(o + layout.at(f"other_{k}_active"), world.at("active", j), None, 1.0)
+        return gather
 
     def _state_gather(self) -> tuple[np.ndarray, np.ndarray]:
-        """Index and scale arrays so that ``state = z[index] * scale`` (world frame)."""
-        index, scale = [], []
+        """Index and scale arrays so that ``state = work[index] * scale`` (world frame)."""
+        world, index, scale = self.world, [], []
         for s in range(self.n_agents):
-            p, m = _READ_CELLS * s, self._z_motion + 4 * s
-            index += [p, p + 1, m, m + 1, m + 2, m + 3,
-                      self._z_target + 2 * s, self._z_target + 2 * s + 1, self._z_active + s]
+            p, m, t = world.pos(s, 0), world.at("motion", 4 * s), world.at("target", 2 * s)
+            index += [p, p + 1, m, m + 1, m + 2, m + 3, t, t + 1, world.at("active", s)]
             scale += [1 / ARM_LENGTH] * 2 + [1 / TOP_SPEED] * 2 + [1.0] * 2 + [1 / ARM_LENGTH] * 2 + [1.0]
         return np.array(index, dtype=np.intp), np.array(scale)
 
@@ -438,34 +442,6 @@ class CrossroadsRules(ReplayedMatch, GameRules):
             squares_thrust=self._squares[:, 0], squares_turn=self._squares[:, 1],
             turn_rate=self._turn_rate, force=self._force)
 
-    def _build_space(self, starts: np.ndarray, angles: np.ndarray) -> None:
-        space = pymunk.Space()
-        space.damping = DAMPING
-        space.collision_slop = 0.02  # overlap tolerated without correction
-        space.collision_bias = 0.5 ** (1.0 / PHYSICS_DT)  # half of any deeper overlap fixed per step
-        self._shapes = []
-        ids = []
-        for seat in range(self.n_agents):  # bodies are added, and batch-read, in seat order
-            body = pymunk.Body(AGENT_MASS, math.inf)  # contacts push an agent but never spin it
-            body.position = (float(starts[seat, 0]), float(starts[seat, 1]))
-            body.angle = float(angles[seat])
-            if self.agent_shape == "circle":
-                shape: pymunk.Shape = pymunk.Circle(body, AGENT_RADIUS)
-            else:
-                shape = pymunk.Poly.create_box(body, (2 * AGENT_RADIUS, 2 * AGENT_RADIUS))
-            shape.elasticity, shape.friction = 0.5, 0.2
-            space.add(body, shape)
-            self._shapes.append(shape)
-            ids.append(body.id)
-        outline = _wall_outline()
-        for a, b in zip(outline, outline[1:] + outline[:1]):
-            wall = pymunk.Segment(space.static_body, a, b, 0.05)
-            wall.elasticity, wall.friction = 0.5, 0.2
-            space.add(wall)
-        self._seat_of_body = {body_id: seat for seat, body_id in enumerate(ids)}
-        self._space = space
-        self._link.bind(space)
-
     # --- the match ---------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
         self._record_reset(seed)
@@ -484,7 +460,8 @@ class CrossroadsRules(ReplayedMatch, GameRules):
         starts = start_along[:, None] * d + start_lateral[:, None] * left
         self._target[:] = target_along[:, None] * d + target_lateral[:, None] * left
         angles = np.arctan2(d[:, 1], d[:, 0]) + heading_jitter
-        self._build_space(starts, angles)
+        self.world.build({"agent": starts}, angles={"agent": angles})
+        self._contacts.bind()
 
         self._active_z[:] = 1.0
         self._inactive_offset[:] = 0
@@ -500,10 +477,6 @@ class CrossroadsRules(ReplayedMatch, GameRules):
         m.energy[:] = 0.0
         m.force[:] = 0.0
         m.outcome[:] = 0.0
-        self._force_set = False
-        for impulses in self._impulses_of:
-            impulses.clear()
-        self._link.read_bodies()
         self._update_kinematics()
         self.game_over = False
         self._step_count = 0
@@ -511,9 +484,9 @@ class CrossroadsRules(ReplayedMatch, GameRules):
         self._events = []
 
     def _update_kinematics(self) -> None:
-        """From the bodies just read into ``z``: headings, distances, the measures about the target,
-        speeds. (Every operand is a view bound in ``_bind_views``: slicing costs as much as the
-        arithmetic on arrays this small.)"""
+        """From the bodies just read into the work vector: headings, distances, the measures about
+        the target, speeds. (Every operand is a view bound in ``_bind_views``: slicing costs as
+        much as the arithmetic on arrays this small.)"""
         v = self._views
         np.copyto(v.motion_velocity, v.velocity)
         np.cos(v.angle, out=v.cos)
@@ -543,59 +516,18 @@ class CrossroadsRules(ReplayedMatch, GameRules):
             np.multiply(actions, actions, out=self._squares)
             np.add(v.squares_thrust, v.squares_turn, out=v.energy)
             np.multiply(v.energy, self._half_active, out=v.energy)
-
-        link = self._link
-        touching = False
-        for _ in range(SUBSTEPS):
-            link.write_bodies()  # chipmunk clears forces after every step
-            link.step(PHYSICS_DT)
-            touching |= self._collect_contacts()
-        link.read_bodies()
+        self.world.step(self._collect_contacts)  # the turn rate and force, written before every physics step
         self._update_kinematics()
-        if touching:
-            self._sum_contact_forces()
-        elif self._force_set:
-            self.measures.force[:] = 0.0
-            self._force_set = False
+        self._contacts.forces(self.measures.force, DT)
         if self._events:
             self._events = []
         np.less(v.distance, self._arrival_gate, out=self._arriving)
         if np.count_nonzero(self._arriving):
             self._arrive(np.flatnonzero(self._arriving))
 
-    def _collect_contacts(self) -> bool:
-        """After a physics step: the magnitude of every touching arbiter's impulse, per seat.
-        Returns whether any touched."""
-        n_arbiters = self._link.read_contacts()
-        if not n_arbiters:
-            return False
-        impulses = self._link.contact_impulses[:2 * n_arbiters]
-        if not np.count_nonzero(impulses):  # nothing touching (cached arbiters report zero)
-            return False
-        # Few arbiters touch at once: a loop over them beats a dozen numpy calls.
-        body_ids = self._link.contact_ids[:2 * n_arbiters].tolist()
-        impulse = impulses.tolist()
-        seat_of_body, impulses_of = self._seat_of_body.get, self._impulses_of
-        for i in range(0, 2 * n_arbiters, 2):
-            if impulse[i] or impulse[i + 1]:
-                magnitude = math.hypot(impulse[i], impulse[i + 1])
-                for seat in (seat_of_body(body_ids[i]), seat_of_body(body_ids[i + 1])):
-                    if seat is not None:
-                        impulses_of[seat].append(magnitude)
-        return True
-
-    def _sum_contact_forces(self) -> None:
-        """``force``: per seat, the summed contact impulses of this step over ``DT``. Arbiters come
-        out of a hash set keyed by addresses, so the sums are formed with ``math.fsum``, exact
-        and independent of their order."""
-        force = self.measures.force
-        for seat, impulses in enumerate(self._impulses_of):
-            force[seat] = math.fsum(impulses) / DT
-            impulses.clear()
-        self._force_set = True
-
     def _arrive(self, seats: np.ndarray) -> None:
         m = self.measures
+        agents = self.world.bodies["agent"]
         for seat in seats.tolist():
             m.active[seat] = False
             m.arrived[seat] = True
@@ -604,9 +536,10 @@ class CrossroadsRules(ReplayedMatch, GameRules):
             self._gain[seat] = 0.0
             self._half_active[seat] = 0.0
             self._arrival_gate[seat] = -np.inf
-            shape = self._shapes[seat]
-            shape.filter = pymunk.ShapeFilter(categories=0, mask=0)  # collides with nothing
-            shape.body.velocity = (0.0, 0.0)  # and stays where it arrived
+            body = agents[seat]
+            for shape in body.shapes:
+                shape.filter = pymunk.ShapeFilter(categories=0, mask=0)  # collides with nothing
+            body.velocity = (0.0, 0.0)  # and stays where it arrived
             self._velocity[seat] = 0.0
             self._motion[seat, 0] = 0.0
             self._events.append({"kind": "arrive", "seat": seat, "step": self._step_count})
@@ -620,23 +553,18 @@ class CrossroadsRules(ReplayedMatch, GameRules):
             m.outcome[:] = self._seat_outcome()
 
     def observe(self) -> np.ndarray:
-        difference = self._difference
-        self._z.take(self._obs_index, out=self._gathered_flat)
-        np.subtract(self._plus, self._minus, out=difference)
         obs = np.empty((self.n_agents, self.obs_dim), dtype=np.float32)
         flat = obs.reshape(-1)
-        np.multiply(difference, self._obs_scale, out=flat, casting="same_kind")
+        self._observation.fill(flat)
         flat.clip(self._obs_low, self._obs_high, out=flat)
         return obs
 
     def state(self) -> np.ndarray:
-        state = self._z[self._state_index] * self._state_scale
+        state = self._work[self._state_index] * self._state_scale
         return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        v = VELOCITY_BOUND
-        return cell_bounds((-1, 1, 2), (-v, v, 2), (-1, 1, 4), (0, math.sqrt(2), 1), (0, 1, 1),
-                           *[run for _ in range(self.n_agents - 1) for run in ((-1, 1, 2), (-v, v, 2), (0, 1, 1))])
+        return self.layout.bounds()
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         v = VELOCITY_BOUND
@@ -657,9 +585,6 @@ class CrossroadsRules(ReplayedMatch, GameRules):
     def _seat_outcome(self) -> np.ndarray:
         team_outcome = 2.0 * self.team_result() / (self.n_teams - 1) - 1.0
         return team_outcome[self.team_of]
-
-    def events(self) -> list[dict]:
-        return self._events
 
     # --- trees and policies ------------------------------------------------------------------
     @classmethod

@@ -15,7 +15,7 @@ forces are matrices over that vector, addressed by body and slot names (:meth:`W
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -273,15 +273,20 @@ class World:
         """Copy every body's read fields into the work vector."""
         self.link.read_bodies()
 
-    def step(self) -> None:
+    def step(self, after_each: Callable[[], object] | None = None) -> None:
         """One env step of physics: the applied forces (from :attr:`force_matrix`, if set) written
-        before each of ``substeps`` steps of ``dt``, the bodies read back."""
+        before each of ``substeps`` steps of ``dt``, the bodies read back. ``after_each``, if
+        given, is called after every physics step (to read that step's contacts, say)."""
         link = self.link
         if self.force_matrix is not None:
             np.dot(self.force_matrix, self.work, out=self.applied)
         link.write_bodies()
         link.step(self._dt)
+        if after_each is not None:
+            after_each()
         for _ in range(self._more_substeps):
             link.write_bodies()
             link.step(self._dt)
+            if after_each is not None:
+                after_each()
         link.read_bodies()
