@@ -52,5 +52,12 @@ class Physics2DRules(ReplayedMatch, GameRules):
         low, high = layout.bounds()
         return np.tile(low.astype(np.float64), self.n_agents), np.tile(high.astype(np.float64), self.n_agents)
 
+    def other_seats(self, seat: int) -> list[int]:
+        """The other seats in the order ``seat`` observes them: teammates first, then opponents,
+        each in seat order."""
+        team = self.team_of[seat]
+        mates = [j for j in range(self.n_agents) if j != seat and self.team_of[j] == team]
+        return mates + [j for j in range(self.n_agents) if self.team_of[j] != team]
+
     def events(self) -> list[dict]:
         return list(self._events)

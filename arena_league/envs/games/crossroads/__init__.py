@@ -1,91 +1,86 @@
 """Crossroads: teams drive across a crossing to targets on the far side; collisions are physical.
 
 After the Crossroads game of Arena (Song et al., "Arena: A General Evaluation Platform and Building
-Toolkit for Multi-Agent Intelligence", AAAI 2020), whose case study shows that the same rules
-give a traffic jam under isolated rewards, waiting under one collaborative reward, and blocking
-under two collaborative teams that compete.
+Toolkit for Multi-Agent Intelligence", AAAI 2020), whose case study shows that the same rules give
+a traffic jam under isolated rewards, waiting under one collaborative reward, and blocking under
+two collaborative teams that compete.
 
 Arena
-    A cross-shaped intersection of two roads, each ``2 * ROAD_HALF_WIDTH`` = 5 wide, whose four
-    arms reach ``ARM_LENGTH`` = 10 from the centre (world box [-10, 10]^2, y up). Static pymunk
-    segments bound the roads. Each team starts on its own arm and drives to targets at the end of
-    the opposite arm, so the teams' paths cross in the middle: team 0 goes west -> east, team 1
-    south -> north and, with four teams, team 2 east -> west and team 3 north -> south.
+    A cross of two roads ``2 * ROAD_HALF_WIDTH`` = 5 wide whose arms reach ``ARM_LENGTH`` = 10 from
+    the centre (world box [-10, 10]^2, y up), bounded by static pymunk segments. Each team drives
+    from its own arm to targets at the end of the opposite one, so the paths cross in the middle:
+    team 0 west -> east, team 1 south -> north and, with four teams, team 2 east -> west and team 3
+    north -> south.
 
 Agents
-    Pymunk bodies (discs of radius 0.5 by default, or 1 x 1 boxes with ``agent_shape="box"``) of
-    mass 1 that do not spin from contacts: collisions push and bounce them (elasticity 0.5), but
-    only the agent turns itself. Each env step (``DT`` = 0.1 s, simulated as ``SUBSTEPS`` = 2
-    pymunk steps) an agent applies a thrust of up to ``THRUST_FORCE`` = 6 along its heading at
-    the start of the step and turns at up to ``TURN_RATE`` = 3 rad/s; linear damping (a coasting
-    agent keeps 10% of its velocity after a second) gives a top speed ``TOP_SPEED`` of about 2.8.
-    Team members start side by side across their arm (``LANE_SPACING`` = 1.2 apart), about 8
-    from the centre, facing roughly down the road; their targets lie side by side, in the same
-    order, across the far end of the opposite arm. Start and target positions and headings are
-    jittered from the seed.
+    Pymunk discs of radius 0.5 (or 1 x 1 boxes, ``agent_shape="box"``) of mass 1 that contacts
+    push and bounce (elasticity 0.5) but never spin: only the agent turns itself. Each env step
+    (``DT`` = 0.1 s, simulated as ``SUBSTEPS`` = 2 pymunk steps) it applies a thrust of up to
+    ``THRUST_FORCE`` = 6 along its heading at the start of the step and turns at up to
+    ``TURN_RATE`` = 3 rad/s; damping (a coasting agent keeps 10% of its velocity after a second)
+    caps its speed at ``TOP_SPEED`` ~ 2.8. Team members start side by side across their arm
+    (``LANE_SPACING`` = 1.2 apart) about 8 from the centre, facing roughly down the road; their
+    targets lie in the same order across the far end of the opposite arm. Starts, targets and
+    headings are jittered from the seed.
 
 Actions
     ``discrete`` (default): 0 noop, 1 forward, 2 backward, 3 turn left, 4 turn right.
-    ``continuous``: ``[thrust, turn]`` in [-1, 1]; thrust scales the forward force (negative
-    reverses), turn scales the turning rate (positive turns left, counter-clockwise).
+    ``continuous``: ``[thrust, turn]`` in [-1, 1], scaling the forward force (negative reverses)
+    and the turning rate (positive turns left, counter-clockwise).
 
 Arrival and episode end
-    A seat whose centre comes within ``arrival_radius`` (default 1.0) of its target has *arrived*:
-    it becomes inactive, stops where it is and no longer collides with anything, so it blocks no
-    one. The match ends when every seat has arrived, or at ``max_cycles`` (default 300 steps; an
-    agent driving alone arrives in about 70, and heuristic teams of four in at most about 150).
+    A seat whose centre comes within ``arrival_radius`` of its target has *arrived*: it becomes
+    inactive, stops where it is and collides with nothing, so it blocks no one. The match ends when
+    every seat has arrived, or at ``max_cycles`` (default 300 steps; an agent alone arrives in
+    about 70, heuristic teams of four in at most about 150).
 
 Result
-    Teams are ranked by the step at which their last member arrived (earlier is better); teams
-    that never finish rank last, tied. ``team_result``: with two teams 1 / 0.5 / 0 for first /
-    tie / last; with more teams the number of teams beaten plus half the number tied with.
-    ``outcome`` per seat maps that score linearly to [-1, 1]: +1 first, -1 last, 0 a draw.
+    Teams rank by the step their last member arrived (earlier is better); teams that never finish
+    rank last, tied. ``team_result``: with two teams 1 / 0.5 / 0 for first / tie / last; with more,
+    the number of teams beaten plus half the number tied with. ``outcome`` per seat maps that score
+    linearly to [-1, 1]: +1 first, -1 last, 0 a draw.
 
 Measures (one value per seat, see ``MEASURE_DOCS``)
     ``active``, ``arrived``, ``target_distance`` (frozen on arrival), ``velocity_to_target``,
-    ``facing_target``, ``energy`` (mean squared action: 0.5 for a discrete move or turn),
-    ``force`` (magnitude of the summed contact impulses on the seat this step divided by ``DT``,
-    from pymunk's arbiters: agent-agent and agent-wall contacts), ``speed``.
+    ``facing_target``, ``energy`` (mean squared action: 0.5 for a discrete move or turn), ``force``
+    (the magnitudes of the contact impulses of pymunk's arbiters on the seat this step, agent-agent
+    and agent-wall, summed and divided by ``DT``), ``speed``.
 
 Observation (``float32[10 + 5 * (n_agents - 1)]`` per seat)
-    Everything is expressed in the seat's *team frame*: the world rotated so that the team's
-    direction of travel is +x (team 0: the world frame; team 1: rotated by -90 degrees; ...), so
-    every seat sees its start at x ~ -0.8 and its target at x ~ +0.8, and one policy can play any
-    seat. ``L`` = ``ARM_LENGTH`` = 10, ``V`` = ``TOP_SPEED`` ~ 2.8.
+    In the seat's *team frame*: the world turned so that the team travels along +x (team 0: the
+    world frame; team 1: turned by -90 degrees; ...), so every seat sees its start at x ~ -0.8 and
+    its target at x ~ +0.8, and one policy plays any seat. ``L`` = 10, ``V`` = ``TOP_SPEED``.
 
-    ====  ============  ==============================================================
-    cell  bounds        meaning
-    ====  ============  ==============================================================
-    0, 1  [-1, 1]       own position (x, y) / L
-    2, 3  [-2, 2]       own velocity (vx, vy) / V
-    4, 5  [-1, 1]       own heading (cos, sin)
-    6, 7  [-1, 1]       target position minus own position (dx, dy) / (2 L)
-    8     [0, sqrt 2]   distance to target / (2 L)
-    9     [0, 1]        own active flag (1 playing, 0 arrived)
-    ====  ============  ==============================================================
+    =====  ===========  ==========================================================================
+    cells  bounds       meaning
+    =====  ===========  ==========================================================================
+    0-1    [-1, 1]      own position / L
+    2-3    [-2, 2]      own velocity / V
+    4-5    [-1, 1]      own heading (cos, sin)
+    6-7    [-1, 1]      target position minus own position / (2 L)
+    8      [0, sqrt 2]  distance to target / (2 L)
+    9      [0, 1]       own active flag (1 playing, 0 arrived)
+    10+    per seat     every other seat (teammates first, then opponents, each in seat order), 5
+                        cells at ``10 + 5 * k``: its position minus own / (2 L) in [-1, 1], its
+                        velocity minus own / (2 V) in [-2, 2], its active flag in [0, 1]
+    =====  ===========  ==========================================================================
 
-    then, for every other seat (teammates first, then opponents, each group in seat order), 5
-    cells at ``10 + 5 * k``: its position minus own position (dx, dy) / (2 L), in [-1, 1], its
-    velocity minus own velocity (dvx, dvy) / (2 V), in [-2, 2], its active flag, in [0, 1].
-
-    Bounds: the walls keep every agent and target inside the world box [-L, L]^2, so positions,
-    their differences and headings lie in [-1, 1] and distances in [0, sqrt 2]. Thrust alone never
-    takes an agent past ``V``, and contacts only a little beyond; a velocity cell beyond
-    ``VELOCITY_BOUND`` = 2 (twice the top speed, or twice the widest difference of two agents at
-    top speed) is clipped to it. These bounds are the env's observation space.
+    Bounds (the env's observation space, ``crossroads_observation``): the walls keep agents and
+    targets inside [-L, L]^2, so positions, their differences and headings lie in [-1, 1] and
+    distances in [0, sqrt 2]; a velocity cell beyond ``VELOCITY_BOUND`` = 2 (only contacts push an
+    agent a little past ``V``) is clipped to it.
 
 State (``float32[9 * n_agents]``, world frame)
-    Per seat in seat order: position / L (2), velocity / V (2), heading (cos, sin), target
-    position / L (2), active flag; bounds [-1, 1], except velocities in [-2, 2] (clipped) and
-    the flag in [0, 1].
+    Per seat: position / L (2), velocity / V (2), heading (cos, sin), target position / L (2),
+    active flag; bounds [-1, 1], velocities [-2, 2] (clipped), the flag [0, 1].
 
 Default social tree (the paper's table)
-    CP ``ranking`` (``order="depart"``, scale 100) at the root over the teams; IS ``target``
-    (scale 1) at every agent leaf; with more than one player per team the root's children are
-    team nodes (NL ``none``) holding their members' leaves. ``CASE_STUDY_TREES`` holds the
-    paper's three case-study trees for 2T2P: ``all_IS``, ``all_CL`` and ``CL_under_CP``.
+    CP ``ranking`` (``order="depart"``, scale 100) at the root over the teams, IS ``target``
+    (scale 1) at every agent leaf; with several players per team the root's children are team
+    nodes (NL ``none``). ``CASE_STUDY_TREES`` holds the paper's three case-study trees for 2T2P:
+    ``all_IS``, ``all_CL`` and ``CL_under_CP`` (also the rules' ``example_trees``).
 
-Heuristic
+Heuristic (``heuristic.py``)
     Steer toward the target (toward the crossing first when pushed into a cross road), swerve to
     the right of active agents close ahead, turn toward that direction, then drive.
 
@@ -96,23 +91,18 @@ Game options (``OPTIONS``)
 Playing it (``arena-league play``)
     A coarse text view of the top-down picture (team digits, ``#`` the road's edges); a move is an
     action's number or name (``forward``, ``turn_left``, ...); Enter repeats the last. Discrete
-    actions only.
+    actions only. In a browser, arrows (or W A S D) drive and turn while held.
 
-Rendering
-    A top-down picture of the crossing (400 pixels square): the roads and their walls, each target
-    as a ring of the arrival radius, each agent in its team's colour (faded once arrived) with a
-    white tick along its heading. ``render_mode="rgb_array"`` returns it; ``"human"`` shows it in a
-    window.
+Rendering and replay scene
+    A top-down picture (400 pixels square; ``render_mode="rgb_array"`` or ``"human"``): the roads
+    and their walls, each target as a ring of the arrival radius, each agent in its team's colour
+    (faded once arrived) with a white tick along its heading. The replay scene has the roads (flat
+    cubes, entity ``roads``), every agent (a sphere, or a cube with boxes, faded once arrived) with
+    a heading arrow (``agent/<seat>``), and each target (a flat disc, ``target/<seat>``).
 
 Copies
-    The rules pickle and copy (``pickle``, ``copy.deepcopy``) by playing the match again from its
-    seed and the actions since (pymunk's contact caches cannot be copied), so a copy goes on bit
-    for bit as the original does.
-
-Replay scene
-    The two roads (flat cubes), every agent (a sphere, or a cube with ``agent_shape="box"``, faded
-    once arrived) with a heading arrow, and each target (a flat disc of the arrival radius):
-    entities ``roads``, ``agent/<seat>`` and ``target/<seat>``.
+    The rules pickle and copy by playing the match again from its seed and the actions since
+    (pymunk's contact caches cannot be copied), so a copy goes on bit for bit as the original does.
 """
 
 from __future__ import annotations
@@ -128,66 +118,38 @@ from arena_league.envs import scene
 from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
 from arena_league.envs.core import cell_bounds
 from arena_league.envs.options import Option
-from arena_league.envs.physics2d import (
-    SPARE_CELLS,
-    Bodies,
-    BodyFields,
-    CellLayout,
-    Field,
-    Material,
-    Physics2DRules,
-    Run,
-    Walls,
-    World,
-    body_cells,
-)
+from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, CellLayout, Physics2DRules, Run, body_cells
 from arena_league.envs.physics2d.contacts import ContactImpulses
 from arena_league.envs.physics2d.gather import Gather
+from arena_league.envs.physics2d.world import Bodies, Field, Material, Walls, World
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
-#: Distance from the centre to the end of each arm.
-ARM_LENGTH = 10.0
-#: Half the width of each road.
-ROAD_HALF_WIDTH = 2.5
-#: Radius of an agent disc (half the side of an agent box).
-AGENT_RADIUS = 0.5
-AGENT_MASS = 1.0
-#: Walls are pymunk segments this thick on each side of the road's edge.
-WALL_RADIUS = 0.05
-#: Restitution and friction of agents and walls alike.
-ELASTICITY = 0.5
-FRICTION = 0.2
+#: The crossing: each arm's reach from the centre, each road's half width.
+ARM_LENGTH, ROAD_HALF_WIDTH = 10.0, 2.5
+#: Radius of an agent disc (half the side of an agent box), and its mass.
+AGENT_RADIUS, AGENT_MASS = 0.5, 1.0
+#: Walls are pymunk segments this thick on each side of the road's edge; agents and walls share a
+#: restitution and a friction.
+WALL_RADIUS, ELASTICITY, FRICTION = 0.05, 0.5, 0.2
 #: Seconds of simulation per env step.
 DT = 0.1
 #: Physics steps per env step. Chipmunk sees a contact only once two shapes overlap; at full
 #: speed two agents meeting head-on close 0.55 in 0.1 s, so one step of 0.1 s would let them sink
 #: more than half a radius into each other before the contact pushes back. Two halve that.
 SUBSTEPS = 2
-#: Seconds per physics step.
 PHYSICS_DT = DT / SUBSTEPS
-#: Overlap tolerated without correction, and the share of a deeper overlap left after a second
-#: (half of it fixed per physics step).
-COLLISION_SLOP = 0.02
-COLLISION_BIAS = 0.5 ** (1.0 / PHYSICS_DT)
-#: Force of full thrust.
-THRUST_FORCE = 6.0
-#: Turning rate (rad/s) of a full turn action.
-TURN_RATE = 3.0
+#: Overlap tolerated without correction; half of any deeper overlap is fixed per physics step.
+COLLISION_SLOP, COLLISION_BIAS = 0.02, 0.5 ** (1.0 / PHYSICS_DT)
+#: Force of full thrust, turning rate (rad/s) of a full turn.
+THRUST_FORCE, TURN_RATE = 6.0, 3.0
 #: Fraction of velocity an agent keeps after one second of coasting.
 DAMPING = 0.1
 #: Terminal speed under full thrust: the fixed point of
 #: ``v = v * DAMPING**PHYSICS_DT + THRUST_FORCE * PHYSICS_DT / AGENT_MASS``.
 TOP_SPEED = THRUST_FORCE * PHYSICS_DT / AGENT_MASS / (1.0 - DAMPING**PHYSICS_DT)
-#: Distance from the centre of the start line and of the target line, along the team's road.
-START_DISTANCE = 8.0
-#: Uniform jitter, along the road, of every start and target position.
-ALONG_JITTER = 0.5
-#: Lateral distance between team-mates' lanes.
-LANE_SPACING = 1.2
-#: Uniform jitter of the initial heading around the road direction (radians).
-HEADING_JITTER = 0.25
-#: The heuristic swerves around active agents ahead closer than this (centre to centre).
-AVOID_RANGE = 2.0
+#: Distance from the centre of the start and target lines along the road; the uniform jitter of
+#: every start and target along the road; team-mates' lanes apart; heading jitter (radians).
+START_DISTANCE, ALONG_JITTER, LANE_SPACING, HEADING_JITTER = 8.0, 0.5, 1.2, 0.25
 #: Bound of the velocity cells of observations and state, in their units (V, 2 V): thrust alone
 #: never takes an agent past ``TOP_SPEED`` and contacts only a little beyond; faster is clipped.
 VELOCITY_BOUND = 2.0
@@ -198,28 +160,20 @@ OPTIONS = (Option("arrival_radius", float, 1.0, "how close to its target a seat'
 
 #: Direction of travel of each team: west->east, south->north, east->west, north->south.
 _TRAVEL = np.array([(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)])
-
 #: Discrete actions: (thrust, turn) in [-1, 1].
 ACTION_MEANINGS = ("noop", "forward", "backward", "turn_left", "turn_right")
 _DISCRETE_CONTROL = np.array([(0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)])
-_NOOP, _FORWARD, _LEFT, _RIGHT = 0, 1, 3, 4
-
-_OWN_CELLS = 10
-_OTHER_CELLS = 5
-_STATE_CELLS = 9
-
 #: Per discrete action and activity: (turn rate, thrust force, energy); an inactive seat's row
 #: (index + 5) is all zeros, so its action is ignored.
 _DISCRETE_TABLE = np.concatenate([
     np.column_stack([_DISCRETE_CONTROL[:, 1] * TURN_RATE, _DISCRETE_CONTROL[:, 0] * THRUST_FORCE,
                      0.5 * (_DISCRETE_CONTROL ** 2).sum(axis=1)]),
     np.zeros((len(ACTION_MEANINGS), 3))])
-
+_STATE_CELLS = 9
 #: Body fields read after every step (x, y, angle, vx, vy per body) and written before every
 #: physics step (angular velocity, fx, fy per body).
 _READ_FIELDS = BodyFields.POSITION | BodyFields.ANGLE | BodyFields.VELOCITY
 _WRITE_FIELDS = BodyFields.ANGULAR_VELOCITY | BodyFields.FORCE
-_WRITE_CELLS = body_cells(_WRITE_FIELDS)
 
 
 def _wall_outline() -> list[tuple[float, float]]:
@@ -321,14 +275,11 @@ class CrossroadsRules(Physics2DRules):
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs: Any) -> None:
         super().__init__(n_teams, players_per_team, action_type, **kwargs)
-        self.arrival_radius = self.settings["arrival_radius"]
-        self.agent_shape = self.settings["agent_shape"]
+        self.arrival_radius, self.agent_shape = self.settings["arrival_radius"], self.settings["agent_shape"]
         n = self.n_agents
         self.layout = crossroads_observation(n)
-        self.obs_dim = self.layout.size
-        self.state_dim = _STATE_CELLS * n
+        self.obs_dim, self.state_dim = self.layout.size, _STATE_CELLS * n
         self._travel = _TRAVEL[self.team_of]  # (n, 2) world direction of travel of each seat
-
         # The work vector holds everything observations and state are gathered from: the bodies'
         # x, y, angle, vx, vy, then per seat [vx, vy, cos, sin], its target, active flag and
         # distance to target, and a constant 0.
@@ -344,30 +295,25 @@ class CrossroadsRules(Physics2DRules):
         self._motion = world.view("motion").reshape(n, 2, 2)  # [velocity, heading]
         self._heading = self._motion[:, 1]
         self._target = world.view("target").reshape(n, 2)
-        self._active_z = world.view("active")
-        self._distance = world.view("distance")
-        control_rows = world.applied[:_WRITE_CELLS * n].reshape(n, _WRITE_CELLS)
-        self._turn_rate, self._force = control_rows[:, 0], control_rows[:, 1:3]
+        self._active_z, self._distance = world.view("active"), world.view("distance")
+        controls = world.applied.reshape(-1, body_cells(_WRITE_FIELDS))[:n]
+        self._turn_rate, self._force = controls[:, 0], controls[:, 1:3]
         self._observation = self._observation_gather()
         self._state_index, self._state_scale = self._state_gather()
         obs_low, obs_high = self.observation_bounds()
         self._obs_low, self._obs_high = np.tile(obs_low, n), np.tile(obs_high, n)  # the flat seat-major vector
         self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
-
-        # Per-seat gates, changed only when a seat arrives.
-        self._inactive_offset = np.zeros(n, dtype=np.int64)  # + n_actions: the all-zero control row
-        self._gain = np.zeros((n, 2))  # continuous: thrust force, turn rate
-        self._half_active = np.zeros(n)
-        self._arrival_gate = np.zeros(n)  # arrival radius while active, -inf after
+        # Per-seat gates, changed only when a seat arrives: + n_actions (the all-zero control
+        # row), the continuous gains (thrust force, turn rate), half the energy, the arrival
+        # radius (-inf after).
+        self._inactive_offset = np.zeros(n, dtype=np.int64)
+        self._gain, self._half_active, self._arrival_gate = np.zeros((n, 2)), np.zeros(n), np.zeros(n)
         # Scratch arrays reused every step.
         self._action_row = np.zeros(n, dtype=np.int64)
         self._control = np.zeros((n, 3))  # turn rate, thrust force, energy
-        self._squares = np.zeros((n, 2))
-        self._to_target = np.zeros((n, 2))
-        self._safe_distance = np.zeros(n)
+        self._squares, self._to_target, self._safe_distance = np.zeros((n, 2)), np.zeros((n, 2)), np.zeros(n)
         self._dots = np.zeros((n, 2))  # velocity and heading along the unit vector to the target
         self._arriving = np.zeros(n, dtype=bool)
-
         # Measures read straight from the arrays above (views, updated in place every step).
         m = self.measures
         m.target_distance = self._distance
@@ -379,17 +325,6 @@ class CrossroadsRules(Physics2DRules):
         self._team_finish = np.full(n_teams, -1, dtype=np.int64)
 
     # --- construction ------------------------------------------------------------------------
-    def _frame(self, seat: int) -> np.ndarray:
-        """Rotation from world coordinates to the team frame of ``seat`` (travel along +x)."""
-        dx, dy = self._travel[seat]
-        return np.array([[dx, dy], [-dy, dx]])
-
-    def _others(self, seat: int) -> list[int]:
-        """The other seats as a seat observes them: teammates first, then opponents."""
-        team = self.team_of[seat]
-        mates = [j for j in range(self.n_agents) if j != seat and self.team_of[j] == team]
-        return mates + [j for j in range(self.n_agents) if self.team_of[j] != team]
-
     def _observation_gather(self) -> Gather:
         """The flat seat-major observation as a gather from the work vector: team frames are
         rotations by multiples of 90 degrees, so every cell is one entry, or a difference of two,
@@ -400,14 +335,15 @@ class CrossroadsRules(Physics2DRules):
         pos = [world.pos(s, 0) for s in range(n)]
         vel = [world.at("motion", 4 * s) for s in range(n)]
         for s in range(n):
-            R, o = self._frame(s), s * self.obs_dim
+            (dx, dy), o = self._travel[s], s * self.obs_dim
+            R = np.array([[dx, dy], [-dy, dx]])  # world to team frame (travel along +x)
             gather.put_vector(o + layout.at("position"), R, pos[s], None, 1 / ARM_LENGTH)
             gather.put_vector(o + layout.at("velocity"), R, vel[s], None, 1 / TOP_SPEED)
             gather.put_vector(o + layout.at("heading"), R, vel[s] + 2, None, 1.0)
             gather.put_vector(o + layout.at("to_target"), R, world.at("target", 2 * s), pos[s], 1 / L2)
             gather.put(o + layout.at("distance"), world.at("distance", s), None, 1 / L2)
             gather.put(o + layout.at("active"), world.at("active", s), None, 1.0)
-            for k, j in enumerate(self._others(s)):
+            for k, j in enumerate(self.other_seats(s)):
                 gather.put_vector(o + layout.at(f"other_{k}"), R, pos[j], pos[s], 1 / L2)
                 gather.put_vector(o + layout.at(f"other_{k}_velocity"), R, vel[j], vel[s], 1 / V2)
                 gather.put(o + layout.at(f"other_{k}_active"), world.at("active", j), None, 1.0)
@@ -423,24 +359,17 @@ class CrossroadsRules(Physics2DRules):
         return np.array(index, dtype=np.intp), np.array(scale)
 
     def _bind_views(self) -> SimpleNamespace:
-        """Every array operand of the per-step arithmetic, sliced once."""
-        m = self.measures
+        """Every array operand of the per-step arithmetic, sliced once (slicing costs as much as
+        the arithmetic on arrays this small)."""
         return SimpleNamespace(
-            position_x=self._position[:, 0], position_y=self._position[:, 1],
-            angle=self._angle, velocity=self._velocity,
-            velocity_x=self._velocity[:, 0], velocity_y=self._velocity[:, 1],
-            motion=self._motion, motion_velocity=self._motion[:, 0], heading=self._heading,
-            cos=self._heading[:, 0], sin=self._heading[:, 1],
-            target_x=self._target[:, 0], target_y=self._target[:, 1],
-            distance=self._distance, safe_distance=self._safe_distance,
-            tiny=np.full(self.n_agents, 1e-12),
+            velocity=self._velocity, velocity_x=self._velocity[:, 0], velocity_y=self._velocity[:, 1],
+            motion_velocity=self._motion[:, 0], cos=self._heading[:, 0], sin=self._heading[:, 1],
             to_target_x=self._to_target[:, 0], to_target_y=self._to_target[:, 1],
+            safe_distance_column=self._safe_distance[:, None], tiny=np.full(self.n_agents, 1e-12),
             to_target_column=self._to_target[:, :, None], dots_column=self._dots[:, :, None],
-            speed=m.speed, energy=m.energy,
             control_turn=self._control[:, 0], control_thrust=self._control[:, 1:2],
             control_continuous=self._control[:, 1::-1],  # thrust force, turn rate
-            squares_thrust=self._squares[:, 0], squares_turn=self._squares[:, 1],
-            turn_rate=self._turn_rate, force=self._force)
+            squares_thrust=self._squares[:, 0], squares_turn=self._squares[:, 1])
 
     # --- the match ---------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
@@ -459,24 +388,14 @@ class CrossroadsRules(Physics2DRules):
         left = np.stack([-d[:, 1], d[:, 0]], axis=1)
         starts = start_along[:, None] * d + start_lateral[:, None] * left
         self._target[:] = target_along[:, None] * d + target_lateral[:, None] * left
-        angles = np.arctan2(d[:, 1], d[:, 0]) + heading_jitter
-        self.world.build({"agent": starts}, angles={"agent": angles})
+        self.world.build({"agent": starts}, angles={"agent": np.arctan2(d[:, 1], d[:, 0]) + heading_jitter})
         self._contacts.bind()
-
-        self._active_z[:] = 1.0
-        self._inactive_offset[:] = 0
-        self._gain[:] = (THRUST_FORCE, TURN_RATE)
-        self._half_active[:] = 0.5
-        self._arrival_gate[:] = self.arrival_radius
-        self._control[:] = 0.0
-        self._turn_rate[:] = 0.0
-        self._force[:] = 0.0
+        self._active_z[:], self._inactive_offset[:], self._gain[:] = 1.0, 0, (THRUST_FORCE, TURN_RATE)
+        self._half_active[:], self._arrival_gate[:] = 0.5, self.arrival_radius
+        for zeros in (self._control, self._turn_rate, self._force):
+            zeros[:] = 0.0
         m = self.measures
-        m.active[:] = True
-        m.arrived[:] = False
-        m.energy[:] = 0.0
-        m.force[:] = 0.0
-        m.outcome[:] = 0.0
+        m.active[:], m.arrived[:], m.energy[:], m.force[:], m.outcome[:] = True, False, 0.0, 0.0, 0.0
         self._update_kinematics()
         self.game_over = False
         self._step_count = 0
@@ -485,20 +404,17 @@ class CrossroadsRules(Physics2DRules):
 
     def _update_kinematics(self) -> None:
         """From the bodies just read into the work vector: headings, distances, the measures about
-        the target, speeds. (Every operand is a view bound in ``_bind_views``: slicing costs as
-        much as the arithmetic on arrays this small.)"""
+        the target, speeds."""
         v = self._views
         np.copyto(v.motion_velocity, v.velocity)
-        np.cos(v.angle, out=v.cos)
-        np.sin(v.angle, out=v.sin)
-        np.subtract(v.target_x, v.position_x, out=v.to_target_x)
-        np.subtract(v.target_y, v.position_y, out=v.to_target_y)
-        np.hypot(v.to_target_x, v.to_target_y, out=v.distance)
-        np.maximum(v.distance, v.tiny, out=v.safe_distance)
-        np.divide(v.to_target_x, v.safe_distance, out=v.to_target_x)
-        np.divide(v.to_target_y, v.safe_distance, out=v.to_target_y)
-        np.matmul(v.motion, v.to_target_column, out=v.dots_column)  # velocity, heading . unit
-        np.hypot(v.velocity_x, v.velocity_y, out=v.speed)
+        np.cos(self._angle, out=v.cos)
+        np.sin(self._angle, out=v.sin)
+        np.subtract(self._target, self._position, out=self._to_target)
+        np.hypot(v.to_target_x, v.to_target_y, out=self._distance)
+        np.maximum(self._distance, v.tiny, out=self._safe_distance)
+        np.divide(self._to_target, v.safe_distance_column, out=self._to_target)
+        np.matmul(self._motion, v.to_target_column, out=v.dots_column)  # velocity, heading . unit
+        np.hypot(v.velocity_x, v.velocity_y, out=self.measures.speed)
 
     def step(self, actions: np.ndarray) -> None:
         self._record("step", actions.copy())
@@ -507,21 +423,20 @@ class CrossroadsRules(Physics2DRules):
         if self.action_type == "discrete":
             np.add(actions, self._inactive_offset, out=self._action_row)
             _DISCRETE_TABLE.take(self._action_row, axis=0, out=self._control)
-            np.copyto(v.turn_rate, v.control_turn)
-            np.multiply(v.heading, v.control_thrust, out=v.force)
         else:
             np.multiply(actions, self._gain, out=v.control_continuous)
-            np.copyto(v.turn_rate, v.control_turn)
-            np.multiply(v.heading, v.control_thrust, out=v.force)
             np.multiply(actions, actions, out=self._squares)
-            np.add(v.squares_thrust, v.squares_turn, out=v.energy)
-            np.multiply(v.energy, self._half_active, out=v.energy)
+            energy = self.measures.energy
+            np.add(v.squares_thrust, v.squares_turn, out=energy)
+            np.multiply(energy, self._half_active, out=energy)
+        np.copyto(self._turn_rate, v.control_turn)
+        np.multiply(self._heading, v.control_thrust, out=self._force)
         self.world.step(self._collect_contacts)  # the turn rate and force, written before every physics step
         self._update_kinematics()
         self._contacts.forces(self.measures.force, DT)
         if self._events:
             self._events = []
-        np.less(v.distance, self._arrival_gate, out=self._arriving)
+        np.less(self._distance, self._arrival_gate, out=self._arriving)
         if np.count_nonzero(self._arriving):
             self._arrive(np.flatnonzero(self._arriving))
 
@@ -529,13 +444,9 @@ class CrossroadsRules(Physics2DRules):
         m = self.measures
         agents = self.world.bodies["agent"]
         for seat in seats.tolist():
-            m.active[seat] = False
-            m.arrived[seat] = True
-            self._active_z[seat] = 0.0
-            self._inactive_offset[seat] = len(ACTION_MEANINGS)
-            self._gain[seat] = 0.0
-            self._half_active[seat] = 0.0
-            self._arrival_gate[seat] = -np.inf
+            m.active[seat], m.arrived[seat] = False, True
+            self._active_z[seat], self._inactive_offset[seat] = 0.0, len(ACTION_MEANINGS)
+            self._gain[seat], self._half_active[seat], self._arrival_gate[seat] = 0.0, 0.0, -np.inf
             body = agents[seat]
             for shape in body.shapes:
                 shape.filter = pymunk.ShapeFilter(categories=0, mask=0)  # collides with nothing
@@ -599,38 +510,10 @@ class CrossroadsRules(Physics2DRules):
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
-        """Steer toward the target (from off the own road, toward the crossing first), keep to
-        the right of active agents close ahead, turn toward the resulting direction, then drive."""
-        obs = np.asarray(obs, dtype=np.float64)
-        position = obs[:, 0:2] * ARM_LENGTH
-        heading = obs[:, 4:6]
-        aim = obs[:, 6:8] / np.maximum(obs[:, 8:9], 1e-9)
-        # Pushed into a cross road (beyond the own road's edge, not yet past the crossing): the
-        # straight line to the target would run into a wall corner, so head for the centre first.
-        off_road = (np.abs(position[:, 1]) > ROAD_HALF_WIDTH - AGENT_RADIUS) & (position[:, 0] < ROAD_HALF_WIDTH)
-        to_centre = -position / np.maximum(np.hypot(position[:, 0], position[:, 1]), 1e-9)[:, None]
-        aim = np.where(off_road[:, None], to_centre, aim)
-        # Active agents within AVOID_RANGE ahead on the way push the aim to the right of the line
-        # toward them, so two agents meeting head-on both swerve right and pass each other.
-        others = obs[:, _OWN_CELLS:].reshape(len(obs), -1, _OTHER_CELLS)
-        offset = others[:, :, 0:2] * (2 * ARM_LENGTH)
-        gap = np.maximum(np.hypot(offset[:, :, 0], offset[:, :, 1]), 1e-9)
-        toward = offset / gap[:, :, None]
-        ahead = np.einsum("nkc,nc->nk", toward, aim) > 0.5  # ahead on the way, whatever the heading
-        weight = np.clip((AVOID_RANGE - gap) / (AVOID_RANGE - 2 * AGENT_RADIUS), 0.0, 1.0)
-        weight *= ahead * (others[:, :, 4] > 0.5)
-        right_of = np.stack([toward[:, :, 1], -toward[:, :, 0]], axis=2)
-        aim = aim + np.einsum("nk,nkc->nc", weight, right_of - 0.5 * toward)
-        error = np.arctan2(heading[:, 0] * aim[:, 1] - heading[:, 1] * aim[:, 0],
-                           heading[:, 0] * aim[:, 0] + heading[:, 1] * aim[:, 1])
-        active = obs[:, 9] > 0.5
-        if action_type == "discrete":
-            half_turn = 0.5 * TURN_RATE * DT
-            action = np.where(error > half_turn, _LEFT, np.where(error < -half_turn, _RIGHT, _FORWARD))
-            return np.where(active, action, _NOOP).astype(np.int64)
-        turn = np.clip(error / (TURN_RATE * DT), -1.0, 1.0)
-        thrust = np.clip(np.cos(error), 0.0, 1.0)
-        return (np.stack([thrust, turn], axis=1) * active[:, None]).astype(np.float32)
+        """Steer toward the target, keep to the right of active agents close ahead (see the module)."""
+        from arena_league.envs.games.crossroads.heuristic import heuristic
+
+        return heuristic(obs, action_type)
 
     # --- picture -----------------------------------------------------------------------------
     def render_topdown(self) -> np.ndarray:
