@@ -6,39 +6,34 @@ a traffic jam under isolated rewards, waiting under one collaborative reward, an
 two collaborative teams that compete.
 
 Arena
-    A cross of two roads ``2 * ROAD_HALF_WIDTH`` = 5 wide whose arms reach ``ARM_LENGTH`` = 10 from
-    the centre (world box [-10, 10]^2, y up), bounded by static pymunk segments. Each team drives
-    from its own arm to targets at the end of the opposite one, so the paths cross in the middle:
-    team 0 west -> east, team 1 south -> north and, with four teams, team 2 east -> west and team 3
-    north -> south.
+    A cross of two roads 5 wide whose arms reach ``ARM_LENGTH`` = 10 from the centre (world box
+    [-10, 10]^2, y up), bounded by static pymunk segments. Each team drives from its own arm to
+    targets at the end of the opposite one, so the paths cross in the middle: team 0 west -> east,
+    team 1 south -> north and, with four teams, team 2 east -> west and team 3 north -> south.
 
 Agents
-    Pymunk discs of radius 0.5 (or 1 x 1 boxes, ``agent_shape="box"``) of mass 1 that contacts
-    push and bounce (elasticity 0.5) but never spin: only the agent turns itself. Each env step
-    (``DT`` = 0.1 s, simulated as ``SUBSTEPS`` = 2 pymunk steps) it applies a thrust of up to
-    ``THRUST_FORCE`` = 6 along its heading at the start of the step and turns at up to
-    ``TURN_RATE`` = 3 rad/s; damping (a coasting agent keeps 10% of its velocity after a second)
-    caps its speed at ``TOP_SPEED`` ~ 2.8. Team members start side by side across their arm
-    (``LANE_SPACING`` = 1.2 apart) about 8 from the centre, facing roughly down the road; their
-    targets lie in the same order across the far end of the opposite arm. Starts, targets and
-    headings are jittered from the seed.
+    Pymunk discs of radius 0.5 (or 1 x 1 boxes) of mass 1 that contacts push and bounce (elasticity
+    0.5) but never spin: only the agent turns itself. Each env step (``DT`` = 0.1 s, simulated as
+    ``SUBSTEPS`` = 2 pymunk steps) it applies a thrust of up to ``THRUST_FORCE`` = 6 along its
+    heading at the start of the step and turns at up to ``TURN_RATE`` = 3 rad/s; damping (a
+    coasting agent keeps 10% of its velocity after a second) caps its speed at ``TOP_SPEED`` ~ 2.8.
+    Team members start side by side across their arm (``LANE_SPACING`` = 1.2 apart) about 8 from
+    the centre, facing roughly down the road; their targets lie in the same order across the far
+    end of the opposite arm. Starts, targets and headings are jittered from the seed.
 
 Actions
     ``discrete`` (default): 0 noop, 1 forward, 2 backward, 3 turn left, 4 turn right.
     ``continuous``: ``[thrust, turn]`` in [-1, 1], scaling the forward force (negative reverses)
     and the turning rate (positive turns left, counter-clockwise).
 
-Arrival and episode end
+Arrival, end and result
     A seat whose centre comes within ``arrival_radius`` of its target has *arrived*: it becomes
-    inactive, stops where it is and collides with nothing, so it blocks no one. The match ends when
-    every seat has arrived, or at ``max_cycles`` (default 300 steps; an agent alone arrives in
-    about 70, heuristic teams of four in at most about 150).
-
-Result
-    Teams rank by the step their last member arrived (earlier is better); teams that never finish
-    rank last, tied. ``team_result``: with two teams 1 / 0.5 / 0 for first / tie / last; with more,
-    the number of teams beaten plus half the number tied with. ``outcome`` per seat maps that score
-    linearly to [-1, 1]: +1 first, -1 last, 0 a draw.
+    inactive, stops where it is and collides with nothing. The match ends when every seat has
+    arrived, or at ``max_cycles`` (default 300 steps; an agent alone arrives in about 70, heuristic
+    teams of four in at most about 150). Teams rank by the step their last member arrived (earlier
+    is better; never is last, tied). ``team_result``: with two teams 1 / 0.5 / 0 for first / tie /
+    last; with more, the teams beaten plus half those tied with. ``outcome`` maps that score
+    linearly to [-1, 1] per seat: +1 first, -1 last, 0 a draw.
 
 Measures (one value per seat, see ``MEASURE_DOCS``)
     ``active``, ``arrived``, ``target_distance`` (frozen on arrival), ``velocity_to_target``,
@@ -47,38 +42,27 @@ Measures (one value per seat, see ``MEASURE_DOCS``)
     and agent-wall, summed and divided by ``DT``), ``speed``.
 
 Observation (``float32[10 + 5 * (n_agents - 1)]`` per seat)
-    In the seat's *team frame*: the world turned so that the team travels along +x (team 0: the
-    world frame; team 1: turned by -90 degrees; ...), so every seat sees its start at x ~ -0.8 and
-    its target at x ~ +0.8, and one policy plays any seat. ``L`` = 10, ``V`` = ``TOP_SPEED``.
-
-    =====  ===========  ==========================================================================
-    cells  bounds       meaning
-    =====  ===========  ==========================================================================
-    0-1    [-1, 1]      own position / L
-    2-3    [-2, 2]      own velocity / V
-    4-5    [-1, 1]      own heading (cos, sin)
-    6-7    [-1, 1]      target position minus own position / (2 L)
-    8      [0, sqrt 2]  distance to target / (2 L)
-    9      [0, 1]       own active flag (1 playing, 0 arrived)
-    10+    per seat     every other seat (teammates first, then opponents, each in seat order), 5
-                        cells at ``10 + 5 * k``: its position minus own / (2 L) in [-1, 1], its
-                        velocity minus own / (2 V) in [-2, 2], its active flag in [0, 1]
-    =====  ===========  ==========================================================================
-
-    Bounds (the env's observation space, ``crossroads_observation``): the walls keep agents and
-    targets inside [-L, L]^2, so positions, their differences and headings lie in [-1, 1] and
-    distances in [0, sqrt 2]; a velocity cell beyond ``VELOCITY_BOUND`` = 2 (only contacts push an
-    agent a little past ``V``) is clipped to it.
+    In the seat's *team frame*, the world turned so that the team travels along +x (team 0: the
+    world frame; team 1: turned by -90 degrees; ...): every seat sees its start at x ~ -0.8 and its
+    target at x ~ +0.8, so one policy plays any seat. With ``L`` = 10 and ``V`` = ``TOP_SPEED``:
+    own position / L (cells 0-1), velocity / V (2-3), heading (cos, sin; 4-5), target position
+    minus own position / (2 L) (6-7), distance to target / (2 L) (8), active flag (9: 1 playing, 0
+    arrived); then 5 cells for every other seat (teammates first, then opponents, each in seat
+    order) from ``10 + 5 * k``: its position minus own / (2 L), its velocity minus own / (2 V), its
+    active flag. Bounds: velocity cells [-2, 2], the distance [0, sqrt 2], flags [0, 1], every
+    other cell [-1, 1] (the walls keep agents and targets inside [-L, L]^2; a velocity cell beyond
+    ``VELOCITY_BOUND`` = 2, which only contacts can push an agent to, is clipped). These bounds
+    are the env's observation space; ``CrossroadsRules(...).layout.table()`` lists every run of
+    cells with its bounds and meaning (``crossroads_observation``).
 
 State (``float32[9 * n_agents]``, world frame)
     Per seat: position / L (2), velocity / V (2), heading (cos, sin), target position / L (2),
     active flag; bounds [-1, 1], velocities [-2, 2] (clipped), the flag [0, 1].
 
-Default social tree (the paper's table)
-    CP ``ranking`` (``order="depart"``, scale 100) at the root over the teams, IS ``target``
-    (scale 1) at every agent leaf; with several players per team the root's children are team
-    nodes (NL ``none``). ``CASE_STUDY_TREES`` holds the paper's three case-study trees for 2T2P:
-    ``all_IS``, ``all_CL`` and ``CL_under_CP`` (also the rules' ``example_trees``).
+Social trees
+    Default (the paper's table): CP ``ranking`` (``order="depart"``, scale 100) over the teams, IS
+    ``target`` (scale 1) at every leaf; with several players a team, team nodes NL ``none`` between.
+    ``CASE_STUDY_TREES`` (``example_trees`` for 2T2P): ``all_IS``, ``all_CL`` and ``CL_under_CP``.
 
 Heuristic (``heuristic.py``)
     Steer toward the target (toward the crossing first when pushed into a cross road), swerve to
@@ -89,20 +73,18 @@ Game options (``OPTIONS``)
     must come to arrive; ``agent_shape`` (``"circle"``, the default, or ``"box"``).
 
 Playing it (``arena-league play``)
-    A coarse text view of the top-down picture (team digits, ``#`` the road's edges); a move is an
-    action's number or name (``forward``, ``turn_left``, ...); Enter repeats the last. Discrete
-    actions only. In a browser, arrows (or W A S D) drive and turn while held.
+    A text view of the picture (team digits, ``#`` the road's edges); a move is an action's number
+    or name (``forward``, ``turn_left``, ...), Enter repeats the last; discrete actions only. In a
+    browser, arrows (or W A S D) drive and turn while held.
 
-Rendering and replay scene
+Picture, replay scene, copies
     A top-down picture (400 pixels square; ``render_mode="rgb_array"`` or ``"human"``): the roads
-    and their walls, each target as a ring of the arrival radius, each agent in its team's colour
-    (faded once arrived) with a white tick along its heading. The replay scene has the roads (flat
-    cubes, entity ``roads``), every agent (a sphere, or a cube with boxes, faded once arrived) with
-    a heading arrow (``agent/<seat>``), and each target (a flat disc, ``target/<seat>``).
-
-Copies
-    The rules pickle and copy by playing the match again from its seed and the actions since
-    (pymunk's contact caches cannot be copied), so a copy goes on bit for bit as the original does.
+    and walls, each target as a ring of the arrival radius, each agent in its team's colour (faded
+    once arrived) with a white tick along its heading. The replay scene: the roads (``roads``),
+    every agent as declared (sphere or cube, faded once arrived) with a heading arrow
+    (``agent/<seat>``), each target as a flat disc (``target/<seat>``). The rules pickle and copy
+    by playing the match again from its seed and the actions since (pymunk's contact caches cannot
+    be copied), so a copy goes on bit for bit as the original does.
 """
 
 from __future__ import annotations
@@ -121,6 +103,7 @@ from arena_league.envs.options import Option
 from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, CellLayout, Physics2DRules, Run, body_cells
 from arena_league.envs.physics2d.contacts import ContactImpulses
 from arena_league.envs.physics2d.gather import Gather
+from arena_league.envs.physics2d.picture import draw_body, draw_walls, scene_body
 from arena_league.envs.physics2d.world import Bodies, Field, Material, Walls, World
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
@@ -176,17 +159,12 @@ _READ_FIELDS = BodyFields.POSITION | BodyFields.ANGLE | BodyFields.VELOCITY
 _WRITE_FIELDS = BodyFields.ANGULAR_VELOCITY | BodyFields.FORCE
 
 
-def _wall_outline() -> list[tuple[float, float]]:
-    """Corners of the cross-shaped road boundary, counter-clockwise from the west arm's end."""
-    L, H = ARM_LENGTH, ROAD_HALF_WIDTH
-    return [(-L, -H), (-H, -H), (-H, -L), (H, -L), (H, -H), (L, -H),
-            (L, H), (H, H), (H, L), (-H, L), (-H, H), (-L, H)]
-
-
 def crossroads_field(n_agents: int, agent_shape: str) -> Field:
     """The agents (added, and batch-read, in seat order; contacts push them but never spin them),
-    then the road's edges, each wall added on its own."""
-    outline = _wall_outline()
+    then the road's edges (the cross's corners counter-clockwise from the west arm's end), each
+    wall added on its own."""
+    L, H = ARM_LENGTH, ROAD_HALF_WIDTH
+    outline = [(-L, -H), (-H, -H), (-H, -L), (H, -L), (H, -H), (L, -H), (L, H), (H, H), (H, L), (-H, L), (-H, H), (-L, H)]
     material = Material(ELASTICITY, FRICTION)
     return Field(dt=PHYSICS_DT, damping=DAMPING, collision_slop=COLLISION_SLOP, collision_bias=COLLISION_BIAS,
                  substeps=SUBSTEPS, parts=(
@@ -209,10 +187,6 @@ def crossroads_observation(n_agents: int) -> CellLayout:
     return CellLayout(runs)
 
 
-def _leaf(seat: int) -> dict:
-    return {"agent": f"player_{seat}", "scheme": "IS", "reward": "target", "scale": 1}
-
-
 def _players(seats: range) -> list[str]:
     return [f"player_{s}" for s in seats]
 
@@ -226,11 +200,8 @@ CASE_STUDY_TREES: dict[str, dict] = {
     # Two collaborative teams that compete to depart first (agents learn to block).
     "CL_under_CP": {
         "scheme": "CP", "reward": "ranking", "scale": 100, "params": {"order": "depart"},
-        "children": [
-            {"scheme": "CL", "reward": "team_target", "scale": 1, "children": _players(range(2))},
-            {"scheme": "CL", "reward": "team_target", "scale": 1, "children": _players(range(2, 4))},
-        ],
-    },
+        "children": [{"scheme": "CL", "reward": "team_target", "scale": 1, "children": _players(range(first, first + 2))}
+                     for first in (0, 2)]},
 }
 
 
@@ -259,9 +230,8 @@ class CrossroadsRules(Physics2DRules):
     version: ClassVar[int] = 1
     layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2), (2, 3), (2, 4), (4, 1))
     action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
-    measures_provided: ClassVar[frozenset[str]] = frozenset({
-        "active", "arrived", "target_distance", "velocity_to_target", "facing_target",
-        "energy", "force", "speed", "outcome"})
+    measures_provided: ClassVar[frozenset[str]] = frozenset({"active", "arrived", "target_distance", "velocity_to_target",
+                                                            "facing_target", "energy", "force", "speed", "outcome"})
     default_max_cycles: ClassVar[int] = 300
     #: The crossing's measures in world units, for tools that read positions from the state.
     geometry: ClassVar[dict[str, float]] = {"arm_length": ARM_LENGTH, "road_half_width": ROAD_HALF_WIDTH,
@@ -269,9 +239,7 @@ class CrossroadsRules(Physics2DRules):
     summary: ClassVar[str] = "teams drive across a crossing to targets on the far side; physical collisions"
     options = OPTIONS
 
-    n_actions = len(ACTION_MEANINGS)
-    act_dim = 2
-    action_meanings = ACTION_MEANINGS
+    n_actions, act_dim, action_meanings = len(ACTION_MEANINGS), 2, ACTION_MEANINGS
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs: Any) -> None:
         super().__init__(n_teams, players_per_team, action_type, **kwargs)
@@ -288,6 +256,7 @@ class CrossroadsRules(Physics2DRules):
             slots=(("motion", 4 * n), ("target", 2 * n), ("active", n), ("distance", n), ("zero", 1)),
             read=_READ_FIELDS, write=_WRITE_FIELDS, contacts=True, spare=SPARE_CELLS)
         self._work = world.work
+        self._agent_kind, self._walls = world.field.parts  # as drawn
         self._contacts = ContactImpulses(world, "agent")
         self._collect_contacts = self._contacts.collect
         agents = world.table[:n]
@@ -397,10 +366,8 @@ class CrossroadsRules(Physics2DRules):
         m = self.measures
         m.active[:], m.arrived[:], m.energy[:], m.force[:], m.outcome[:] = True, False, 0.0, 0.0, 0.0
         self._update_kinematics()
-        self.game_over = False
-        self._step_count = 0
+        self.game_over, self._step_count, self._events = False, 0, []
         self._team_finish[:] = -1
-        self._events = []
 
     def _update_kinematics(self) -> None:
         """From the bodies just read into the work vector: headings, distances, the measures about
@@ -500,11 +467,10 @@ class CrossroadsRules(Physics2DRules):
     # --- trees and policies ------------------------------------------------------------------
     @classmethod
     def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        teams = [[_leaf(t * players_per_team + i) for i in range(players_per_team)] for t in range(n_teams)]
-        if players_per_team == 1:
-            children = [members[0] for members in teams]
-        else:
-            children = [{"scheme": "NL", "reward": "none", "children": members} for members in teams]
+        teams = [[{"agent": f"player_{t * players_per_team + i}", "scheme": "IS", "reward": "target", "scale": 1}
+                  for i in range(players_per_team)] for t in range(n_teams)]
+        children = ([members[0] for members in teams] if players_per_team == 1
+                    else [{"scheme": "NL", "reward": "none", "children": members} for members in teams])
         return {"scheme": "CP", "reward": "ranking", "scale": 100, "params": {"order": "depart"},
                 "children": children}
 
@@ -519,49 +485,29 @@ class CrossroadsRules(Physics2DRules):
     def render_topdown(self) -> np.ndarray:
         L, H = ARM_LENGTH, ROAD_HALF_WIDTH
         canvas = Canvas(-L, L, -L, L, size=400, background=(70, 110, 70))
-        road = (200, 200, 195)
-        canvas.rect(-L, -H, L, H, fill=road)
-        canvas.rect(-H, -L, H, L, fill=road)
-        outline = _wall_outline()
-        for (ax, ay), (bx, by) in zip(outline, outline[1:] + outline[:1]):
-            canvas.line(ax, ay, bx, by, fill=(40, 40, 40), width_px=3)
-        for seat in range(self.n_agents):
-            colour = TEAM_COLOURS[self.team_of[seat] % len(TEAM_COLOURS)]
-            tx, ty = self._target[seat]
+        canvas.rect(-L, -H, L, H, fill=(200, 200, 195))
+        canvas.rect(-H, -L, H, L, fill=(200, 200, 195))
+        draw_walls(canvas, self._walls, (40, 40, 40), 3)
+        colours = [TEAM_COLOURS[team % len(TEAM_COLOURS)] for team in self.team_of]
+        for (tx, ty), colour in zip(self._target, colours):
             canvas.circle(tx, ty, self.arrival_radius, fill=None, outline=colour)
             canvas.circle(tx, ty, 0.12, fill=colour)
-        for seat in range(self.n_agents):
-            colour = TEAM_COLOURS[self.team_of[seat] % len(TEAM_COLOURS)]
-            if not self.measures.active[seat]:
-                colour = tuple((c + 255) // 2 for c in colour)
-            x, y = self._position[seat]
-            c, s = self._heading[seat]
-            if self.agent_shape == "circle":
-                canvas.circle(x, y, AGENT_RADIUS, fill=colour, outline=(20, 20, 20))
-            else:
-                corners = [(x + c * u - s * v, y + s * u + c * v) for u, v in
-                           ((AGENT_RADIUS, AGENT_RADIUS), (-AGENT_RADIUS, AGENT_RADIUS),
-                            (-AGENT_RADIUS, -AGENT_RADIUS), (AGENT_RADIUS, -AGENT_RADIUS))]
-                canvas.draw.polygon([canvas.px(px, py) for px, py in corners], fill=colour, outline=(20, 20, 20))
-            canvas.line(x, y, x + c * AGENT_RADIUS, y + s * AGENT_RADIUS, fill=(255, 255, 255), width_px=2)
+        for seat, colour in enumerate(colours):
+            faded = colour if self.measures.active[seat] else tuple((c + 255) // 2 for c in colour)
+            draw_body(canvas, self._agent_kind, *self._position[seat], self._heading[seat], faded)
         return canvas.array()
 
     def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
-        arm, half_width, radius, ts = ARM_LENGTH, ROAD_HALF_WIDTH, AGENT_RADIUS, timestamp_ns
+        arm, half_width, ts = ARM_LENGTH, ROAD_HALF_WIDTH, timestamp_ns
         road = (0.55, 0.55, 0.55, 1.0)
         out = [scene.entity("roads", ts, cubes=[scene.cube(0, 0, -0.05, (2 * arm, 2 * half_width, 0.1), road),
                                                 scene.cube(0, 0, -0.05, (2 * half_width, 2 * arm, 0.1), road)])]
-        cells = self.state().astype(np.float64).reshape(self.n_agents, _STATE_CELLS)
-        for seat, row in enumerate(cells):
-            x, y = row[0] * arm, row[1] * arm
-            yaw = math.atan2(float(row[5]), float(row[4]))
+        for seat, row in enumerate(self.state().astype(np.float64).reshape(self.n_agents, _STATE_CELLS)):
+            x, y, yaw = row[0] * arm, row[1] * arm, math.atan2(float(row[5]), float(row[4]))
             team = int(self.team_of[seat])
             colour = scene.team_colour(team, 1.0 if row[8] > 0.5 else 0.35)
-            body = ({"cubes": [scene.cube(x, y, radius, (2 * radius, 2 * radius, 2 * radius), colour, yaw)]}
-                    if self.agent_shape == "box"
-                    else {"spheres": [scene.sphere(x, y, radius, (2 * radius,) * 3, colour)]})
-            out.append(scene.entity(f"agent/{seat}", ts, arrows=[scene.arrow(x, y, 2 * radius, yaw, 1.2, colour)],
-                                    **body))
+            out.append(scene.entity(f"agent/{seat}", ts, arrows=[scene.arrow(x, y, 2 * AGENT_RADIUS, yaw, 1.2, colour)],
+                                    **scene_body(self._agent_kind, x, y, yaw, colour)))
             out.append(scene.entity(f"target/{seat}", ts, cylinders=[
                 scene.disc(row[6] * arm, row[7] * arm, 2 * self.arrival_radius, scene.team_colour(team, 0.3))]))
         return out
