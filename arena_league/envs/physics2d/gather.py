@@ -29,7 +29,8 @@ class Gather:
         self.factor = np.zeros(size)
         self._flat_index = self.index.reshape(-1)
         self._gathered = np.zeros((2, size))
-        self._gathered_flat, self._plus, self._minus = self._gathered.reshape(-1), self._gathered[0], self._gathered[1]
+        self._gathered_flat = self._gathered.reshape(-1)
+        self._plus, self._minus = self._gathered
         self._difference = np.zeros(size)
 
     def put(self, cell: int, plus: int, minus: int | None = None, factor: float = 1.0) -> None:

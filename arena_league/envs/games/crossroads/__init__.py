@@ -78,13 +78,11 @@ Playing it (``arena-league play``)
     browser, arrows (or W A S D) drive and turn while held.
 
 Picture, replay scene, copies
-    A top-down picture (400 pixels square; ``render_mode="rgb_array"`` or ``"human"``): the roads
-    and walls, each target as a ring of the arrival radius, each agent in its team's colour (faded
-    once arrived) with a white tick along its heading. The replay scene: the roads (``roads``),
-    every agent as declared (sphere or cube, faded once arrived) with a heading arrow
-    (``agent/<seat>``), each target as a flat disc (``target/<seat>``). The rules pickle and copy
-    by playing the match again from its seed and the actions since (pymunk's contact caches cannot
-    be copied), so a copy goes on bit for bit as the original does.
+    The top-down picture (400 pixels square) and the replay scene show the roads and walls
+    (``roads``), every agent as declared in its team's colour (faded once arrived) with a tick or an
+    arrow along its heading (``agent/<seat>``), each target as a ring or flat disc of the arrival
+    radius (``target/<seat>``). The rules pickle and copy by playing the match again from its seed
+    and the actions since (pymunk's contact caches cannot be copied): a copy goes on bit for bit.
 """
 
 from __future__ import annotations
@@ -100,7 +98,7 @@ from arena_league.envs import scene
 from arena_league.envs.controls import ActionControls, arrow_keys, key_controls
 from arena_league.envs.core import cell_bounds
 from arena_league.envs.options import Option
-from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, CellLayout, Physics2DRules, Run, body_cells
+from arena_league.envs.physics2d import SPARE_CELLS, BodyFields, CellLayout, Physics2DRules, Run
 from arena_league.envs.physics2d.contacts import ContactImpulses
 from arena_league.envs.physics2d.gather import Gather
 from arena_league.envs.physics2d.picture import draw_body, draw_walls, scene_body
@@ -153,10 +151,6 @@ _DISCRETE_TABLE = np.concatenate([
                      0.5 * (_DISCRETE_CONTROL ** 2).sum(axis=1)]),
     np.zeros((len(ACTION_MEANINGS), 3))])
 _STATE_CELLS = 9
-#: Body fields read after every step (x, y, angle, vx, vy per body) and written before every
-#: physics step (angular velocity, fx, fy per body).
-_READ_FIELDS = BodyFields.POSITION | BodyFields.ANGLE | BodyFields.VELOCITY
-_WRITE_FIELDS = BodyFields.ANGULAR_VELOCITY | BodyFields.FORCE
 
 
 def crossroads_field(n_agents: int, agent_shape: str) -> Field:
@@ -164,7 +158,8 @@ def crossroads_field(n_agents: int, agent_shape: str) -> Field:
     then the road's edges (the cross's corners counter-clockwise from the west arm's end), each
     wall added on its own."""
     L, H = ARM_LENGTH, ROAD_HALF_WIDTH
-    outline = [(-L, -H), (-H, -H), (-H, -L), (H, -L), (H, -H), (L, -H), (L, H), (H, H), (H, L), (-H, L), (-H, H), (-L, H)]
+    outline = [(-L, -H), (-H, -H), (-H, -L), (H, -L), (H, -H), (L, -H),
+               (L, H), (H, H), (H, L), (-H, L), (-H, H), (-L, H)]
     material = Material(ELASTICITY, FRICTION)
     return Field(dt=PHYSICS_DT, damping=DAMPING, collision_slop=COLLISION_SLOP, collision_bias=COLLISION_BIAS,
                  substeps=SUBSTEPS, parts=(
@@ -187,27 +182,21 @@ def crossroads_observation(n_agents: int) -> CellLayout:
     return CellLayout(runs)
 
 
-def _players(seats: range) -> list[str]:
-    return [f"player_{s}" for s in seats]
-
-
 #: The paper's Crossroads case study, 2T2P: the same rules under three social trees.
 CASE_STUDY_TREES: dict[str, dict] = {
     # Every agent for itself: each is rewarded for its own progress (a traffic jam).
-    "all_IS": {"scheme": "IS", "reward": "target", "scale": 1, "children": _players(range(4))},
+    "all_IS": {"scheme": "IS", "reward": "target", "scale": 1, "children": [f"player_{s}" for s in range(4)]},
     # One collaborative group: everyone shares the mean progress (agents learn to wait).
-    "all_CL": {"scheme": "CL", "reward": "team_target", "scale": 1, "children": _players(range(4))},
+    "all_CL": {"scheme": "CL", "reward": "team_target", "scale": 1, "children": [f"player_{s}" for s in range(4)]},
     # Two collaborative teams that compete to depart first (agents learn to block).
-    "CL_under_CP": {
-        "scheme": "CP", "reward": "ranking", "scale": 100, "params": {"order": "depart"},
-        "children": [{"scheme": "CL", "reward": "team_target", "scale": 1, "children": _players(range(first, first + 2))}
-                     for first in (0, 2)]},
+    "CL_under_CP": {"scheme": "CP", "reward": "ranking", "scale": 100, "params": {"order": "depart"}, "children": [
+        {"scheme": "CL", "reward": "team_target", "scale": 1, "children": [f"player_{first + s}" for s in range(2)]}
+        for first in (0, 2)]},
 }
 
 
 class CrossroadsControls(ActionControls):
-    """The actions by name at a terminal; in a browser, arrows (or W A S D) drive and turn while
-    held."""
+    """The actions by name at a terminal; in a browser, arrows (or W A S D) drive and turn while held."""
 
     def web(self) -> dict[str, Any]:
         return key_controls(arrow_keys("forward", "turn_left", "backward", "turn_right"), self.PACE,
@@ -230,8 +219,9 @@ class CrossroadsRules(Physics2DRules):
     version: ClassVar[int] = 1
     layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2), (2, 3), (2, 4), (4, 1))
     action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
-    measures_provided: ClassVar[frozenset[str]] = frozenset({"active", "arrived", "target_distance", "velocity_to_target",
-                                                            "facing_target", "energy", "force", "speed", "outcome"})
+    measures_provided: ClassVar[frozenset[str]] = frozenset({
+        "active", "arrived", "target_distance", "velocity_to_target", "facing_target",
+        "energy", "force", "speed", "outcome"})
     default_max_cycles: ClassVar[int] = 300
     #: The crossing's measures in world units, for tools that read positions from the state.
     geometry: ClassVar[dict[str, float]] = {"arm_length": ARM_LENGTH, "road_half_width": ROAD_HALF_WIDTH,
@@ -248,13 +238,14 @@ class CrossroadsRules(Physics2DRules):
         self.layout = crossroads_observation(n)
         self.obs_dim, self.state_dim = self.layout.size, _STATE_CELLS * n
         self._travel = _TRAVEL[self.team_of]  # (n, 2) world direction of travel of each seat
-        # The work vector holds everything observations and state are gathered from: the bodies'
-        # x, y, angle, vx, vy, then per seat [vx, vy, cos, sin], its target, active flag and
-        # distance to target, and a constant 0.
+        # The work vector holds all that observations and state gather: the bodies' x, y, angle, vx,
+        # vy (read after every step), then per seat [vx, vy, cos, sin], its target, active flag and
+        # distance to target, and a constant 0. Turn rate and force are written before each physics step.
         world = self.world = World(
             crossroads_field(n, self.agent_shape),
             slots=(("motion", 4 * n), ("target", 2 * n), ("active", n), ("distance", n), ("zero", 1)),
-            read=_READ_FIELDS, write=_WRITE_FIELDS, contacts=True, spare=SPARE_CELLS)
+            read=BodyFields.POSITION | BodyFields.ANGLE | BodyFields.VELOCITY,
+            write=BodyFields.ANGULAR_VELOCITY | BodyFields.FORCE, contacts=True, spare=SPARE_CELLS)
         self._work = world.work
         self._agent_kind, self._walls = world.field.parts  # as drawn
         self._contacts = ContactImpulses(world, "agent")
@@ -265,12 +256,11 @@ class CrossroadsRules(Physics2DRules):
         self._heading = self._motion[:, 1]
         self._target = world.view("target").reshape(n, 2)
         self._active_z, self._distance = world.view("active"), world.view("distance")
-        controls = world.applied.reshape(-1, body_cells(_WRITE_FIELDS))[:n]
+        controls = world.applied.reshape(-1, world.link.write_cells)[:n]
         self._turn_rate, self._force = controls[:, 0], controls[:, 1:3]
         self._observation = self._observation_gather()
         self._state_index, self._state_scale = self._state_gather()
-        obs_low, obs_high = self.observation_bounds()
-        self._obs_low, self._obs_high = np.tile(obs_low, n), np.tile(obs_high, n)  # the flat seat-major vector
+        self._obs_low, self._obs_high = (np.tile(bound, n) for bound in self.observation_bounds())  # seat-major
         self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
         # Per-seat gates, changed only when a seat arrives: + n_actions (the all-zero control
         # row), the continuous gains (thrust force, turn rate), half the energy, the arrival
@@ -290,19 +280,16 @@ class CrossroadsRules(Physics2DRules):
         if action_type == "discrete":
             m.energy = self._control[:, 2]
         self._views = self._bind_views()
-        self._step_count = 0
-        self._team_finish = np.full(n_teams, -1, dtype=np.int64)
+        self._step_count, self._team_finish = 0, np.full(n_teams, -1, dtype=np.int64)
 
     # --- construction ------------------------------------------------------------------------
     def _observation_gather(self) -> Gather:
-        """The flat seat-major observation as a gather from the work vector: team frames are
-        rotations by multiples of 90 degrees, so every cell is one entry, or a difference of two,
-        times a signed scale."""
+        """The flat seat-major observation gathered from the work vector (team frames are turns by
+        multiples of 90 degrees: every cell is one entry, or a difference of two, times a scale)."""
         world, layout, n = self.world, self.layout, self.n_agents
         gather = Gather(world.work, n * self.obs_dim, world.at("zero"))
         L2, V2 = 2 * ARM_LENGTH, 2 * TOP_SPEED
-        pos = [world.pos(s, 0) for s in range(n)]
-        vel = [world.at("motion", 4 * s) for s in range(n)]
+        pos, vel = [world.pos(s, 0) for s in range(n)], [world.at("motion", 4 * s) for s in range(n)]
         for s in range(n):
             (dx, dy), o = self._travel[s], s * self.obs_dim
             R = np.array([[dx, dy], [-dy, dx]])  # world to team frame (travel along +x)
@@ -370,8 +357,7 @@ class CrossroadsRules(Physics2DRules):
         self._team_finish[:] = -1
 
     def _update_kinematics(self) -> None:
-        """From the bodies just read into the work vector: headings, distances, the measures about
-        the target, speeds."""
+        """From the bodies just read: headings, distances, the measures about the target, speeds."""
         v = self._views
         np.copyto(v.motion_velocity, v.velocity)
         np.cos(self._angle, out=v.cos)
@@ -398,7 +384,7 @@ class CrossroadsRules(Physics2DRules):
             np.multiply(energy, self._half_active, out=energy)
         np.copyto(self._turn_rate, v.control_turn)
         np.multiply(self._heading, v.control_thrust, out=self._force)
-        self.world.step(self._collect_contacts)  # the turn rate and force, written before every physics step
+        self.world.step(self._collect_contacts)
         self._update_kinematics()
         self._contacts.forces(self.measures.force, DT)
         if self._events:
@@ -418,11 +404,9 @@ class CrossroadsRules(Physics2DRules):
             for shape in body.shapes:
                 shape.filter = pymunk.ShapeFilter(categories=0, mask=0)  # collides with nothing
             body.velocity = (0.0, 0.0)  # and stays where it arrived
-            self._velocity[seat] = 0.0
-            self._motion[seat, 0] = 0.0
+            self._velocity[seat] = self._motion[seat, 0] = 0.0
             self._events.append({"kind": "arrive", "seat": seat, "step": self._step_count})
-        self._dots[seats, 0] = 0.0
-        m.speed[seats] = 0.0
+        self._dots[seats, 0] = m.speed[seats] = 0.0
         for team in np.unique(self.team_of[seats]).tolist():
             if self._team_finish[team] < 0 and m.arrived[self.team_of == team].all():
                 self._team_finish[team] = self._step_count
@@ -446,8 +430,7 @@ class CrossroadsRules(Physics2DRules):
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         v = VELOCITY_BOUND
-        return cell_bounds(*[run for _ in range(self.n_agents) for run in ((-1, 1, 2), (-v, v, 2), (-1, 1, 4),
-                                                                           (0, 1, 1))])
+        return cell_bounds(*((-1, 1, 2), (-v, v, 2), (-1, 1, 4), (0, 1, 1)) * self.n_agents)
 
     def finish(self) -> None:
         self._record("finish")
@@ -506,8 +489,9 @@ class CrossroadsRules(Physics2DRules):
             x, y, yaw = row[0] * arm, row[1] * arm, math.atan2(float(row[5]), float(row[4]))
             team = int(self.team_of[seat])
             colour = scene.team_colour(team, 1.0 if row[8] > 0.5 else 0.35)
-            out.append(scene.entity(f"agent/{seat}", ts, arrows=[scene.arrow(x, y, 2 * AGENT_RADIUS, yaw, 1.2, colour)],
-                                    **scene_body(self._agent_kind, x, y, yaw, colour)))
+            body = scene_body(self._agent_kind, x, y, yaw, colour)
+            out.append(scene.entity(f"agent/{seat}", ts, **body,
+                                    arrows=[scene.arrow(x, y, 2 * AGENT_RADIUS, yaw, 1.2, colour)]))
             out.append(scene.entity(f"target/{seat}", ts, cylinders=[
                 scene.disc(row[6] * arm, row[7] * arm, 2 * self.arrival_radius, scene.team_colour(team, 0.3))]))
         return out

@@ -19,7 +19,8 @@ __all__ = ["heuristic"]
 
 #: The heuristic swerves around active agents ahead closer than this (centre to centre).
 AVOID_RANGE = 2.0
-_NOOP, _FORWARD, _LEFT, _RIGHT = (ACTION_MEANINGS.index(name) for name in ("noop", "forward", "turn_left", "turn_right"))
+_NOOP, _FORWARD, _LEFT, _RIGHT = (ACTION_MEANINGS.index(name)
+                                  for name in ("noop", "forward", "turn_left", "turn_right"))
 #: The observation's cells of the seat itself, and of every other seat after them.
 _OWN_CELLS = crossroads_observation(1).size
 _OTHER_CELLS = crossroads_observation(2).size - _OWN_CELLS
