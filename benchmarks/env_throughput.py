@@ -15,6 +15,8 @@ so load from elsewhere on the machine falls on both alike; each side's figure is
 ``--rounds``, per wall-clock second and per CPU second of the worker. The ratio compares steps per CPU
 second, which time spent waiting for a shared core does not dilute. An id is within tolerance when
 this tree is no slower than ``(1 - tolerance)`` times PATH; the exit status is 1 when a 2D id is not.
+Short runs on a busy machine differ by several percent between identical trees: for a 5% verdict use the
+defaults (2 s, 5 rounds: about 12 minutes for the 34 ids and action types) or more rounds.
 
     python benchmarks/env_throughput.py --against ../before [--rounds 5] [--tolerance 0.05]
 """
