@@ -60,16 +60,27 @@ def progress_bar(description: str, total: int) -> Iterator[Callable[[int, int], 
 # --- commands ------------------------------------------------------------------------------------
 
 def cmd_games(args: argparse.Namespace) -> int:
-    from arena_league.league import game_rows
+    from arena_league.league import check_game, game_rows, option_line
 
-    rows = game_rows()
+    wanted = None if args.game is None else check_game(args.game)
+    rows = [row for row in game_rows() if wanted in (None, row["game_id"])]
     if args.json:
         emit_json({"games": rows})
         return 0
     _print_table("arena-league games", ("game id", "teams x players", "actions", "obs", "default social tree"),
                  [(row["game_id"], f"{row['teams']} x {row['players_per_team']}",
                    "/".join(row["action_types"]) + (" (turns)" if row["turn_based"] else ""),
-                   str(row["obs_dim"]), escape(tree_outline(row["default_tree"]))) for row in rows])
+                   str(row["obs_dim"]), escape(tree_outline(row["default_tree"]))) for row in rows],
+                 caption=None if wanted else "a game's options: arena-league games GAME_ID")
+    if wanted:
+        row = rows[0]
+        stdout.print(f"{escape(row['summary'])}.", highlight=False)
+        if row["options"]:
+            stdout.print("Options (make(game_id, **options)):", highlight=False)
+            for record in row["options"]:
+                stdout.print(f"  {escape(option_line(record))}", highlight=False, soft_wrap=True)
+        else:
+            stdout.print("Options: see the game's manual (its module's docstring).", highlight=False)
     return 0
 
 
@@ -857,7 +868,9 @@ def build_parser() -> argparse.ArgumentParser:
     def command(name: str, help_text: str) -> argparse.ArgumentParser:
         return sub.add_parser(name, help=help_text, description=help_text, parents=[common], allow_abbrev=False)
 
-    p = command("games", "the game set, with default social trees")
+    p = command("games", "the game set, with default social trees; a game's options with its id")
+    p.add_argument("game", nargs="?", default=None,
+                   help="a game id, e.g. GoBang-2T1P-v1: that game alone, with its options")
     _json_option(p)
     p.set_defaults(func=cmd_games)
 

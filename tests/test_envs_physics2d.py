@@ -67,10 +67,10 @@ def test_direct_and_public_paths_give_bit_identical_trajectories(game_id, action
                                                                    monkeypatch):
     if not physics2d.DIRECT_AVAILABLE:
         pytest.skip("pymunk's cffi handles are not reachable in this build: only the public path runs")
-    assert make(game_id, action_type=action_type, **game_kwargs).rules._link.direct
+    assert make(game_id, action_type=action_type, **game_kwargs).rules.world.link.direct
     direct, direct_force = _rollout(game_id, action_type, game_kwargs)
-    monkeypatch.setattr(physics2d, "FORCE_PUBLIC_API", True)
-    assert not make(game_id, action_type=action_type, **game_kwargs).rules._link.direct
+    monkeypatch.setattr(physics2d.link, "FORCE_PUBLIC_API", True)
+    assert not make(game_id, action_type=action_type, **game_kwargs).rules.world.link.direct
     public, _ = _rollout(game_id, action_type, game_kwargs)  # the force is in the trace
     assert direct_force > 0.0, "the rollout should include contacts, so that arbiters are compared too"
     assert len(direct) == len(public)
@@ -102,7 +102,7 @@ def _canonical(a: int, b: int, x: float, y: float) -> tuple[tuple[int, int], tup
 
 @pytest.mark.parametrize("public", PATHS)
 def test_link_moves_the_same_numbers_as_the_body_attributes(public, monkeypatch):
-    monkeypatch.setattr(physics2d, "FORCE_PUBLIC_API", public)
+    monkeypatch.setattr(physics2d.link, "FORCE_PUBLIC_API", public)
     space, bodies = _space()
     read = BodyFields.POSITION | BodyFields.ANGLE | BodyFields.VELOCITY | BodyFields.ANGULAR_VELOCITY
     write = BodyFields.FORCE | BodyFields.TORQUE
@@ -142,7 +142,7 @@ def test_link_moves_the_same_numbers_as_the_body_attributes(public, monkeypatch)
 
 @pytest.mark.parametrize("public", PATHS)
 def test_bind_refuses_arrays_too_small_for_the_space(public, monkeypatch):
-    monkeypatch.setattr(physics2d, "FORCE_PUBLIC_API", public)
+    monkeypatch.setattr(physics2d.link, "FORCE_PUBLIC_API", public)
     space, bodies = _space()
     read = BodyFields.POSITION | BodyFields.VELOCITY
     cells = body_cells(read) * (len(bodies) + 1)
@@ -167,4 +167,4 @@ def test_fields_and_arrays_are_checked_when_the_link_is_made():
 
 def test_without_pymunks_cffi_module_links_take_the_public_path(monkeypatch):
     monkeypatch.setitem(sys.modules, "pymunk._chipmunk_cffi", None)  # makes importing it fail
-    assert physics2d._probe_direct() is None
+    assert physics2d.link._probe_direct() is None

@@ -209,10 +209,18 @@ def test_autoreset_reports_the_finished_game_and_starts_afresh():
 
 
 def test_bad_options_and_actions_name_the_fix():
-    with pytest.raises(ValueError, match="GoBang has no option.*valid: size"):
+    with pytest.raises(ValueError, match=r"GoBang has no option 'board'; its options: size: an integer in \[2, inf\], "
+                                         r"default 15 \(the board's side.*\); n_in_row: "):
         make("GoBang-2T1P-v1", board=19)
-    with pytest.raises(ValueError, match="n_in_row"):
+    with pytest.raises(ValueError, match=r"GoBang option size must be an integer in \[n_in_row = 5, inf\] "
+                                         r"\(default 15: the board's side.*\), not 4$"):
         GoBangRules(2, 1, "discrete", size=4)
+    with pytest.raises(ValueError, match=r"GoBang option n_in_row must be an integer in \[2, inf\] \(default 5: "
+                                         r"stones in a line that win\), not 5.0$"):
+        make("GoBang-2T1P-v1", n_in_row=5.0)
+    with pytest.raises(ValueError, match=r"GoBang has no option 'sise' \(did you mean 'size'\?\)"):
+        make("GoBang-2T1P-v1", sise=9)
+    assert make("GoBang-2T1P-v1", size=9, n_in_row=4).rules.size == 9
     boards = GoBangBoards(2)
     with pytest.raises(ValueError, match=r"cells are 0..224"):
         boards.step(np.array([0, 225]))

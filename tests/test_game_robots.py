@@ -386,7 +386,8 @@ def test_set_anneal_is_checked_and_kept_across_resets():
     for bad in (1.5, -0.1, True, "0.5", None):
         with pytest.raises(ValueError, match=r"anneal .* must be a number in \[0, 1\]"):
             env.rules.set_anneal(bad)
-    with pytest.raises(ValueError, match=r"anneal must be a number in \[0.0, 1.0\]"):
+    with pytest.raises(ValueError, match=r"Sumo option anneal must be a number in \[0.0, 1.0\] \(default 1.0: "
+                                         r"weight of the dense motor reward.*\), not 2$"):
         make("Sumo-2T1P-v1", anneal=2)
 
 
@@ -404,10 +405,15 @@ def test_robot_motion_is_an_is_reward_that_needs_robot_measures():
 # --- options and errors -----------------------------------------------------------------------------------
 @pytest.mark.parametrize("game_id", ROBOT_IDS)
 def test_unknown_or_bad_kwargs_and_discrete_actions_are_refused(game_id):
-    with pytest.raises(ValueError, match=r"unknown game kwargs \['gravity'\]; valid: frame_skip .*anneal"):
+    name = game_id.split("-")[0]
+    with pytest.raises(ValueError, match=rf"{name} has no option 'gravity'; its options: .*start_jitter: a number in "
+                                         r"\[0.0, 0.[45]\], default 0.2 .*; frame_skip: .*; anneal: "):
         make(game_id, gravity=1.0)
-    with pytest.raises(ValueError, match=r"frame_skip must be an integer in \[1, 20\]"):
+    with pytest.raises(ValueError, match=rf"{name} option frame_skip must be an integer in \[1, 20\] \(default 5: "
+                                         r"MuJoCo sub-steps of 0.01 s per match step\), not 0$"):
         make(game_id, frame_skip=0)
+    with pytest.raises(ValueError, match=rf"{name} has no option 'start_jiter' \(did you mean 'start_jitter'\?\)"):
+        make(game_id, start_jiter=0.1)
     with pytest.raises(ValueError, match="no discrete action variant"):
         make(game_id, action_type="discrete")
     quick = make(game_id, frame_skip=2)

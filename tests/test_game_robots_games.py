@@ -154,7 +154,8 @@ def test_you_shall_not_pass_observations_say_role_and_goal_line():
     assert obs[:, ROLE].tolist() == [1.0, -1.0]
     np.testing.assert_allclose(obs[:, GOAL_LINE], [4.5 / 4, -2.0 / 4], atol=1e-6)  # the blocker's frame is turned
     np.testing.assert_allclose(obs[1, cells.TARGET], [2.5 / 4, -0.5 / 4], atol=1e-6)  # the runner, turned
-    with pytest.raises(ValueError, match="blocker_distance .* must not exceed field_length"):
+    with pytest.raises(ValueError, match=r"YouShallNotPass option blocker_distance must be a number in "
+                                         r"\[0.5, field_length = 3.0\] \(default 2.0: .*\), not 3.5$"):
         YouShallNotPassRules(2, 1, field_length=3.0, blocker_distance=3.5)
 
 

@@ -258,10 +258,17 @@ def test_heuristic_outlives_random_play():
 
 
 def test_bad_options_and_actions_name_the_fix():
-    with pytest.raises(ValueError, match="Snake has no option.*valid: size"):
+    with pytest.raises(ValueError, match=r"Snake has no option 'grid'; its options: size: an integer in \[8, inf\], "
+                                         r"default 20 .*n_food: an integer in \[0, inf\], default snakes \+ 1 "):
         make("Snake-2T1P-v1", grid=10)
-    with pytest.raises(ValueError, match="start_length must be an integer in 1..5"):
+    with pytest.raises(ValueError, match=r"Snake option start_length must be an integer in \[1, size // 4 = 5\] "
+                                         r"\(default 3: cells of each snake at the start.*\), not 9$"):
         SnakeRules(2, 1, "discrete", start_length=9)
+    with pytest.raises(ValueError, match=r"Snake option view_radius must be an integer in \[1, size = 12\]"):
+        make("Snake-2T1P-v1", size=12, view_radius=13)
+    with pytest.raises(ValueError, match=r"Snake option n_food must be an integer in \[0, inf\] \(default snakes \+ 1: "):
+        make("Snake-2T1P-v1", n_food=True)
+    assert make("Snake-4T1P-v1").rules.engine.n_food == 5 and make("Snake-2T1P-v1", n_food=0).rules.engine.n_food == 0
     with pytest.raises(ValueError, match="n_snakes must be an integer in 1..4"):
         SnakeBoards(4, n_snakes=5)
     engine = two_snakes()

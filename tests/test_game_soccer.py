@@ -117,7 +117,7 @@ def test_force_measure_matches_the_contact_impulse_pymunk_applied():
     for _ in range(8):
         r.step(np.array([E, NOOP]))
         impulses: list = []
-        r._agents[0].each_arbiter(impulses.append)
+        r.world.bodies["agent"][0].each_arbiter(impulses.append)
         impulses = [arbiter.total_impulse for arbiter in impulses]
         if len(impulses) == 1:
             saw_contact = True
@@ -264,11 +264,12 @@ def test_every_layout_constructs_with_its_documented_sizes(players, action_type)
 def test_unsupported_layout_and_unknown_or_bad_kwargs_are_refused():
     with pytest.raises(ValueError, match="no 3T2P layout; valid layouts: 2T1P, 2T2P, 2T3P"):
         SoccerRules(3, 2)
-    with pytest.raises(ValueError, match=r"unknown game kwargs \['goal_size'\]; valid: goal_width .*kickoff_jitter"):
+    with pytest.raises(ValueError, match=r"Soccer has no option 'goal_size' \(did you mean 'goal_width'\?\); "
+                                         r"its options: goal_width: .*kickoff_jitter"):
         SoccerRules(2, 2, goal_size=2.0)
-    with pytest.raises(ValueError, match=r"goal_width must be a number in \[0.6, 4.0\]"):
+    with pytest.raises(ValueError, match=r"Soccer option goal_width must be a number in \[0.6, 4.0\] \(default 1.6"):
         SoccerRules(2, 2, goal_width=10.0)
-    with pytest.raises(ValueError, match="unknown game kwargs"):
+    with pytest.raises(ValueError, match="Soccer has no option 'gravity'"):
         make("Soccer-2T2P-v1", gravity=1.0)
     wide = make("Soccer-2T1P-v1", goal_width=3.0)
     assert wide.rules.goal_half_width == 1.5

@@ -14,6 +14,7 @@ from typing import Any
 from arena_league.envs.catalog import GameSpec, game_spec, list_games
 from arena_league.envs.core import GameRules, Measures
 from arena_league.envs.env import ArenaParallelEnv
+from arena_league.envs.options import Option
 from arena_league.envs.social.tree import SocialTree, TreeSpecError
 
 __all__ = [
@@ -27,6 +28,7 @@ __all__ = [
     "check_tree",
     "default_tree",
     "example_trees",
+    "game_options",
     "game_spec",
     "list_games",
     "make",
@@ -38,8 +40,16 @@ __all__ = [
 ACTION_TYPES = ("discrete", "continuous")
 
 
+def game_options(game_id: str) -> tuple[Option, ...]:
+    """The keyword options ``make(game_id, ...)`` takes, as its rules declare them (empty for a game
+    that checks its own); :func:`~arena_league.envs.options.options_catalog` and
+    :func:`~arena_league.envs.options.options_manual` give them as records and as text."""
+    return game_spec(game_id).rules.options
+
+
 def make_rules(game_id: str, action_type: str | None = None, **game_kwargs: Any) -> GameRules:
-    """The rules of one match of ``game_id`` (no rewards, no PettingZoo)."""
+    """The rules of one match of ``game_id`` (no rewards, no PettingZoo); ``game_kwargs`` are its
+    options (:func:`game_options`), which its rules check."""
     spec = game_spec(game_id)
     offered = spec.rules.action_types
     if action_type is None:
@@ -104,7 +114,8 @@ def make(game_id: str, tree: Any = None, action_type: str | None = None, render_
             display, or ``SDL_VIDEODRIVER`` set, and fails here with the alternatives otherwise).
         max_cycles: episode length cap (default: the game's own).
         state_in_obs: append the global state ``env.state()`` to every observation.
-        **game_kwargs: options of the game's rules (see its module docstring).
+        **game_kwargs: the game's options (:func:`game_options`; ``arena-league games`` lists them); an
+            unknown name or a bad value raises ValueError naming the option, what it accepts and its default.
     """
     rules = make_rules(game_id, action_type, **game_kwargs)
     social_tree = build_tree(game_id, tree, rules)

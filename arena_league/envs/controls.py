@@ -185,6 +185,18 @@ class CompassControls(ActionControls):
                             accepts=("ne", "nw", "se", "sw"))
 
 
+#: Each compass move seen mirrored in x (E <-> W): a seat of a team that sees the field flipped.
+_MIRRORED_COMPASS = (0, 5, 4, 3, 2, 1, 8, 7, 6)
+
+
+class MirroredCompassControls(CompassControls):
+    """Compass moves on the view as drawn (E = right), mirrored into the seat frame of the second
+    team of a two-team field seen mirrored in x (Soccer, AirHockey, Tennis)."""
+
+    def seat_move(self, action: int) -> int:
+        return _MIRRORED_COMPASS[action] if int(self.rules.team_of[self.seat]) == 1 else action
+
+
 def key_controls(keys: dict[str, str], pace: float, hint: str, *, release: str | None = None,
                  combine: str | None = None, accepts: tuple[str, ...] = ()) -> dict[str, Any]:
     """A :meth:`Controls.web` declaration of a seat played by keys at ``pace`` steps per second."""

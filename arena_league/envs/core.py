@@ -36,13 +36,14 @@ so that adding a game touches no other package:
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 
 from arena_league.envs.controls import ActionControls, Controls
+from arena_league.envs.options import Option, check_options
 
 #: Every measure a game may emit, with its meaning. Arrays have one entry per seat.
 MEASURE_DOCS: dict[str, str] = {
@@ -140,6 +141,10 @@ class GameRules(ABC):
     #: together, with exactly the moves and results of one match at a time (the engine-adapter
     #: contract of ``arena_league.matchmaking.batched``).
     batched_matches: ClassVar[Callable[..., Any] | None] = None
+    #: The game's keyword options (``make(game_id, **options)``), declared once: the error messages,
+    #: the manual and the catalogs read them. A game that declares them checks its keyword arguments
+    #: with :meth:`checked_options` in ``__init__``; one that declares none checks its own.
+    options: ClassVar[tuple[Option, ...]] = ()
 
     # Set by every subclass __init__:
     n_teams: int
@@ -175,6 +180,13 @@ class GameRules(ABC):
         if action_type not in cls.action_types:
             raise ValueError(f"{cls.name} action_type {action_type!r} is not offered; valid: "
                              f"{', '.join(cls.action_types)}")
+
+    @classmethod
+    def checked_options(cls, given: Mapping[str, Any]) -> dict[str, Any]:
+        """Every declared option's value from ``given`` or its default (``None`` for a default the
+        game computes from its layout); an unknown name or a bad value raises one ValueError naming
+        the game, the option, what it accepts and its default (:func:`~arena_league.envs.options.check_options`)."""
+        return check_options(cls.name, given, cls.options)
 
     # --- the match -------------------------------------------------------------------------
     @abstractmethod

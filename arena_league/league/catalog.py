@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from arena_league.envs import default_tree, game_spec, list_games, make_rules
+from arena_league.envs import default_tree, game_options, game_spec, list_games, make_rules
+from arena_league.envs.options import options_catalog
 from arena_league.envs.social.verify import VerificationReport, verify
 
-__all__ = ["check_game", "game_ids", "game_rows", "verify_social_tree"]
+__all__ = ["check_game", "game_ids", "game_rows", "option_line", "verify_social_tree"]
 
 
 def game_ids() -> list[str]:
@@ -23,7 +24,7 @@ def check_game(game_id: str) -> str:
 
 def game_rows() -> list[dict[str, Any]]:
     """One row per game id: layout, action types, turn order, observation size, episode length,
-    summary and default social tree."""
+    summary, default social tree and the game's options (``options_catalog`` records)."""
     rows = []
     for game_id in list_games():
         spec = game_spec(game_id)
@@ -38,8 +39,22 @@ def game_rows() -> list[dict[str, Any]]:
             "max_cycles": spec.rules.default_max_cycles,
             "summary": spec.rules.summary,
             "default_tree": default_tree(game_id),
+            "options": options_catalog(game_options(game_id)),
         })
     return rows
+
+
+def option_line(record: dict[str, Any]) -> str:
+    """One option record of :func:`game_rows` in words: ``size: an integer in [2, inf], default 15
+    (the board's side, in cells)``."""
+    default = record["default"]
+    if default is None:
+        words = record.get("default_text", "computed by the game")
+    elif isinstance(default, bool):
+        words = "true" if default else "false"
+    else:
+        words = repr(default) if isinstance(default, (str, float)) else str(default)
+    return f"{record['name']}: {record['accepts']}, default {words} ({record['meaning']})"
 
 
 def verify_social_tree(game_id: str, **options: Any) -> VerificationReport:

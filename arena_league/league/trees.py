@@ -65,8 +65,10 @@ _NODE_PATH = re.compile(r"^social tree node (\S+): ")
 def tree_catalog(game_id: str) -> dict[str, Any]:
     """What the editor offers for ``game_id``: seats (``player_i``), their teams and the teams'
     colours (as drawn everywhere else), the schemes with
-    a line each, per scheme the reward functions of this game, its default tree and example trees."""
-    from arena_league.envs import default_tree, example_trees, game_spec, reward_catalog
+    a line each, per scheme the reward functions of this game, its default tree, example trees and
+    the game's options (``options_catalog`` records)."""
+    from arena_league.envs import default_tree, example_trees, game_options, game_spec, reward_catalog
+    from arena_league.envs.options import options_catalog
     from arena_league.envs.social.rewards import SCHEMES
     from arena_league.league.replays import team_hex
 
@@ -77,7 +79,7 @@ def tree_catalog(game_id: str) -> dict[str, Any]:
             "colors": [team_hex(team) for team in range(spec.n_teams)],
             "schemes": [{"name": name, "doc": doc} for name, doc in SCHEMES.items()],
             "rewards": reward_catalog(game_id), "default": default_tree(game_id),
-            "examples": example_trees(game_id),
+            "examples": example_trees(game_id), "options": options_catalog(game_options(game_id)),
             "limits": {"depth": MAX_DEPTH, "nodes": MAX_NODES, "board": MAX_BOARD, "bytes": MAX_SPEC_BYTES,
                        "text": MAX_TEXT}}
 

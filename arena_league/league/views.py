@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 
 from arena_league import registry as reg
-from arena_league.envs import game_spec, list_games
+from arena_league.envs import game_options, game_spec, list_games
+from arena_league.envs.options import options_catalog
 from arena_league.league.agents import agent_detail, frozen_ratings
 from arena_league.league.errors import NotFoundError
 from arena_league.league.home import short_name
@@ -49,7 +50,8 @@ def _require_game(game_id: str) -> None:
 # --- games and the home page -------------------------------------------------------------------
 
 def games_view(league: League) -> list[dict[str, Any]]:
-    """Every game: id, layout, whether a base population is shipped and whether it is imported."""
+    """Every game: id, layout, whether a base population is shipped and whether it is imported, and
+    its options (``options_catalog`` records)."""
     from arena_league.league.populations import shipped_populations
 
     with league.reading() as session:
@@ -64,7 +66,8 @@ def games_view(league: League) -> list[dict[str, Any]]:
         rows.append({"game_id": game_id, "teams": spec.n_teams, "players_per_team": spec.players_per_team,
                      "action_types": list(spec.rules.action_types), "summary": spec.rules.summary,
                      "base_shipped": bool(shipped_populations(game_id)),
-                     "base_imported": frozen.get(game_id, [])})
+                     "base_imported": frozen.get(game_id, []),
+                     "options": options_catalog(game_options(game_id))})
     return rows
 
 
@@ -208,7 +211,8 @@ def game_view(league: League, cache: LeaderboardCache, game_id: str, *, method: 
             "level": board.get("level"), "n_matches": board.get("n_matches"), "n_agents": len(rows),
             "rank_legend": board.get("rank_legend"), "notes": board.get("notes") or [],
             "filters": {"kind": kind, "owner": owner, "sort": sort, "kinds": kinds, "owners": listed_owners},
-            "scale": scale, "rows": shown, "heatmap": _heatmap(league, game_id, board, rows), "importing": importing}
+            "scale": scale, "rows": shown, "heatmap": _heatmap(league, game_id, board, rows), "importing": importing,
+            "summary": game_spec(game_id).rules.summary, "options": options_catalog(game_options(game_id))}
 
 
 def _heatmap(league: League, game_id: str, board: dict[str, Any], rows: Sequence[dict[str, Any]]

@@ -51,6 +51,8 @@ class Game(BaseModel):
     summary: str
     base_shipped: bool = Field(description="a base population of this game ships with arena-league")
     base_imported: list[dict[str, Any]] = Field(description="the game's frozen populations in this league")
+    options: list[dict[str, Any]] = Field(description="the keyword options the game takes: name, type, bounds "
+                                                      "(low, high, open_ends) or choices, default, meaning, accepts")
 
 
 class Queued(BaseModel):

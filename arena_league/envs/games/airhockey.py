@@ -330,9 +330,57 @@ class AirHockeyRules(ReplayedMatch, GameRules):
     )
     default_max_cycles: ClassVar[int] = 300
     # The same layout of the observation and the state, the same events and tree as Soccer's:
-    _pos, _vel, _observation_map = SoccerRules._pos, SoccerRules._vel, SoccerRules._observation_map
-    state, events = SoccerRules.state, SoccerRules.events
+    def events(self) -> list[dict]:
+        return list(self._events)
+
+    def state(self) -> np.ndarray:
+        n = self.n_agents
+        table = self._work[: 4 * (n + 1)].reshape(n + 1, 4)
+        scaled = table * np.array([POSITION_SCALE, POSITION_SCALE, 1 / VELOCITY_UNIT, 1 / VELOCITY_UNIT])
+        state = np.concatenate([scaled.reshape(-1), self.score.astype(np.float64)])
+        return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
+
     default_tree = SoccerRules.__dict__["default_tree"]
+
+    def _pos(self, body: int, axis: int) -> int:
+        return 4 * body + axis
+
+    def _vel(self, body: int, axis: int) -> int:
+        return 4 * body + 2 + axis
+
+    def _observation_map(self) -> np.ndarray:
+        """The observations of every seat as one matrix over the work vector."""
+        n = self.n_agents
+        A = np.zeros((n, self.obs_dim, len(self._work)))
+        ball, one = n, self._one_at
+        ps, vs = POSITION_SCALE, 1.0 / VELOCITY_UNIT
+        pos, vel = self._pos, self._vel
+        for i in range(n):
+            sign = (self._team_sign[i], 1.0)
+            team = self.team_of[i]
+            others = [j for j in range(n) if j != i and self.team_of[j] == team]
+            others += [j for j in range(n) if self.team_of[j] != team]
+            A[i, 0, one] = 1.0
+            for ax in range(2):
+                s = sign[ax]
+                A[i, 1 + ax, pos(i, ax)] = s * ps
+                A[i, 3 + ax, vel(i, ax)] = s * vs
+                A[i, 5 + ax, pos(ball, ax)] = s * ps
+                A[i, 5 + ax, pos(i, ax)] -= s * ps
+                A[i, 7 + ax, pos(ball, ax)] = s * ps
+                A[i, 9 + ax, vel(ball, ax)] = s * vs
+                # goals in the seat frame are at (+L, 0) (attacked) and (-L, 0) (defended)
+                A[i, 11 + ax, pos(i, ax)] = -s * ps
+                A[i, 13 + ax, pos(i, ax)] = -s * ps
+                for k, j in enumerate(others):
+                    c = 15 + 4 * k
+                    A[i, c + ax, pos(j, ax)] = s * ps
+                    A[i, c + ax, pos(i, ax)] -= s * ps
+                    A[i, c + 2 + ax, vel(j, ax)] = s * vs
+            A[i, 11, one] = HALF_LENGTH * ps
+            A[i, 13, one] = -HALF_LENGTH * ps
+        return A.reshape(n * self.obs_dim, len(self._work))
+
     summary: ClassVar[str] = "Mallets strike a sliding puck at the other goal, each in its own half (pymunk; first goal wins, else territory)"
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:

@@ -79,7 +79,8 @@ exactly how the heuristic would answer, so it beats the heuristic every time; la
 ``E`` > 0 average over less predictable opponents. Its draws come from a generator seeded by the
 seat's uniform, so a match replays exactly.
 
-Game kwargs: ``size`` (board side, default 15, at least ``n_in_row``), ``n_in_row`` (default 5).
+Game kwargs: ``size`` (the board's side, default 15, at least ``n_in_row``) and ``n_in_row`` (stones in a
+line that win, default 5), declared in ``GoBangRules.options`` (listed by ``arena-league games``).
 
 Batched engine
 --------------
@@ -138,6 +139,7 @@ import numpy as np
 from arena_league.envs import scene
 from arena_league.envs.controls import Controls
 from arena_league.envs.core import GameRules, cell_bounds
+from arena_league.envs.options import Option
 from arena_league.envs.rendering import Canvas
 
 EMPTY, BLACK, WHITE = 0, 1, 2
@@ -434,6 +436,10 @@ def _check_geometry(size: Any, n_in_row: Any) -> None:
         raise ValueError(f"size must be an integer >= n_in_row ({n_in_row}), not {size!r}; GoBang uses 15")
 
 
+#: The board's side: a game option, bounded below by the other option, ``n_in_row``.
+SIZE = Option("size", int, 15, "the board's side, in cells; at least n_in_row", low=2)
+
+
 @cache
 def _rays(size: int, reach: int) -> np.ndarray:
     return _ray_table(size, reach)
@@ -564,19 +570,20 @@ class GoBangRules(GameRules):
     summary: ClassVar[str] = "15x15 five in a row (freestyle), turn-based; an illegal move loses"
     batched_matches: ClassVar[type[GoBangMatches]] = GoBangMatches
 
-    def __init__(self, n_teams: int, players_per_team: int, action_type: str, size: int = 15,
-                 n_in_row: int = 5, **unknown: Any) -> None:
-        if unknown:
-            raise ValueError(f"GoBang has no option(s) {sorted(unknown)}; valid: size (board side, default 15), "
-                             "n_in_row (stones to win, default 5)")
+    options: ClassVar[tuple[Option, ...]] = (SIZE, Option("n_in_row", int, 5, "stones in a line that win", low=2))
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str, **options: Any) -> None:
+        settings = self.checked_options(options)
+        if settings["size"] < settings["n_in_row"]:
+            raise ValueError(f"GoBang option size must be an integer in [n_in_row = {settings['n_in_row']}, inf] "
+                             f"(default {SIZE.default_words()}: {SIZE.meaning}), not {settings['size']!r}")
         if n_teams != 2:
             raise ValueError(f"GoBang is played by 2 teams, not {n_teams}; layouts: 2T1P, 2T2P")
         if action_type != "discrete":
             raise ValueError(f"GoBang has only the 'discrete' action variant, not {action_type!r}")
-        _check_geometry(size, n_in_row)
         super().__init__(n_teams, players_per_team, action_type)
-        self.size = int(size)
-        self.n_in_row = int(n_in_row)
+        self.size = settings["size"]
+        self.n_in_row = settings["n_in_row"]
         self.n_cells = self.size * self.size
         self.obs_dim = 2 * self.n_cells + N_SCALARS
         self.state_dim = self.n_cells + 2

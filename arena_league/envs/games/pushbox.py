@@ -88,7 +88,8 @@ Tuned heuristics
 Game kwargs
     ``target_radius`` (float in [0.3, 1.2], default 0.6), ``box_distance`` (float in [1.5, 4.0],
     default 2.0), ``start_jitter`` (float in [0, 0.4], default 0.2), ``frame_skip`` (int in
-    [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0).
+    [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0);
+    declared in ``PushBoxRules.options`` (``arena-league games PushBox-2T2P-v1`` lists them).
 
 Playing it (``arena-league play``)
     Steer your ant by direction on the arena as drawn (``envs.robots.controls``): ``w`` up, ``a``
@@ -112,9 +113,10 @@ from typing import ClassVar
 
 import numpy as np
 
+from arena_league.envs.options import Option
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.gait import GAIT_PERIOD, KP, trot
-from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose
+from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose, start_jitter
 from arena_league.envs.robots.scene import Affine, SceneLayout
 
 BOX_HALF = 0.3
@@ -147,8 +149,10 @@ class PushBoxRules(RobotGameRules):
     measures_provided: ClassVar[frozenset[str]] = BASE_MEASURES | {"arrived", "object_progress"}
     default_max_cycles: ClassVar[int] = 500
     summary: ClassVar[str] = "Two teams of two ants race to push their own box onto a shared target (MuJoCo)"
-    game_kwargs: ClassVar[dict] = {"target_radius": (float, 0.3, 1.2, 0.6), "box_distance": (float, 1.5, 4.0, 2.0),
-                                   "start_jitter": (float, 0.0, 0.4, 0.2)}
+    game_options: ClassVar[tuple[Option, ...]] = (
+        Option("target_radius", float, 0.6, "the target's radius, in m", low=0.3, high=1.2),
+        Option("box_distance", float, 2.0, "distance from each box's start to the target, in m", low=1.5, high=4.0),
+        start_jitter(0.4))
     heuristic_options: ClassVar[dict[str, tuple[float, float]]] = {"gap": (0.1, 1.0), "kp": (1.0, 4.0),
                                                                    "lane": (0.1, 1.5), "period": (0.3, 0.7),
                                                                    "side": (0.0, 0.5)}

@@ -60,7 +60,8 @@ Heuristic
 
 Game kwargs
     ``field_length`` (float in [3, 10], default 5.0), ``start_jitter`` (float in [0, 0.5], default
-    0.2), ``frame_skip`` (int in [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0).
+    0.2), ``frame_skip`` (int in [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0);
+    declared in ``RunToGoalRules.options`` (``arena-league games RunToGoal-2T1P-v1`` lists them).
 
 Playing it (``arena-league play``)
     Steer your ant by direction on the arena as drawn (``envs.robots.controls``): ``w`` up, ``a``
@@ -83,32 +84,15 @@ from typing import ClassVar
 
 import numpy as np
 
+from arena_league.envs.options import Option
 from arena_league.envs.robots import observation as cells
+from arena_league.envs.robots.field import FIELD_LENGTH, LinedField, avoid
 from arena_league.envs.robots.gait import trot
-from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose
-from arena_league.envs.robots.scene import Affine, Readout, SceneLayout
+from arena_league.envs.robots.game import BASE_MEASURES, MatchState, StartPose, start_jitter
+from arena_league.envs.robots.scene import Affine, Readout
 
 OPPONENT = slice(cells.ROBOT_CELLS + 1, cells.ROBOT_CELLS + 8)
-#: The heuristic steps aside when the opponent is closer than this ahead of it, and this near
-#: its line of run.
-AVOID_AHEAD = 1.6
-AVOID_SIDE = 1.0
-
-
-def avoid(obs_opponent: np.ndarray, heading: np.ndarray, strength: float = 1.0) -> np.ndarray:
-    """A sideways step (seat frame, ``[N, 2]``) away from an opponent that stands in the way of a
-    run along ``heading`` (``[N, 2]`` unit vectors); ``obs_opponent`` are its observation cells."""
-    rel = obs_opponent[:, 0:2] * cells.POSITION_UNIT
-    ahead = np.einsum("ij,ij->i", rel, heading)
-    side_axis = np.stack([-heading[:, 1], heading[:, 0]], axis=1)
-    side = np.einsum("ij,ij->i", rel, side_axis)
-    in_way = (ahead > 0.0) & (ahead < AVOID_AHEAD) & (np.abs(side) < AVOID_SIDE)
-    away = np.where(side >= 0.0, -1.0, 1.0)  # step to the side the opponent is not on
-    weight = np.where(in_way, strength * (1.0 - np.abs(side) / AVOID_SIDE), 0.0)
-    return (away * weight)[:, None] * side_axis
-
-
-class RunToGoalRules(RobotGameRules):
+class RunToGoalRules(LinedField):
     """RunToGoal on a MuJoCo floor; see the module docstring for the manual."""
 
     name: ClassVar[str] = "RunToGoal"
@@ -117,20 +101,11 @@ class RunToGoalRules(RobotGameRules):
     measures_provided: ClassVar[frozenset[str]] = BASE_MEASURES | {"arrived"}
     default_max_cycles: ClassVar[int] = 400
     summary: ClassVar[str] = "Two ants race in opposite directions to the far side (MuJoCo)"
-    game_kwargs: ClassVar[dict] = {"field_length": (float, 3.0, 10.0, 5.0), "start_jitter": (float, 0.0, 0.5, 0.2)}
-
-    @property
-    def half_length(self) -> float:
-        return self.settings["field_length"] / 2
+    game_options: ClassVar[tuple[Option, ...]] = (FIELD_LENGTH, start_jitter(0.5))
 
     def goal_x(self, seat: int) -> float:
         """World ``x`` of the seat's goal line."""
         return self.half_length if self.team_of[seat] == 0 else -self.half_length
-
-    def scene_layout(self) -> SceneLayout:
-        h = self.half_length
-        return SceneLayout(robots=("ant", "ant"), teams=(0, 1),
-                           markings=(("line", (-h, -3.0, -h, 3.0)), ("line", (h, -3.0, h, 3.0))))
 
     def start_pose(self, rng: np.random.Generator) -> StartPose:
         j = self.settings["start_jitter"]
@@ -171,10 +146,6 @@ class RunToGoalRules(RobotGameRules):
         for b in np.flatnonzero(ended):
             st.events[b] += [{"kind": "arrive", "seat": int(i)} for i in np.flatnonzero(crossed[b])]
         self.end_matches(st, ended, winner)
-
-    def view_extent(self) -> tuple[float, float, float, float]:
-        h = self.half_length + 1.0
-        return (-h, h, -h, h)
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:

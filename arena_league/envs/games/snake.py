@@ -115,7 +115,8 @@ heuristic's move instead. It has no rollouts (``R`` must be 1): the window holds
 In 400 matches of 2T2P (teams swapped halfway) ``search-w3-r1-h4`` scores 0.87 against the heuristic.
 
 Game kwargs: ``size`` (default 20, at least 8), ``n_food`` (default snakes + 1),
-``start_length`` (default 3, 1 .. size // 4), ``view_radius`` (default 3: a 7 x 7 window).
+``start_length`` (default 3, 1 .. size // 4), ``view_radius`` (default 3: a 7 x 7 window, at most
+``size``), declared in ``SnakeRules.options`` (listed by ``arena-league games``).
 
 Batched engine
 --------------
@@ -181,6 +182,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from arena_league.envs import scene
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, cell_bounds
+from arena_league.envs.options import Option
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 
 #: Action meanings, in each seat's own frame; the board direction is (action + quarter turns) % 4.
@@ -197,6 +199,10 @@ DEATH_CAUSES: dict[int, str] = {1: "wall", 2: "self", 3: "collision"}
 #: Default quarter turns of the snakes' starting places, by number of snakes.
 DEFAULT_ROTATIONS: dict[int, tuple[int, ...]] = {1: (0,), 2: (0, 2), 3: (0, 1, 2), 4: (0, 1, 2, 3)}
 _SPAWN_TRIES = 16
+#: Game options bounded above by the board's side (the others are declared on the rules).
+START_LENGTH = Option("start_length", int, 3, "cells of each snake at the start; at most size // 4", low=1)
+VIEW_RADIUS = Option("view_radius", int, 3, "cells each seat sees around its head, 3 for a 7 x 7 "
+                     "window; at most size", low=1)
 _WALL, _EMPTY = -2, -1  # owner codes of cells without a snake
 _NEVER = np.iinfo(np.int64).max  # a body threshold no stamp exceeds
 _NEVER32 = np.iinfo(np.int32).max
@@ -1048,12 +1054,19 @@ class SnakeRules(GameRules):
     default_max_cycles: ClassVar[int] = 500
     summary: ClassVar[str] = "grid snakes eat food and grow; on a collision the shorter snake dies"
     batched_matches: ClassVar[type[SnakeMatches]] = SnakeMatches
+    options: ClassVar[tuple[Option, ...]] = (
+        Option("size", int, 20, "the board's side, in cells", low=8),
+        Option("n_food", int, None, "food items on the board at once", low=0, default_text="snakes + 1"),
+        START_LENGTH, VIEW_RADIUS)
 
-    def __init__(self, n_teams: int, players_per_team: int, action_type: str, size: int = 20,
-                 n_food: int | None = None, start_length: int = 3, view_radius: int = 3, **unknown: Any) -> None:
-        if unknown:
-            raise ValueError(f"Snake has no option(s) {sorted(unknown)}; valid: size (default 20), n_food "
-                             "(default snakes + 1), start_length (default 3), view_radius (default 3)")
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str, **options: Any) -> None:
+        settings = self.checked_options(options)
+        size = settings["size"]
+        for option, high, words in ((START_LENGTH, size // 4, f"size // 4 = {size // 4}"),
+                                    (VIEW_RADIUS, size, f"size = {size}")):
+            if settings[option.name] > high:
+                raise ValueError(f"Snake option {option.name} must be an integer in [{option.low:g}, {words}] "
+                                 f"(default {option.default_words()}: {option.meaning}), not {settings[option.name]!r}")
         if action_type != "discrete":
             raise ValueError(f"Snake has only the 'discrete' action variant, not {action_type!r}")
         if n_teams * players_per_team > 4 or n_teams < 2:
@@ -1062,8 +1075,9 @@ class SnakeRules(GameRules):
         super().__init__(n_teams, players_per_team, action_type)
         # teammates face each other across the centre: turns 0, 2 for team 0; 1, 3 for team 1
         rotations = DEFAULT_ROTATIONS[self.n_agents] if players_per_team == 1 else (0, 2, 1, 3)
-        self.engine = SnakeBoards(1, self.n_agents, size=size, n_food=n_food, start_length=start_length,
-                                  view_radius=view_radius, team_of=self.team_of, rotations=rotations)
+        n_food = self.n_agents + 1 if settings["n_food"] is None else settings["n_food"]
+        self.engine = SnakeBoards(1, self.n_agents, size=size, n_food=n_food, start_length=settings["start_length"],
+                                  view_radius=settings["view_radius"], team_of=self.team_of, rotations=rotations)
         self.size = self.engine.size
         self.obs_dim = self.engine.obs_dim
         self.state_dim = self.engine.state_dim

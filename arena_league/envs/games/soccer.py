@@ -127,20 +127,25 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 import numpy as np
-import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import CompassControls
-from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
+from arena_league.envs.controls import MirroredCompassControls
+from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
     COMPASS_MOVES,
-    BodyFields,
-    add_discs,
-    add_walls,
-    checked_kwargs,
-    space_link,
+    ONE,
+    Bodies,
+    CellLayout,
+    Field,
+    Material,
+    Physics2DRules,
+    Run,
+    Walls,
+    World,
+    mirror_signs,
 )
+from arena_league.envs.physics2d.geometry import goal_field_outline, pushed_outline, wall_segments
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
 #: Half length and half width of the field (inner faces of the walls).
@@ -174,11 +179,9 @@ VELOCITY_UNIT = 3.0
 #: only a pile-up can push a body faster, and that is clipped).
 VELOCITY_BOUND = 2.0
 
-#: Each move seen mirrored in x (E <-> W): a seat of team 1 and the field as drawn.
-_MIRRORED_MOVE = np.array([0, 5, 4, 3, 2, 1, 8, 7, 6])
-
 DEFAULT_GOAL_WIDTH = 1.6
-_GAME_KWARGS = {"goal_width": (0.6, 4.0, DEFAULT_GOAL_WIDTH), "kickoff_jitter": (0.0, 0.5, 0.3)}
+OPTIONS = (Option("goal_width", float, DEFAULT_GOAL_WIDTH, "width of each goal mouth", 0.6, 4.0),
+           Option("kickoff_jitter", float, 0.3, "largest random offset of each kick-off position", 0.0, 0.5))
 
 #: Kick-off slots of team 0 (team 1's are mirrored), per players per team.
 _FORMATIONS = {
@@ -188,43 +191,35 @@ _FORMATIONS = {
 }
 
 
-def _field_outline(goal_half_width: float) -> list[tuple[float, float]]:
-    """Inner boundary of the walls (field plus both goal boxes), counter-clockwise."""
-    L, W, G, D, c = HALF_LENGTH, HALF_WIDTH, goal_half_width, GOAL_DEPTH, CORNER_CHAMFER
-    return [(-L + c, -W), (L - c, -W), (L, -W + c), (L, -G), (L + D, -G), (L + D, G), (L, G),
-            (L, W - c), (L - c, W), (-L + c, W), (-L, W - c), (-L, G), (-L - D, G), (-L - D, -G),
-            (-L, -G), (-L, -W + c)]
+def soccer_field(n_agents: int, goal_half_width: float) -> Field:
+    """The walled pitch, the agents (discs that do not spin) and the ball, added in that order."""
+    outline = goal_field_outline(HALF_LENGTH, HALF_WIDTH, goal_half_width, GOAL_DEPTH, CORNER_CHAMFER)
+    return Field(dt=DT, damping=SPACE_DAMPING, collision_slop=COLLISION_SLOP, parts=(
+        Walls(tuple(wall_segments(outline, WALL_RADIUS)), WALL_RADIUS, Material(ELASTICITY["wall"], FRICTION)),
+        Bodies("agent", n_agents, AGENT_RADIUS, AGENT_MASS, Material(ELASTICITY["agent"], FRICTION)),
+        Bodies("ball", 1, BALL_RADIUS, BALL_MASS, Material(ELASTICITY["ball"], FRICTION), rotates=True)))
 
 
-def _offset_outline(outline: list[tuple[float, float]], offset: float) -> list[tuple[float, float]]:
-    """``outline`` with every edge pushed outward by ``offset``, joined where the pushed edges meet."""
-    pts = np.asarray(outline, dtype=np.float64)
-    edges = np.roll(pts, -1, axis=0) - pts
-    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1) / np.linalg.norm(edges, axis=1, keepdims=True)
-    corners = []
-    for k in range(len(pts)):
-        # vertex k joins edge k-1 and edge k; intersect their pushed lines
-        n0, n1 = normals[k - 1], normals[k]
-        p0, p1 = pts[k] + offset * n0, pts[k] + offset * n1
-        d0 = edges[k - 1]
-        denom = d0[0] * edges[k][1] - d0[1] * edges[k][0]
-        t = ((p1 - p0)[0] * edges[k][1] - (p1 - p0)[1] * edges[k][0]) / denom
-        corners.append(tuple(p0 + t * d0))
-    return corners
+def soccer_observation(n_agents: int) -> CellLayout:
+    """The observation's runs (seat frame; positions divided by 4, velocities by 3)."""
+    x, y, v = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE, HALF_WIDTH * POSITION_SCALE, VELOCITY_BOUND
+    goal = HALF_LENGTH * POSITION_SCALE  # a goal's x in the seat frame, the attacked one positive
+    position, relative, velocity = ((-x, x), (-y, y)), ((-2 * x, 2 * x), (-2 * y, 2 * y)), (-v, v)
+    runs = [Run("active", 1, (0, 1), "own active flag (always 1)"),
+            Run("position", 2, position, "own position"),
+            Run("velocity", 2, velocity, "own velocity"),
+            Run("ball_relative", 2, relative, "ball position relative to the seat"),
+            Run("ball", 2, position, "ball position"),
+            Run("ball_velocity", 2, velocity, "ball velocity"),
+            Run("attacked_goal", 2, ((goal - x, goal + x), (-y, y)), "centre of the attacked mouth, relative"),
+            Run("defended_goal", 2, ((-goal - x, -goal + x), (-y, y)), "centre of the defended mouth, relative")]
+    for k in range(n_agents - 1):
+        runs += [Run(f"other_{k}", 2, relative, "another seat's position relative to the seat"),
+                 Run(f"other_{k}_velocity", 2, velocity, "that seat's velocity")]
+    return CellLayout(runs)
 
 
-def _wall_segments(outline: list[tuple[float, float]]) -> list[tuple[tuple[float, float], tuple[float, float]]]:
-    """Centre lines of the wall segments (of radius WALL_RADIUS) whose inner faces follow ``outline``."""
-    corners = _offset_outline(outline, WALL_RADIUS)
-    return [(corners[k], corners[(k + 1) % len(corners)]) for k in range(len(corners))]
-
-
-#: Body fields the physics link reads after every step and writes before it.
-_STATE_FIELDS = BodyFields.POSITION | BodyFields.VELOCITY
-_FORCE_FIELDS = BodyFields.FORCE
-
-
-class SoccerRules(ReplayedMatch, GameRules):
+class SoccerRules(Physics2DRules):
     """Soccer on a walled pymunk field; see the module docstring for the manual."""
 
     name: ClassVar[str] = "Soccer"
@@ -237,117 +232,92 @@ class SoccerRules(ReplayedMatch, GameRules):
     )
     default_max_cycles: ClassVar[int] = 300
     summary: ClassVar[str] = "Teams push a ball into the other goal (pymunk; first goal wins)"
+    options = OPTIONS
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
-        self.check_layout(n_teams, players_per_team, action_type)
-        settings = checked_kwargs("Soccer", kwargs, _GAME_KWARGS)
-        super().__init__(n_teams, players_per_team, action_type)
-        self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
-        self._calls = []
-        self.goal_half_width = settings["goal_width"] / 2
-        self.kickoff_jitter = settings["kickoff_jitter"]
+        super().__init__(n_teams, players_per_team, action_type, **kwargs)
+        self.goal_half_width = self.settings["goal_width"] / 2
+        self.kickoff_jitter = self.settings["kickoff_jitter"]
         n = self.n_agents
         self.n_actions = len(COMPASS_MOVE_NAMES)
         self.act_dim = 2
         self.action_meanings = COMPASS_MOVE_NAMES
-        self.obs_dim = 15 + 4 * (n - 1)
+        self.layout = soccer_observation(n)
+        self.obs_dim = self.layout.size
         self.state_dim = 4 * n + 6
         self.score = np.zeros(2, dtype=np.int64)
 
-        # +1 for team 0, -1 for team 1: the x sign of each seat's frame
-        self._team_sign = np.where(self.team_of == 0, 1.0, -1.0)
+        self._team_sign = mirror_signs(self.team_of)  # the x sign of each seat's frame
         self._frame = np.stack([self._team_sign, np.ones(n)], axis=1)  # (n, 2) multiplies x, y
         # world-frame unit thrust of every (team, move), flattened: row team * 9 + move
         moves_world = COMPASS_MOVES[None] * np.array([[[1.0, 1.0]], [[-1.0, 1.0]]])
         self._moves_world = np.ascontiguousarray(moves_world.reshape(-1, 2)).view(np.complex128).reshape(-1)
         self._move_row_offset = self.team_of * len(COMPASS_MOVE_NAMES)
         self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
-        self._walls = _wall_segments(_field_outline(self.goal_half_width))
         self._goal_line = HALF_LENGTH + BALL_RADIUS
         self._tiny = np.full(n, 1e-9)
         self._layout_work_vector()
-        self._obs_low, self._obs_high = (np.tile(bound.astype(np.float64), n) for bound in self.observation_bounds())
+        self._obs_low, self._obs_high = self.clip_bounds(self.layout)
         self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
-        self.space: pymunk.Space | None = None
-        self._events: list[dict] = []
 
     # --- construction --------------------------------------------------------------------------
     def _layout_work_vector(self) -> None:
-        """One float64 vector holds everything a step reads, so that the observation and the
-        measures are each one matrix product of it (few numpy calls: the hot path is Python-bound).
-
-        Layout: ``[x, y, vx, vy]`` of every seat, the ball and pymunk's static body (written in place
-        by the physics link), spare room, the seats' velocities before the step, their world-frame
-        unit thrust, the ball's x before the step, and a constant 1.
-        """
+        """The world's work vector holds everything a step reads, so that the observation and the
+        measures are each one matrix product of it (few numpy calls: the hot path is Python-bound):
+        every body's ``[x, y, vx, vy]``, then the seats' velocities before the step, their
+        world-frame unit thrust, the ball's x before the step, and a constant 1."""
         n = self.n_agents
-        self._n_bodies = n + 2  # the physics link also visits the space's static body
-        body_floats = 4 * self._n_bodies
-        # pymunk's batch array grows (reallocates) when fewer than 3 free slots are left: leave 8
-        self._v_before_at = body_floats + 8
-        self._thrust_at = self._v_before_at + 2 * n
-        self._ball_x_before_at = self._thrust_at + 2 * n
-        self._one_at = self._ball_x_before_at + 1
-        work = np.zeros(self._one_at + 1)
-        work[self._one_at] = 1.0
-        self._work = work
-        table = work[:body_floats].reshape(self._n_bodies, 4)
-        self._agent_pos = table[:n, 0:2]
-        self._ball_state = table[n]
-        self._ball_x_at, self._ball_y_at = 4 * n, 4 * n + 1
+        world = self.world = World(soccer_field(n, self.goal_half_width),
+                                   slots=(("v_before", 2 * n), ("thrust", 2 * n), ("ball_x_before", 1), (ONE, 1)))
+        ball = world.index("ball")
+        self._agent_pos = world.table[:n, 0:2]
+        self._ball_state = world.table[ball]
+        self._ball_x_at, self._ball_y_at = world.pos(ball, 0), world.pos(ball, 1)
+        self._ball_x_before_at = world.at("ball_x_before")
         # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
-        self._agent_vel_c = table[:n].view(np.complex128)[:, 1]
-        self._v_before_c = work[self._v_before_at: self._thrust_at].view(np.complex128)
-        self._thrust = work[self._thrust_at: self._ball_x_before_at].reshape(n, 2)
-        self._thrust_c = work[self._thrust_at: self._ball_x_before_at].view(np.complex128)
-        self._force_array = np.zeros(2 * self._n_bodies)
-        self._link = space_link(_STATE_FIELDS, work, _FORCE_FIELDS, self._force_array)
+        self._agent_vel_c = world.table[:n].view(np.complex128)[:, 1]
+        self._v_before_c = world.complex_view("v_before")
+        self._thrust = world.view("thrust").reshape(n, 2)
+        self._thrust_c = world.complex_view("thrust")
         self._obs_matrix = self._observation_map()
         self._measure_matrix = self._measure_map()
         # applied force of every body (zero for the ball and the static body)
-        self._force_matrix = np.zeros((2 * self._n_bodies, len(work)))
+        world.force_matrix = world.matrix(2 * world.n_bodies)
         for k in range(2 * n):
-            self._force_matrix[k, self._thrust_at + k] = THRUST
-            self._force_matrix[k, self._v_before_at + k] = -AGENT_DRAG
-
-    def _pos(self, body: int, axis: int) -> int:
-        return 4 * body + axis
-
-    def _vel(self, body: int, axis: int) -> int:
-        return 4 * body + 2 + axis
+            world.force_matrix[k, world.at("thrust", k)] = THRUST
+            world.force_matrix[k, world.at("v_before", k)] = -AGENT_DRAG
 
     def _observation_map(self) -> np.ndarray:
         """The observations of every seat as one matrix over the work vector."""
-        n = self.n_agents
-        A = np.zeros((n, self.obs_dim, len(self._work)))
-        ball, one = n, self._one_at
+        n, world, cells = self.n_agents, self.world, self.layout
+        A = np.zeros((n, self.obs_dim, len(world.work)))
+        ball, one = world.index("ball"), world.at(ONE)
         ps, vs = POSITION_SCALE, 1.0 / VELOCITY_UNIT
-        pos, vel = self._pos, self._vel
+        pos, vel = world.pos, world.vel
         for i in range(n):
             sign = (self._team_sign[i], 1.0)
             team = self.team_of[i]
             others = [j for j in range(n) if j != i and self.team_of[j] == team]
             others += [j for j in range(n) if self.team_of[j] != team]
-            A[i, 0, one] = 1.0
+            A[i, cells.at("active"), one] = 1.0
             for ax in range(2):
                 s = sign[ax]
-                A[i, 1 + ax, pos(i, ax)] = s * ps
-                A[i, 3 + ax, vel(i, ax)] = s * vs
-                A[i, 5 + ax, pos(ball, ax)] = s * ps
-                A[i, 5 + ax, pos(i, ax)] -= s * ps
-                A[i, 7 + ax, pos(ball, ax)] = s * ps
-                A[i, 9 + ax, vel(ball, ax)] = s * vs
+                A[i, cells.at("position", ax), pos(i, ax)] = s * ps
+                A[i, cells.at("velocity", ax), vel(i, ax)] = s * vs
+                A[i, cells.at("ball_relative", ax), pos(ball, ax)] = s * ps
+                A[i, cells.at("ball_relative", ax), pos(i, ax)] -= s * ps
+                A[i, cells.at("ball", ax), pos(ball, ax)] = s * ps
+                A[i, cells.at("ball_velocity", ax), vel(ball, ax)] = s * vs
                 # goals in the seat frame are at (+L, 0) (attacked) and (-L, 0) (defended)
-                A[i, 11 + ax, pos(i, ax)] = -s * ps
-                A[i, 13 + ax, pos(i, ax)] = -s * ps
+                A[i, cells.at("attacked_goal", ax), pos(i, ax)] = -s * ps
+                A[i, cells.at("defended_goal", ax), pos(i, ax)] = -s * ps
                 for k, j in enumerate(others):
-                    c = 15 + 4 * k
-                    A[i, c + ax, pos(j, ax)] = s * ps
-                    A[i, c + ax, pos(i, ax)] -= s * ps
-                    A[i, c + 2 + ax, vel(j, ax)] = s * vs
-            A[i, 11, one] = HALF_LENGTH * ps
-            A[i, 13, one] = -HALF_LENGTH * ps
-        return A.reshape(n * self.obs_dim, len(self._work))
+                    A[i, cells.at(f"other_{k}", ax), pos(j, ax)] = s * ps
+                    A[i, cells.at(f"other_{k}", ax), pos(i, ax)] -= s * ps
+                    A[i, cells.at(f"other_{k}_velocity", ax), vel(j, ax)] = s * vs
+            A[i, cells.at("attacked_goal"), one] = HALF_LENGTH * ps
+            A[i, cells.at("defended_goal"), one] = -HALF_LENGTH * ps
+        return A.reshape(n * self.obs_dim, len(world.work))
 
     def _measure_map(self) -> np.ndarray:
         """The linear parts of the measures as one matrix over the work vector.
@@ -357,49 +327,24 @@ class SoccerRules(ReplayedMatch, GameRules):
         impulse the solver added beyond damping and the applied force (Chipmunk integrates
         ``v' = v * damping**dt + f / m * dt`` before solving contacts), divided by ``dt``.
         """
-        n = self.n_agents
-        M = np.zeros((7 * n, len(self._work)))
-        ball = n
+        n, world = self.n_agents, self.world
+        M = world.matrix(7 * n)
+        ball = world.index("ball")
         # velocity kept from before the step, drag included (force = THRUST * thrust - DRAG * v)
         keep = SPACE_DAMPING**DT - AGENT_DRAG * DT / AGENT_MASS
         for i in range(n):
             for ax in range(2):
                 conj = 1.0 if ax == 0 else -1.0
-                M[2 * i + ax, self._pos(ball, ax)] = conj
-                M[2 * i + ax, self._pos(i, ax)] = -conj
-                M[2 * n + 2 * i + ax, self._vel(i, ax)] = 1.0
+                M[2 * i + ax, world.pos(ball, ax)] = conj
+                M[2 * i + ax, world.pos(i, ax)] = -conj
+                M[2 * n + 2 * i + ax, world.vel(i, ax)] = 1.0
                 row = 4 * n + 2 * i + ax
-                M[row, self._vel(i, ax)] = AGENT_MASS / DT
-                M[row, self._v_before_at + 2 * i + ax] = -keep * AGENT_MASS / DT
-                M[row, self._thrust_at + 2 * i + ax] = -THRUST
+                M[row, world.vel(i, ax)] = AGENT_MASS / DT
+                M[row, world.at("v_before", 2 * i + ax)] = -keep * AGENT_MASS / DT
+                M[row, world.at("thrust", 2 * i + ax)] = -THRUST
             M[6 * n + i, self._ball_x_at] = self._team_sign[i]
-            M[6 * n + i, self._ball_x_before_at] = -self._team_sign[i]
+            M[6 * n + i, world.at("ball_x_before")] = -self._team_sign[i]
         return M
-
-    def _build_space(self, agent_xy: np.ndarray, ball_xy: np.ndarray) -> None:
-        # A fresh space each match: no cached contacts survive from the previous one, so a seed
-        # gives the same match whatever was played before.
-        space = pymunk.Space()
-        space.damping = SPACE_DAMPING
-        space.collision_slop = COLLISION_SLOP
-        add_walls(space, self._walls, WALL_RADIUS, ELASTICITY["wall"], FRICTION)
-        self._agents = add_discs(space, agent_xy, AGENT_MASS, AGENT_RADIUS, ELASTICITY["agent"], FRICTION)
-        ball = pymunk.Body(BALL_MASS, pymunk.moment_for_circle(BALL_MASS, 0.0, BALL_RADIUS))
-        ball.position = float(ball_xy[0]), float(ball_xy[1])
-        shape = pymunk.Circle(ball, BALL_RADIUS)
-        shape.elasticity = ELASTICITY["ball"]
-        shape.friction = FRICTION
-        space.add(ball, shape)
-        self._ball = ball
-        self.space = space
-        self._link.bind(space)
-        if self._link.body_ids != [body.id for body in self._agents] + [ball.id, space.static_body.id]:
-            raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; Soccer supports "
-                               "pymunk 7 (pip install 'pymunk>=7,<8')")
-        self._read_bodies()
-
-    def _read_bodies(self) -> None:
-        self._link.read_bodies()
 
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
@@ -412,7 +357,7 @@ class SoccerRules(ReplayedMatch, GameRules):
         team1 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
         team1[:, 0] *= -1.0
         ball_xy = np.array([0.0, self.rng.uniform(-jitter, jitter)])
-        self._build_space(np.concatenate([team0, team1]), ball_xy)
+        self.world.build({"agent": np.concatenate([team0, team1]), "ball": ball_xy})
         self._measure_still_state()
         self.measures.active[:] = True
         self.measures.outcome = np.zeros(self.n_agents)
@@ -422,9 +367,9 @@ class SoccerRules(ReplayedMatch, GameRules):
 
     def _measure_still_state(self) -> None:
         """Measures of the bodies as they stand, with no step behind them (no force, no progress)."""
-        work = self._work
-        work[self._v_before_at: self._one_at] = 0.0
-        work[self._ball_x_before_at] = work[self._ball_x_at]
+        world = self.world
+        world.work[world.at("v_before"): world.at(ONE)] = 0.0
+        world.work[world.at("ball_x_before")] = world.work[self._ball_x_at]
         self._v_before_c[:] = self._agent_vel_c
         self._update_measures(np.zeros(self.n_agents))
         self.measures.force = np.zeros(self.n_agents)
@@ -432,7 +377,7 @@ class SoccerRules(ReplayedMatch, GameRules):
     def _update_measures(self, energy: np.ndarray) -> None:
         m = self.measures
         n = self.n_agents
-        linear = self._measure_matrix @ self._work
+        linear = self._measure_matrix @ self.world.work
         vectors = linear[: 6 * n].view(np.complex128)  # conj(to_ball), velocity, contact force
         norms = np.abs(vectors)
         distance = norms[:n]
@@ -446,7 +391,7 @@ class SoccerRules(ReplayedMatch, GameRules):
 
     def step(self, actions: np.ndarray) -> None:
         self._record("step", actions.copy())
-        work = self._work
+        work = self.world.work
         thrust = self._thrust_c
         if self.action_type == "discrete":
             thrust[:] = self._moves_world.take(actions + self._move_row_offset)
@@ -459,13 +404,7 @@ class SoccerRules(ReplayedMatch, GameRules):
             energy = np.square(length / longer)
         self._v_before_c[:] = self._agent_vel_c
         work[self._ball_x_before_at] = work[self._ball_x_at]
-
-        # thrust against a linear drag; pymunk clears the forces after every step
-        np.dot(self._force_matrix, work, out=self._force_array)
-        link = self._link
-        link.write_bodies()
-        link.step(DT)
-        link.read_bodies()
+        self.world.step()  # thrust against a linear drag
         self._update_measures(energy)
 
         ball_x = work[self._ball_x_at]
@@ -479,29 +418,24 @@ class SoccerRules(ReplayedMatch, GameRules):
             self._events = []
 
     def observe(self) -> np.ndarray:
-        obs = self._obs_matrix @ self._work
+        obs = self._obs_matrix @ self.world.work
         obs.clip(self._obs_low, self._obs_high, out=obs)
         return obs.astype(np.float32).reshape(self.n_agents, self.obs_dim)
 
     def state(self) -> np.ndarray:
         n = self.n_agents
-        table = self._work[: 4 * (n + 1)].reshape(n + 1, 4)
+        table = self.world.work[: 4 * (n + 1)].reshape(n + 1, 4)
         scaled = table * np.array([POSITION_SCALE, POSITION_SCALE, 1 / VELOCITY_UNIT, 1 / VELOCITY_UNIT])
         state = np.concatenate([scaled.reshape(-1), self.score.astype(np.float64)])
         return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        x, y, v = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE, HALF_WIDTH * POSITION_SCALE, VELOCITY_BOUND
-        goal = HALF_LENGTH * POSITION_SCALE  # a goal's x in the seat frame, the attacked one positive
-        position, relative, velocity = ((-x, x, 1), (-y, y, 1)), ((-2 * x, 2 * x, 1), (-2 * y, 2 * y, 1)), (-v, v, 2)
-        return cell_bounds((0, 1, 1), *position, velocity, *relative, *position, velocity,
-                           (goal - x, goal + x, 1), (-y, y, 1), (-goal - x, -goal + x, 1), (-y, y, 1),
-                           *[run for _ in range(self.n_agents - 1) for run in (*relative, velocity)])
+        return self.layout.bounds()
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         x, y, v = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE, HALF_WIDTH * POSITION_SCALE, VELOCITY_BOUND
-        return cell_bounds(*[run for _ in range(self.n_agents + 1) for run in ((-x, x, 1), (-y, y, 1), (-v, v, 2))],
-                           (0, 1, 2))
+        return CellLayout([*[Run(f"body_{k}", 4, ((-x, x), (-y, y), (-v, v), (-v, v))) for k in range(self.n_agents + 1)],
+                           Run("score", 2, (0, 1))]).bounds()
 
     def finish(self) -> None:
         self._record("finish")
@@ -513,9 +447,6 @@ class SoccerRules(ReplayedMatch, GameRules):
             return np.array([0.5, 0.5])
         return np.where(self.score == self.score.max(), 1.0, 0.0)
 
-    def events(self) -> list[dict]:
-        return list(self._events)
-
     # --- tools ---------------------------------------------------------------------------------
     def place(self, agent_xy: np.ndarray, ball_xy: np.ndarray, agent_velocity: np.ndarray | None = None,
               ball_velocity: np.ndarray | None = None) -> None:
@@ -524,25 +455,21 @@ class SoccerRules(ReplayedMatch, GameRules):
         agent_xy = np.asarray(agent_xy, dtype=np.float64).reshape(self.n_agents, 2)
         agent_velocity = (np.zeros((self.n_agents, 2)) if agent_velocity is None
                           else np.asarray(agent_velocity, dtype=np.float64).reshape(self.n_agents, 2))
-        if self.space is None:
+        if self.world.space is None:
             raise RuntimeError("call reset(seed) before place()")
         self._record("place", agent_xy.copy(), np.array(ball_xy, dtype=np.float64), agent_velocity.copy(),
                      None if ball_velocity is None else np.array(ball_velocity, dtype=np.float64))
-        for body, xy, v in zip(self._agents, agent_xy, agent_velocity):
-            body.position = float(xy[0]), float(xy[1])
-            body.velocity = float(v[0]), float(v[1])
-        self._ball.position = float(ball_xy[0]), float(ball_xy[1])
-        bv = (0.0, 0.0) if ball_velocity is None else (float(ball_velocity[0]), float(ball_velocity[1]))
-        self._ball.velocity = bv
-        self._read_bodies()
+        self.world.place("agent", agent_xy, agent_velocity)
+        self.world.place("ball", ball_xy, ball_velocity)
+        self.world.read()
         self._measure_still_state()
 
     def render_topdown(self) -> np.ndarray:
         L, W, D, R = HALF_LENGTH, HALF_WIDTH, GOAL_DEPTH, WALL_RADIUS
         margin = D + 2 * R
         canvas = Canvas(-L - margin, L + margin, -W - 2 * R, W + 2 * R, size=400, background=(70, 70, 70))
-        outline = _field_outline(self.goal_half_width)
-        walls = _offset_outline(outline, 2 * R)
+        outline = goal_field_outline(L, W, self.goal_half_width, D, CORNER_CHAMFER)
+        walls = pushed_outline(outline, 2 * R)
         canvas.draw.polygon([canvas.px(x, y) for x, y in walls], fill=(200, 200, 200))
         canvas.draw.polygon([canvas.px(x, y) for x, y in outline], fill=(60, 140, 60))
         G = self.goal_half_width
@@ -658,15 +585,13 @@ class SoccerRules(ReplayedMatch, GameRules):
         return np.where(length < 0.3, 0, move).astype(np.int64)
 
 
-class SoccerControls(CompassControls):
+
+class SoccerControls(MirroredCompassControls):
     """Compass moves on the field as drawn (E = right), mirrored for the team that sees the field
     flipped."""
 
     move = "move on the field as drawn"
     key_hint = "Arrow keys or W A S D run on the field as drawn (two at once: diagonally); let go to stop."
-
-    def seat_move(self, action: int) -> int:
-        return int(_MIRRORED_MOVE[action]) if int(self.rules.team_of[self.seat]) == 1 else action
 
 
 RULES = SoccerRules

@@ -62,7 +62,8 @@ Heuristic
 
 Game kwargs
     ``ring_radius`` (float in [1.5, 4.0], default 2.0), ``start_jitter`` (float in [0, 0.5], default
-    0.2), ``frame_skip`` (int in [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0).
+    0.2), ``frame_skip`` (int in [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0);
+    declared in ``SumoRules.options`` (``arena-league games Sumo-2T1P-v1`` lists them).
 
 Playing it (``arena-league play``)
     Steer your ant by direction on the arena as drawn (``envs.robots.controls``): ``w`` up, ``a``
@@ -86,9 +87,10 @@ from typing import ClassVar
 
 import numpy as np
 
+from arena_league.envs.options import Option
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.gait import trot
-from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose
+from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose, start_jitter
 from arena_league.envs.robots.scene import Affine, SceneLayout
 
 #: Start position of team 0's ant on the x axis (team 1's is mirrored).
@@ -109,7 +111,8 @@ class SumoRules(RobotGameRules):
     measures_provided: ClassVar[frozenset[str]] = BASE_MEASURES | {"alive"}
     default_max_cycles: ClassVar[int] = 400
     summary: ClassVar[str] = "Two ants push each other off a round ring (MuJoCo; falling loses too)"
-    game_kwargs: ClassVar[dict] = {"ring_radius": (float, 1.5, 4.0, 2.0), "start_jitter": (float, 0.0, 0.5, 0.2)}
+    game_options: ClassVar[tuple[Option, ...]] = (
+        Option("ring_radius", float, 2.0, "the ring's radius, in m", low=1.5, high=4.0), start_jitter(0.5))
 
     @property
     def ring_radius(self) -> float:

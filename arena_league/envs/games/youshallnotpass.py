@@ -72,7 +72,9 @@ Tuned heuristics
 Game kwargs
     ``field_length`` (float in [3, 10], default 5.0), ``blocker_distance`` (float in [0.5, 4],
     default 2.0; at most the field length), ``start_jitter`` (float in [0, 0.5], default 0.2),
-    ``frame_skip`` (int in [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0).
+    ``frame_skip`` (int in [1, 20], default 5), ``anneal`` (float in [0, 1], default 1.0);
+    declared in ``YouShallNotPassRules.options`` (``arena-league games YouShallNotPass-2T1P-v1``
+    lists them).
 
 Playing it (``arena-league play``)
     Steer your ant by direction on the arena as drawn (``envs.robots.controls``): ``w`` up, ``a``
@@ -91,15 +93,16 @@ Replay scene
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
-from arena_league.envs.games.runtogoal import avoid
+from arena_league.envs.options import Option
 from arena_league.envs.robots import observation as cells
+from arena_league.envs.robots.field import FIELD_LENGTH, LinedField, avoid
 from arena_league.envs.robots.gait import GAIT_PERIOD, KP, trot
-from arena_league.envs.robots.game import BASE_MEASURES, MatchState, RobotGameRules, StartPose
-from arena_league.envs.robots.scene import Affine, Readout, SceneLayout
+from arena_league.envs.robots.game import BASE_MEASURES, MatchState, StartPose, start_jitter
+from arena_league.envs.robots.scene import Affine, Readout
 
 RUNNER, BLOCKER = 0, 1
 ROLE = cells.ROBOT_CELLS
@@ -107,9 +110,11 @@ GOAL_LINE = cells.ROBOT_CELLS + 1
 OPPONENT = slice(cells.ROBOT_CELLS + 2, cells.ROBOT_CELLS + 9)
 #: The blocker aims this far in front of the runner, on its way to the goal line.
 INTERCEPT_LEAD = 0.7
+BLOCKER_DISTANCE = Option("blocker_distance", float, 2.0, "distance of the blocker's start in front of the "
+                          "runner's goal line, in m; at most field_length", low=0.5, high=4.0)
 
 
-class YouShallNotPassRules(RobotGameRules):
+class YouShallNotPassRules(LinedField):
     """YouShallNotPass on a MuJoCo floor; see the module docstring for the manual."""
 
     name: ClassVar[str] = "YouShallNotPass"
@@ -118,27 +123,19 @@ class YouShallNotPassRules(RobotGameRules):
     measures_provided: ClassVar[frozenset[str]] = BASE_MEASURES | {"arrived"}
     default_max_cycles: ClassVar[int] = 400
     summary: ClassVar[str] = "A runner ant must cross the field, a blocker ant must stop it (MuJoCo)"
-    game_kwargs: ClassVar[dict] = {"field_length": (float, 3.0, 10.0, 5.0), "blocker_distance": (float, 0.5, 4.0, 2.0),
-                                   "start_jitter": (float, 0.0, 0.5, 0.2)}
+    game_options: ClassVar[tuple[Option, ...]] = (FIELD_LENGTH, BLOCKER_DISTANCE, start_jitter(0.5))
     heuristic_options: ClassVar[dict[str, tuple[float, float]]] = {"kp": (1.0, 4.0), "period": (0.3, 0.7)}
     heuristic_options_meaning: ClassVar[str] = (
         f"kp K: the trot's joint stiffness (the heuristic's {KP}); period P: seconds per trot cycle (the heuristic's "
         f"{GAIT_PERIOD})")
 
-    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "continuous", **kwargs) -> None:
-        super().__init__(n_teams, players_per_team, action_type, **kwargs)
-        if self.settings["blocker_distance"] > self.settings["field_length"]:
-            raise ValueError(f"YouShallNotPass blocker_distance ({self.settings['blocker_distance']}) must not "
-                             f"exceed field_length ({self.settings['field_length']}): the blocker starts on the field")
-
-    @property
-    def half_length(self) -> float:
-        return self.settings["field_length"] / 2
-
-    def scene_layout(self) -> SceneLayout:
-        h = self.half_length
-        return SceneLayout(robots=("ant", "ant"), teams=(0, 1),
-                           markings=(("line", (-h, -3.0, -h, 3.0)), ("line", (h, -3.0, h, 3.0))))
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "continuous", **options: Any) -> None:
+        super().__init__(n_teams, players_per_team, action_type, **options)
+        distance, length = self.settings["blocker_distance"], self.settings["field_length"]
+        if distance > length:
+            raise ValueError(f"YouShallNotPass option blocker_distance must be a number in [{BLOCKER_DISTANCE.low}, "
+                             f"field_length = {length}] (default {BLOCKER_DISTANCE.default_words()}: "
+                             f"{BLOCKER_DISTANCE.meaning}), not {distance!r}")
 
     def start_pose(self, rng: np.random.Generator) -> StartPose:
         j = self.settings["start_jitter"]
@@ -186,10 +183,6 @@ class YouShallNotPassRules(RobotGameRules):
     def cut(self, st: MatchState, slot: int) -> None:
         # the runner did not get through in time: the blocker wins
         self.end_match(st, slot, BLOCKER)
-
-    def view_extent(self) -> tuple[float, float, float, float]:
-        h = self.half_length + 1.0
-        return (-h, h, -h, h)
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str, *, kp: float = KP, period: float = GAIT_PERIOD) -> np.ndarray:

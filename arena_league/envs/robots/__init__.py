@@ -9,8 +9,11 @@ games of Arena (Song et al., AAAI 2020). Layers, each its own module:
   sensor vector;
 * ``observation``: the robot block that opens every robot game's observation;
 * ``game``: :class:`RobotGameRules` (the rules every robot game shares, written over arrays of
-  matches) and :class:`RobotMatches` (many matches on a thread pool: the match engine's batched
-  path);
+  matches), the options every robot game takes (``COMMON_OPTIONS``, ``start_jitter``) and
+  :class:`RobotMatches` (many matches on a thread pool: the match engine's batched path);
+* ``field``: the field between two lines of RunToGoal and YouShallNotPass (:class:`LinedField`,
+  its ``field_length`` option) and the sidestep of their heuristics (:func:`avoid`), so that
+  neither game imports the other;
 * ``gait``: scripted controllers from observations (:func:`trot`, :func:`stand`), used by the
   games' heuristics;
 * ``rewards``: the IS reward ``robot_motion`` and its annealing (``set_anneal``);

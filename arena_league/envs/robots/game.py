@@ -25,7 +25,7 @@ this module does the rest:
   more. ``measures.block`` holds the float ones as rows of one array (``envs.robots.rewards``).
 * **Annealing** of the dense motor reward: ``set_anneal(alpha)``, see ``envs.robots.rewards``.
 
-Copies: the rules pickle and copy (``pickle``, ``copy.deepcopy``) as their game kwargs plus a
+Copies: the rules pickle and copy (``pickle``, ``copy.deepcopy``) as their game options plus a
 snapshot of the match (MuJoCo's whole ``MjData``, the match arrays, the generator and the annealing
 weight); a copy builds new rules and loads the snapshot into them, so it goes on bit for bit as the
 original does.
@@ -53,6 +53,7 @@ import mujoco
 import numpy as np
 
 from arena_league.envs.core import GameRules, cell_bounds
+from arena_league.envs.options import Option
 from arena_league.envs.robots import observation as cells
 from arena_league.envs.robots.ant import ROBOTS
 from arena_league.envs.robots.controls import RobotControls
@@ -71,11 +72,19 @@ DROP = 0.02
 #: Measures every robot game emits.
 BASE_MEASURES = frozenset({"active", "target_distance", "velocity_to_target", "facing_target", "energy", "force",
                            "speed", "fallen", "outcome"})
-#: Game kwargs every robot game takes: name -> (kind, low, high, default).
-COMMON_KWARGS: dict[str, tuple[type, float, float, float]] = {
-    "frame_skip": (int, 1, 20, 5),
-    "anneal": (float, 0.0, 1.0, 1.0),
-}
+#: Game options every robot game takes, after its own (``RobotGameRules.game_options``).
+COMMON_OPTIONS: tuple[Option, ...] = (
+    Option("frame_skip", int, 5, "MuJoCo sub-steps of 0.01 s per match step", low=1, high=20),
+    Option("anneal", float, 1.0, "weight of the dense motor reward, annealed from 1 to 0 over training "
+           "by set_anneal", low=0.0, high=1.0),
+)
+
+
+def start_jitter(high: float) -> Option:
+    """The option every robot game offers to spread its start poses: up to ``high`` m and rad."""
+    return Option("start_jitter", float, 0.2, "largest random shift of each start position, in m, "
+                  "and heading, in rad",
+                  low=0.0, high=high)
 
 
 def duel_tree(dense: str = "robot_motion") -> dict:
@@ -202,17 +211,22 @@ class RobotGameRules(GameRules):
     action_types: ClassVar[tuple[str, ...]] = ("continuous",)
     #: Robot of every seat (a key of ``envs.robots.ant.ROBOTS``).
     robot: ClassVar[str] = "ant"
-    #: The game's own kwargs: name -> (kind, low, high, default); ``COMMON_KWARGS`` are added.
-    game_kwargs: ClassVar[dict[str, tuple[type, float, float, float]]] = {}
+    #: The game's own options; its ``options`` are these then ``COMMON_OPTIONS`` (set for every subclass).
+    game_options: ClassVar[tuple[Option, ...]] = ()
+    options: ClassVar[tuple[Option, ...]] = COMMON_OPTIONS
 
-    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "continuous", **kwargs: Any) -> None:
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        cls.options = (*cls.game_options, *COMMON_OPTIONS)
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "continuous", **options: Any) -> None:
         if (n_teams, players_per_team) not in self.layouts:
             valid = ", ".join(f"{t}T{p}P" for t, p in self.layouts)
             raise ValueError(f"{self.name} has no {n_teams}T{players_per_team}P layout; valid layouts: {valid}")
         if action_type not in self.action_types:
             raise ValueError(f"{self.name} action_type {action_type!r} is not offered; robot games take joint "
                              f"torques: valid: {', '.join(map(repr, self.action_types))}")
-        self.settings = self._check_kwargs(kwargs)
+        self.settings = self.checked_options(options)
         super().__init__(n_teams, players_per_team, action_type)
         self.measures = RobotMeasures.allocate(self.n_agents, self.measures_provided)
         self.measures.anneal = self.settings["anneal"]
@@ -296,24 +310,6 @@ class RobotGameRules(GameRules):
         return duel_tree()
 
     # --- construction --------------------------------------------------------------------------
-    def _check_kwargs(self, kwargs: dict[str, Any]) -> dict[str, float]:
-        table = {**COMMON_KWARGS, **self.game_kwargs}
-        unknown = sorted(set(kwargs) - set(table))
-        if unknown:
-            raise ValueError(f"{self.name} got unknown game kwargs {unknown}; valid: "
-                             + ", ".join(f"{k} ({kind.__name__} in [{lo}, {hi}], default {d})"
-                                         for k, (kind, lo, hi, d) in table.items()))
-        settings: dict[str, float] = {}
-        for key, (kind, lo, hi, default) in table.items():
-            value = kwargs.get(key, default)
-            numeric = (isinstance(value, (int, np.integer)) if kind is int
-                       else isinstance(value, (int, float, np.integer, np.floating)))
-            if isinstance(value, bool) or not numeric or not lo <= value <= hi:
-                raise ValueError(f"{self.name} {key} must be {'an integer' if kind is int else 'a number'} in "
-                                 f"[{lo}, {hi}] (default {default}), not {value!r}")
-            settings[key] = kind(value)
-        return settings
-
     def _seat_vector(self, seat: int, term: Affine) -> Affine:
         """A world-frame vector (``x, y`` first) in the seat's frame."""
         return term.rotated(-float(self.seat_angle[seat]))

@@ -1,4 +1,4 @@
-"""The link between a pymunk space and numpy arrays, for the 2D physics games.
+"""The link between a pymunk space and numpy arrays: the 2D engine's batch transfers and physics step.
 
 Crossroads and Soccer keep their bodies' state in numpy arrays and move it in and out of pymunk
 (Chipmunk2D) several times per env step. Going body by body through pymunk's Python objects
@@ -44,7 +44,6 @@ Arrays
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
@@ -52,82 +51,7 @@ import pymunk
 import pymunk.batch
 from pymunk.batch import BodyFields
 
-__all__ = [
-    "COMPASS_MOVES",
-    "COMPASS_MOVE_NAMES",
-    "DIRECT_AVAILABLE",
-    "FORCE_PUBLIC_API",
-    "SPARE_CELLS",
-    "BodyFields",
-    "SpaceLink",
-    "add_discs",
-    "add_walls",
-    "body_cells",
-    "checked_kwargs",
-    "space_link",
-]
-
-#: The 2D games' discrete moves, in the seat frame: noop, then a unit thrust counter-clockwise from
-#: ``+x`` (E), 45 degrees apart.
-COMPASS_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
-COMPASS_MOVES = np.array([(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)])
-COMPASS_MOVES[np.abs(COMPASS_MOVES) < 1e-12] = 0.0
-COMPASS_MOVES.flags.writeable = False
-
-
-
-def add_walls(space: pymunk.Space, segments: Any, radius: float, elasticity: float, friction: float) -> None:
-    """Static segments (``((x0, y0), (x1, y1))`` each) of one radius and material, added in order."""
-    walls = []
-    for a, b in segments:
-        seg = pymunk.Segment(space.static_body, a, b, radius)
-        seg.elasticity = elasticity
-        seg.friction = friction
-        walls.append(seg)
-    space.add(*walls)
-
-
-def checked_kwargs(game: str, kwargs: Mapping[str, Any], table: Mapping[str, tuple]) -> dict[str, Any]:
-    """A 2D game's ``kwargs`` checked against ``table`` (name -> ``(low, high, default)`` for a
-    number, ``(low, high, default, int)`` for an integer; a fifth entry, a note such as ``" (to win
-    the match)"``, follows the name in the error), each name given its value or its default. An
-    unknown name, or a value of another type or out of bounds, raises a ValueError that names the
-    game, the kwarg, the bounds and the default."""
-    def kind(entry: tuple) -> str:
-        return "int" if len(entry) > 3 and entry[3] is int else "float"
-
-    unknown = sorted(set(kwargs) - set(table))
-    if unknown:
-        raise ValueError(f"{game} got unknown game kwargs {unknown}; valid: "
-                         + ", ".join(f"{name} ({kind(entry)} in [{entry[0]}, {entry[1]}], default {entry[2]})"
-                                     for name, entry in table.items()))
-    settings = {}
-    for name, (low, high, default, *rest) in table.items():
-        value = kwargs.get(name, default)
-        integer = bool(rest) and rest[0] is int
-        types = (int, np.integer) if integer else (int, float, np.integer, np.floating)
-        if isinstance(value, bool) or not isinstance(value, types) or not low <= value <= high:
-            raise ValueError(f"{game} {name}{rest[1] if len(rest) > 1 else ''} must be "
-                             f"{'an int' if integer else 'a number'} in [{low}, {high}] (default {default}), "
-                             f"not {value!r}")
-        settings[name] = int(value) if integer else float(value)
-    return settings
-
-
-def add_discs(space: pymunk.Space, centres: Any, mass: float, radius: float, elasticity: float,
-              friction: float) -> list[pymunk.Body]:
-    """Discs that do not rotate (an agent, a mallet), one per centre, added in order; their bodies."""
-    bodies = []
-    for xy in centres:
-        body = pymunk.Body(mass, float("inf"))
-        body.position = float(xy[0]), float(xy[1])
-        shape = pymunk.Circle(body, radius)
-        shape.elasticity = elasticity
-        shape.friction = friction
-        space.add(body, shape)
-        bodies.append(body)
-    return bodies
-
+__all__ = ["DIRECT_AVAILABLE", "FORCE_PUBLIC_API", "SPARE_CELLS", "BodyFields", "SpaceLink", "body_cells", "space_link"]
 
 #: Set to True to make every link created afterwards use pymunk's public API only.
 FORCE_PUBLIC_API = False

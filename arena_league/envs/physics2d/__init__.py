@@ -1,0 +1,58 @@
+"""The one 2D engine under the pymunk games (Crossroads, Soccer, AirHockey, FightForFood, Tennis,
+BlowBlow): a game is a declaration over it, not a copy of it.
+
+- :mod:`~arena_league.envs.physics2d.world`: the field as data (:class:`Field` of :class:`Walls`
+  and :class:`Bodies` with their :class:`Material`), and the :class:`World` that builds each match's
+  pymunk space, keeps every body's state and the game's named slots in one work vector, and steps
+  the physics;
+- :mod:`~arena_league.envs.physics2d.link`: the batch transfers between pymunk and numpy, and the
+  physics step, straight through pymunk's C handles where they are reachable;
+- :mod:`~arena_league.envs.physics2d.cells`: observation and state layouts as named runs of cells,
+  with their bounds and meanings;
+- :mod:`~arena_league.envs.physics2d.rules`: :class:`Physics2DRules`, the base of a game's rules
+  (options, pickling by replay, clipping), seat frames and compass moves;
+- :mod:`~arena_league.envs.physics2d.geometry`: outlines and walls (a field with chamfered corners
+  and goal boxes, walls whose inner faces follow an outline).
+"""
+
+from arena_league.envs.physics2d._legacy import add_discs, add_walls, checked_kwargs
+from arena_league.envs.physics2d.cells import CellLayout, Run
+from arena_league.envs.physics2d.link import (
+    DIRECT_AVAILABLE,
+    SPARE_CELLS,
+    BodyFields,
+    SpaceLink,
+    body_cells,
+    space_link,
+)
+from arena_league.envs.physics2d.rules import (
+    COMPASS_MOVE_NAMES,
+    COMPASS_MOVES,
+    Physics2DRules,
+    mirror_signs,
+)
+from arena_league.envs.physics2d.world import ONE, Bodies, Field, Material, Walls, World
+
+__all__ = [
+    "COMPASS_MOVES",
+    "COMPASS_MOVE_NAMES",
+    "DIRECT_AVAILABLE",
+    "ONE",
+    "SPARE_CELLS",
+    "Bodies",
+    "BodyFields",
+    "CellLayout",
+    "Field",
+    "Material",
+    "Physics2DRules",
+    "Run",
+    "SpaceLink",
+    "Walls",
+    "World",
+    "add_discs",
+    "add_walls",
+    "body_cells",
+    "checked_kwargs",
+    "mirror_signs",
+    "space_link",
+]

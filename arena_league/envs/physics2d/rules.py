@@ -1,0 +1,56 @@
+"""The base of a 2D game's rules, and what the 2D games share: seat frames, compass moves, options.
+
+:class:`Physics2DRules` checks the layout and the game's declared options, records the calls that
+pickling replays (pymunk's contact caches cannot be copied, see
+:class:`~arena_league.envs.core.ReplayedMatch`), and gives the common tools: observations clipped
+to their declared bounds, the seats' frames, and the compass moves a discrete action names.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from arena_league.envs.core import GameRules, ReplayedMatch
+from arena_league.envs.physics2d.cells import CellLayout
+
+__all__ = ["COMPASS_MOVES", "COMPASS_MOVE_NAMES", "Physics2DRules", "mirror_signs"]
+
+#: The 2D games' discrete moves, in the seat frame: noop, then a unit thrust counter-clockwise from
+#: ``+x`` (E), 45 degrees apart.
+COMPASS_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
+COMPASS_MOVES = np.array([(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)])
+COMPASS_MOVES[np.abs(COMPASS_MOVES) < 1e-12] = 0.0
+COMPASS_MOVES.flags.writeable = False
+
+
+def mirror_signs(team_of: np.ndarray) -> np.ndarray:
+    """The x sign of each seat's frame in a two-team game played on a field mirrored in x: +1
+    for team 0 (the world frame), -1 for team 1, so that every seat attacks ``+x``."""
+    return np.where(team_of == 0, 1.0, -1.0)
+
+
+class Physics2DRules(ReplayedMatch, GameRules):
+    """Rules over the 2D engine; a game declares its ``options`` and builds its
+    :class:`~arena_league.envs.physics2d.world.World` in ``__init__`` after calling this one.
+
+    After this constructor, ``self.settings`` holds every option's value by name.
+    """
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs: Any) -> None:
+        self.check_layout(n_teams, players_per_team, action_type)
+        self.settings = self.checked_options(kwargs)
+        super().__init__(n_teams, players_per_team, action_type)
+        self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
+        self._calls = []
+        self._events: list[dict] = []
+
+    def clip_bounds(self, layout: CellLayout) -> tuple[np.ndarray, np.ndarray]:
+        """Every seat's observation bounds of ``layout``, flattened seat after seat, as float64
+        (what :meth:`observe` clips the product of the observation matrix to)."""
+        low, high = layout.bounds()
+        return np.tile(low.astype(np.float64), self.n_agents), np.tile(high.astype(np.float64), self.n_agents)
+
+    def events(self) -> list[dict]:
+        return list(self._events)
