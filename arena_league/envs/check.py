@@ -157,11 +157,16 @@ def _difference(a: Any, b: Any, where: str) -> str | None:
         cells = np.flatnonzero(unequal)
         if len(cells):
             cell = int(cells[0])
-            return f"{where} cell {cell} ({a.ravel()[cell]!r} vs {b.ravel()[cell]!r})"
+            return f"{where} cell {cell} ({a.ravel()[cell].item()!r} vs {b.ravel()[cell].item()!r})"
         return None
     if type(a) is not type(b) or a != b:
-        return f"{where} ({a!r} vs {b!r})"
+        return f"{where} ({getattr(a, 'item', lambda: a)()!r} vs {getattr(b, 'item', lambda: b)()!r})"
     return None
+
+
+def _reset_record(out: tuple) -> dict[str, Any]:
+    """What a reset hands out, by name."""
+    return {"observations after reset": out[0], "infos after reset": out[1]}
 
 
 _STEP_PARTS = ("observations", "rewards", "terminations", "truncations", "infos")
@@ -189,7 +194,7 @@ def _play(env: ArenaParallelEnv, steps: int, seed: int, reseed: bool) -> Iterato
     for _ in range(steps):
         if not env.agents:
             episode += 1
-            yield {"reset": env.reset(seed=seed + episode) if reseed else env.reset()}
+            yield _reset_record(env.reset(seed=seed + episode) if reseed else env.reset())
         else:
             yield _step_record(env, env.step(_random_actions(env, rng)))
 
@@ -199,9 +204,12 @@ def _where(game_id: str, action_type: str) -> str:
 
 
 # --- api ---------------------------------------------------------------------------------------------
-def _assertion_site(error: BaseException) -> str:
-    """The file, line and source of the innermost frame of ``error``."""
+def _assertion_site(error: BaseException, in_libraries: bool = True) -> str:
+    """The file, line and source of the innermost frame of ``error``; with ``in_libraries`` false,
+    of the innermost frame outside installed packages and this module (the game's own code)."""
     frames = traceback.extract_tb(error.__traceback__)
+    if not in_libraries:
+        frames = [f for f in frames if "site-packages" not in f.filename and f.filename != __file__] or frames
     if not frames:
         return "unknown place"
     last = frames[-1]
@@ -263,9 +271,9 @@ def check_determinism(game_id: str, budget: Budget) -> str:
             for _ in range(min(20, budget.steps)):
                 if used.agents:
                     used.step(_random_actions(used, rng))
-            resets = [env.reset(seed=seed) for env in (first, second, used)]
+            resets = [_reset_record(env.reset(seed=seed)) for env in (first, second, used)]
             for name, other in (("two fresh envs", resets[1]), ("a fresh env and one that played before", resets[2])):
-                found = _difference(resets[0], other, "the reset's output")
+                found = _difference(resets[0], other, "")
                 if found:
                     raise CheckFailure(f"{found} differs after reset(seed={seed}) between {name} of "
                                        f"{_where(game_id, action_type)}: {_DETERMINISM_FIX}")
@@ -296,7 +304,7 @@ _COPY_FIX = ("rules must pickle into rules that go on exactly as the original: k
 def _copy(copier: Callable[[Any], Any], env: ArenaParallelEnv, name: str, where: str) -> ArenaParallelEnv:
     try:
         return copier(env)
-    except Exception as error:
+    except Exception as error:  # any error of a copy is the rules' to fix, reported as such
         raise CheckFailure(f"a {name} copy of {where} raised {type(error).__name__}: {error}: {_COPY_FIX}") from None
 
 
@@ -320,7 +328,8 @@ def check_copies(game_id: str, budget: Budget) -> str:
                                                                             max_cycles=cycles)
             # unseeded first resets draw from every env's own seed sequence, seeded ones from the seed
             for seed in (None, 5):
-                found = _difference(duplicate.reset(seed=seed), fresh.reset(seed=seed), "the reset's output")
+                found = _difference(_reset_record(duplicate.reset(seed=seed)), _reset_record(fresh.reset(seed=seed)),
+                                    "")
                 if found:
                     raise CheckFailure(f"a {name} copy of a fresh {where} reset with seed={seed}: {found} differs "
                                        f"from a fresh env's: {_COPY_FIX}")
@@ -432,7 +441,7 @@ def check_options(game_id: str, budget: Budget) -> str:
             continue
         try:
             make(game_id, **{option.name: option.default})
-        except Exception as error:
+        except Exception as error:  # whatever refuses the declared default is the finding
             raise CheckFailure(f"make({game_id!r}, {option.name}={option.default!r}) (the option's declared default) "
                                f"raised {type(error).__name__}: {error}: the default must be a value the game "
                                "accepts") from None
@@ -443,7 +452,7 @@ def check_options(game_id: str, budget: Budget) -> str:
         if unknown not in str(error):
             raise CheckFailure(f"make({game_id!r}, {unknown}=1) was refused without naming the option ({error}): "
                                "check the keyword options with options.check_options") from None
-    except Exception as error:
+    except Exception as error:  # another kind of refusal: the front ends report only ValueError as bad input
         raise CheckFailure(f"make({game_id!r}, {unknown}=1) raised {type(error).__name__} ({error}), not a "
                            "ValueError naming the option: check the keyword options with options.check_options"
                            ) from None
@@ -528,9 +537,9 @@ def check_heuristic(game_id: str, budget: Budget) -> str:
             what = f"heuristic() actions at step {step} of {where}"
             try:
                 actions = np.asarray(rules.heuristic(rows, action_type))
-            except Exception as error:
+            except Exception as error:  # a heuristic that raises on some observation is the finding
                 raise CheckFailure(f"heuristic() raised {type(error).__name__} ({error}) at step {step} of {where}, "
-                                   f"in {_assertion_site(error)}: it takes float32[N, obs_dim] observations of any "
+                                   f"in {_assertion_site(error, in_libraries=False)}: it takes float32[N, obs_dim] observations of any "
                                    "N seats") from None
             mover = rules.current_player()
             _legal(rules, actions, [mover] if mover is not None else range(rules.n_agents), what)
@@ -642,7 +651,7 @@ def check_scene(game_id: str, budget: Budget) -> str:
         timestamp = 1_000_000_000 + step * 50_000_007  # odd nanoseconds: the stamp must pass through whole
         try:
             entities = rules.scene_entities(timestamp)
-        except Exception as error:
+        except Exception as error:  # the replay writer would stop on it: name the step
             raise CheckFailure(f"scene_entities raised {type(error).__name__} at step {step}: {error}") from None
         problem = _scene_problem(entities, timestamp, ids)
         if problem:
@@ -714,7 +723,7 @@ def _check_seat_controls(game_id: str, seat: int) -> int:
         env.step(_random_actions(env, rng))
     try:
         controls = rules.human_controls(seat)
-    except Exception as error:
+    except Exception as error:  # a play session would stop on it: name the seat
         raise CheckFailure(f"human_controls({seat}) raised {type(error).__name__}: {error}") from None
     if not isinstance(controls, Controls) or controls.seat != seat:
         raise CheckFailure(f"human_controls({seat}) returned {type(controls).__name__}, not Controls of seat {seat}: "
@@ -848,9 +857,9 @@ def run_check(name: str, game_id: str, budget: Budget = FULL, catch: bool = True
     except Exception as error:
         if not catch:
             raise
-        detail, ok = (f"raised {type(error).__name__}: {error} at {_assertion_site(error)}: fix the game's code "
-                      "there (the traceback is in `python -m arena_league.envs.check --only "
-                      f"{name} --raise {game_id}`)"), False
+        site = _assertion_site(error, in_libraries=False)
+        detail, ok = (f"raised {type(error).__name__}: {error} at {site}: fix the game's code there (the "
+                      f"traceback: python -m arena_league.envs.check {game_id} --only {name} --raise)"), False
     return CheckResult(game_id, name, ok, detail, round(time.perf_counter() - start, 3))
 
 
