@@ -63,3 +63,20 @@ def test_options_are_refused_with_what_they_accept(toy_ids):
     with pytest.raises(ValueError, match=r"PuckPush option line must be a number in \[1.0, 2.6\]"):
         make("PuckPush-2T1P-v1", line=3.0)
     assert make("PuckPush-2T1P-v1", line=1.5).rules.line == 1.5
+
+
+class _UnrecordedSteps(PuckPushRules):
+    """PuckPush as an author who forgot to record the steps copies replay would write it."""
+
+    name = "PuckPushUnrecorded"
+
+    def _record(self, method, *args):
+        if method != "step":
+            super()._record(method, *args)
+
+
+def test_forgetting_to_record_the_steps_fails_the_copies_check_with_the_fix():
+    with registered_rules(_UnrecordedSteps) as ids:
+        result = run_check("copies", ids[0], QUICK)
+    assert not result.ok and "copy of PuckPushUnrecorded-2T1P-v1 (action_type='discrete') mid-episode" in result.detail
+    assert "mix in core.ReplayedMatch and record every call that changes the match" in result.detail
