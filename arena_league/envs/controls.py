@@ -222,9 +222,12 @@ def ascii_topdown(picture: np.ndarray, columns: int = 64) -> str:
     height, width = image.shape[:2]
     block = max(1, width // columns)
     rows = max(1, height // (2 * block))  # characters are about twice as tall as wide
-    flat = image.reshape(-1, 3)
-    colours, counts = np.unique(flat, axis=0, return_counts=True)
-    background = colours[np.argsort(-counts)[:2]]  # the two commonest colours are ground
+    # colours packed into one integer each: counting them is a 1-D sort, not a sort of rows, and
+    # packed order is the rows' lexicographic order, so ties fall the same way
+    packed = (image[..., 0] << 16 | image[..., 1] << 8 | image[..., 2]).ravel()
+    colours, counts = np.unique(packed, return_counts=True)
+    commonest = colours[np.argsort(-counts)[:2]]
+    background = np.stack([commonest >> 16, commonest >> 8 & 255, commonest & 255], axis=1)  # the ground
     palette = np.asarray(TEAM_COLOURS[:4])
     lines = []
     for r in range(rows):
