@@ -1,9 +1,9 @@
 """BlowBlow: agents push each other off a round platform, by shoving or by blowing (pymunk physics).
 
 One of the competitive games of the Arena platform (Song et al., "Arena: A General Evaluation
-Platform and Building Toolkit for Multi-Agent Intelligence", AAAI 2020): agents stand on a
-platform; each must stay on it and push the opponents off it, by shoving them or by blowing at
-them. Ids: ``BlowBlow-2T1P-v1``, ``BlowBlow-2T2P-v1``.
+Platform and Building Toolkit for Multi-Agent Intelligence", AAAI 2020): each agent must stay on a
+platform and push the opponents off it, by shoving them or blowing at them. Ids:
+``BlowBlow-2T1P-v1``, ``BlowBlow-2T2P-v1``.
 
 Platform
     A round platform of radius ``R`` (``platform_radius``, default 3) centred on the origin, with
@@ -21,34 +21,27 @@ Heading and blowing
     Every agent has a heading, a unit vector: the direction of its last thrust of at least a tenth
     of full strength (every discrete move sets it), toward the other team at the start. A blow
     sends a puff of air of momentum 1.2 along the heading into a cone of half-angle 30 degrees and
-    range 2.5: momentum is conserved, so the blower recoils by 1.2 against its heading, and the
-    nearest other agent on the platform (teammates too) whose centre lies in the cone catches the
-    share ``1 - d / 2.5`` of the puff (``d`` the distance between the two centres): an impulse of
-    ``1.2 * (1 - d / 2.5)`` straight away from the blower's centre. It shields whoever stands
-    behind it; the rest of the puff is carried off by the air. The impulses are given during the
-    step's physics (as forces over ``dt``), so pymunk's solver answers them: a rival pushed into a
-    third agent shoves it. An agent may blow when it is on the platform and 6 steps have passed
-    since its last blow (the cooldown); otherwise the blow does nothing. Blows are made together,
-    from the positions before the step. A blow leaves nothing in flight, so nothing but the
-    cooldown limits it, and a step with blows costs little more than one without.
+    range 2.5: the blower recoils by 1.2 against its heading, and the nearest other agent on the
+    platform (teammates too) whose centre lies in the cone catches the share ``1 - d / 2.5`` of the
+    puff (``d`` the distance between centres): an impulse of ``1.2 * (1 - d / 2.5)`` straight away
+    from the blower's centre. It shields whoever stands behind it; the air carries off the rest.
+    The impulses act during the step's physics (as forces over ``dt``), so the solver answers them:
+    a rival pushed into a third agent shoves it. An agent may blow when it is on the platform and 6
+    steps have passed since its last blow (the cooldown); otherwise the blow does nothing. Blows are
+    made together, from the positions before the step, and leave nothing in flight.
 
 Falling
     After each physics step, an agent whose centre lies farther than ``R`` from the platform's
     centre falls and is out for the rest of the match: it stays where it fell, collides with
     nothing, and its actions are ignored.
 
-Symmetry and the start
+Symmetry, the start and the seat frame
     Team 1 stands where team 0 stands turned by half a turn about the centre: team 0 at
-    ``(-0.45 R, 0)`` (1P) or ``(-0.45 R, 0.25 R)`` and ``(-0.45 R, -0.25 R)`` (2P), each jittered
-    by up to ``start_jitter`` in both coordinates; team 1's seat ``k`` on the image of team 0's seat
-    ``k``. Every heading starts toward the other team (``+x`` in the seat frame). Every draw comes
-    from the match seed.
-
-Seat frame
-    Each seat sees the platform, and acts, in its own frame: the world frame for team 0, the world
-    turned by half a turn (``x -> -x``, ``y -> -y``) for team 1. In its own frame every seat starts
-    on the ``x < 0`` side facing ``+x``, so one policy can play either seat, and a seat of team 1
-    sees in the turned match exactly what the seat of team 0 it stands for sees.
+    ``(-0.45 R, 0)`` (1P) or ``(-0.45 R, +-0.25 R)`` (2P), each jittered by up to ``start_jitter``
+    in both coordinates (draws from the match seed); team 1's seat ``k`` on the image of team 0's
+    seat ``k``. Each seat sees the platform, and acts, in its own frame: the world for team 0, the
+    world turned by half a turn (``x -> -x``, ``y -> -y``) for team 1. Every seat starts on the
+    ``x < 0`` side of its frame with its heading ``+x``, so one policy can play either seat.
 
 Actions
     Discrete (default), 10 actions: the compass moves, directions in the seat frame (``E`` = ``+x``
@@ -60,46 +53,33 @@ Actions
     along the heading as this thrust sets it (so a seat may run and blow at once).
 
 Observation (``float32``, seat frame; positions divided by ``R``, velocities by 3)
-    ========== =============== =====================================================================
-    cell       bounds          meaning
-    ========== =============== =====================================================================
-    0          [0, 1]          own on-platform flag: 1 while the seat is on the platform. A seat
-                               that fell sees every cell 0
-    1          [0, 1]          ``R / 4`` (the platform's size: positions are in units of ``R``)
-    2-3        [-1, 1]         own position ``x, y``
-    4-5        [-2, 2]         own velocity ``vx, vy``
-    6-7        [-1, 1]         own heading (a unit vector)
-    8          [0, 1]          own cooldown: steps left before the seat may blow again, over 6
-    9 ..       8 cells each    every other seat, the teammate first (2P), then the opponents in
-                               seat order: on-platform flag [0, 1], position relative to the seat
-                               (other - own) [-2, 2] x 2, velocity [-2, 2] x 2, heading [-1, 1] x 2,
-                               cooldown [0, 1]; all 8 are 0 once that seat fell
-    ========== =============== =====================================================================
-
-    ``obs_dim = 8 * n_agents + 1``: 17 for 2T1P, 33 for 2T2P.
-
-    Bounds: a seat on the platform has its centre within ``R`` of the centre (falls are judged
-    after every step), so its position lies in [-1, 1] and its differences to the others' in [-2,
-    2]. Velocities are bounded by 2 (6 units/s, three times an agent's top speed; only a pile-up,
-    a blow and its recoil together push an agent that fast); a cell beyond its bounds is clipped to
-    them. These bounds are the env's observation space.
+    ``obs_dim = 8 * n_agents + 1`` (17 for 2T1P, 33 for 2T2P): the seat's on-platform flag, ``R /
+    4``, its position, velocity, heading and cooldown (steps left before it may blow, over 6), then
+    8 cells per other seat, the teammate first (2P), then the opponents in seat order: flag,
+    position relative to the seat, velocity, heading, cooldown. Every cell, its bounds and meaning
+    are the runs of :func:`blowblow_observation` (``rules.layout.table()``). A seat that fell sees
+    every cell 0, and the 8 cells of a seat that fell are 0 in the others' observations.
+    Bounds: a seat on the platform lies within ``R`` of the centre (falls are judged after every
+    step), so its position lies in [-1, 1] and its differences to the others' in [-2, 2];
+    velocities in [-2, 2] (6 units/s, three times an agent's top speed: only a pile-up, a blow and
+    its recoil together push an agent faster), a cell beyond its bounds clipped to them.
 
 Global state (``float32``, world frame, same scales)
     per seat ``flag, x, y, vx, vy, heading x, heading y, cooldown``: ``state_dim = 8 * n_agents``; a
-    seat that fell is all 0. Bounds as for the observation's own cells.
+    seat that fell is all 0 (:func:`blowblow_state`).
 
 Measures
     ``active`` and ``alive`` (the seat is on the platform), ``target_distance`` (distance from the
     seat's centre to its target: its opponent in 2T1P; in 2T2P the opponent it marks, the one
-    straight ahead of it at the start, across the platform, and from the step after that one fell
-    the other opponent), ``velocity_to_target`` (the seat's velocity along the direction to it), ``facing_target``
-    (cosine of the angle between the seat's heading and the direction to it), ``energy`` (squared
-    thrust length, 0..1: 1 for every discrete move, 0 for noop and blow), ``force``
-    (magnitude of the contact force on the seat this step: the impulse pymunk's solver applied to
-    it, from other agents, divided by ``dt``; a blow's impulses are not contacts), ``speed`` and
-    ``outcome`` (+1 win, -1 loss, 0 draw; 0 until the match ends). A seat that fell keeps the target
-    distance and facing of the step it fell; its speed and force are 0. Events: ``{"kind": "blow",
-    "seat": i, "target": j}`` (``j`` the seat it hit, or None) and ``{"kind": "fall", "seat": i}``.
+    straight ahead of it at the start, and from the step after that one fell the other opponent),
+    ``velocity_to_target`` (the seat's velocity along the direction to it), ``facing_target``
+    (cosine of the angle between the seat's heading and that direction), ``energy`` (squared thrust
+    length, 0..1: 1 for every discrete move, 0 for noop and blow), ``force`` (magnitude of the
+    contact force on the seat this step: the impulse pymunk's solver applied to it, from other
+    agents, divided by ``dt``; a blow's impulses are not contacts), ``speed`` and ``outcome`` (+1
+    win, -1 loss, 0 draw; 0 until the match ends). A seat that fell keeps the target distance and
+    facing of the step it fell; its speed and force are 0. Events: ``{"kind": "blow", "seat": i,
+    "target": j}`` (``j`` the seat it hit, or None) and ``{"kind": "fall", "seat": i}``.
 
 Episode end
     The match ends when a team has no agent left on the platform: the other team wins, and when the
@@ -107,8 +87,7 @@ Episode end
     (default 300 steps, 30 s of play) goes to the team with more agents on the platform; with as
     many, to the team whose agents on the platform stand nearer the centre on average (as a judge
     gives a bout to the wrestler who holds the middle of the ring), a draw when both means are
-    equal (within ``1e-6``: mirrored play stays mirrored up to rounding). ``team_result``: 1 win,
-    0.5 draw, 0 loss.
+    equal within ``1e-6``. ``team_result``: 1 win, 0.5 draw, 0 loss.
 
 Default social tree
     Root CP ``win_loss`` (scale 100); each agent leaf is IS ``target`` (scale 1: progress toward the
@@ -116,7 +95,7 @@ Default social tree
     are one CL ``team_target`` node (scale 10: the team's mean progress toward its members' marked
     opponents) per team over its two leaves; with one, the leaves themselves.
 
-Heuristic
+Heuristic (:mod:`~arena_league.envs.games.blowblow.heuristic`)
     From the observation alone. It picks the opponent on the platform that is nearest once its
     distance to the edge is counted twice, and pushes it straight away from the centre (away from
     the seat when the rival stands at the centre): it runs to a spot on the centre's side of the
@@ -127,33 +106,28 @@ Heuristic
     centre, and it damps its sideways drift.
 
 Game kwargs
-    ``platform_radius`` (float in [2, 4], default 3), ``start_jitter`` (float in [0, 0.5], default
-    0.3).
+    ``platform_radius`` (float in [2, 4], default 3.0), ``start_jitter`` (float in [0, 0.5], default
+    0.3); declared in ``BlowBlowRules.options`` (``arena-league games BlowBlow-2T1P-v1`` lists them).
 
 Playing it (``arena-league play``)
     A coarse text view of the top-down picture (team digits, ``*`` a blow or an agent that fell; the
-    view's edge is the void beyond the platform's). A move is an action's number or name, a
-    compass direction *on the platform as drawn* (``E`` = right, whichever seat you play: the move
-    is turned into your seat frame for you), or ``b`` to blow along your heading (the direction of
-    your last move); Enter repeats the last move. In a browser, the arrow keys or W A S D (two at
-    once: diagonally) and the space bar (or B) to blow. Discrete actions only.
+    view's edge is the void). A move is an action's number or name, a compass direction *on the
+    platform as drawn* (``E`` = right, whichever seat you play: the move is turned into your seat
+    frame for you), or ``b`` to blow along your heading (the direction of your last move); Enter
+    repeats the last move. In a browser, the arrow keys or W A S D (two at once: diagonally) and the
+    space bar (or B) to blow. Discrete actions only.
 
-Rendering
-    A top-down picture of the platform (400 pixels wide): the void, the platform with its edge, the
-    cones of the last step's blows, the agents on it in their teams' colours with a tick along
-    their heading, and those that fell, darkened, where they fell. ``render_mode="rgb_array"``
-    returns it; ``"human"`` shows it in a window.
+Rendering and replay scene
+    A top-down picture (400 pixels wide; ``render_mode="rgb_array"`` returns it, ``"human"`` shows
+    it): the void, the platform with its edge, the cones of the last step's blows, the agents in
+    their teams' colours with a tick along their heading, those that fell darkened where they fell.
+    The replay scene: entities ``platform`` (a disc over the dark ground far below),
+    ``agent/<seat>`` (discs with an arrow along the heading, faded once fallen), ``blows`` (the last
+    step's, arrows across their range) and ``score`` (agents left on the platform per team).
 
 Copies
-    The rules pickle and copy (``pickle``, ``copy.deepcopy``) by playing the match again from its
-    seed and the actions (and ``place`` calls) since, as pymunk's contact caches cannot be copied;
-    a copy goes on bit for bit as the original does.
-
-Replay scene
-    The platform (a disc over the dark ground far below), every agent (discs, faded once it fell)
-    with an arrow along its heading, the last step's blows (arrows across their range) and the
-    agents left on the platform per team (text): entities ``platform``, ``agent/<seat>``,
-    ``blows``, ``score``.
+    The rules pickle and copy by playing the match again from its seed and the actions (and
+    ``place`` calls) since, as pymunk's contact caches cannot be copied; a copy goes on bit for bit.
 """
 
 from __future__ import annotations
@@ -166,14 +140,19 @@ import pymunk
 
 from arena_league.envs import scene
 from arena_league.envs.controls import CompassControls, arrow_keys, key_controls
-from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
+from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
     COMPASS_MOVES,
-    BodyFields,
-    add_discs,
-    checked_kwargs,
-    space_link,
+    ONE,
+    Bodies,
+    CellLayout,
+    Field,
+    Material,
+    Physics2DRules,
+    Run,
+    World,
+    mirror_signs,
 )
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 from arena_league.envs.social import team_tree
@@ -208,33 +187,56 @@ VELOCITY_UNIT = 3.0
 #: Bound of the velocity cells, in units of VELOCITY_UNIT (6 units/s, three times an agent's top
 #: speed; only a pile-up, a blow and its recoil together push an agent faster, and that is clipped).
 VELOCITY_BOUND = 2.0
-
 #: Mean distances from the centre this close count as equal when a cut match is judged (mirrored
 #: play stays mirrored up to the solver's rounding).
 CENTRE_TIE = 1e-6
 
 DEFAULT_PLATFORM_RADIUS = 3.0
-_GAME_KWARGS = {"platform_radius": (2.0, 4.0, DEFAULT_PLATFORM_RADIUS), "start_jitter": (0.0, 0.5, 0.3)}
+OPTIONS = (Option("platform_radius", float, DEFAULT_PLATFORM_RADIUS, "radius of the round platform", 2.0, 4.0),
+           Option("start_jitter", float, 0.3, "largest random offset of each start position", 0.0, 0.5))
 
 #: Start spots of team 0 in units of the platform's radius (team 1's are turned), per players per team.
-_FORMATIONS = {
-    1: ((-0.45, 0.0),),
-    2: ((-0.45, 0.25), (-0.45, -0.25)),
-}
+_FORMATIONS = {1: ((-0.45, 0.0),), 2: ((-0.45, 0.25), (-0.45, -0.25))}
 #: The discrete blow action, after the compass moves.
-_BLOW = len(COMPASS_MOVE_NAMES)
+BLOW_ACTION = len(COMPASS_MOVE_NAMES)
 #: Cells of the observation: the seat's own, then per other seat.
-_OWN_CELLS, _OTHER_CELLS = 9, 8
+OWN_CELLS, OTHER_CELLS = 9, 8
 _COS_HALF_ANGLE = math.cos(BLOW_HALF_ANGLE)
 #: A seat that fell collides with nothing.
 _GONE_FILTER = pymunk.ShapeFilter(categories=0, mask=0)
 
-#: Body fields the physics link reads after every step, and writes before it.
-_STATE_FIELDS = BodyFields.POSITION | BodyFields.VELOCITY
-_FORCE_FIELDS = BodyFields.FORCE
+
+def blowblow_field(n_agents: int) -> Field:
+    """The agents (discs that do not spin) on no walls: the platform's edge is judged, not built."""
+    return Field(dt=DT, damping=SPACE_DAMPING, collision_slop=COLLISION_SLOP, parts=(
+        Bodies("agent", n_agents, AGENT_RADIUS, AGENT_MASS, Material(ELASTICITY, FRICTION)),))
 
 
-class BlowBlowRules(ReplayedMatch, GameRules):
+def _seat_runs(prefix: str, relative: bool) -> list[Run]:
+    v, span = VELOCITY_BOUND, 2 if relative else 1
+    return [Run(f"{prefix}on", 1, (0, 1), "on-platform flag: 1 while the seat is on the platform"),
+            Run(f"{prefix}position", 2, (-span, span),
+                "position relative to the seat (other - own)" if relative else "position x, y"),
+            Run(f"{prefix}velocity", 2, (-v, v), "velocity vx, vy"),
+            Run(f"{prefix}heading", 2, (-1, 1), "heading (a unit vector)"),
+            Run(f"{prefix}cooldown", 1, (0, 1), "steps left before the seat may blow again, over 6")]
+
+
+def blowblow_observation(n_agents: int) -> CellLayout:
+    """The observation's runs (seat frame; positions divided by ``R``, velocities by 3): the seat's
+    own cells, then every other seat's, the teammate first (2P), then the opponents in seat order,
+    all 0 once that seat fell (and all of a seat's own once it fell)."""
+    own = _seat_runs("", False)
+    return CellLayout([own[0], Run("size", 1, (0, 1), "R / 4 (the platform's size: positions are in units of R)"),
+                       *own[1:], *[run for k in range(n_agents - 1) for run in _seat_runs(f"other_{k}_", True)]])
+
+
+def blowblow_state(n_agents: int) -> CellLayout:
+    """The global state's runs (world frame, the observation's scales): every seat's own cells."""
+    return CellLayout([run for k in range(n_agents) for run in _seat_runs(f"seat_{k}_", False)])
+
+
+class BlowBlowRules(Physics2DRules):
     """BlowBlow on a pymunk platform; see the module docstring for the manual."""
 
     name: ClassVar[str] = "BlowBlow"
@@ -248,81 +250,65 @@ class BlowBlowRules(ReplayedMatch, GameRules):
     default_max_cycles: ClassVar[int] = 300
     summary: ClassVar[str] = ("Agents push each other off a round platform, shoving or blowing (pymunk; last team "
                               "on the platform wins)")
+    options = OPTIONS
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
-        self.check_layout(n_teams, players_per_team, action_type)
-        settings = checked_kwargs("BlowBlow", kwargs, _GAME_KWARGS)
-        super().__init__(n_teams, players_per_team, action_type)
-        self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
-        self._calls = []
-        self.platform_radius = settings["platform_radius"]
-        self.start_jitter = settings["start_jitter"]
+        super().__init__(n_teams, players_per_team, action_type, **kwargs)
+        self.platform_radius = self.settings["platform_radius"]
+        self.start_jitter = self.settings["start_jitter"]
         n = self.n_agents
         self._discrete = action_type == "discrete"
-        self.n_actions = _BLOW + 1
+        self.n_actions = BLOW_ACTION + 1
         self.act_dim = 3
         self.action_meanings = (*COMPASS_MOVE_NAMES, "blow")
-        self.obs_dim = _OWN_CELLS + _OTHER_CELLS * (n - 1)
-        self.state_dim = _OTHER_CELLS * n
+        self.layout = blowblow_observation(n)
+        self.state_layout = blowblow_state(n)
+        self.obs_dim = self.layout.size
+        self.state_dim = self.state_layout.size
         # the seat frame of team 1 is the world turned by half a turn: every vector times -1
-        self._sign = np.where(self.team_of == 0, 1.0, -1.0)
+        self._sign = mirror_signs(self.team_of)
         moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
         self._move_table = np.append(moves, 0j)  # the moves, then the blow: no thrust
         self._energy_table = np.abs(self._move_table) ** 2
         self._sets_heading_table = self._energy_table > 0.0
-        self._obs_low, self._obs_high = (np.tile(b.astype(np.float64), (n, 1)) for b in self.observation_bounds())
-        self._state_low, self._state_high = (b.astype(np.float64) for b in self.state_bounds())
+        self._obs_low, self._obs_high = (b.reshape(n, self.obs_dim) for b in self.clip_bounds(self.layout))
+        self._state_low, self._state_high = (b.astype(np.float64) for b in self.state_layout.bounds())
         self._layout_work_vector()
-        self.space: pymunk.Space | None = None
-        self._events: list[dict] = []
 
     # --- construction --------------------------------------------------------------------------
     def _layout_work_vector(self) -> None:
-        """One float64 vector holds everything a step reads, and one matrix product of it gives the
-        measures' linear parts and every observation at once (few numpy calls: the hot path is
-        Python-bound); another gives the forces the physics link writes. Results land in
-        preallocated arrays, seen through views made here.
+        """The world's work vector holds everything a step reads, and one matrix product of it gives
+        the measures' linear parts and every observation at once (few numpy calls: the hot path is
+        Python-bound); the world's force matrix gives the forces. Results land in preallocated
+        arrays, seen through views made here.
 
-        Layout of the work vector: ``[x, y, vx, vy]`` of every seat (written in place by the physics
-        link), spare room, then per seat (world frame, ``x, y`` each) its heading, its velocity
-        before the step, its thrust as a fraction of full strength and the impulse its blows and
-        those it caught give it this step; the step from which each seat may blow again, the step
-        count and a constant 1.
+        Work vector: ``[x, y, vx, vy]`` of every seat, then per seat (world frame, ``x, y`` each)
+        its heading, its velocity before the step, its thrust as a fraction of full strength and the
+        impulse its blows and those it caught give it this step; the step from which each seat may
+        blow again, the step count and a constant 1.
         """
         n = self.n_agents
-        # pymunk's batch array grows (reallocates) when fewer than 3 free slots are left: leave 8
-        self._heading_at = 4 * n + 8
-        self._v_before_at = self._heading_at + 2 * n
-        self._thrust_at = self._v_before_at + 2 * n
-        self._impulse_at = self._thrust_at + 2 * n
-        self._ready_at = self._impulse_at + 2 * n
-        self._step_at = self._ready_at + n
-        self._one_at = self._step_at + 1
-        work = np.zeros(self._one_at + 1)
-        work[self._one_at] = 1.0
-        self._work = work
+        world = self.world = World(blowblow_field(n), slots=(
+            ("heading", 2 * n), ("v_before", 2 * n), ("thrust", 2 * n), ("impulse", 2 * n), ("ready", n),
+            ("step", 1), (ONE, 1)))
+        self._work = world.work
+        self._step_at = world.at("step")
         # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
-        agents_c = work[: 4 * n].view(np.complex128)
-        self._agent_pos_c = agents_c[0::2]
-        self._agent_vel_c = agents_c[1::2]
-        self._heading_c = work[self._heading_at: self._v_before_at].view(np.complex128)
-        self._v_before_c = work[self._v_before_at: self._thrust_at].view(np.complex128)
-        self._thrust_c = work[self._thrust_at: self._impulse_at].view(np.complex128)
-        self._impulse_c = work[self._impulse_at: self._ready_at].view(np.complex128)
-        self._force_array = np.zeros(2 * n)
-        self._link = space_link(_STATE_FIELDS, work, _FORCE_FIELDS, self._force_array)
+        agents_c = world.table.view(np.complex128)
+        self._agent_pos_c = agents_c[:, 0]
+        self._agent_vel_c = agents_c[:, 1]
+        self._heading_c, self._v_before_c, self._thrust_c, self._impulse_c = (
+            world.complex_view(slot) for slot in ("heading", "v_before", "thrust", "impulse"))
         # the opponent each seat marks at the start: the one straight ahead, across the platform
         # (team 0's seat k stands opposite team 1's seat 1 - k)
         p = self.players_per_team
         self._marked_at_start = [int(1 - self.team_of[i]) * p + (p - 1 - i % p) for i in range(n)]
         # forces: thrust against a linear drag, and this step's impulses spread over the step
-        F = np.zeros((2 * n, len(work)))
-        for i in range(n):
-            for axis in range(2):
-                F[2 * i + axis, 4 * i + 2 + axis] = -AGENT_DRAG
-                F[2 * i + axis, self._thrust_at + 2 * i + axis] = THRUST
-                F[2 * i + axis, self._impulse_at + 2 * i + axis] = 1.0 / DT
-        self._force_matrix = F
+        F = world.force_matrix = world.matrix(2 * n)
+        for k in range(2 * n):
+            F[k, world.vel(k // 2, k % 2)] = -AGENT_DRAG
+            F[k, world.at("thrust", k)] = THRUST
+            F[k, world.at("impulse", k)] = 1.0 / DT
         # measures then observations (n * obs_dim rows), one product per step; the rows of what a
         # seat that fell shows, and of what it sees, are zeroed in the match's copy
         self._measure_rows = 2 * 5 * n
@@ -361,8 +347,8 @@ class BlowBlowRules(ReplayedMatch, GameRules):
             rows = [2 * seat, 2 * seat + 1, *range(first, first + self.obs_dim)]
             for i in range(n):
                 if i != seat:
-                    cell = _OWN_CELLS + _OTHER_CELLS * self._other_seats(i).index(seat)
-                    rows += [self._measure_rows + i * self.obs_dim + cell + c for c in range(_OTHER_CELLS)]
+                    cell = self.layout.at(f"other_{self._other_seats(i).index(seat)}_on")
+                    rows += [self._measure_rows + i * self.obs_dim + cell + c for c in range(OTHER_CELLS)]
             self._seat_rows.append(np.array(rows, dtype=np.intp))
         self._full_state_matrix = self._state_map()
 
@@ -371,35 +357,35 @@ class BlowBlowRules(ReplayedMatch, GameRules):
 
         Rows, read as complex numbers: every seat's position; its way to its target (marked opponent
         - own; :meth:`_retarget` points it at the other opponent once the marked one fell); its
-        contact force, the impulse the solver added
-        beyond damping, drag, thrust and blows (Chipmunk integrates ``v' = v * damping**dt + f / m
-        * dt`` before it solves the contacts), divided by ``dt``; its velocity conjugated; its
-        heading conjugated (their products with the way to the target give dot products).
+        contact force, the impulse the solver added beyond damping, drag, thrust and blows (Chipmunk
+        integrates ``v' = v * damping**dt + f / m * dt`` before it solves the contacts), divided by
+        ``dt``; its velocity conjugated; its heading conjugated (their products with the way to the
+        target give dot products).
         """
-        n = self.n_agents
-        M = np.zeros((self._measure_rows, len(self._work)))
+        n, world = self.n_agents, self.world
+        M = world.matrix(self._measure_rows)
         keep = SPACE_DAMPING**DT - AGENT_DRAG * DT / AGENT_MASS
         force, velocity, heading = 4 * n, 6 * n, 8 * n
         for i in range(n):
             self._retarget(M, i, self._marked_at_start[i])
             for axis, conj in ((0, 1.0), (1, -1.0)):
-                M[2 * i + axis, 4 * i + axis] = 1.0
-                row = force + 2 * i + axis
-                M[row, 4 * i + 2 + axis] = AGENT_MASS / DT
-                M[row, self._v_before_at + 2 * i + axis] = -keep * AGENT_MASS / DT
-                M[row, self._thrust_at + 2 * i + axis] = -THRUST
-                M[row, self._impulse_at + 2 * i + axis] = -1.0 / DT
-                M[velocity + 2 * i + axis, 4 * i + 2 + axis] = conj
-                M[heading + 2 * i + axis, self._heading_at + 2 * i + axis] = conj
+                k = 2 * i + axis
+                M[k, world.pos(i, axis)] = 1.0
+                M[force + k, world.vel(i, axis)] = AGENT_MASS / DT
+                M[force + k, world.at("v_before", k)] = -keep * AGENT_MASS / DT
+                M[force + k, world.at("thrust", k)] = -THRUST
+                M[force + k, world.at("impulse", k)] = -1.0 / DT
+                M[velocity + k, world.vel(i, axis)] = conj
+                M[heading + k, world.at("heading", k)] = conj
         return M
 
     def _retarget(self, matrix: np.ndarray, seat: int, target: int) -> None:
         """Point the rows of ``seat``'s way to its target, in ``matrix``, at the seat ``target``."""
-        rows = slice(2 * (self.n_agents + seat), 2 * (self.n_agents + seat) + 2)
-        matrix[rows] = 0.0
+        first = 2 * (self.n_agents + seat)
+        matrix[first: first + 2] = 0.0
         for axis in range(2):
-            matrix[rows.start + axis, 4 * target + axis] = 1.0
-            matrix[rows.start + axis, 4 * seat + axis] = -1.0
+            matrix[first + axis, self.world.pos(target, axis)] = 1.0
+            matrix[first + axis, self.world.pos(seat, axis)] = -1.0
 
     def _other_seats(self, seat: int) -> list[int]:
         """The other seats in observation order: teammates, then the opponents (seat order each)."""
@@ -410,53 +396,40 @@ class BlowBlowRules(ReplayedMatch, GameRules):
     def _seat_cells(self, rows: np.ndarray, seat: int, frame: float, relative_to: int | None) -> None:
         """Eight cells about ``seat`` from the work vector: flag, position (relative to the seat
         ``relative_to``, if any), velocity, heading and cooldown, turned by ``frame`` (+1 or -1)."""
+        world = self.world
         ps, vs = frame / self.platform_radius, frame / VELOCITY_UNIT
-        rows[0, self._one_at] = 1.0
+        rows[0, world.at(ONE)] = 1.0
         for axis in range(2):
-            rows[1 + axis, 4 * seat + axis] += ps
+            rows[1 + axis, world.pos(seat, axis)] += ps
             if relative_to is not None:
-                rows[1 + axis, 4 * relative_to + axis] -= ps
-            rows[3 + axis, 4 * seat + 2 + axis] = vs
-            rows[5 + axis, self._heading_at + 2 * seat + axis] = frame
-        rows[7, self._ready_at + seat] = 1.0 / BLOW_COOLDOWN
+                rows[1 + axis, world.pos(relative_to, axis)] -= ps
+            rows[3 + axis, world.vel(seat, axis)] = vs
+            rows[5 + axis, world.at("heading", 2 * seat + axis)] = frame
+        rows[7, world.at("ready", seat)] = 1.0 / BLOW_COOLDOWN
         rows[7, self._step_at] = -1.0 / BLOW_COOLDOWN
 
     def _observation_map(self) -> np.ndarray:
         """The observations of every seat as one matrix over the work vector."""
-        n = self.n_agents
-        A = np.zeros((n, self.obs_dim, len(self._work)))
+        n, width, cells = self.n_agents, len(self._work), self.layout
+        A = np.zeros((n, self.obs_dim, width))
         for i in range(n):
             frame = float(self._sign[i])
-            own = np.zeros((_OTHER_CELLS, len(self._work)))
+            own = np.zeros((OTHER_CELLS, width))
             self._seat_cells(own, i, frame, None)
-            A[i, 0] = own[0]
-            A[i, 1, self._one_at] = self.platform_radius / 4.0
-            A[i, 2: _OWN_CELLS] = own[1:]
+            A[i, cells.at("on")] = own[0]
+            A[i, cells.at("size"), self.world.at(ONE)] = self.platform_radius / 4.0
+            A[i, cells.at("position"): OWN_CELLS] = own[1:]
             for m, j in enumerate(self._other_seats(i)):
-                first = _OWN_CELLS + _OTHER_CELLS * m
-                self._seat_cells(A[i, first: first + _OTHER_CELLS], j, frame, i)
-        return A.reshape(n * self.obs_dim, len(self._work))
+                first = cells.at(f"other_{m}_on")
+                self._seat_cells(A[i, first: first + OTHER_CELLS], j, frame, i)
+        return A.reshape(n * self.obs_dim, width)
 
     def _state_map(self) -> np.ndarray:
         """The global state as one matrix over the work vector (world frame)."""
-        S = np.zeros((self.state_dim, len(self._work)))
+        S = self.world.matrix(self.state_dim)
         for i in range(self.n_agents):
-            self._seat_cells(S[_OTHER_CELLS * i: _OTHER_CELLS * (i + 1)], i, 1.0, None)
+            self._seat_cells(S[OTHER_CELLS * i: OTHER_CELLS * (i + 1)], i, 1.0, None)
         return S
-
-    def _build_space(self, agent_xy: np.ndarray) -> None:
-        # A fresh space each match: no cached contacts survive from the previous one, so a seed
-        # gives the same match whatever was played before.
-        space = pymunk.Space()
-        space.damping = SPACE_DAMPING
-        space.collision_slop = COLLISION_SLOP
-        self._agents = add_discs(space, agent_xy, AGENT_MASS, AGENT_RADIUS, ELASTICITY, FRICTION)
-        self.space = space
-        self._link.bind(space)
-        if self._link.body_ids != [body.id for body in self._agents]:
-            raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; BlowBlow supports "
-                               "pymunk 7 (pip install 'pymunk>=7,<8')")
-        self._link.read_bodies()
 
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
@@ -465,10 +438,9 @@ class BlowBlowRules(ReplayedMatch, GameRules):
         jitter = self.start_jitter
         spots = np.asarray(_FORMATIONS[self.players_per_team], dtype=np.float64) * self.platform_radius
         team0 = spots + self.rng.uniform(-jitter, jitter, spots.shape)
-        self._build_space(np.concatenate([team0, -team0]))
+        self.world.build({"agent": np.concatenate([team0, -team0])})
         n = self.n_agents
-        work = self._work
-        work[self._heading_at: self._one_at] = 0.0
+        self._work[self.world.at("heading"): self.world.at(ONE)] = 0.0
         self._heading_c[:] = self._sign  # toward the other team: +x in every seat frame
         self._step_count = 0
         self._ready = [0] * n  # the step from which each seat may blow again (a copy of the work's)
@@ -514,7 +486,7 @@ class BlowBlowRules(ReplayedMatch, GameRules):
             self._energy_table.take(actions, out=energy)
             self._sets_heading_table.take(actions, out=turns)
             asked = actions.tolist()
-            blowing = max(asked) == _BLOW
+            blowing = max(asked) == BLOW_ACTION
         else:
             self._move_xy[:] = actions[:, 0:2]
             length = np.abs(move, out=self._move_length)
@@ -541,14 +513,7 @@ class BlowBlowRules(ReplayedMatch, GameRules):
         if blowing:
             self._blow(asked)
         self._v_before_c[:] = self._agent_vel_c
-
-        # thrust against a linear drag, and the blows; pymunk clears the forces after every step
-        np.dot(self._force_matrix, self._work, out=self._force_array)
-        link = self._link
-        link.write_bodies()
-        link.step(DT)
-        link.read_bodies()
-
+        self.world.step()  # thrust against a linear drag, and the blows
         self._step_count += 1
         self._work[self._step_at] = self._step_count
         self._update_measures()
@@ -564,12 +529,12 @@ class BlowBlowRules(ReplayedMatch, GameRules):
         positions = headings = None
         impulses = self._impulse_c
         for seat, asking in enumerate(asked):
-            if (asking != _BLOW if discrete else asking <= 0.0) or step < ready[seat] or not on[seat]:
+            if (asking != BLOW_ACTION if discrete else asking <= 0.0) or step < ready[seat] or not on[seat]:
                 continue
             if positions is None:  # (a few seats: Python's complex numbers are cheaper than numpy's)
                 positions, headings = self._position_c.tolist(), self._heading_c.tolist()
             ready[seat] = step + BLOW_COOLDOWN
-            self._work[self._ready_at + seat] = ready[seat]
+            self._work[self.world.at("ready", seat)] = ready[seat]
             heading = headings[seat]
             impulses[seat] -= BLOW_IMPULSE * heading
             here, backward = positions[seat], heading.conjugate()
@@ -614,7 +579,7 @@ class BlowBlowRules(ReplayedMatch, GameRules):
                     others.remove(seat)
             m.active[seat] = m.alive[seat] = False
             self._team_on[self.team_of[seat]] -= 1
-            body = self._agents[seat]
+            body = self.world.bodies["agent"][seat]
             for shape in body.shapes:
                 shape.filter = _GONE_FILTER
             body.velocity = 0.0, 0.0  # it stays where it fell
@@ -622,7 +587,7 @@ class BlowBlowRules(ReplayedMatch, GameRules):
             self._turn[seat] = 0.0
             self._matrix[self._seat_rows[seat]] = 0.0
             self._linear[self._seat_rows[seat]] = 0.0  # this step's observations too
-            self._state_matrix[_OTHER_CELLS * seat: _OTHER_CELLS * (seat + 1)] = 0.0
+            self._state_matrix[OTHER_CELLS * seat: OTHER_CELLS * (seat + 1)] = 0.0
             self._kept[seat] = True
             self._kept_distance[seat] = m.target_distance[seat]
             self._kept_facing[seat] = m.facing_target[seat]
@@ -652,15 +617,10 @@ class BlowBlowRules(ReplayedMatch, GameRules):
         return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        v = VELOCITY_BOUND
-        return cell_bounds((0, 1, 2), (-1, 1, 2), (-v, v, 2), (-1, 1, 2), (0, 1, 1),
-                           *[run for _ in range(self.n_agents - 1)
-                             for run in ((0, 1, 1), (-2, 2, 2), (-v, v, 2), (-1, 1, 2), (0, 1, 1))])
+        return self.layout.bounds()
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        v = VELOCITY_BOUND
-        return cell_bounds(*[run for _ in range(self.n_agents)
-                             for run in ((0, 1, 1), (-1, 1, 2), (-v, v, 2), (-1, 1, 2), (0, 1, 1))])
+        return self.state_layout.bounds()
 
     def finish(self) -> None:
         self._record("finish")
@@ -679,9 +639,6 @@ class BlowBlowRules(ReplayedMatch, GameRules):
         if abs(mean[0] - mean[1]) <= CENTRE_TIE:
             return np.array([0.5, 0.5])
         return np.where(mean == mean.min(), 1.0, 0.0)
-
-    def events(self) -> list[dict]:
-        return list(self._events)
 
     # --- tools ---------------------------------------------------------------------------------
     @property
@@ -707,7 +664,7 @@ class BlowBlowRules(ReplayedMatch, GameRules):
         headings to given angles (radians); for tests and scripted scenarios. The match continues
         from there, cooldowns as they were. Every seat still on the platform must stand on it, at
         least one agent radius from every other; the entries of seats that fell are ignored."""
-        if self.space is None:
+        if self.world.space is None:
             raise RuntimeError("call reset(seed) before place()")
         n = self.n_agents
         agent_xy = np.asarray(agent_xy, dtype=np.float64).reshape(n, 2)
@@ -727,12 +684,12 @@ class BlowBlowRules(ReplayedMatch, GameRules):
             raise ValueError(f"agents must stand at least {AGENT_RADIUS} apart (centre to centre)")
         self._record("place", agent_xy.copy(), agent_velocity.copy(), None if heading is None else heading.copy())
         for seat in self._seats_on:
-            body = self._agents[seat]
+            body = self.world.bodies["agent"][seat]
             body.position = float(agent_xy[seat, 0]), float(agent_xy[seat, 1])
             body.velocity = float(agent_velocity[seat, 0]), float(agent_velocity[seat, 1])
             if heading is not None:
                 self._heading_c[seat] = complex(math.cos(heading[seat]), math.sin(heading[seat]))
-        self._link.read_bodies()
+        self.world.read()
         self._events = []
         self._measure_still_state()
 
@@ -797,76 +754,9 @@ class BlowBlowRules(ReplayedMatch, GameRules):
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
-        obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
-        n_agents, rest = divmod(obs.shape[1] - 1, _OTHER_CELLS)
-        if rest or n_agents not in (2, 4):
-            raise ValueError(f"BlowBlow heuristic: an observation of {obs.shape[1]} cells is not BlowBlow's "
-                             f"({_OTHER_CELLS} * n_agents + 1 cells, n_agents 2 or 4)")
-        rows = np.arange(len(obs))
-        on = obs[:, 0] > 0.5
-        R = np.maximum(obs[:, 1] * 4.0, 1e-9)
-        me = obs[:, 2:4] * R[:, None]
-        velocity = obs[:, 4:6] * VELOCITY_UNIT
-        ready = obs[:, 8] < 1e-6
-        # the opponents: the last n_agents / 2 of the other seats
-        first = _OWN_CELLS + _OTHER_CELLS * (n_agents // 2 - 1)
-        blocks = obs[:, first: first + _OTHER_CELLS * (n_agents // 2)].reshape(len(obs), -1, _OTHER_CELLS)
-        there = blocks[:, :, 0] > 0.5
-        # the physics moves every body by its present velocity before the thrust acts: judge from
-        # where the bodies will be after this step
-        me_next = me + velocity * DT
-        rivals = me[:, None, :] + blocks[:, :, 1:3] * R[:, None, None] + blocks[:, :, 3:5] * (VELOCITY_UNIT * DT)
-        to_rivals = rivals - me_next[:, None, :]
-        rival_distance = np.linalg.norm(to_rivals, axis=2)
-        rival_radius = np.linalg.norm(rivals, axis=2)
-        cost = np.where(there, rival_distance + 2.0 * (R[:, None] - rival_radius), np.inf)
-        choice = cost.argmin(axis=1)
-        rival = rivals[rows, choice]
-        to_rival = to_rivals[rows, choice]
-        distance = rival_distance[rows, choice]
-        # pushed straight away from the centre; a rival at the centre, straight away from the seat
-        toward = to_rival / np.maximum(distance, 1e-9)[:, None]
-        from_centre = np.linalg.norm(rival, axis=1, keepdims=True)
-        outward = np.where(from_centre > 0.3, rival / np.maximum(from_centre, 1e-9), toward)
-        # run to a spot on the centre's side of the rival, then charge through it radially outward
-        contact = 2 * AGENT_RADIUS
-        spot = rival - outward * (contact + 0.25)
-        behind = np.einsum("ij,ij->i", me_next - rival, outward)  # < 0: on the centre's side
-        lateral = (me_next - rival) - behind[:, None] * outward
-        lateral_length = np.linalg.norm(lateral, axis=1)
-        lined_up = (behind < -0.5 * contact) & (lateral_length < 0.6 * contact)
-        # when the rival stands between the seat and its spot, go round it on the seat's side
-        side = np.where(lateral_length[:, None] > 1e-6, lateral / np.maximum(lateral_length, 1e-9)[:, None],
-                        np.stack([-outward[:, 1], outward[:, 0]], axis=1))
-        around = rival + side * (contact + 0.3) - outward * 0.3
-        blocked = (behind > -0.5 * contact) & (lateral_length < contact + 0.25)
-        waypoint = np.where(lined_up[:, None], rival + outward * 0.6, np.where(blocked[:, None], around, spot))
-        way = waypoint - me_next
-        heading = way / np.maximum(np.linalg.norm(way, axis=1, keepdims=True), 1e-9)
-        drift = velocity - np.einsum("ij,ij->i", velocity, heading)[:, None] * heading
-        heading = heading - 0.4 * drift
-        # near the edge, back toward the centre
-        radius = np.linalg.norm(me_next, axis=1)
-        inward = -me_next / np.maximum(radius, 1e-9)[:, None]
-        danger = np.clip((radius - (R - 0.6)) / 0.4, 0.0, 1.0)[:, None]
-        heading = (1.0 - danger) * heading + danger * (2.0 * inward - 0.3 * velocity)
-        direction = heading / np.maximum(np.linalg.norm(heading, axis=1), 1e-9)[:, None]
-        if action_type == "continuous":
-            move = direction
-        else:
-            k = np.round(np.arctan2(heading[:, 1], heading[:, 0]) / (np.pi / 4)).astype(np.int64) % 8
-            move = COMPASS_MOVES[1 + k]
-        # blow along the heading (a continuous thrust sets it first) when it points at the rival and
-        # the blow pushes the rival outward, safely
-        blows_along = move if action_type == "continuous" else obs[:, 6:8]
-        aimed = np.einsum("ij,ij->i", blows_along, toward) > np.cos(np.radians(25.0))
-        pushes_out = np.einsum("ij,ij->i", blows_along, outward) > 0.2
-        recoiled = np.linalg.norm(me_next - blows_along * 0.5, axis=1) < R - 0.6
-        blow = on & ready & there.any(axis=1) & aimed & pushes_out & recoiled & (distance < 2.0)
-        if action_type == "continuous":
-            return np.concatenate([np.where(on[:, None], move, 0.0), np.where(blow, 1.0, -1.0)[:, None]],
-                                  axis=1).astype(np.float32)
-        return np.where(on, np.where(blow, _BLOW, 1 + k), 0).astype(np.int64)
+        from arena_league.envs.games.blowblow.heuristic import push_off  # the package's own scripted play
+
+        return push_off(obs, action_type)
 
 
 class BlowBlowControls(CompassControls):
@@ -878,7 +768,7 @@ class BlowBlowControls(CompassControls):
                 "along your heading, the way you last ran; let go to stop pushing.")
 
     def seat_move(self, action: int) -> int:
-        if action in (0, _BLOW):
+        if action in (0, BLOW_ACTION):
             return action
         # the seat's frame is the world turned back by its team's turn: so is the move
         shift = 8 * int(self.rules.team_of[self.seat]) // self.rules.n_teams
@@ -886,7 +776,7 @@ class BlowBlowControls(CompassControls):
 
     def parse(self, text: str) -> tuple[int | None, str | None]:
         if text == "b":
-            return _BLOW, None
+            return BLOW_ACTION, None
         action, problem = super().parse(text)
         if problem is not None:
             problem += "; b blows along your heading"
