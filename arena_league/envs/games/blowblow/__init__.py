@@ -139,7 +139,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import CompassControls, arrow_keys, key_controls
+from arena_league.envs.controls import TurnedCompassControls, arrow_keys, key_controls
 from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
@@ -159,9 +159,9 @@ from arena_league.envs.social import team_tree
 
 AGENT_RADIUS = 0.25
 AGENT_MASS = 1.0
-#: Physics step per env step (seconds).
+#: Physics step per env step (seconds), and the fraction of its velocity a body keeps after one
+#: second (pymunk ``Space.damping``).
 DT = 0.1
-#: Fraction of its velocity a body keeps after one second (pymunk ``Space.damping``).
 SPACE_DAMPING = 0.5
 #: Full thrust of an agent, and the drag coefficient opposing its velocity.
 THRUST = 5.0
@@ -170,36 +170,33 @@ AGENT_DRAG = 2.0
 AGENT_TOP_SPEED = THRUST / (AGENT_DRAG - AGENT_MASS * np.log(SPACE_DAMPING))
 #: A thrust shorter than this fraction of full strength leaves the heading as it was.
 HEADING_MIN_THRUST = 0.1
-#: Momentum of a blow's puff (the blower's recoil), the reach of its cone (between centres) and the
-#: cone's half-angle.
+#: Momentum of a blow's puff (the blower's recoil), the reach of its cone (between centres), the
+#: cone's half-angle, and the steps from a blow until the seat may blow again.
 BLOW_IMPULSE = 1.2
 BLOW_RANGE = 2.5
 BLOW_HALF_ANGLE = math.radians(30.0)
-#: Steps from a blow until the seat may blow again.
 BLOW_COOLDOWN = 6
 #: Overlap pymunk tolerates between touching bodies (its default, 0.1, is large at this scale).
 COLLISION_SLOP = 0.01
 #: Contact restitution and friction are the products of the two shapes' values: 0.25 and 0.09.
 ELASTICITY = 0.5
 FRICTION = 0.3
-#: Observation scales: positions are divided by the platform's radius, velocities by VELOCITY_UNIT.
+#: Observation scales: positions are divided by the platform's radius, velocities by VELOCITY_UNIT;
+#: velocity cells are bounded by VELOCITY_BOUND (6 units/s, three times an agent's top speed).
 VELOCITY_UNIT = 3.0
-#: Bound of the velocity cells, in units of VELOCITY_UNIT (6 units/s, three times an agent's top
-#: speed; only a pile-up, a blow and its recoil together push an agent faster, and that is clipped).
 VELOCITY_BOUND = 2.0
 #: Mean distances from the centre this close count as equal when a cut match is judged (mirrored
 #: play stays mirrored up to the solver's rounding).
 CENTRE_TIE = 1e-6
-
 DEFAULT_PLATFORM_RADIUS = 3.0
 OPTIONS = (Option("platform_radius", float, DEFAULT_PLATFORM_RADIUS, "radius of the round platform", 2.0, 4.0),
            Option("start_jitter", float, 0.3, "largest random offset of each start position", 0.0, 0.5))
 
 #: Start spots of team 0 in units of the platform's radius (team 1's are turned), per players per team.
 _FORMATIONS = {1: ((-0.45, 0.0),), 2: ((-0.45, 0.25), (-0.45, -0.25))}
-#: The discrete blow action, after the compass moves.
+#: The discrete blow action, after the compass moves; the observation's cells of the seat's own,
+#: and per other seat.
 BLOW_ACTION = len(COMPASS_MOVE_NAMES)
-#: Cells of the observation: the seat's own, then per other seat.
 OWN_CELLS, OTHER_CELLS = 9, 8
 _COS_HALF_ANGLE = math.cos(BLOW_HALF_ANGLE)
 #: A seat that fell collides with nothing.
@@ -207,32 +204,30 @@ _GONE_FILTER = pymunk.ShapeFilter(categories=0, mask=0)
 
 
 def blowblow_field(n_agents: int) -> Field:
-    """The agents (discs that do not spin) on no walls: the platform's edge is judged, not built."""
+    """The agents (discs that do not spin) and no walls: the platform's edge is judged, not built."""
     return Field(dt=DT, damping=SPACE_DAMPING, collision_slop=COLLISION_SLOP, parts=(
         Bodies("agent", n_agents, AGENT_RADIUS, AGENT_MASS, Material(ELASTICITY, FRICTION)),))
 
 
 def _seat_runs(prefix: str, relative: bool) -> list[Run]:
-    v, span = VELOCITY_BOUND, 2 if relative else 1
+    span = 2 if relative else 1
     return [Run(f"{prefix}on", 1, (0, 1), "on-platform flag: 1 while the seat is on the platform"),
-            Run(f"{prefix}position", 2, (-span, span),
-                "position relative to the seat (other - own)" if relative else "position x, y"),
-            Run(f"{prefix}velocity", 2, (-v, v), "velocity vx, vy"),
+            Run(f"{prefix}position", 2, (-span, span), "position relative to the seat" if relative else "position"),
+            Run(f"{prefix}velocity", 2, (-VELOCITY_BOUND, VELOCITY_BOUND), "velocity"),
             Run(f"{prefix}heading", 2, (-1, 1), "heading (a unit vector)"),
             Run(f"{prefix}cooldown", 1, (0, 1), "steps left before the seat may blow again, over 6")]
 
 
 def blowblow_observation(n_agents: int) -> CellLayout:
-    """The observation's runs (seat frame; positions divided by ``R``, velocities by 3): the seat's
-    own cells, then every other seat's, the teammate first (2P), then the opponents in seat order,
-    all 0 once that seat fell (and all of a seat's own once it fell)."""
+    """The observation's runs: the seat's own cells, then every other seat's, the teammate first,
+    then the opponents in seat order."""
     own = _seat_runs("", False)
     return CellLayout([own[0], Run("size", 1, (0, 1), "R / 4 (the platform's size: positions are in units of R)"),
                        *own[1:], *[run for k in range(n_agents - 1) for run in _seat_runs(f"other_{k}_", True)]])
 
 
 def blowblow_state(n_agents: int) -> CellLayout:
-    """The global state's runs (world frame, the observation's scales): every seat's own cells."""
+    """The global state's runs (world frame): every seat's own cells, in seat order."""
     return CellLayout([run for k in range(n_agents) for run in _seat_runs(f"seat_{k}_", False)])
 
 
@@ -245,8 +240,7 @@ class BlowBlowRules(Physics2DRules):
     action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
     measures_provided: ClassVar[frozenset[str]] = frozenset(
         {"active", "alive", "target_distance", "velocity_to_target", "facing_target", "energy", "force", "speed",
-         "outcome"}
-    )
+         "outcome"})
     default_max_cycles: ClassVar[int] = 300
     summary: ClassVar[str] = ("Agents push each other off a round platform, shoving or blowing (pymunk; last team "
                               "on the platform wins)")
@@ -258,13 +252,9 @@ class BlowBlowRules(Physics2DRules):
         self.start_jitter = self.settings["start_jitter"]
         n = self.n_agents
         self._discrete = action_type == "discrete"
-        self.n_actions = BLOW_ACTION + 1
-        self.act_dim = 3
-        self.action_meanings = (*COMPASS_MOVE_NAMES, "blow")
-        self.layout = blowblow_observation(n)
-        self.state_layout = blowblow_state(n)
-        self.obs_dim = self.layout.size
-        self.state_dim = self.state_layout.size
+        self.n_actions, self.act_dim, self.action_meanings = BLOW_ACTION + 1, 3, (*COMPASS_MOVE_NAMES, "blow")
+        self.layout, self.state_layout = blowblow_observation(n), blowblow_state(n)
+        self.obs_dim, self.state_dim = self.layout.size, self.state_layout.size
         # the seat frame of team 1 is the world turned by half a turn: every vector times -1
         self._sign = mirror_signs(self.team_of)
         moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
@@ -273,36 +263,30 @@ class BlowBlowRules(Physics2DRules):
         self._sets_heading_table = self._energy_table > 0.0
         self._obs_low, self._obs_high = (b.reshape(n, self.obs_dim) for b in self.clip_bounds(self.layout))
         self._state_low, self._state_high = (b.astype(np.float64) for b in self.state_layout.bounds())
+        # the opponent each seat marks at the start: the one straight ahead, across the platform
+        # (team 0's seat k stands opposite team 1's seat 1 - k)
+        p = players_per_team
+        self._marked_at_start = [int(1 - self.team_of[i]) * p + (p - 1 - i % p) for i in range(n)]
         self._layout_work_vector()
 
     # --- construction --------------------------------------------------------------------------
     def _layout_work_vector(self) -> None:
-        """The world's work vector holds everything a step reads, and one matrix product of it gives
-        the measures' linear parts and every observation at once (few numpy calls: the hot path is
-        Python-bound); the world's force matrix gives the forces. Results land in preallocated
-        arrays, seen through views made here.
-
-        Work vector: ``[x, y, vx, vy]`` of every seat, then per seat (world frame, ``x, y`` each)
-        its heading, its velocity before the step, its thrust as a fraction of full strength and the
-        impulse its blows and those it caught give it this step; the step from which each seat may
-        blow again, the step count and a constant 1.
-        """
+        """The world's work vector holds everything a step reads: ``[x, y, vx, vy]`` of every seat,
+        then per seat (world frame) its heading, its velocity before the step, its thrust as a
+        fraction of full strength and the impulse its blows and those it caught give it this step;
+        the step from which each seat may blow again, the step count and a constant 1. One matrix
+        product of it gives the measures' linear parts and every observation at once (few numpy
+        calls: the hot path is Python-bound), the world's force matrix the forces; results land in
+        preallocated arrays, seen through the views made here."""
         n = self.n_agents
         world = self.world = World(blowblow_field(n), slots=(
             ("heading", 2 * n), ("v_before", 2 * n), ("thrust", 2 * n), ("impulse", 2 * n), ("ready", n),
             ("step", 1), (ONE, 1)))
-        self._work = world.work
-        self._step_at = world.at("step")
+        self._work, self._step_at, self._ready_at = world.work, world.at("step"), world.at("ready")
         # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
-        agents_c = world.table.view(np.complex128)
-        self._agent_pos_c = agents_c[:, 0]
-        self._agent_vel_c = agents_c[:, 1]
+        self._agent_pos_c, self._agent_vel_c = world.table.view(np.complex128).T
         self._heading_c, self._v_before_c, self._thrust_c, self._impulse_c = (
             world.complex_view(slot) for slot in ("heading", "v_before", "thrust", "impulse"))
-        # the opponent each seat marks at the start: the one straight ahead, across the platform
-        # (team 0's seat k stands opposite team 1's seat 1 - k)
-        p = self.players_per_team
-        self._marked_at_start = [int(1 - self.team_of[i]) * p + (p - 1 - i % p) for i in range(n)]
         # forces: thrust against a linear drag, and this step's impulses spread over the step
         F = world.force_matrix = world.matrix(2 * n)
         for k in range(2 * n):
@@ -311,57 +295,46 @@ class BlowBlowRules(Physics2DRules):
             F[k, world.at("impulse", k)] = 1.0 / DT
         # measures then observations (n * obs_dim rows), one product per step; the rows of what a
         # seat that fell shows, and of what it sees, are zeroed in the match's copy
-        self._measure_rows = 2 * 5 * n
+        self._measure_rows = 10 * n
         self._full_matrix = np.concatenate([self._measure_map(), self._observation_map()])
         self._matrix = self._full_matrix.copy()
         self._linear = np.zeros(len(self._matrix))
         linear_c = self._linear[: self._measure_rows].view(np.complex128)
-        self._position_c = linear_c[:n]  # every seat's position, as of the last product
+        # every seat's position (as of the last product), way to its target, contact force, velocity
+        # and heading (conjugated); distance from the centre, to the target, contact force, speed
+        self._position_c, self._to_target_c = linear_c[:n], linear_c[n: 2 * n]
+        self._velocity_heading_conj, self._norm_source = linear_c[3 * n:].reshape(2, n), linear_c[: 4 * n]
+        self._norms = np.zeros(4 * n)
+        self._radius = self._norms[:n]
         self._obs_rows = self._linear[self._measure_rows:].reshape(n, self.obs_dim)
         self._obs_work = np.zeros((n, self.obs_dim))
-        self._to_target_c = linear_c[n: 2 * n]
-        self._velocity_heading_conj = linear_c[3 * n:].reshape(2, n)
-        self._norm_source = linear_c[: 4 * n]
-        self._norms = np.zeros(4 * n)  # distance from the centre, to the target, contact force, speed
-        self._radius = self._norms[:n]
         self._along_c = np.zeros((2, n), dtype=np.complex128)
         self._along_real = self._along_c.real
         self._along = np.zeros((2, n))  # velocity and heading along the way to the target
         m = self.measures
-        m.velocity_to_target, m.facing_target = self._along[0], self._along[1]
-        m.target_distance, m.force = self._norms[n: 2 * n], self._norms[2 * n: 3 * n]
-        m.speed = self._norms[3 * n:]
-        self._kept_distance = np.zeros(n)
-        self._kept_facing = np.zeros(n)
-        # step buffers
-        self._move_xy = np.zeros((n, 2))
+        m.velocity_to_target, m.facing_target = self._along
+        m.target_distance, m.force, m.speed = self._norms[n:].reshape(3, n)
+        self._kept_distance, self._kept_facing = np.zeros(n), np.zeros(n)
+        self._move_xy = np.zeros((n, 2))  # step buffers
         self._move_c = self._move_xy.view(np.complex128).reshape(n)
-        self._move_length = np.zeros(n)
-        self._turns_heading = np.zeros(n, dtype=bool)
-        # per seat, the rows of the matrix to zero once it fell: its position (its radius, by which
-        # falls are judged, reads 0 from then on), its own observation row and its cells in the
-        # others'
-        self._seat_rows = []
-        for seat in range(n):
-            first = self._measure_rows + seat * self.obs_dim
-            rows = [2 * seat, 2 * seat + 1, *range(first, first + self.obs_dim)]
-            for i in range(n):
-                if i != seat:
-                    cell = self.layout.at(f"other_{self._other_seats(i).index(seat)}_on")
-                    rows += [self._measure_rows + i * self.obs_dim + cell + c for c in range(OTHER_CELLS)]
-            self._seat_rows.append(np.array(rows, dtype=np.intp))
-        self._full_state_matrix = self._state_map()
+        self._move_length, self._turns_heading = np.zeros(n), np.zeros(n, dtype=bool)
+        # per seat, the rows to zero once it fell: its position (its radius, by which falls are
+        # judged, reads 0 from then on), its own observation and its cells in the others'
+        obs_row = [self._measure_rows + i * self.obs_dim for i in range(n)]
+        self._seat_rows = [np.array([2 * seat, 2 * seat + 1, *range(obs_row[seat], obs_row[seat] + self.obs_dim), *[
+            obs_row[i] + self.layout.at(f"other_{self._other_seats(i).index(seat)}_on") + c
+            for i in range(n) if i != seat for c in range(OTHER_CELLS)]], dtype=np.intp) for seat in range(n)]
+        self._full_state_matrix = self.world.matrix(self.state_dim)
+        for i in range(n):
+            self._seat_cells(self._full_state_matrix[OTHER_CELLS * i: OTHER_CELLS * (i + 1)], i, 1.0, None)
 
     def _measure_map(self) -> np.ndarray:
-        """The linear parts of the measures as one matrix over the work vector.
-
-        Rows, read as complex numbers: every seat's position; its way to its target (marked opponent
-        - own; :meth:`_retarget` points it at the other opponent once the marked one fell); its
-        contact force, the impulse the solver added beyond damping, drag, thrust and blows (Chipmunk
-        integrates ``v' = v * damping**dt + f / m * dt`` before it solves the contacts), divided by
-        ``dt``; its velocity conjugated; its heading conjugated (their products with the way to the
-        target give dot products).
-        """
+        """The linear parts of the measures over the work vector; rows, read as complex numbers:
+        every seat's position; its way to its target (marked opponent - own; :meth:`_retarget`);
+        its contact force, the impulse the solver added beyond damping, drag, thrust and blows
+        (Chipmunk integrates ``v' = v * damping**dt + f / m * dt`` before it solves the contacts),
+        over ``dt``; its velocity and its heading conjugated (their products with the way to the
+        target give dot products)."""
         n, world = self.n_agents, self.world
         M = world.matrix(self._measure_rows)
         keep = SPACE_DAMPING**DT - AGENT_DRAG * DT / AGENT_MASS
@@ -405,7 +378,7 @@ class BlowBlowRules(Physics2DRules):
                 rows[1 + axis, world.pos(relative_to, axis)] -= ps
             rows[3 + axis, world.vel(seat, axis)] = vs
             rows[5 + axis, world.at("heading", 2 * seat + axis)] = frame
-        rows[7, world.at("ready", seat)] = 1.0 / BLOW_COOLDOWN
+        rows[7, self._ready_at + seat] = 1.0 / BLOW_COOLDOWN
         rows[7, self._step_at] = -1.0 / BLOW_COOLDOWN
 
     def _observation_map(self) -> np.ndarray:
@@ -413,38 +386,27 @@ class BlowBlowRules(Physics2DRules):
         n, width, cells = self.n_agents, len(self._work), self.layout
         A = np.zeros((n, self.obs_dim, width))
         for i in range(n):
-            frame = float(self._sign[i])
             own = np.zeros((OTHER_CELLS, width))
-            self._seat_cells(own, i, frame, None)
-            A[i, cells.at("on")] = own[0]
+            self._seat_cells(own, i, float(self._sign[i]), None)
+            A[i, cells.at("on")], A[i, cells.at("position"): OWN_CELLS] = own[0], own[1:]
             A[i, cells.at("size"), self.world.at(ONE)] = self.platform_radius / 4.0
-            A[i, cells.at("position"): OWN_CELLS] = own[1:]
             for m, j in enumerate(self._other_seats(i)):
                 first = cells.at(f"other_{m}_on")
-                self._seat_cells(A[i, first: first + OTHER_CELLS], j, frame, i)
+                self._seat_cells(A[i, first: first + OTHER_CELLS], j, float(self._sign[i]), i)
         return A.reshape(n * self.obs_dim, width)
-
-    def _state_map(self) -> np.ndarray:
-        """The global state as one matrix over the work vector (world frame)."""
-        S = self.world.matrix(self.state_dim)
-        for i in range(self.n_agents):
-            self._seat_cells(S[OTHER_CELLS * i: OTHER_CELLS * (i + 1)], i, 1.0, None)
-        return S
 
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
         self._record_reset(seed)
         self.rng = np.random.default_rng(seed)
-        jitter = self.start_jitter
         spots = np.asarray(_FORMATIONS[self.players_per_team], dtype=np.float64) * self.platform_radius
-        team0 = spots + self.rng.uniform(-jitter, jitter, spots.shape)
+        team0 = spots + self.rng.uniform(-self.start_jitter, self.start_jitter, spots.shape)
         self.world.build({"agent": np.concatenate([team0, -team0])})
         n = self.n_agents
         self._work[self.world.at("heading"): self.world.at(ONE)] = 0.0
         self._heading_c[:] = self._sign  # toward the other team: +x in every seat frame
         self._step_count = 0
         self._ready = [0] * n  # the step from which each seat may blow again (a copy of the work's)
-        self._blew = False  # whether the impulse cells hold this step's blows, to be cleared
         self._on = np.ones(n, dtype=bool)
         self._seats_on = list(range(n))
         self._others_on = [[j for j in range(n) if j != i] for i in range(n)]  # per seat, the others on
@@ -452,23 +414,20 @@ class BlowBlowRules(Physics2DRules):
         self._turn = self._sign + 0j  # seat frame -> world; 0 once the seat fell (no thrust)
         self._marked = list(self._marked_at_start)
         self._kept = np.zeros(n, dtype=bool)  # seats whose target measures stay as they fell
-        self._any_fallen = False
+        self._any_fallen = self.game_over = False
         np.copyto(self._matrix, self._full_matrix)
         self._state_matrix = self._full_state_matrix.copy()
         m = self.measures
-        m.active[:] = True
-        m.alive[:] = True
+        m.active[:] = m.alive[:] = True
         m.outcome[:] = 0.0
-        self.game_over = False
         self._events = []
         self._measure_still_state()
 
     def _measure_still_state(self) -> None:
         """Measures of the bodies as they stand, with no step behind them (no force, no effort)."""
         self._v_before_c[:] = self._agent_vel_c
-        self._thrust_c[:] = 0.0
-        self._impulse_c[:] = 0.0
-        self._blew = False
+        self._thrust_c[:] = self._impulse_c[:] = 0.0
+        self._blew = False  # whether the impulse cells hold this step's blows, to be cleared
         self.measures.energy[:] = 0.0
         self._update_measures()
         self.measures.force[:] = 0.0
@@ -477,10 +436,7 @@ class BlowBlowRules(Physics2DRules):
         self._record("step", actions.copy())
         if self._events:
             self._events = []
-        energy = self.measures.energy
-        move = self._move_c
-        turns = self._turns_heading
-        discrete = self._discrete
+        energy, move, turns, discrete = self.measures.energy, self._move_c, self._turns_heading, self._discrete
         if discrete:
             self._move_table.take(actions, out=move)
             self._energy_table.take(actions, out=energy)
@@ -524,8 +480,7 @@ class BlowBlowRules(Physics2DRules):
     def _blow(self, asked: list) -> None:
         """Every seat that asks to blow (``asked``: its action, or its blow cell) and may: the puff's
         impulse on the nearest agent in its cone, and the blower's recoil."""
-        discrete = self._discrete
-        step, ready, on = self._step_count, self._ready, self._on
+        discrete, step, ready, on = self._discrete, self._step_count, self._ready, self._on
         positions = headings = None
         impulses = self._impulse_c
         for seat, asking in enumerate(asked):
@@ -534,7 +489,7 @@ class BlowBlowRules(Physics2DRules):
             if positions is None:  # (a few seats: Python's complex numbers are cheaper than numpy's)
                 positions, headings = self._position_c.tolist(), self._heading_c.tolist()
             ready[seat] = step + BLOW_COOLDOWN
-            self._work[self.world.at("ready", seat)] = ready[seat]
+            self._work[self._ready_at + seat] = ready[seat]
             heading = headings[seat]
             impulses[seat] -= BLOW_IMPULSE * heading
             here, backward = positions[seat], heading.conjugate()
@@ -572,25 +527,22 @@ class BlowBlowRules(Physics2DRules):
         m = self.measures
         radius = self._radius.tolist()
         for seat in [s for s in self._seats_on if radius[s] > self.platform_radius]:
-            self._on[seat] = False
+            self._on[seat] = m.active[seat] = m.alive[seat] = False
             self._seats_on.remove(seat)
             for others in self._others_on:
                 if seat in others:
                     others.remove(seat)
-            m.active[seat] = m.alive[seat] = False
             self._team_on[self.team_of[seat]] -= 1
             body = self.world.bodies["agent"][seat]
             for shape in body.shapes:
                 shape.filter = _GONE_FILTER
             body.velocity = 0.0, 0.0  # it stays where it fell
-            self._agent_vel_c[seat] = 0.0
-            self._turn[seat] = 0.0
+            self._agent_vel_c[seat] = self._turn[seat] = 0.0
             self._matrix[self._seat_rows[seat]] = 0.0
             self._linear[self._seat_rows[seat]] = 0.0  # this step's observations too
             self._state_matrix[OTHER_CELLS * seat: OTHER_CELLS * (seat + 1)] = 0.0
             self._kept[seat] = True
-            self._kept_distance[seat] = m.target_distance[seat]
-            self._kept_facing[seat] = m.facing_target[seat]
+            self._kept_distance[seat], self._kept_facing[seat] = m.target_distance[seat], m.facing_target[seat]
             self._events.append({"kind": "fall", "seat": seat})
         self._any_fallen = True
         if (self._team_on == 0).any():
@@ -624,9 +576,7 @@ class BlowBlowRules(Physics2DRules):
 
     def finish(self) -> None:
         self._record("finish")
-        # a match cut at max_cycles goes to the team with more agents on the platform, then to the
-        # one nearer the centre on average
-        self._set_outcome()
+        self._set_outcome()  # to the team with more agents on, then to the one nearer the centre
 
     def team_result(self) -> np.ndarray:
         on = self._team_on
@@ -649,10 +599,8 @@ class BlowBlowRules(Physics2DRules):
     def agents(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(xy, velocity, heading)``: every agent's world position, velocity and heading (copies;
         a seat that fell lies where it fell, still)."""
-        def pairs(c: np.ndarray) -> np.ndarray:
-            return np.stack([c.real, c.imag], axis=1)
-
-        return pairs(self._agent_pos_c), pairs(self._agent_vel_c), pairs(self._heading_c)
+        return tuple(np.stack([c.real, c.imag], axis=1) for c in (self._agent_pos_c, self._agent_vel_c,
+                                                                   self._heading_c))
 
     def cooldown(self) -> np.ndarray:
         """``int64[n_agents]``: steps each seat must still wait before it may blow."""
@@ -666,21 +614,17 @@ class BlowBlowRules(Physics2DRules):
         least one agent radius from every other; the entries of seats that fell are ignored."""
         if self.world.space is None:
             raise RuntimeError("call reset(seed) before place()")
-        n = self.n_agents
+        n, on = self.n_agents, self._on
         agent_xy = np.asarray(agent_xy, dtype=np.float64).reshape(n, 2)
-        agent_velocity = (np.zeros((n, 2)) if agent_velocity is None
-                          else np.asarray(agent_velocity, dtype=np.float64).reshape(n, 2))
-        if heading is not None:
-            heading = np.asarray(heading, dtype=np.float64).reshape(n)
-        on = self._on
+        agent_velocity = np.zeros((n, 2)) if agent_velocity is None else np.asarray(agent_velocity, dtype=np.float64)
+        agent_velocity = agent_velocity.reshape(n, 2)
+        heading = None if heading is None else np.asarray(heading, dtype=np.float64).reshape(n)
         off = np.flatnonzero(on & (np.linalg.norm(agent_xy, axis=1) > self.platform_radius))
         if len(off):
-            seat = int(off[0])
-            raise ValueError(f"agent {seat} at {agent_xy[seat].tolist()} is off the platform: its centre must lie "
-                             f"within {self.platform_radius} of the platform's centre")
+            raise ValueError(f"agent {off[0]} at {agent_xy[off[0]].tolist()} is off the platform: its centre must "
+                             f"lie within {self.platform_radius} of the platform's centre")
         xy = np.where(on[:, None], agent_xy, self.agents()[0])
-        apart = np.linalg.norm(xy[:, None] - xy[None], axis=2) + np.eye(n) * 99
-        if apart.min() < AGENT_RADIUS:
+        if (np.linalg.norm(xy[:, None] - xy[None], axis=2) + np.eye(n) * 99).min() < AGENT_RADIUS:
             raise ValueError(f"agents must stand at least {AGENT_RADIUS} apart (centre to centre)")
         self._record("place", agent_xy.copy(), agent_velocity.copy(), None if heading is None else heading.copy())
         for seat in self._seats_on:
@@ -694,28 +638,24 @@ class BlowBlowRules(Physics2DRules):
         self._measure_still_state()
 
     def render_topdown(self) -> np.ndarray:
-        R = self.platform_radius
-        edge = R + 0.6
-        canvas = Canvas(-edge, edge, -edge, edge, size=400, background=(30, 30, 40))
+        R, dark = self.platform_radius, (20, 20, 20)
+        canvas = Canvas(-R - 0.6, R + 0.6, -R - 0.6, R + 0.6, size=400, background=(30, 30, 40))
         canvas.circle(0.0, 0.0, R + 0.05, fill=(150, 150, 150))  # the edge
         canvas.circle(0.0, 0.0, R, fill=(205, 185, 140))
         xy, _, heading = self.agents()
-        for event in self._events:
-            if event["kind"] == "blow":  # the cone of a blow of the last step
-                x, y = xy[event["seat"]]
-                angle = math.atan2(heading[event["seat"], 1], heading[event["seat"], 0])
-                arc = [(x + BLOW_RANGE * math.cos(angle + a), y + BLOW_RANGE * math.sin(angle + a))
-                       for a in np.linspace(-BLOW_HALF_ANGLE, BLOW_HALF_ANGLE, 7)]
-                canvas.draw.polygon([canvas.px(x, y)] + [canvas.px(*p) for p in arc], fill=(170, 205, 235))
-        for seat in range(self.n_agents):
+        for seat in (e["seat"] for e in self._events if e["kind"] == "blow"):  # the last step's blows' cones
             x, y = xy[seat]
+            angle = math.atan2(heading[seat, 1], heading[seat, 0])
+            arc = [canvas.px(x + BLOW_RANGE * math.cos(angle + a), y + BLOW_RANGE * math.sin(angle + a))
+                   for a in np.linspace(-BLOW_HALF_ANGLE, BLOW_HALF_ANGLE, 7)]
+            canvas.draw.polygon([canvas.px(x, y), *arc], fill=(170, 205, 235))
+        for seat, ((x, y), (hx, hy)) in enumerate(zip(xy, heading)):
             colour = TEAM_COLOURS[self.team_of[seat]]
             if not self._on[seat]:
-                canvas.circle(x, y, AGENT_RADIUS, fill=tuple(c // 3 for c in colour), outline=(20, 20, 20))
+                canvas.circle(x, y, AGENT_RADIUS, fill=tuple(c // 3 for c in colour), outline=dark)
                 continue
-            canvas.circle(x, y, AGENT_RADIUS, fill=colour, outline=(20, 20, 20))
-            hx, hy = heading[seat]
-            canvas.line(x, y, x + AGENT_RADIUS * hx, y + AGENT_RADIUS * hy, fill=(20, 20, 20), width_px=3)
+            canvas.circle(x, y, AGENT_RADIUS, fill=colour, outline=dark)
+            canvas.line(x, y, x + AGENT_RADIUS * hx, y + AGENT_RADIUS * hy, fill=dark, width_px=3)
         return canvas.array()
 
     def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
@@ -741,8 +681,7 @@ class BlowBlowRules(Physics2DRules):
             scene.arrow(float(xy[s, 0]), float(xy[s, 1]), 0.2, float(yaw[s]), BLOW_RANGE, (0.67, 0.8, 0.92, 0.6))
             for s in blows]))
         score = " : ".join(str(int(on)) for on in self._team_on)
-        out.append(scene.entity("score", ts, texts=[scene.text(0, R + 0.6, 0.2, score)]))
-        return out
+        return [*out, scene.entity("score", ts, texts=[scene.text(0, R + 0.6, 0.2, score)])]
 
     def human_controls(self, seat: int) -> BlowBlowControls:
         return BlowBlowControls(self, seat)
@@ -759,7 +698,7 @@ class BlowBlowRules(Physics2DRules):
         return push_off(obs, action_type)
 
 
-class BlowBlowControls(CompassControls):
+class BlowBlowControls(TurnedCompassControls):
     """Compass moves on the platform as drawn (E = right), turned into the seat's frame, and ``b``
     to blow along the heading."""
 
@@ -767,29 +706,19 @@ class BlowBlowControls(CompassControls):
     key_hint = ("Arrow keys or W A S D run on the platform as drawn (two at once: diagonally); Space (or B) blows "
                 "along your heading, the way you last ran; let go to stop pushing.")
 
-    def seat_move(self, action: int) -> int:
-        if action in (0, BLOW_ACTION):
-            return action
-        # the seat's frame is the world turned back by its team's turn: so is the move
-        shift = 8 * int(self.rules.team_of[self.seat]) // self.rules.n_teams
-        return 1 + (action - 1 - shift) % 8
-
     def parse(self, text: str) -> tuple[int | None, str | None]:
         if text == "b":
             return BLOW_ACTION, None
         action, problem = super().parse(text)
-        if problem is not None:
-            problem += "; b blows along your heading"
-        return action, problem
+        return action, None if problem is None else problem + "; b blows along your heading"
 
     def prompt(self, step: int) -> str:
         return (f"step {step}: {self.move} (e, ne, n, nw, w, sw, s, se or noop), or b to blow along your heading "
                 "(an action number 0-9; Enter repeats) > ")
 
     def web(self) -> dict[str, Any]:
-        keys = {**arrow_keys("n", "w", "s", "e"), " ": "b", "b": "b", "B": "b"}
-        return key_controls(keys, self.PACE, self.key_hint, release="noop", combine="nsew",
-                            accepts=("ne", "nw", "se", "sw"))
+        return key_controls({**arrow_keys("n", "w", "s", "e"), " ": "b", "b": "b", "B": "b"}, self.PACE,
+                            self.key_hint, release="noop", combine="nsew", accepts=("ne", "nw", "se", "sw"))
 
 
 RULES = BlowBlowRules
