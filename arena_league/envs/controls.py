@@ -38,7 +38,8 @@ from arena_league.envs.rendering import TEAM_COLOURS
 if TYPE_CHECKING:
     from arena_league.envs.core import GameRules
 
-__all__ = ["ActionControls", "CompassControls", "Controls", "arrow_keys", "ascii_topdown", "key_controls"]
+__all__ = ["ActionControls", "CompassControls", "Controls", "TurnedCompassControls", "arrow_keys", "ascii_topdown",
+           "key_controls"]
 
 
 class Controls(ABC):
@@ -195,6 +196,18 @@ class MirroredCompassControls(CompassControls):
 
     def seat_move(self, action: int) -> int:
         return _MIRRORED_COMPASS[action] if int(self.rules.team_of[self.seat]) == 1 else action
+
+
+class TurnedCompassControls(CompassControls):
+    """Compass moves on the view as drawn (E = right), turned into the seat frame of a team that
+    sees the world turned by ``team / n_teams`` of a turn (FightForFood, BlowBlow); the actions
+    after the compass moves (a blow, say) pass unchanged."""
+
+    def seat_move(self, action: int) -> int:
+        if not 1 <= action <= 8:
+            return action
+        shift = 8 * int(self.rules.team_of[self.seat]) // self.rules.n_teams
+        return 1 + (action - 1 - shift) % 8
 
 
 def key_controls(keys: dict[str, str], pace: float, hint: str, *, release: str | None = None,
