@@ -14,6 +14,7 @@ from safetensors.torch import load_file
 
 from arena_league.league import open_home
 from arena_league.league.population import build as build_module
+from arena_league.league.population import round_robin as round_robin_module
 from arena_league.league.population.build import build_population, load_bundles
 from arena_league.league.population.selection import behaviour_distances, select_spanning, target_order
 from arena_league.league.service import base_population
@@ -49,7 +50,7 @@ def test_training_stage_trains_every_scheme_and_stops(trained):
 def test_build_resumes_freezes_and_registers_frozen(trained, tmp_path, monkeypatch):
     work, _ = trained
     finished = {s: (work / "runs" / f"{s}-seed0" / "run.json").stat().st_mtime_ns for s in SCHEMES}
-    monkeypatch.setattr(build_module, "CHUNK_MATCHES", 64)
+    monkeypatch.setattr(round_robin_module, "CHUNK_MATCHES", 64)
     out = tmp_path / "checkpoints" / GAME / "base-t"
     league = open_home(tmp_path / "league")
 
@@ -233,7 +234,7 @@ def test_side_by_side_processes_train_the_same_runs_and_play_the_same_matches(tr
     for scheme in SCHEMES:
         assert _weights(side / "runs" / f"{scheme}-seed0") == _weights(work / "runs" / f"{scheme}-seed0") != {}
 
-    monkeypatch.setattr(build_module, "CHUNK_MATCHES", 64)
+    monkeypatch.setattr(round_robin_module, "CHUNK_MATCHES", 64)
     scores = {}
     for processes in (1, 2):
         folder = tmp_path / f"robin{processes}"
