@@ -6,6 +6,9 @@ in the seat frame, keep the same global state, measure the same things about the
 the same default social tree. This module holds those pieces, each a function of the game's own
 constants:
 
+- :class:`BallGameRules`: the rules' common part (the ``goal_width`` and ``kickoff_jitter``
+  options' values, the compass moves, the score, the seats' mirrored frames, the kick-off, the
+  global state and the default tree);
 - :func:`observation_layout` and :func:`observation_matrix`: the observation's runs (own body, the
   ball, the two goals, every other seat) and the matrix that fills them from the work vector;
 - :func:`seat_force_matrix` and :func:`measure_matrix`: a seat's thrust against drag, and the
@@ -13,6 +16,7 @@ constants:
   progress toward the attacked goal);
 - :func:`state_layout` and :func:`field_state`: every body's ``x, y, vx, vy``, then the score;
 - :func:`win_loss_over_team_progress`: the default social tree;
+- :func:`drive_through`: the scripted seats' last stretch, to a spot and through the ball;
 - :func:`draw_goal_field` and :func:`goal_field_entities`: the top-down picture and the replay scene.
 """
 
@@ -20,23 +24,92 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from arena_league.envs import scene
 from arena_league.envs.physics2d.cells import CellLayout, Run
 from arena_league.envs.physics2d.geometry import Point, goal_field_outline, pushed_outline
+from arena_league.envs.physics2d.rules import COMPASS_MOVE_NAMES, COMPASS_MOVES, Physics2DRules, mirror_signs
 from arena_league.envs.physics2d.world import ONE, World
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 
-__all__ = ["FieldLook", "draw_goal_field", "field_state", "goal_field_entities", "measure_matrix",
-           "observation_layout", "observation_matrix", "seat_force_matrix", "state_layout",
+__all__ = ["BallGameRules", "FieldLook", "draw_goal_field", "drive_through", "field_state", "goal_field_entities",
+           "measure_matrix", "observation_layout", "observation_matrix", "seat_force_matrix", "state_layout",
            "win_loss_over_team_progress"]
 
 Bounds = tuple[float, float]
 PairBounds = tuple[Bounds, Bounds]
 Primitives = dict[str, list[dict[str, Any]]]
+
+
+class BallGameRules(Physics2DRules):
+    """The common part of a two-team ball game's rules. A game declares the options
+    ``goal_width`` and ``kickoff_jitter`` among its ``options``, its observation scales
+    (:attr:`position_scale`, :attr:`velocity_unit`) and :meth:`state_bounds`, and builds its
+    ``layout`` and ``world`` (the ball the body after the seats) in ``__init__`` after this one,
+    and its ``_measure_still_state`` (the measures of the bodies as they stand)."""
+
+    position_scale: ClassVar[float]
+    velocity_unit: ClassVar[float]
+
+    def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs: Any) -> None:
+        super().__init__(n_teams, players_per_team, action_type, **kwargs)
+        self.goal_half_width = self.settings["goal_width"] / 2
+        self.kickoff_jitter = self.settings["kickoff_jitter"]
+        self.n_actions = len(COMPASS_MOVE_NAMES)
+        self.act_dim = 2
+        self.action_meanings = COMPASS_MOVE_NAMES
+        self.state_dim = 4 * self.n_agents + 6
+        self.score = np.zeros(2, dtype=np.int64)
+        self._team_sign = mirror_signs(self.team_of)  # the x sign of each seat's frame
+        self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
+        self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
+
+    def kickoff(self, formation: Sequence[Point]) -> tuple[np.ndarray, np.ndarray]:
+        """Every seat's and the ball's kick-off position, drawn from ``self.rng``: team 0 at the
+        ``formation``'s spots, team 1 at theirs mirrored, each spot jittered by up to
+        ``kickoff_jitter`` in both coordinates, and the ball on the centre spot jittered in ``y``."""
+        jitter = self.kickoff_jitter
+        slots = np.asarray(formation, dtype=np.float64)
+        team0 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
+        team1 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
+        team1[:, 0] *= -1.0
+        return np.concatenate([team0, team1]), np.array([0.0, self.rng.uniform(-jitter, jitter)])
+
+    def place_bodies(self, seats: str, seat_xy: Any, seat_velocity: Any | None, ball: str, ball_xy: Any,
+                     ball_velocity: Any | None) -> None:
+        """What a game's ``place`` does: the seats (bodies of kind ``seats``) and the ``ball`` put at
+        world positions and velocities (zero when None), once :meth:`check_placement` accepts them,
+        the call recorded for replay and the measures taken of the bodies as they stand."""
+        seat_xy = np.asarray(seat_xy, dtype=np.float64).reshape(self.n_agents, 2)
+        seat_velocity = (np.zeros((self.n_agents, 2)) if seat_velocity is None
+                         else np.asarray(seat_velocity, dtype=np.float64).reshape(self.n_agents, 2))
+        ball_xy = np.array(ball_xy, dtype=np.float64).reshape(2)
+        if self.world.space is None:
+            raise RuntimeError("call reset(seed) before place()")
+        self.check_placement(seat_xy, ball_xy)
+        self._record("place", seat_xy.copy(), ball_xy.copy(), seat_velocity.copy(),
+                     None if ball_velocity is None else np.array(ball_velocity, dtype=np.float64))
+        self.world.place(seats, seat_xy, seat_velocity)
+        self.world.place(ball, ball_xy, ball_velocity)
+        self.world.read()
+        self._measure_still_state()
+
+    def check_placement(self, seat_xy: np.ndarray, ball_xy: np.ndarray) -> None:
+        """Raise a ValueError where the seats (``(n, 2)``) or the ball may not stand; any place will do here."""
+
+    def state(self) -> np.ndarray:
+        return field_state(self.world, self.n_agents + 1, self.position_scale, self.velocity_unit, self.score,
+                           self._state_low, self._state_high)
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.layout.bounds()
+
+    @classmethod
+    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
+        return win_loss_over_team_progress(n_teams, players_per_team)
 
 
 def observation_layout(ball: str, position: PairBounds, ball_relative: PairBounds, ball_position: PairBounds,
@@ -161,6 +234,44 @@ def win_loss_over_team_progress(n_teams: int, players_per_team: int) -> dict:
         teams.append({"scheme": "CL", "reward": "team_progress", "scale": 10, "children": [
             {"agent": f"player_{seat}", "scheme": "IS", "reward": "target", "scale": 1} for seat in seats]})
     return {"scheme": "CP", "reward": "win_loss", "scale": 100, "children": teams}
+
+
+def drive_through(me: np.ndarray, velocity: np.ndarray, ball: np.ndarray, target: np.ndarray, contact: float,
+                  low: Any, high: Any, detours: Any, strikers: np.ndarray, coast: bool,
+                  action_type: str) -> np.ndarray:
+    """Scripted seats' actions (rows: seats, world-frame 2-vectors in the seat frame): each runs to
+    its ``target`` spot (within ``low``, ``high``), the seats in ``detours`` going round the ball
+    where the straight way there runs into it (``contact``: the distance of a touch), and a
+    ``striker`` lined up behind the ball drives through it. Each steers its velocity, not just its
+    position, so as not to overshoot; with ``coast``, a striker driving through does not brake.
+    Discrete actions are the compass move nearest the heading (noop for a weak one)."""
+    rel = me - ball
+    push = ball - target
+    push /= np.maximum(np.linalg.norm(push, axis=1, keepdims=True), 1e-9)
+    along = np.einsum("ij,ij->i", rel, push)  # < 0: the seat is behind the ball
+    lateral = rel - along[:, None] * push
+    lateral_len = np.linalg.norm(lateral, axis=1)
+    side = np.where(lateral_len[:, None] > 1e-6, lateral / np.maximum(lateral_len, 1e-9)[:, None],
+                    np.stack([-push[:, 1], push[:, 0]], axis=1))
+    # when the straight way there runs into the ball, go round it on the seat's side
+    path = target - me
+    t = np.clip(np.einsum("ij,ij->i", -rel, path) / np.maximum(np.einsum("ij,ij->i", path, path), 1e-9), 0, 1)
+    blocked = detours & (np.linalg.norm(ball - (me + t[:, None] * path), axis=1) < contact + 0.05)
+    around = np.clip(ball + side * (contact + 0.3) - push * (contact + 0.3), low, high)
+    waypoint = np.where(blocked[:, None], around, target)
+    aligned = strikers & (along < -0.5 * contact) & (lateral_len < 0.35 * contact)
+    waypoint = np.where(aligned[:, None], ball + push * 0.6, waypoint)
+
+    heading = waypoint - me
+    distance = np.linalg.norm(heading, axis=1, keepdims=True)
+    heading = heading / np.maximum(distance, 1e-9) * np.minimum(1.0, distance / 0.3)
+    heading -= np.where(aligned & coast, 0.0, 0.2)[:, None] * velocity
+    length = np.linalg.norm(heading, axis=1)
+    if action_type == "continuous":
+        return np.clip(heading / np.maximum(length, 1.0)[:, None], -1.0, 1.0).astype(np.float32)
+    angle = np.arctan2(heading[:, 1], heading[:, 0])
+    move = 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
+    return np.where(length < 0.3, 0, move).astype(np.int64)
 
 
 @dataclass(frozen=True)

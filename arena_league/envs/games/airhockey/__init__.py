@@ -121,8 +121,9 @@ Heuristic
     assumes the default goal width.
 
 Game kwargs
-    ``goal_width`` (float in [0.6, 2.8], default 1.2), ``kickoff_jitter`` (float in [0, 0.5],
-    default 0.3).
+    ``goal_width`` (float in [0.6, 2.8], default 1.2): width of each goal mouth;
+    ``kickoff_jitter`` (float in [0, 0.5], default 0.3): largest random offset of each face-off
+    position.
 
 Playing it (``arena-league play``)
     A coarse text view of the top-down picture (team digits, ``#`` rails, ``+`` markings, ``o``
@@ -132,15 +133,13 @@ Playing it (``arena-league play``)
     diagonally). Discrete actions only.
 
 Rendering
-    A top-down picture of the table (400 pixels wide): the rails, the playing surface with its
-    centre line and face-off circle, each goal slot in the colour of the team defending it, the
-    mallets in their teams' colours and the puck in white. ``render_mode="rgb_array"`` returns it;
-    ``"human"`` shows it in a window.
+    A top-down picture of the table (400 pixels wide): the rails, the surface with its centre line
+    and face-off circle, each goal slot in the colour of the team defending it, the mallets in their
+    teams' colours, the puck in white. ``render_mode="rgb_array"`` returns it; ``"human"`` shows it.
 
 Copies
-    The rules pickle and copy (``pickle``, ``copy.deepcopy``) by playing the match again from its
-    seed and the actions (and ``place`` calls) since, as pymunk's contact caches cannot be copied;
-    a copy goes on bit for bit as the original does.
+    The rules pickle and copy (``pickle``, ``copy.deepcopy``) by replaying the match from its seed,
+    actions and ``place`` calls (pymunk's contact caches cannot be copied): bit for bit.
 
 Replay scene
     The table with its centre line and both goal slots (in the colour of the team defending each),
@@ -159,29 +158,15 @@ from arena_league.envs import scene
 from arena_league.envs.controls import MirroredCompassControls
 from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
-    COMPASS_MOVE_NAMES,
     COMPASS_MOVES,
     ONE,
     Bodies,
     CellLayout,
     Field,
     Material,
-    Physics2DRules,
     Walls,
     World,
-    mirror_signs,
-)
-from arena_league.envs.physics2d.ballgames import (
-    FieldLook,
-    draw_goal_field,
-    field_state,
-    goal_field_entities,
-    measure_matrix,
-    observation_layout,
-    observation_matrix,
-    seat_force_matrix,
-    state_layout,
-    win_loss_over_team_progress,
+    ballgames,
 )
 from arena_league.envs.physics2d.geometry import Segment, goal_field_outline, wall_segments
 
@@ -246,7 +231,7 @@ _FORMATIONS = {
 }
 #: How the table is drawn: rails 0.25 thick, no dark rim round the puck (the text view sees a
 #: white block as the puck, "o", a grey one as a marking).
-_LOOK = FieldLook(wall=0.25, margin=0.5, wall_colour=(40, 40, 40), surface_colour=(165, 195, 225),
+_LOOK = ballgames.FieldLook(wall=0.25, margin=0.5, wall_colour=(40, 40, 40), surface_colour=(165, 195, 225),
                   marking_colour=(200, 200, 200), line_px=3, centre_circle=0.6, ball_rim=None)
 
 
@@ -270,7 +255,7 @@ def airhockey_table(n_agents: int, goal_half_width: float) -> Field:
                rotates=True)))
 
 
-class AirHockeyRules(Physics2DRules):
+class AirHockeyRules(ballgames.BallGameRules):
     """AirHockey on a railed pymunk table; see the module docstring for the manual."""
 
     name: ClassVar[str] = "AirHockey"
@@ -284,33 +269,25 @@ class AirHockeyRules(Physics2DRules):
     default_max_cycles: ClassVar[int] = 300
     summary: ClassVar[str] = "Mallets strike a sliding puck at the other goal, each in its own half (pymunk; first goal wins, else territory)"
     options = OPTIONS
+    position_scale = POSITION_SCALE
+    velocity_unit = VELOCITY_UNIT
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
         super().__init__(n_teams, players_per_team, action_type, **kwargs)
-        self.goal_half_width = self.settings["goal_width"] / 2
-        self.kickoff_jitter = self.settings["kickoff_jitter"]
         n = self.n_agents
-        self.n_actions = len(COMPASS_MOVE_NAMES)
-        self.act_dim = 2
-        self.action_meanings = COMPASS_MOVE_NAMES
         self.layout = self._observation_layout()
         self.obs_dim = self.layout.size
-        self.state_dim = 4 * n + 6
-        self.score = np.zeros(2, dtype=np.int64)
         #: steps that ended with the puck in team 0's half (x < 0) and in team 1's (x > 0)
         self.puck_steps = np.zeros(2, dtype=np.int64)
 
-        self._team_sign = mirror_signs(self.team_of)  # the x sign of each seat's frame
         # the sign that takes each cell of the seats' (x, y) pairs from the seat's frame to the world
         self._thrust_signs = np.stack([self._team_sign, np.ones(n)], axis=1).reshape(-1)
         self._first_seats = np.array([int(np.flatnonzero(self.team_of == t)[0]) for t in range(2)])
         # unit thrust of every move in the seat frame (x + iy): the matrices turn it into the world
         self._moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
-        self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
         self._goal_line = HALF_LENGTH + PUCK_RADIUS
         low, high = self.clip_bounds(self.layout)
         self._obs_low, self._obs_high = low.reshape(n, -1), high.reshape(n, -1)
-        self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
         self._layout_work_vector()
 
     # --- construction --------------------------------------------------------------------------
@@ -321,18 +298,15 @@ class AirHockeyRules(Physics2DRules):
         puck_x = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE
         own, wide = ((-x, 0.0), (-y, y)), (-2 * y, 2 * y)
         others = [((-x, x), wide)] * (self.players_per_team - 1) + [((0.0, 2 * x), wide)] * self.players_per_team
-        return observation_layout("puck", own, ((-puck_x, puck_x + x), wide), ((-puck_x, puck_x), (-y, y)), (-v, v),
-                                  (((x, 2 * x), (-y, y)), own), others)
+        return ballgames.observation_layout("puck", own, ((-puck_x, puck_x + x), wide), ((-puck_x, puck_x), (-y, y)),
+                                            (-v, v), (((x, 2 * x), (-y, y)), own), others)
 
     def _layout_work_vector(self) -> None:
-        """The world's work vector holds everything a step reads, and one matrix product of it gives
-        every measure's linear part and every observation at once (few numpy calls: the hot path
-        is Python-bound). Their results land in preallocated arrays, seen through views made here.
-
-        After the bodies' ``[x, y, vx, vy]`` the work vector holds the seats' velocities before the
-        step, their unit thrust in their own frames (as the actions give it: the matrices mirror
-        team 1's into the world), the puck's x before the step, and a constant 1.
-        """
+        """The world's work vector holds everything a step reads: the bodies' ``[x, y, vx, vy]``,
+        the seats' velocities before the step, their unit thrust in their own frames (the matrices
+        mirror team 1's into the world), the puck's x before the step and a constant 1. One product
+        of it gives every measure's linear part and every observation (the hot path is
+        Python-bound), into preallocated arrays seen through views made here."""
         n = self.n_agents
         world = self.world = World(airhockey_table(n, self.goal_half_width),
                                    slots=(("v_before", 2 * n), ("thrust", 2 * n), ("puck_x_before", 1), (ONE, 1)))
@@ -348,13 +322,13 @@ class AirHockeyRules(Physics2DRules):
         self._thrust_c = world.complex_view("thrust")
         self._thrust_length = np.zeros((n, 1))  # a thrust's length, at least 1: its scale-back
         # applied force of every body (zero for the puck and the static body), in the world frame
-        world.force_matrix = seat_force_matrix(world, THRUST, MALLET_DRAG, self._thrust_signs)
+        world.force_matrix = ballgames.seat_force_matrix(world, THRUST, MALLET_DRAG, self._thrust_signs)
         # measures (7 n rows) then observations (n * obs_dim rows), one product per step
         self._matrix = np.concatenate([
-            measure_matrix(world, "puck", self._team_sign, self._thrust_signs, MALLET_MASS, DT, SPACE_DAMPING,
-                           THRUST, MALLET_DRAG),
-            observation_matrix(world, self.layout, "puck", self.team_of, self._team_sign, POSITION_SCALE,
-                               1.0 / VELOCITY_UNIT, HALF_LENGTH)])
+            ballgames.measure_matrix(world, "puck", self._team_sign, self._thrust_signs, MALLET_MASS, DT,
+                                     SPACE_DAMPING, THRUST, MALLET_DRAG),
+            ballgames.observation_matrix(world, self.layout, "puck", self.team_of, self._team_sign, POSITION_SCALE,
+                                         1.0 / VELOCITY_UNIT, HALF_LENGTH)])
         self._linear = np.zeros(len(self._matrix))
         self._measure_vectors_c = self._linear[: 6 * n].view(np.complex128)  # conj(to_puck), velocity, force
         self._to_puck_c = self._measure_vectors_c[:n]
@@ -375,14 +349,9 @@ class AirHockeyRules(Physics2DRules):
     def reset(self, seed: int) -> None:
         self._record_reset(seed)
         self.rng = np.random.default_rng(seed)
-        jitter = self.kickoff_jitter
-        slots = np.asarray(_FORMATIONS[self.players_per_team], dtype=np.float64)
-        team0 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
-        team1 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
-        team1[:, 0] *= -1.0
-        puck_xy = np.array([0.0, self.rng.uniform(-jitter, jitter)])
+        mallet_xy, puck_xy = self.kickoff(_FORMATIONS[self.players_per_team])
         serve = (SERVE_SPEED if self.rng.random() < 0.5 else -SERVE_SPEED, 0.0)
-        self.world.build({"mallet": np.concatenate([team0, team1]), "puck": puck_xy}, {"puck": [serve]})
+        self.world.build({"mallet": mallet_xy, "puck": puck_xy}, {"puck": [serve]})
         self._measure_still_state()
         self.measures.active[:] = True
         self.measures.outcome[:] = 0.0
@@ -450,20 +419,13 @@ class AirHockeyRules(Physics2DRules):
         clipped = np.minimum(self._obs_rows, self._obs_high, out=self._obs_work)
         return np.maximum(clipped, self._obs_low, out=clipped).astype(np.float32)
 
-    def state(self) -> np.ndarray:
-        return field_state(self.world, self.n_agents + 1, POSITION_SCALE, VELOCITY_UNIT, self.score,
-                           self._state_low, self._state_high)
-
-    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.layout.bounds()
-
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         x, y, v = HALF_LENGTH * POSITION_SCALE, HALF_WIDTH * POSITION_SCALE, VELOCITY_BOUND
         puck_x = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE
         # a seat lies in its team's half
         halves = [(-x, 0.0) if team == 0 else (0.0, x) for team in self.team_of]
-        return state_layout([*[(half, (-y, y), (-v, v), (-v, v)) for half in halves],
-                             ((-puck_x, puck_x), (-y, y), (-v, v), (-v, v))]).bounds()
+        return ballgames.state_layout([*[(half, (-y, y), (-v, v), (-v, v)) for half in halves],
+                                       ((-puck_x, puck_x), (-y, y), (-v, v), (-v, v))]).bounds()
 
     def finish(self) -> None:
         self._record("finish")
@@ -482,12 +444,9 @@ class AirHockeyRules(Physics2DRules):
         """Put the bodies at given world positions and velocities (for tests and scripted
         scenarios); the match continues from there. Each mallet must stand in its own half, clear
         of the centre line, and the puck on the table."""
-        mallet_xy = np.asarray(mallet_xy, dtype=np.float64).reshape(self.n_agents, 2)
-        mallet_velocity = (np.zeros((self.n_agents, 2)) if mallet_velocity is None
-                           else np.asarray(mallet_velocity, dtype=np.float64).reshape(self.n_agents, 2))
-        puck_xy = np.array(puck_xy, dtype=np.float64).reshape(2)
-        if self.world.space is None:
-            raise RuntimeError("call reset(seed) before place()")
+        self.place_bodies("mallet", mallet_xy, mallet_velocity, "puck", puck_xy, puck_velocity)
+
+    def check_placement(self, mallet_xy: np.ndarray, puck_xy: np.ndarray) -> None:
         clear = MALLET_RADIUS + BARRIER_RADIUS
         seat_x = mallet_xy[:, 0] * self._team_sign  # in the seat frame: the own half is x < 0
         outside = (seat_x > -clear) | (seat_x < -HALF_LENGTH + MALLET_RADIUS) | (
@@ -499,34 +458,25 @@ class AirHockeyRules(Physics2DRules):
                              f"at least {clear} from the centre line and {MALLET_RADIUS} inside the rails")
         if abs(puck_xy[0]) > HALF_LENGTH + GOAL_DEPTH - PUCK_RADIUS or abs(puck_xy[1]) > HALF_WIDTH - PUCK_RADIUS:
             raise ValueError(f"the puck at {puck_xy.tolist()} is off the table")
-        self._record("place", mallet_xy.copy(), puck_xy.copy(), mallet_velocity.copy(),
-                     None if puck_velocity is None else np.array(puck_velocity, dtype=np.float64))
-        self.world.place("mallet", mallet_xy, mallet_velocity)
-        self.world.place("puck", puck_xy, puck_velocity)
-        self.world.read()
-        self._measure_still_state()
 
     def render_topdown(self) -> np.ndarray:
-        return draw_goal_field(_LOOK, HALF_LENGTH, HALF_WIDTH, self.goal_half_width, GOAL_DEPTH, CORNER_CHAMFER,
-                               self._mallet_pos, self.team_of, MALLET_RADIUS, self._puck_state[0:2], PUCK_RADIUS)
+        return ballgames.draw_goal_field(_LOOK, HALF_LENGTH, HALF_WIDTH, self.goal_half_width, GOAL_DEPTH,
+                                         CORNER_CHAMFER, self._mallet_pos, self.team_of, MALLET_RADIUS,
+                                         self._puck_state[0:2], PUCK_RADIUS)
 
     def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
         surface = [scene.cube(0, 0, -0.05, (2 * HALF_LENGTH, 2 * HALF_WIDTH, 0.1), (0.78, 0.88, 0.94, 1.0)),
                    scene.cube(0, 0, 0.001, (0.06, 2 * HALF_WIDTH, 0.002), (0.8, 0.8, 0.8, 1.0))]  # the centre line
-        return goal_field_entities(
+        return ballgames.goal_field_entities(
             timestamp_ns, "table", surface, HALF_LENGTH, HALF_WIDTH, GOAL_DEPTH, 2 * self.goal_half_width,
             self.state(), self.team_of,
             lambda x, y, colour: {"cylinders": [scene.disc(x, y, 2 * MALLET_RADIUS, colour, height=0.15)]},
-            "puck", lambda x, y: {"cylinders": [scene.disc(x, y, 2 * PUCK_RADIUS, (0.97, 0.97, 0.97, 1.0), height=0.05)]})
+            "puck", lambda x, y: {"cylinders": [scene.disc(x, y, 2 * PUCK_RADIUS, (0.97,) * 3 + (1.0,), height=0.05)]})
 
     def human_controls(self, seat: int) -> AirHockeyControls:
         return AirHockeyControls(self, seat)
 
     # --- social tree and scripted play ---------------------------------------------------------
-    @classmethod
-    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        return win_loss_over_team_progress(n_teams, players_per_team)
-
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
         # the scripted play reads this module's constants, so it is imported once they exist

@@ -17,6 +17,7 @@ from arena_league.envs.games.airhockey import (
     PUCK_RADIUS,
     VELOCITY_UNIT,
 )
+from arena_league.envs.physics2d.ballgames import drive_through
 
 __all__ = ["heuristic"]
 
@@ -121,31 +122,5 @@ def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
     behind_spot = puck - aim * (contact + 0.5)  # a run-up, to strike hard
     target = np.where(blocking[:, None], block_spot, guard_spot)
     target = np.clip(np.where(striking[:, None], behind_spot, target), low, high)
-    push = puck - target
-    push /= np.maximum(np.linalg.norm(push, axis=1, keepdims=True), 1e-9)
-    along = np.einsum("ij,ij->i", rel, push)  # < 0: the seat is behind the puck
-    lateral = rel - along[:, None] * push
-    lateral_len = np.linalg.norm(lateral, axis=1)
-    side = np.where(lateral_len[:, None] > 1e-6, lateral / np.maximum(lateral_len, 1e-9)[:, None],
-                    np.stack([-push[:, 1], push[:, 0]], axis=1))
-    # when the straight way there runs into the puck, go round it on the seat's side
-    path = target - me
-    t = np.clip(np.einsum("ij,ij->i", -rel, path) / np.maximum(np.einsum("ij,ij->i", path, path), 1e-9), 0, 1)
-    blocked = striking & (np.linalg.norm(puck - (me + t[:, None] * path), axis=1) < contact + 0.05)
-    around = np.clip(puck + side * (contact + 0.3) - push * (contact + 0.3), low, high)
-    waypoint = np.where(blocked[:, None], around, target)
-    aligned = striking & (along < -0.5 * contact) & (lateral_len < 0.35 * contact)
-    waypoint = np.where(aligned[:, None], puck + push * 0.6, waypoint)
-
-    heading = waypoint - me
-    distance = np.linalg.norm(heading, axis=1, keepdims=True)
-    # steer the velocity, not just the position, so the seat does not overshoot; a strike
-    # goes through at full thrust
-    heading = heading / np.maximum(distance, 1e-9) * np.minimum(1.0, distance / 0.3)
-    heading -= np.where(aligned, 0.0, 0.2)[:, None] * velocity
-    length = np.linalg.norm(heading, axis=1)
-    if action_type == "continuous":
-        return np.clip(heading / np.maximum(length, 1.0)[:, None], -1.0, 1.0).astype(np.float32)
-    angle = np.arctan2(heading[:, 1], heading[:, 0])
-    move = 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
-    return np.where(length < 0.3, 0, move).astype(np.int64)
+    # a striker driving through goes at full thrust
+    return drive_through(me, velocity, puck, target, contact, low, high, striking, striking, True, action_type)
