@@ -188,8 +188,8 @@ _FORMATIONS = {
 }
 #: How the field is drawn: the walls as thick as they are, the ball with a dark rim.
 _LOOK = ballgames.FieldLook(wall=2 * WALL_RADIUS, margin=2 * WALL_RADIUS, wall_colour=(200, 200, 200),
-                  surface_colour=(60, 140, 60), marking_colour=(230, 230, 230), line_px=2, centre_circle=0.8,
-                  ball_rim=(20, 20, 20))
+                            surface_colour=(60, 140, 60), marking_colour=(230, 230, 230), line_px=2,
+                            centre_circle=0.8, ball_rim=(20, 20, 20))
 
 
 def soccer_field(n_agents: int, goal_half_width: float) -> Field:

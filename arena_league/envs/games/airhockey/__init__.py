@@ -232,7 +232,7 @@ _FORMATIONS = {
 #: How the table is drawn: rails 0.25 thick, no dark rim round the puck (the text view sees a
 #: white block as the puck, "o", a grey one as a marking).
 _LOOK = ballgames.FieldLook(wall=0.25, margin=0.5, wall_colour=(40, 40, 40), surface_colour=(165, 195, 225),
-                  marking_colour=(200, 200, 200), line_px=3, centre_circle=0.6, ball_rim=None)
+                            marking_colour=(200, 200, 200), line_px=3, centre_circle=0.6, ball_rim=None)
 
 
 def barrier_segments(goal_half_width: float) -> list[Segment]:
@@ -311,6 +311,7 @@ class AirHockeyRules(ballgames.BallGameRules):
         world = self.world = World(airhockey_table(n, self.goal_half_width),
                                    slots=(("v_before", 2 * n), ("thrust", 2 * n), ("puck_x_before", 1), (ONE, 1)))
         puck = world.index("puck")
+        self._work = world.work  # read on the hot path
         self._mallet_pos = world.table[:n, 0:2]
         self._puck_state = world.table[puck]
         self._puck_x_at, self._puck_y_at = world.pos(puck, 0), world.pos(puck, 1)
@@ -374,7 +375,7 @@ class AirHockeyRules(ballgames.BallGameRules):
         """One product of the work vector gives the measures' linear parts (``object_progress``
         among them) and the observations (:meth:`observe` clips them); the distances, speeds and
         forces are the lengths of its complex cells (the step sets ``energy`` itself)."""
-        np.dot(self._matrix, self.world.work, out=self._linear)
+        np.dot(self._matrix, self._work, out=self._linear)
         np.abs(self._measure_vectors_c, out=self._norms)
         # Re(v * conj(d)) is the dot product of the velocity v and the way d to the puck
         np.multiply(self._velocity_c, self._to_puck_c, out=self._along_c)
@@ -383,7 +384,7 @@ class AirHockeyRules(ballgames.BallGameRules):
 
     def step(self, actions: np.ndarray) -> None:
         self._record("step", actions.copy())
-        work = self.world.work
+        work = self._work
         energy = self.measures.energy
         if self.action_type == "discrete":
             self._moves.take(actions, out=self._thrust_c)
