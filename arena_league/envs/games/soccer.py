@@ -217,12 +217,6 @@ class SoccerRules(ballgames.BallGameRules):
     name: ClassVar[str] = "Soccer"
     version: ClassVar[int] = 1
     layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2), (2, 3))
-    action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
-    measures_provided: ClassVar[frozenset[str]] = frozenset(
-        {"active", "target_distance", "velocity_to_target", "energy", "force", "speed", "object_progress",
-         "outcome"}
-    )
-    default_max_cycles: ClassVar[int] = 300
     summary: ClassVar[str] = "Teams push a ball into the other goal (pymunk; first goal wins)"
     options = OPTIONS
     position_scale = POSITION_SCALE
@@ -286,10 +280,7 @@ class SoccerRules(ballgames.BallGameRules):
 
     def _measure_still_state(self) -> None:
         """Measures of the bodies as they stand, with no step behind them (no force, no progress)."""
-        world = self.world
-        world.work[world.at("v_before"): world.at(ONE)] = 0.0
-        world.work[world.at("ball_x_before")] = world.work[self._ball_x_at]
-        self._v_before_c[:] = self._agent_vel_c
+        self.still_slots()
         self._update_measures(np.zeros(self.n_agents))
         self.measures.force = np.zeros(self.n_agents)
 

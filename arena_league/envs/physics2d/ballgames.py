@@ -51,6 +51,14 @@ class BallGameRules(Physics2DRules):
     ``layout`` and ``world`` (the ball the body after the seats) in ``__init__`` after this one,
     and its ``_measure_still_state`` (the measures of the bodies as they stand)."""
 
+    action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
+    measures_provided: ClassVar[frozenset[str]] = frozenset(
+        {"active", "target_distance", "velocity_to_target", "energy", "force", "speed", "object_progress",
+         "outcome"}
+    )
+    default_max_cycles: ClassVar[int] = 300
+    #: The body kind of the ball (the body after the seats).
+    ball: ClassVar[str] = "ball"
     position_scale: ClassVar[float]
     velocity_unit: ClassVar[float]
 
@@ -77,6 +85,14 @@ class BallGameRules(Physics2DRules):
         team1 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
         team1[:, 0] *= -1.0
         return np.concatenate([team0, team1]), np.array([0.0, self.rng.uniform(-jitter, jitter)])
+
+    def still_slots(self) -> None:
+        """The slots a step fills before the physics as they stand with no step behind: no thrust,
+        every seat's velocity (slot ``"v_before"``) and the ball's x (``"<ball>_x_before"``) as they are."""
+        world = self.world
+        world.work[world.at("v_before"): world.at(ONE)] = 0.0
+        world.work[world.at(f"{self.ball}_x_before")] = world.work[world.pos(world.index(self.ball), 0)]
+        world.view("v_before")[:] = world.table[: self.n_agents, 2:4].reshape(-1)
 
     def place_bodies(self, seats: str, seat_xy: Any, seat_velocity: Any | None, ball: str, ball_xy: Any,
                      ball_velocity: Any | None) -> None:

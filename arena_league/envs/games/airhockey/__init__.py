@@ -261,14 +261,9 @@ class AirHockeyRules(ballgames.BallGameRules):
     name: ClassVar[str] = "AirHockey"
     version: ClassVar[int] = 1
     layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2))
-    action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
-    measures_provided: ClassVar[frozenset[str]] = frozenset(
-        {"active", "target_distance", "velocity_to_target", "energy", "force", "speed", "object_progress",
-         "outcome"}
-    )
-    default_max_cycles: ClassVar[int] = 300
     summary: ClassVar[str] = "Mallets strike a sliding puck at the other goal, each in its own half (pymunk; first goal wins, else territory)"
     options = OPTIONS
+    ball = "puck"
     position_scale = POSITION_SCALE
     velocity_unit = VELOCITY_UNIT
 
@@ -363,10 +358,7 @@ class AirHockeyRules(ballgames.BallGameRules):
 
     def _measure_still_state(self) -> None:
         """Measures of the bodies as they stand, with no step behind them (no force, no progress)."""
-        world = self.world
-        world.work[world.at("v_before"): world.at(ONE)] = 0.0
-        world.work[self._puck_x_before_at] = world.work[self._puck_x_at]
-        self._v_before_c[:] = self._mallet_vel_c
+        self.still_slots()
         self.measures.energy[:] = 0.0
         self._update_measures()
         self.measures.force[:] = 0.0
