@@ -425,9 +425,6 @@ def cmd_population(args: argparse.Namespace) -> int:
         list_shipped,
     )
 
-    if args.what is not None and args.action != "pull":
-        raise CommandError(f"population {args.action} takes one argument; NAME after the game is for `population pull "
-                           "GAME NAME`")
     if args.action == "pull":
         return _pull_population(args)
     if args.action == "index":
@@ -438,7 +435,7 @@ def cmd_population(args: argparse.Namespace) -> int:
         if args.action == "build":
             return _build_population(args, league)
         if args.action == "import":
-            label = import_population(league, _required(args.target, "the population folder"), name=args.name)
+            label = import_population(league, _required(args.folder, "the population folder"), name=args.name)
             if args.json:
                 emit_json({"imported": label})
             else:
@@ -473,7 +470,7 @@ def cmd_population(args: argparse.Namespace) -> int:
 def _pull_population(args: argparse.Namespace) -> int:
     from arena_league.league import pull_population
 
-    reports = pull_population(args.target, args.what, every=args.every, mirror=args.mirror)
+    reports = pull_population(args.game, args.what, every=args.every, mirror=args.mirror)
     if args.json:
         emit_json({"pulled": [r.to_dict() for r in reports]})
         return 0
@@ -679,24 +676,22 @@ def _required(value: Any, what: str) -> Any:
 
 def _build_population(args: argparse.Namespace, league) -> int:
     from arena_league.league.population.build import build_population
+    from arena_league.league.population.options import BuildOptions, command_line_options
 
-    game = _required(args.target, "a game id, e.g. `arena-league population build Soccer-2T2P-v1`")
+    game = _required(args.game, "a game id, e.g. `arena-league population build Soccer-2T2P-v1`")
 
     def log(line: str) -> None:
         stderr.print(line, highlight=False)
 
-    schemes = [] if args.schemes == ["none"] else args.schemes
-    report = build_population(game, size=args.size, name=args.name or "base-v1", schemes=schemes,
-                              steps_per_scheme=args.steps, runs_per_scheme=args.runs,
-                              warm_runs_per_scheme=args.warm_runs, seed=args.seed, work_dir=args.work_dir,
-                              out_dir=args.out_dir, league=league, log=log, base=args.base,
-                              scripted=args.scripted or (), retire=args.retire or (), processes=args.processes,
-                              matches_per_pair=args.matches_per_pair)
+    values = {option.field: getattr(args, option.field) for option in command_line_options()}
+    if values["schemes"] == ["none"]:
+        values["schemes"] = []
+    report = build_population(game, BuildOptions(**values), league=league, log=log)
     document = report.to_dict()
     if args.json:
         emit_json(document)
     else:
-        _print_record(f"population {document.get('name', args.name)} of {game}",
+        _print_record(f"population {document['name']} of {game}",
                       {k: v for k, v in document.items() if not isinstance(v, (dict, list))})
     return 0
 
@@ -841,6 +836,19 @@ def _league_options(p: argparse.ArgumentParser) -> None:
 
 def _json_option(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout (progress on stderr)")
+
+
+def _build_options(p: argparse.ArgumentParser) -> None:
+    """The options of ``population build``: the fields of the library's ``BuildOptions`` that the
+    command takes, with their defaults and docs (none written here)."""
+    from arena_league.league.population.options import command_line_options
+
+    types: dict[str, Callable[[str], Any]] = {"positive": _positive_int, "non_negative": _non_negative_int,
+                                              "seed": _seed, "text": str, "texts": str}
+    for option in command_line_options():
+        p.add_argument(option.flag, dest=option.field, type=types[option.kind], default=option.default,
+                       nargs="+" if option.kind == "texts" else None, help=option.help,
+                       metavar=option.metavar or option.flag.removeprefix("--").upper().replace("-", "_"))
 
 
 def _seed_option(p: argparse.ArgumentParser, what: str = "the matches' seeds") -> None:
@@ -1058,49 +1066,48 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_replay)
 
     p = command("population", "populations: list, build GAME, import FOLDER, export, pull GAME [NAME], index")
-    p.add_argument("action", choices=("list", "build", "import", "export", "pull", "index"),
-                   help="what to do (pull: fetch a shipped population into the cache; index: check the package's "
-                        "index of shipped populations against checkpoints/, or rewrite it with --write)")
-    p.add_argument("target", nargs="?", default=None,
-                   help="build / pull: the game id; import: the population folder")
-    p.add_argument("what", nargs="?", default=None, metavar="NAME",
-                   help="pull: the shipped population (default: the game's newest)")
-    p.add_argument("--all", dest="every", action="store_true",
-                   help="pull: every population shipped for the game (without a game: every one shipped)")
-    p.add_argument("--mirror", default=None, metavar="URL",
-                   help="pull: a copy of checkpoints/ to fetch from (http://, https://, file:// or a folder; default "
+    actions = p.add_subparsers(dest="action", required=True, metavar="ACTION",
+                               help="list, build, import, export, pull or index (each has its own --help)")
+    p.set_defaults(func=cmd_population, actions=actions.choices)
+
+    def action(name: str, help_text: str) -> argparse.ArgumentParser:
+        return actions.add_parser(name, help=help_text, description=help_text, parents=[common], allow_abbrev=False)
+
+    a = action("list", "the populations in this league and those shipped with arena-league, and where each is")
+    a.add_argument("--game", default=None, help="only this game's")
+    _league_options(a)
+
+    a = action("build", "train, rate, select and freeze a base population of a game (resumable)")
+    a.add_argument("game", nargs="?", default=None, help="the game id, e.g. Soccer-2T2P-v1")
+    _build_options(a)
+    _league_options(a)
+
+    a = action("import", "import a frozen population folder into this league")
+    a.add_argument("folder", nargs="?", default=None, help="the population folder, e.g. checkpoints/GAME/base-v1")
+    a.add_argument("--name", default=None, help="the population's name in the league (default: the folder's own)")
+    _league_options(a)
+
+    a = action("export", "write a population of this league to a new folder")
+    a.add_argument("--population", default=None, help="the population, NAME[:VERSION]")
+    a.add_argument("--destination", default=None, help="a new folder")
+    a.add_argument("--game", default=None, help="the population's game, where its name is another game's too")
+    _league_options(a)
+
+    a = action("pull", "fetch a shipped population into the cache, each file checked as it streams")
+    a.add_argument("game", nargs="?", default=None, help="the game id (without one: with --all, every one shipped)")
+    a.add_argument("what", nargs="?", default=None, metavar="NAME",
+                   help="the shipped population (default: the game's newest)")
+    a.add_argument("--all", dest="every", action="store_true",
+                   help="every population shipped for the game (without a game: every one shipped)")
+    a.add_argument("--mirror", default=None, metavar="URL",
+                   help="a copy of checkpoints/ to fetch from (http://, https://, file:// or a folder; default "
                         "$ARENA_LEAGUE_POPULATION_MIRROR, else the URL the index names)")
-    p.add_argument("--write", action="store_true", help="index: rewrite the index from checkpoints/")
-    p.add_argument("--url", default=None, help="index --write: the base URL the files are fetched from")
-    p.add_argument("--game", default=None, help="list: only this game's; export: the population's game")
-    p.add_argument("--name", default=None, help="build / import: the population's name (default base-v1)")
-    p.add_argument("--size", type=_positive_int, default=100, help="build: members (default 100)")
-    p.add_argument("--schemes", nargs="+", default=None,
-                   help="build: training schemes (default per game; 'none' trains nothing, with --base or --scripted)")
-    p.add_argument("--base", default=None, metavar="FOLDER",
-                   help="build: a frozen population whose members join the candidates (base-v2 from base-v1)")
-    p.add_argument("--scripted", nargs="+", default=None, metavar="AGENT",
-                   help="build: built-in agents that join the candidates, e.g. search-w8-r4-h30-e0.1 (GoBang), "
-                        "search-w3-r1-h4 (Snake), search-w8-r1-h40-v2 (FightForFood)")
-    p.add_argument("--retire", nargs="+", default=None, metavar="KEY",
-                   help="build: members of --base left out, by key (e.g. search-w4-r1-h40: superseded by its -v2)")
-    p.add_argument("--steps", type=_positive_int, default=None, help="build: env steps per scheme run")
-    p.add_argument("--runs", type=_positive_int, default=1, help="build: runs (seeds) of each scheme from scratch")
-    p.add_argument("--warm-runs", type=_non_negative_int, default=None,
-                   help="build: more runs of each scheme that first imitate the game's heuristic (default per game)")
-    _seed_option(p, "the build")
-    p.add_argument("--processes", type=_positive_int, default=1,
-                   help="build: processes that train runs and play the round robin side by side (default 1; "
-                        "the population is the same for any number)")
-    p.add_argument("--matches-per-pair", type=_positive_int, default=2,
-                   help="build: round-robin matches per pair of candidates, seats balanced (default 2; the shipped "
-                        "populations' READMEs say theirs)")
-    p.add_argument("--work-dir", default=None, help="build: runs and matches (a rerun resumes from here)")
-    p.add_argument("--out-dir", default=None, help="build: the frozen population (default checkpoints/GAME/NAME)")
-    p.add_argument("--population", default=None, help="export: NAME[:VERSION]")
-    p.add_argument("--destination", default=None, help="export: a new folder")
-    _league_options(p)
-    p.set_defaults(func=cmd_population)
+    _json_option(a)
+
+    a = action("index", "check the package's index of shipped populations against checkpoints/, or rewrite it")
+    a.add_argument("--write", action="store_true", help="rewrite the index from checkpoints/")
+    a.add_argument("--url", default=None, help="with --write: the base URL the files are fetched from")
+    _json_option(a)
 
     p = command("gc", "remove artifact files no agent references, leftovers of interrupted writes and stale uploads")
     p.add_argument("--dry-run", action="store_true", help="only list what would be removed")
@@ -1218,10 +1225,36 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         from arena_league.league import did_you_mean
 
         command = args.commands[args.command]
-        options = [o for action in command._actions for o in action.option_strings]
+        siblings = getattr(args, "actions", None) or {}
+        if siblings:  # a command with actions (population): the action refuses, naming the one an option is for
+            command = siblings[args.action]
+            _refuse_another_actions_option(f"{args.command} {args.action}", command, unknown, {
+                f"{args.command} {name}": parser for name, parser in siblings.items() if name != args.action})
+        options = _option_strings(command)
         hints = "".join(did_you_mean(u.split("=")[0], options) for u in unknown if u.startswith("-"))
         command.error(f"unrecognized arguments: {' '.join(unknown)}.{hints}")
     return args
+
+
+def _option_strings(parser: argparse.ArgumentParser) -> list[str]:
+    return [o for action in parser._actions for o in action.option_strings]
+
+
+def _refuse_another_actions_option(name: str, parser: argparse.ArgumentParser, unknown: list[str],
+                                   others: dict[str, argparse.ArgumentParser]) -> None:
+    """Exit with one line when an unknown option of ``parser`` (action ``name``) is one of
+    another action's, or when words are left over that the action takes no place for."""
+    for word in unknown:
+        flag = word.split("=")[0]
+        owners = [other for other, p in others.items() if flag in _option_strings(p)]
+        if flag.startswith("-") and owners:
+            parser.exit(2, f"arena-league {name}: error: {flag} is for `{'`, `'.join(owners)}`, not "
+                           f"`{name}`; see `arena-league {name} --help`\n")
+    words = [w for w in unknown if not w.startswith("-")]
+    if words and len(words) == len(unknown):
+        takes = [a.metavar or a.dest for a in parser._actions if not a.option_strings and a.dest != "help"]
+        parser.exit(2, f"arena-league {name}: error: it takes {' '.join(takes).upper() or 'no argument'}; "
+                       f"{' '.join(words)!r} is more than that\n")
 
 
 def main(argv: list[str] | None = None) -> int:

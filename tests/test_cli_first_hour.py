@@ -192,13 +192,50 @@ def test_every_option_has_help_and_every_league_command_takes_home_and_db():
 
     parser = build_parser()
     commands = parser.get_default("commands")
-    reads_no_league = {"games", "verify", "replay", "train", "experiment"}
-    for name, command in commands.items():
+    reads_no_league = {"games", "verify", "replay", "train", "experiment", "population pull", "population index"}
+    parsers = dict(commands)
+    for name, command in commands.items():  # a command with actions: each action is checked as a command
+        actions = command.get_default("actions") or {}
+        parsers.update({f"{name} {action}": p for action, p in actions.items()})
+        if actions:
+            del parsers[name]
+    for name, command in parsers.items():
         options = {o for action in command._actions for o in action.option_strings}
         for action in command._actions:
             assert action.help, f"{name} {action.option_strings or action.dest} has no help"
         if name not in reads_no_league:
             assert {"--home", "--db", "--json"} <= options, name
+        assert "--json" in options, name
+
+
+def test_population_actions_refuse_options_meant_for_another_action(capsys, home):
+    """Each population action takes its own options: one meant for another is refused in one line
+    that names the action it is for."""
+    refused = [(["list", "--seed", "3"], "--seed is for `population build`"),
+               (["list", "--mirror", "x"], "--mirror is for `population pull`"),
+               (["import", "folder", "--size", "8"], "--size is for `population build`"),
+               (["export", "--write"], "--write is for `population index`"),
+               (["pull", GAME, "--destination", "x"], "--destination is for `population export`"),
+               (["index", "--scripted", "heuristic"], "--scripted is for `population build`"),
+               (["build", GAME, "--all"], "--all is for `population pull`"),
+               (["import", "folder", "base-v1"], "it takes FOLDER; 'base-v1' is more than that")]
+    for argv, message in refused:
+        with pytest.raises(SystemExit) as exit_info:
+            main(["population", *argv])
+        err = capsys.readouterr().err
+        assert exit_info.value.code == 2 and message in err and len(err.strip().splitlines()) == 1, (argv, err)
+
+
+def test_population_build_takes_its_defaults_from_the_library():
+    """``population build``'s options are the library's BuildOptions fields, with their defaults."""
+    from arena_league.cli import parse_args
+    from arena_league.league.population.options import BuildOptions, command_line_options
+
+    args = parse_args(["population", "build", GAME])
+    defaults = BuildOptions()
+    for option in command_line_options():
+        assert getattr(args, option.field) == getattr(defaults, option.field), option.field
+    assert parse_args(["population", "build", GAME, "--steps", "512", "--seed", "3"]).steps_per_scheme == 512
 
 
 def test_errors_are_one_line_on_stderr_and_debug_shows_the_traceback(capsys, home):

@@ -216,9 +216,9 @@ def test_play_keeps_every_body_on_the_table_and_every_mallet_in_its_half():
             r.step(actions)
             # the bodies as pymunk has them (the state clips them): a fast body overlaps a rail or
             # a barrier on the step it arrives, never nearly as far as the rail's middle line
-            x, y = r._puck.position
+            x, y = r.world.bodies["puck"][0].position
             assert abs(x) < HALF_LENGTH + GOAL_DEPTH + RAIL_RADIUS / 2 and abs(y) < HALF_WIDTH + RAIL_RADIUS / 2
-            seat_x = np.array([body.position.x for body in r._mallets]) * np.where(r.team_of == 0, 1.0, -1.0)
+            seat_x = np.array([body.position.x for body in r.world.bodies["mallet"]]) * np.where(r.team_of == 0, 1.0, -1.0)
             assert seat_x.max() < -MALLET_RADIUS + 0.1 and seat_x.min() > -HALF_LENGTH
             if r.game_over:
                 break
@@ -241,15 +241,15 @@ def test_force_measure_is_the_contact_impulse_on_the_mallet_over_dt():
     keep = SPACE_DAMPING**DT
     strikes = 0
     for _ in range(12):  # strike the puck, catch it up and strike again, then press on the centre line
-        puck_velocity = r._puck.velocity
+        puck_velocity = r.world.bodies["puck"][0].velocity
         r.step(np.array([E, NOOP]))
         arbiters: list = []
-        r._mallets[0].each_arbiter(arbiters.append)
+        r.world.bodies["mallet"][0].each_arbiter(arbiters.append)
         bodies = [{shape.body for shape in arbiter.shapes} for arbiter in arbiters]
-        if bodies == [{r._mallets[0], r._puck}]:
+        if bodies == [{r.world.bodies["mallet"][0], r.world.bodies["puck"][0]}]:
             # what the puck gained beyond its damping is what the mallet lost (pymunk's own
             # total_impulse also counts an earlier contact's impulse when the two meet again soon)
-            gained = (r._puck.velocity - puck_velocity * keep) * PUCK_MASS
+            gained = (r.world.bodies["puck"][0].velocity - puck_velocity * keep) * PUCK_MASS
             assert r.measures.force[0] == pytest.approx(abs(gained) / DT, rel=1e-6)
             strikes += 1
         elif not arbiters:
@@ -459,9 +459,10 @@ def test_the_face_off_serves_the_puck_toward_a_half_drawn_from_the_seed():
 def test_unsupported_layout_and_unknown_or_bad_kwargs_are_refused():
     with pytest.raises(ValueError, match="no 2T3P layout; valid layouts: 2T1P, 2T2P"):
         AirHockeyRules(2, 3)
-    with pytest.raises(ValueError, match=r"unknown game kwargs \['goal_size'\]; valid: goal_width .*kickoff_jitter"):
+    with pytest.raises(ValueError, match=r"AirHockey has no option 'goal_size' \(did you mean 'goal_width'\?\); "
+                                         r"its options: goal_width: .*kickoff_jitter"):
         AirHockeyRules(2, 1, goal_size=2.0)
-    with pytest.raises(ValueError, match=r"goal_width must be a number in \[0.6, 2.8\]"):
+    with pytest.raises(ValueError, match=r"AirHockey option goal_width must be a number in \[0.6, 2.8\] \(default 1.2"):
         AirHockeyRules(2, 1, goal_width=4.0)
     with pytest.raises(ValueError, match="AirHockey is offered as: AirHockey-2T1P-v1"):
         make("AirHockey-3T1P-v1")

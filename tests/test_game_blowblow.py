@@ -475,12 +475,13 @@ def test_every_layout_constructs_with_its_documented_sizes(teams, players, actio
 def test_unsupported_layouts_and_unknown_or_bad_kwargs_are_refused():
     with pytest.raises(ValueError, match="no 4T1P layout; valid layouts: 2T1P, 2T2P"):
         BlowBlowRules(4, 1)
-    with pytest.raises(ValueError, match=r"unknown game kwargs \['radius'\]; valid: platform_radius .*start_jitter"):
+    with pytest.raises(ValueError, match=r"BlowBlow has no option 'radius'; its options: platform_radius: .*start_jitter"):
         BlowBlowRules(2, 1, radius=3.0)
     for bad in (1.5, 4.5, "3", True, float("nan")):
-        with pytest.raises(ValueError, match=r"platform_radius must be a number in \[2.0, 4.0\]"):
+        with pytest.raises(ValueError, match=r"BlowBlow option platform_radius must be a number in \[2.0, 4.0\] "
+                                             r"\(default 3.0"):
             BlowBlowRules(2, 1, platform_radius=bad)
-    with pytest.raises(ValueError, match=r"start_jitter must be a number in \[0.0, 0.5\]"):
+    with pytest.raises(ValueError, match=r"BlowBlow option start_jitter must be a number in \[0.0, 0.5\]"):
         BlowBlowRules(2, 1, start_jitter=0.8)
     with pytest.raises(ValueError, match="action_type 'hybrid' is not offered"):
         BlowBlowRules(2, 1, "hybrid")

@@ -14,7 +14,8 @@ from safetensors.torch import load_file
 
 from arena_league.league import open_home
 from arena_league.league.population import build as build_module
-from arena_league.league.population.build import build_population, load_bundles
+from arena_league.league.population import round_robin as round_robin_module
+from arena_league.league.population.build import BuildOptions, build_population, load_bundles
 from arena_league.league.population.selection import behaviour_distances, select_spanning, target_order
 from arena_league.league.service import base_population
 from arena_league.registry import get_population
@@ -49,7 +50,7 @@ def test_training_stage_trains_every_scheme_and_stops(trained):
 def test_build_resumes_freezes_and_registers_frozen(trained, tmp_path, monkeypatch):
     work, _ = trained
     finished = {s: (work / "runs" / f"{s}-seed0" / "run.json").stat().st_mtime_ns for s in SCHEMES}
-    monkeypatch.setattr(build_module, "CHUNK_MATCHES", 64)
+    monkeypatch.setattr(round_robin_module, "CHUNK_MATCHES", 64)
     out = tmp_path / "checkpoints" / GAME / "base-t"
     league = open_home(tmp_path / "league")
 
@@ -233,7 +234,7 @@ def test_side_by_side_processes_train_the_same_runs_and_play_the_same_matches(tr
     for scheme in SCHEMES:
         assert _weights(side / "runs" / f"{scheme}-seed0") == _weights(work / "runs" / f"{scheme}-seed0") != {}
 
-    monkeypatch.setattr(build_module, "CHUNK_MATCHES", 64)
+    monkeypatch.setattr(round_robin_module, "CHUNK_MATCHES", 64)
     scores = {}
     for processes in (1, 2):
         folder = tmp_path / f"robin{processes}"
@@ -260,6 +261,18 @@ def test_processes_must_be_a_positive_whole_number(tmp_path):
     for processes in (0, -1, 1.5, True):
         with pytest.raises(ValueError, match="processes must be a whole number"):
             build(tmp_path / "w", tmp_path / "o", processes=processes)
+    assert not (tmp_path / "w").exists()
+
+
+def test_options_are_one_dataclass_and_keywords_are_its_fields(tmp_path):
+    """``build_population`` takes a BuildOptions; keywords change its fields, and a keyword that is
+    no field is refused with the fields there are."""
+    options = BuildOptions(size=8, seed=3, work_dir=tmp_path / "w")
+    assert options.replaced({"seed": 4}) == BuildOptions(size=8, seed=4, work_dir=tmp_path / "w")
+    with pytest.raises(TypeError, match="BuildOptions has no sizes; its fields are .*size"):
+        build_population(GAME, options, sizes=9)
+    with pytest.raises(ValueError, match="at least 2 members, not 1"):
+        build_population(GAME, options, size=1)
     assert not (tmp_path / "w").exists()
 
 

@@ -4,6 +4,9 @@ Each module listed in :data:`GAME_MODULES` defines ``RULES``, a :class:`GameRule
 ``layouts`` give the ids it offers. A game is that one module: its rules also declare how a person
 plays a seat, its replay scene and its whole-array engine, if any (see :mod:`arena_league.envs.core`),
 so adding a game means adding its module here and touches no other package.
+
+A rules class outside :data:`GAME_MODULES` (a game being written, a test's toy game) joins the
+catalog for a while with :func:`registered_rules` (see ``docs/adding-a-game.md``).
 """
 
 from __future__ import annotations
@@ -11,6 +14,8 @@ from __future__ import annotations
 import difflib
 import importlib
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cache
 
@@ -50,14 +55,43 @@ def game_rules_classes() -> tuple[type[GameRules], ...]:
     return tuple(classes)
 
 
+#: Rules classes registered for a while by :func:`registered_rules`, beside the game modules'.
+_REGISTERED: list[type[GameRules]] = []
+
+
+def _ids_of(rules: type[GameRules]) -> list[GameSpec]:
+    return [GameSpec(format_game_id(rules.name, n_teams, players, rules.version), rules, n_teams, players)
+            for n_teams, players in rules.layouts]
+
+
 @cache
 def _catalog() -> dict[str, GameSpec]:
     specs: dict[str, GameSpec] = {}
-    for rules in game_rules_classes():
-        for n_teams, players in rules.layouts:
-            game_id = format_game_id(rules.name, n_teams, players, rules.version)
-            specs[game_id] = GameSpec(game_id, rules, n_teams, players)
+    for rules in (*game_rules_classes(), *_REGISTERED):
+        for spec in _ids_of(rules):
+            specs[spec.game_id] = spec
     return specs
+
+
+@contextmanager
+def registered_rules(rules: type[GameRules]) -> Iterator[list[str]]:
+    """The catalog with ``rules`` in it, for the ``with`` block: its ids (yielded) work with
+    ``make``, ``game_spec`` and the conformance check (``arena_league.envs.check``) as a game module's
+    do, and are gone after the block. For a game being written, before its module joins
+    :data:`GAME_MODULES`, and for tests' toy games; an id the catalog already has is refused."""
+    if not (isinstance(rules, type) and issubclass(rules, GameRules)):
+        raise TypeError(f"registered_rules takes a GameRules subclass, not {rules!r}")
+    taken = [spec.game_id for spec in _ids_of(rules) if spec.game_id in _catalog()]
+    if taken:
+        raise ValueError(f"the catalog already has {', '.join(taken)}: give {rules.__name__} another name or "
+                         "version")
+    _REGISTERED.append(rules)
+    _catalog.cache_clear()
+    try:
+        yield [spec.game_id for spec in _ids_of(rules)]
+    finally:
+        _REGISTERED.remove(rules)
+        _catalog.cache_clear()
 
 
 def list_games() -> list[str]:

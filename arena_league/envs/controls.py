@@ -38,7 +38,8 @@ from arena_league.envs.rendering import TEAM_COLOURS
 if TYPE_CHECKING:
     from arena_league.envs.core import GameRules
 
-__all__ = ["ActionControls", "CompassControls", "Controls", "arrow_keys", "ascii_topdown", "key_controls"]
+__all__ = ["ActionControls", "CompassControls", "Controls", "TurnedCompassControls", "arrow_keys", "ascii_topdown",
+           "key_controls"]
 
 
 class Controls(ABC):
@@ -197,6 +198,18 @@ class MirroredCompassControls(CompassControls):
         return _MIRRORED_COMPASS[action] if int(self.rules.team_of[self.seat]) == 1 else action
 
 
+class TurnedCompassControls(CompassControls):
+    """Compass moves on the view as drawn (E = right), turned into the seat frame of a team that
+    sees the world turned by ``team / n_teams`` of a turn (FightForFood, BlowBlow); the actions
+    after the compass moves (a blow, say) pass unchanged."""
+
+    def seat_move(self, action: int) -> int:
+        if not 1 <= action <= 8:
+            return action
+        shift = 8 * int(self.rules.team_of[self.seat]) // self.rules.n_teams
+        return 1 + (action - 1 - shift) % 8
+
+
 def key_controls(keys: dict[str, str], pace: float, hint: str, *, release: str | None = None,
                  combine: str | None = None, accepts: tuple[str, ...] = ()) -> dict[str, Any]:
     """A :meth:`Controls.web` declaration of a seat played by keys at ``pace`` steps per second."""
@@ -222,9 +235,12 @@ def ascii_topdown(picture: np.ndarray, columns: int = 64) -> str:
     height, width = image.shape[:2]
     block = max(1, width // columns)
     rows = max(1, height // (2 * block))  # characters are about twice as tall as wide
-    flat = image.reshape(-1, 3)
-    colours, counts = np.unique(flat, axis=0, return_counts=True)
-    background = colours[np.argsort(-counts)[:2]]  # the two commonest colours are ground
+    # colours packed into one integer each: counting them is a 1-D sort, not a sort of rows, and
+    # packed order is the rows' lexicographic order, so ties fall the same way
+    packed = (image[..., 0] << 16 | image[..., 1] << 8 | image[..., 2]).ravel()
+    colours, counts = np.unique(packed, return_counts=True)
+    commonest = colours[np.argsort(-counts)[:2]]
+    background = np.stack([commonest >> 16, commonest >> 8 & 255, commonest & 255], axis=1)  # the ground
     palette = np.asarray(TEAM_COLOURS[:4])
     lines = []
     for r in range(rows):

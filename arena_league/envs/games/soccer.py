@@ -139,14 +139,11 @@ from arena_league.envs.physics2d import (
     CellLayout,
     Field,
     Material,
-    Physics2DRules,
-    Run,
     Walls,
     World,
-    mirror_signs,
+    ballgames,
 )
-from arena_league.envs.physics2d.geometry import goal_field_outline, pushed_outline, wall_segments
-from arena_league.envs.rendering import TEAM_COLOURS, Canvas
+from arena_league.envs.physics2d.geometry import goal_field_outline, wall_segments
 
 #: Half length and half width of the field (inner faces of the walls).
 HALF_LENGTH = 4.0
@@ -189,6 +186,10 @@ _FORMATIONS = {
     2: ((-1.5, 0.9), (-1.5, -0.9)),
     3: ((-1.2, 1.2), (-1.2, -1.2), (-2.8, 0.0)),
 }
+#: How the field is drawn: the walls as thick as they are, the ball with a dark rim.
+_LOOK = ballgames.FieldLook(wall=2 * WALL_RADIUS, margin=2 * WALL_RADIUS, wall_colour=(200, 200, 200),
+                            surface_colour=(60, 140, 60), marking_colour=(230, 230, 230), line_px=2,
+                            centre_circle=0.8, ball_rim=(20, 20, 20))
 
 
 def soccer_field(n_agents: int, goal_half_width: float) -> Field:
@@ -204,61 +205,38 @@ def soccer_observation(n_agents: int) -> CellLayout:
     """The observation's runs (seat frame; positions divided by 4, velocities by 3)."""
     x, y, v = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE, HALF_WIDTH * POSITION_SCALE, VELOCITY_BOUND
     goal = HALF_LENGTH * POSITION_SCALE  # a goal's x in the seat frame, the attacked one positive
-    position, relative, velocity = ((-x, x), (-y, y)), ((-2 * x, 2 * x), (-2 * y, 2 * y)), (-v, v)
-    runs = [Run("active", 1, (0, 1), "own active flag (always 1)"),
-            Run("position", 2, position, "own position"),
-            Run("velocity", 2, velocity, "own velocity"),
-            Run("ball_relative", 2, relative, "ball position relative to the seat"),
-            Run("ball", 2, position, "ball position"),
-            Run("ball_velocity", 2, velocity, "ball velocity"),
-            Run("attacked_goal", 2, ((goal - x, goal + x), (-y, y)), "centre of the attacked mouth, relative"),
-            Run("defended_goal", 2, ((-goal - x, -goal + x), (-y, y)), "centre of the defended mouth, relative")]
-    for k in range(n_agents - 1):
-        runs += [Run(f"other_{k}", 2, relative, "another seat's position relative to the seat"),
-                 Run(f"other_{k}_velocity", 2, velocity, "that seat's velocity")]
-    return CellLayout(runs)
+    position, relative = ((-x, x), (-y, y)), ((-2 * x, 2 * x), (-2 * y, 2 * y))
+    return ballgames.observation_layout("ball", position, relative, position, (-v, v),
+                                        (((goal - x, goal + x), (-y, y)), ((-goal - x, -goal + x), (-y, y))),
+                                        [relative] * (n_agents - 1))
 
 
-class SoccerRules(Physics2DRules):
+class SoccerRules(ballgames.BallGameRules):
     """Soccer on a walled pymunk field; see the module docstring for the manual."""
 
     name: ClassVar[str] = "Soccer"
     version: ClassVar[int] = 1
     layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1), (2, 2), (2, 3))
-    action_types: ClassVar[tuple[str, ...]] = ("discrete", "continuous")
-    measures_provided: ClassVar[frozenset[str]] = frozenset(
-        {"active", "target_distance", "velocity_to_target", "energy", "force", "speed", "object_progress",
-         "outcome"}
-    )
-    default_max_cycles: ClassVar[int] = 300
     summary: ClassVar[str] = "Teams push a ball into the other goal (pymunk; first goal wins)"
     options = OPTIONS
+    position_scale = POSITION_SCALE
+    velocity_unit = VELOCITY_UNIT
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
         super().__init__(n_teams, players_per_team, action_type, **kwargs)
-        self.goal_half_width = self.settings["goal_width"] / 2
-        self.kickoff_jitter = self.settings["kickoff_jitter"]
         n = self.n_agents
-        self.n_actions = len(COMPASS_MOVE_NAMES)
-        self.act_dim = 2
-        self.action_meanings = COMPASS_MOVE_NAMES
         self.layout = soccer_observation(n)
         self.obs_dim = self.layout.size
-        self.state_dim = 4 * n + 6
-        self.score = np.zeros(2, dtype=np.int64)
 
-        self._team_sign = mirror_signs(self.team_of)  # the x sign of each seat's frame
         self._frame = np.stack([self._team_sign, np.ones(n)], axis=1)  # (n, 2) multiplies x, y
         # world-frame unit thrust of every (team, move), flattened: row team * 9 + move
         moves_world = COMPASS_MOVES[None] * np.array([[[1.0, 1.0]], [[-1.0, 1.0]]])
         self._moves_world = np.ascontiguousarray(moves_world.reshape(-1, 2)).view(np.complex128).reshape(-1)
         self._move_row_offset = self.team_of * len(COMPASS_MOVE_NAMES)
-        self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
         self._goal_line = HALF_LENGTH + BALL_RADIUS
         self._tiny = np.full(n, 1e-9)
         self._layout_work_vector()
         self._obs_low, self._obs_high = self.clip_bounds(self.layout)
-        self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
 
     # --- construction --------------------------------------------------------------------------
     def _layout_work_vector(self) -> None:
@@ -279,85 +257,20 @@ class SoccerRules(Physics2DRules):
         self._v_before_c = world.complex_view("v_before")
         self._thrust = world.view("thrust").reshape(n, 2)
         self._thrust_c = world.complex_view("thrust")
-        self._obs_matrix = self._observation_map()
-        self._measure_matrix = self._measure_map()
+        ones = np.ones(2 * n)  # the thrust is in the world frame already
+        self._obs_matrix = ballgames.observation_matrix(world, self.layout, "ball", self.team_of, self._team_sign,
+                                                        POSITION_SCALE, 1.0 / VELOCITY_UNIT, HALF_LENGTH)
+        self._measure_matrix = ballgames.measure_matrix(world, "ball", self._team_sign, ones, AGENT_MASS, DT,
+                                                        SPACE_DAMPING, THRUST, AGENT_DRAG)
         # applied force of every body (zero for the ball and the static body)
-        world.force_matrix = world.matrix(2 * world.n_bodies)
-        for k in range(2 * n):
-            world.force_matrix[k, world.at("thrust", k)] = THRUST
-            world.force_matrix[k, world.at("v_before", k)] = -AGENT_DRAG
-
-    def _observation_map(self) -> np.ndarray:
-        """The observations of every seat as one matrix over the work vector."""
-        n, world, cells = self.n_agents, self.world, self.layout
-        A = np.zeros((n, self.obs_dim, len(world.work)))
-        ball, one = world.index("ball"), world.at(ONE)
-        ps, vs = POSITION_SCALE, 1.0 / VELOCITY_UNIT
-        pos, vel = world.pos, world.vel
-        for i in range(n):
-            sign = (self._team_sign[i], 1.0)
-            team = self.team_of[i]
-            others = [j for j in range(n) if j != i and self.team_of[j] == team]
-            others += [j for j in range(n) if self.team_of[j] != team]
-            A[i, cells.at("active"), one] = 1.0
-            for ax in range(2):
-                s = sign[ax]
-                A[i, cells.at("position", ax), pos(i, ax)] = s * ps
-                A[i, cells.at("velocity", ax), vel(i, ax)] = s * vs
-                A[i, cells.at("ball_relative", ax), pos(ball, ax)] = s * ps
-                A[i, cells.at("ball_relative", ax), pos(i, ax)] -= s * ps
-                A[i, cells.at("ball", ax), pos(ball, ax)] = s * ps
-                A[i, cells.at("ball_velocity", ax), vel(ball, ax)] = s * vs
-                # goals in the seat frame are at (+L, 0) (attacked) and (-L, 0) (defended)
-                A[i, cells.at("attacked_goal", ax), pos(i, ax)] = -s * ps
-                A[i, cells.at("defended_goal", ax), pos(i, ax)] = -s * ps
-                for k, j in enumerate(others):
-                    A[i, cells.at(f"other_{k}", ax), pos(j, ax)] = s * ps
-                    A[i, cells.at(f"other_{k}", ax), pos(i, ax)] -= s * ps
-                    A[i, cells.at(f"other_{k}_velocity", ax), vel(j, ax)] = s * vs
-            A[i, cells.at("attacked_goal"), one] = HALF_LENGTH * ps
-            A[i, cells.at("defended_goal"), one] = -HALF_LENGTH * ps
-        return A.reshape(n * self.obs_dim, len(world.work))
-
-    def _measure_map(self) -> np.ndarray:
-        """The linear parts of the measures as one matrix over the work vector.
-
-        Rows: ``[to_ball (x, -y), velocity (x, y), contact force (x, y)]`` of every seat, read as
-        complex numbers (``to_ball`` conjugated), then every seat's ``object_progress``. The contact force is the
-        impulse the solver added beyond damping and the applied force (Chipmunk integrates
-        ``v' = v * damping**dt + f / m * dt`` before solving contacts), divided by ``dt``.
-        """
-        n, world = self.n_agents, self.world
-        M = world.matrix(7 * n)
-        ball = world.index("ball")
-        # velocity kept from before the step, drag included (force = THRUST * thrust - DRAG * v)
-        keep = SPACE_DAMPING**DT - AGENT_DRAG * DT / AGENT_MASS
-        for i in range(n):
-            for ax in range(2):
-                conj = 1.0 if ax == 0 else -1.0
-                M[2 * i + ax, world.pos(ball, ax)] = conj
-                M[2 * i + ax, world.pos(i, ax)] = -conj
-                M[2 * n + 2 * i + ax, world.vel(i, ax)] = 1.0
-                row = 4 * n + 2 * i + ax
-                M[row, world.vel(i, ax)] = AGENT_MASS / DT
-                M[row, world.at("v_before", 2 * i + ax)] = -keep * AGENT_MASS / DT
-                M[row, world.at("thrust", 2 * i + ax)] = -THRUST
-            M[6 * n + i, self._ball_x_at] = self._team_sign[i]
-            M[6 * n + i, world.at("ball_x_before")] = -self._team_sign[i]
-        return M
+        world.force_matrix = ballgames.seat_force_matrix(world, THRUST, AGENT_DRAG, ones)
 
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
         self._record_reset(seed)
         self.rng = np.random.default_rng(seed)
-        p = self.players_per_team
-        jitter = self.kickoff_jitter
-        slots = np.asarray(_FORMATIONS[p], dtype=np.float64)
-        team0 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
-        team1 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
-        team1[:, 0] *= -1.0
-        ball_xy = np.array([0.0, self.rng.uniform(-jitter, jitter)])
-        self.world.build({"agent": np.concatenate([team0, team1]), "ball": ball_xy})
+        agent_xy, ball_xy = self.kickoff(_FORMATIONS[self.players_per_team])
+        self.world.build({"agent": agent_xy, "ball": ball_xy})
         self._measure_still_state()
         self.measures.active[:] = True
         self.measures.outcome = np.zeros(self.n_agents)
@@ -367,10 +280,7 @@ class SoccerRules(Physics2DRules):
 
     def _measure_still_state(self) -> None:
         """Measures of the bodies as they stand, with no step behind them (no force, no progress)."""
-        world = self.world
-        world.work[world.at("v_before"): world.at(ONE)] = 0.0
-        world.work[world.at("ball_x_before")] = world.work[self._ball_x_at]
-        self._v_before_c[:] = self._agent_vel_c
+        self.still_slots()
         self._update_measures(np.zeros(self.n_agents))
         self.measures.force = np.zeros(self.n_agents)
 
@@ -422,20 +332,9 @@ class SoccerRules(Physics2DRules):
         obs.clip(self._obs_low, self._obs_high, out=obs)
         return obs.astype(np.float32).reshape(self.n_agents, self.obs_dim)
 
-    def state(self) -> np.ndarray:
-        n = self.n_agents
-        table = self.world.work[: 4 * (n + 1)].reshape(n + 1, 4)
-        scaled = table * np.array([POSITION_SCALE, POSITION_SCALE, 1 / VELOCITY_UNIT, 1 / VELOCITY_UNIT])
-        state = np.concatenate([scaled.reshape(-1), self.score.astype(np.float64)])
-        return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
-
-    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.layout.bounds()
-
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         x, y, v = (HALF_LENGTH + GOAL_DEPTH) * POSITION_SCALE, HALF_WIDTH * POSITION_SCALE, VELOCITY_BOUND
-        return CellLayout([*[Run(f"body_{k}", 4, ((-x, x), (-y, y), (-v, v), (-v, v))) for k in range(self.n_agents + 1)],
-                           Run("score", 2, (0, 1))]).bounds()
+        return ballgames.state_layout([((-x, x), (-y, y), (-v, v), (-v, v))] * (self.n_agents + 1)).bounds()
 
     def finish(self) -> None:
         self._record("finish")
@@ -452,79 +351,28 @@ class SoccerRules(Physics2DRules):
               ball_velocity: np.ndarray | None = None) -> None:
         """Put the bodies at given world positions and velocities (for tests and scripted
         scenarios); the match continues from there."""
-        agent_xy = np.asarray(agent_xy, dtype=np.float64).reshape(self.n_agents, 2)
-        agent_velocity = (np.zeros((self.n_agents, 2)) if agent_velocity is None
-                          else np.asarray(agent_velocity, dtype=np.float64).reshape(self.n_agents, 2))
-        if self.world.space is None:
-            raise RuntimeError("call reset(seed) before place()")
-        self._record("place", agent_xy.copy(), np.array(ball_xy, dtype=np.float64), agent_velocity.copy(),
-                     None if ball_velocity is None else np.array(ball_velocity, dtype=np.float64))
-        self.world.place("agent", agent_xy, agent_velocity)
-        self.world.place("ball", ball_xy, ball_velocity)
-        self.world.read()
-        self._measure_still_state()
+        self.place_bodies("agent", agent_xy, agent_velocity, "ball", ball_xy, ball_velocity)
 
     def render_topdown(self) -> np.ndarray:
-        L, W, D, R = HALF_LENGTH, HALF_WIDTH, GOAL_DEPTH, WALL_RADIUS
-        margin = D + 2 * R
-        canvas = Canvas(-L - margin, L + margin, -W - 2 * R, W + 2 * R, size=400, background=(70, 70, 70))
-        outline = goal_field_outline(L, W, self.goal_half_width, D, CORNER_CHAMFER)
-        walls = pushed_outline(outline, 2 * R)
-        canvas.draw.polygon([canvas.px(x, y) for x, y in walls], fill=(200, 200, 200))
-        canvas.draw.polygon([canvas.px(x, y) for x, y in outline], fill=(60, 140, 60))
-        G = self.goal_half_width
-        for side, team in ((1, 1), (-1, 0)):  # goal box coloured by the team defending it
-            colour = TEAM_COLOURS[team]
-            canvas.rect(min(side * L, side * (L + D)), -G, max(side * L, side * (L + D)), G,
-                        fill=tuple(int(0.5 * c + 0.5 * 240) for c in colour))
-        canvas.line(0.0, -W, 0.0, W, fill=(230, 230, 230), width_px=2)
-        canvas.circle(0.0, 0.0, 0.8, fill=None, outline=(230, 230, 230))
-        n = self.n_agents
-        for seat in range(n):
-            x, y = self._agent_pos[seat]
-            canvas.circle(x, y, AGENT_RADIUS, fill=TEAM_COLOURS[self.team_of[seat]], outline=(20, 20, 20))
-        bx, by = self._ball_state[0:2]
-        canvas.circle(bx, by, BALL_RADIUS, fill=(250, 250, 250), outline=(20, 20, 20))
-        return canvas.array()
+        return ballgames.draw_goal_field(_LOOK, HALF_LENGTH, HALF_WIDTH, self.goal_half_width, GOAL_DEPTH,
+                                         CORNER_CHAMFER, self._agent_pos, self.team_of, AGENT_RADIUS,
+                                         self._ball_state[0:2], BALL_RADIUS)
 
     def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
-        length, width, depth, ts = HALF_LENGTH, HALF_WIDTH, GOAL_DEPTH, timestamp_ns
-        state = self.state().astype(np.float64)
-        goal_width = 2 * self.goal_half_width
-        n = self.n_agents
-        grass = (0.35, 0.65, 0.35, 1.0)
-        out = [scene.entity("field", ts, cubes=[
-            scene.cube(0, 0, -0.05, (2 * length, 2 * width, 0.1), grass),
-            # goal x = -L is defended by team 0, x = +L by team 1
-            scene.cube(-length - depth / 2, 0, -0.05, (depth, goal_width, 0.1), scene.team_colour(0, 0.6)),
-            scene.cube(length + depth / 2, 0, -0.05, (depth, goal_width, 0.1), scene.team_colour(1, 0.6))])]
-        unit = length  # positions are stored divided by HALF_LENGTH
-        for seat in range(n):
-            x, y = state[4 * seat] * unit, state[4 * seat + 1] * unit
-            d = 2 * AGENT_RADIUS
-            out.append(scene.entity(f"agent/{seat}", ts, spheres=[
-                scene.sphere(x, y, d / 2, (d, d, d), scene.team_colour(int(self.team_of[seat])))]))
-        bx, by = state[4 * n] * unit, state[4 * n + 1] * unit
-        d = 2 * BALL_RADIUS
-        out.append(scene.entity("ball", ts, spheres=[scene.sphere(bx, by, d / 2, (d, d, d), (0.97, 0.97, 0.97, 1.0))]))
-        goals = state[4 * n + 4: 4 * n + 6]
-        out.append(scene.entity("score", ts, texts=[scene.text(0, width + 0.6, 0.2,
-                                                               f"{int(goals[0])} : {int(goals[1])}")]))
-        return out
+        grass = [scene.cube(0, 0, -0.05, (2 * HALF_LENGTH, 2 * HALF_WIDTH, 0.1), (0.35, 0.65, 0.35, 1.0))]
+
+        def sphere(x: float, y: float, radius: float, colour: tuple) -> dict[str, Any]:
+            return {"spheres": [scene.sphere(x, y, radius, (2 * radius,) * 3, colour)]}
+
+        return ballgames.goal_field_entities(
+            timestamp_ns, "field", grass, HALF_LENGTH, HALF_WIDTH, GOAL_DEPTH, 2 * self.goal_half_width,
+            self.state(), self.team_of, lambda x, y, colour: sphere(x, y, AGENT_RADIUS, colour),
+            "ball", lambda x, y: sphere(x, y, BALL_RADIUS, (0.97, 0.97, 0.97, 1.0)))
 
     def human_controls(self, seat: int) -> SoccerControls:
         return SoccerControls(self, seat)
 
     # --- social tree and scripted play ---------------------------------------------------------
-    @classmethod
-    def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        teams = []
-        for team in range(n_teams):
-            seats = range(team * players_per_team, (team + 1) * players_per_team)
-            teams.append({"scheme": "CL", "reward": "team_progress", "scale": 10, "children": [
-                {"agent": f"player_{seat}", "scheme": "IS", "reward": "target", "scale": 1} for seat in seats]})
-        return {"scheme": "CP", "reward": "win_loss", "scale": 100, "children": teams}
-
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
@@ -557,33 +405,8 @@ class SoccerRules(Physics2DRules):
         target = np.where((rank == 0)[:, None], behind_spot, support_spot)
         limit = np.array([HALF_LENGTH - AGENT_RADIUS, HALF_WIDTH - AGENT_RADIUS])
         target = np.clip(target, -limit, limit)
-        push = ball - target
-        push /= np.maximum(np.linalg.norm(push, axis=1, keepdims=True), 1e-9)
-        along = np.einsum("ij,ij->i", rel, push)  # < 0: the seat is behind the ball
-        lateral = rel - along[:, None] * push
-        lateral_len = np.linalg.norm(lateral, axis=1)
-        side = np.where(lateral_len[:, None] > 1e-6, lateral / np.maximum(lateral_len, 1e-9)[:, None],
-                        np.stack([-push[:, 1], push[:, 0]], axis=1))
-        # when the straight way there runs into the ball, go round it on the seat's side
-        path = target - me
-        t = np.clip(np.einsum("ij,ij->i", -rel, path) / np.maximum(np.einsum("ij,ij->i", path, path), 1e-9), 0, 1)
-        blocked = np.linalg.norm(ball - (me + t[:, None] * path), axis=1) < contact + 0.05
-        around = np.clip(ball + side * (contact + 0.3) - push * (contact + 0.3), -limit, limit)
-        waypoint = np.where(blocked[:, None], around, target)
-        aligned = (rank == 0) & (along < -0.5 * contact) & (lateral_len < 0.35 * contact)
-        waypoint = np.where(aligned[:, None], ball + push * 0.6, waypoint)
-
-        heading = waypoint - me
-        distance = np.linalg.norm(heading, axis=1, keepdims=True)
-        # steer the velocity, not just the position, so the seat does not overshoot
-        heading = heading / np.maximum(distance, 1e-9) * np.minimum(1.0, distance / 0.3) - 0.2 * velocity
-        length = np.linalg.norm(heading, axis=1)
-        if action_type == "continuous":
-            return np.clip(heading / np.maximum(length, 1.0)[:, None], -1.0, 1.0).astype(np.float32)
-        angle = np.arctan2(heading[:, 1], heading[:, 0])
-        move = 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
-        return np.where(length < 0.3, 0, move).astype(np.int64)
-
+        return ballgames.drive_through(me, velocity, ball, target, contact, -limit, limit, True, rank == 0, False,
+                                       action_type)
 
 
 class SoccerControls(MirroredCompassControls):

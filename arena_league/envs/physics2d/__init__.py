@@ -12,7 +12,10 @@ BlowBlow): a game is a declaration over it, not a copy of it.
 - :mod:`~arena_league.envs.physics2d.rules`: :class:`Physics2DRules`, the base of a game's rules
   (options, pickling by replay, clipping), seat frames and compass moves;
 - :mod:`~arena_league.envs.physics2d.geometry`: outlines and walls (a field with chamfered corners
-  and goal boxes, walls whose inner faces follow an outline).
+  and goal boxes, walls whose inner faces follow an outline);
+- :mod:`~arena_league.envs.physics2d.ballgames`: what the two-team ball games on a goal field
+  (Soccer, AirHockey) share: their rules' common part, observation, measures, state, default tree,
+  scripted approach, picture and replay scene.
 """
 
 from arena_league.envs.physics2d._legacy import add_discs, add_walls, checked_kwargs

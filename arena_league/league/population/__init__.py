@@ -1,1 +1,3 @@
-"""Base populations: the build (train, round robin, select, rate, freeze), its recipes and selection."""
+"""Base populations: the build (:mod:`.build`, run in stages: :mod:`.recipes`, :mod:`.runs`,
+:mod:`.round_robin`, :mod:`.figures` with :mod:`.selection`, :mod:`.freeze`, :mod:`.readme`),
+its options (:mod:`.options`) and loading a frozen population (:mod:`.loading`)."""
