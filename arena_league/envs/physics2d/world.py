@@ -129,11 +129,15 @@ class World:
     after each step into the bodies' block; ``write`` fields are set from :attr:`applied` before
     it (Chipmunk clears forces after every step, so a force is written before each one), after
     :attr:`force_matrix` (if the game sets one) fills :attr:`applied` from the work vector.
+    ``applied`` names a slot that holds :attr:`applied` inside the work vector (so that the game's
+    matrices can read the forces); the force matrix then reads only the cells before that slot
+    (:attr:`force_source`).
     """
 
     def __init__(self, field: Field, slots: Sequence[tuple[str, int]] = (),
                  read: BodyFields = BodyFields.POSITION | BodyFields.VELOCITY,
-                 write: BodyFields | None = BodyFields.FORCE, contacts: bool = False, spare: int = BODY_SPARE) -> None:
+                 write: BodyFields | None = BodyFields.FORCE, contacts: bool = False, spare: int = BODY_SPARE,
+                 applied: str | None = None) -> None:
         self.field = field
         self.slots = tuple(slots)
         self.read_fields = read
@@ -166,7 +170,13 @@ class World:
         #: Every body's read fields, one row per body in link order (a view of the work vector).
         self.table = self.work[: self.cells * self.n_bodies].reshape(self.n_bodies, self.cells)
         self.applied: np.ndarray | None = None
-        if write is not None:
+        #: The cells :attr:`force_matrix` multiplies: the whole work vector, or the cells before the
+        #: ``applied`` slot.
+        self.force_source = self.work
+        if applied is not None:
+            self.applied = self.view(applied)
+            self.force_source = self.work[: self._offsets[applied][0]]
+        elif write is not None:
             self.applied = np.zeros(body_cells(write) * self.n_bodies)
         #: The applied force of every body as a matrix over the work vector (rows: the write cells
         #: of every body), or None where the game writes :attr:`applied` itself.
@@ -278,7 +288,7 @@ class World:
         before each of ``substeps`` steps of ``dt``, the bodies read back."""
         link = self.link
         if self.force_matrix is not None:
-            np.dot(self.force_matrix, self.work, out=self.applied)
+            np.dot(self.force_matrix, self.force_source, out=self.applied)
         link.write_bodies()
         link.step(self._dt)
         for _ in range(self._more_substeps):
