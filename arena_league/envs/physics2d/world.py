@@ -175,11 +175,14 @@ class World:
         self.force_source = self.work
         if applied is not None:
             self.applied = self.view(applied)
+            if write is None or len(self.applied) != body_cells(write) * self.n_bodies:
+                raise ValueError(f"slot {applied!r} holds the applied {write} of every body: give it "
+                                 f"{body_cells(write or BodyFields.FORCE) * self.n_bodies} cells")
             self.force_source = self.work[: self._offsets[applied][0]]
         elif write is not None:
             self.applied = np.zeros(body_cells(write) * self.n_bodies)
-        #: The applied force of every body as a matrix over the work vector (rows: the write cells
-        #: of every body), or None where the game writes :attr:`applied` itself.
+        #: The applied force of every body as a matrix over :attr:`force_source` (rows: the write
+        #: cells of every body), or None where the game writes :attr:`applied` itself.
         self.force_matrix: np.ndarray | None = None
         self.link: SpaceLink = space_link(read, self.work, write, self.applied, contacts)
         self.space: pymunk.Space | None = None

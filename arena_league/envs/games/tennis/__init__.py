@@ -147,34 +147,21 @@ Default social tree
     leaves themselves.
 
 Heuristic
-    From the observation alone. The seat predicts the ball's flight over the next 1.5 s (exactly as
-    the physics steps move it in the air, and one bounce off the floor). When the ball is its
-    team's to play (the other team played it, or it is the own toss) and it is the teammate best
-    placed (the nearest to the ball, a racket in front of the ball counting as further), it weighs
-    strokes: a moment to meet the ball on its side (every 0.1 s, before the ball lands on a toss or
-    once it has bounced in, else before it lands a second time), and a racket velocity (a direction
-    from +x to up, and a speed; for discrete actions only the compass directions E, NE and N, which
-    it can swing exactly). A racket that meets the ball along their relative velocity strikes it on
-    that line however early or late it comes, and the ball leaves at ``v + 1.65 (u - v)`` (ball
-    velocity ``v``, racket velocity ``u``; restitution 0.81, a racket ten times the ball's mass): the
-    seat picks the stroke whose shot clears the net by 0.25 and lands nearest 2.6 beyond it, the
-    ball at a comfortable height (about 1.1) and soon, with the racket able to stand ready on the
-    stroke's line in time. It waits on that line behind the spot of contact, then runs through the
-    spot at full thrust from the moment that brings it there at the stroke's speed (a racket at
-    rest reaches speed ``v`` after ``-ln(1 - v / V) / 3.6`` s at full thrust, ``V`` its top speed).
-    A seat with no ball to play goes to its spot (the back spot, or the front one for the
-    teammate nearer the net). It assumes the default court.
+    From the observation alone: the teammate best placed to play the ball predicts its flight,
+    picks a stroke that clears the net and lands deep in the other court, and runs its racket
+    through the spot of contact at the stroke's speed; the others keep their spots. It assumes the
+    default court; :mod:`arena_league.envs.games.tennis.heuristic` describes it in full.
 
 Game kwargs
-    ``points`` (int in [1, 21], default 7: points to win the match), ``start_jitter`` (float in
-    [0, 0.3], default 0.2).
+    ``points`` (an integer in [1, 21], default 7: points to win the match), ``start_jitter`` (a
+    number in [0, 0.3], default 0.2: largest random offset of each serve position).
 
 Playing it (``arena-league play``)
     A coarse text view of the side picture (team digits, ``+`` the net, ``o`` the ball; the view's
-    edge is the hall's: the floor is its bottom line). A move is an action's number or name, a compass direction
-    *on the court as drawn* (``E`` = right, ``N`` = up, whichever side you play: team 1's moves are
-    mirrored into its seat frame for you); Enter repeats the last move. In a browser, the arrow
-    keys or W A S D (two at once: diagonally). Discrete actions only.
+    edge is the hall's: the floor is its bottom line). A move is an action's number or name, a
+    compass direction *on the court as drawn* (``E`` = right, ``N`` = up, whichever side you play:
+    team 1's moves are mirrored into its seat frame for you); Enter repeats the last move. In a
+    browser, the arrow keys or W A S D (two at once: diagonally). Discrete actions only.
 
 Rendering
     A side picture of the hall (400 pixels wide): the air in light grey framed by the floor, the
@@ -412,7 +399,7 @@ class TennisRules(Physics2DRules):
         world = self.world = World(tennis_hall(self.team_of), applied="force", slots=(
             ("thrust", 2 * n), (ONE, 1), ("force", 2 * (n + 2)), ("played", 2), ("bounced", 1), ("toss", 1),
             ("clock", 1), ("score", 2)))
-        self._work = world.work
+        self._work, self._link = world.work, world.link
         ball = world.index("ball")
         self._thrust_at, self._one_at, self._force_at = world.at("thrust"), world.at(ONE), world.at("force")
         self._played_at, self._bounced_at, self._toss_at = world.at("played"), world.at("bounced"), world.at("toss")
@@ -651,7 +638,7 @@ class TennisRules(Physics2DRules):
         # thrust against a linear drag, gravity on the ball; pymunk clears the forces after every
         # physics step, so they are written before each
         np.dot(self._force_matrix, self._force_source, out=self._force_array)
-        link = self.world.link
+        link = self._link
         work = self._work
         ball = self._ball_cells
         x, _, vx, vy = work[ball].tolist()

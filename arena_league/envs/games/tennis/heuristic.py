@@ -1,8 +1,22 @@
-"""Tennis's scripted play: the heuristic the manual describes, from the observation alone.
+"""Tennis's scripted play, from the observation alone (imported by :class:`TennisRules` only).
 
-It predicts the ball's flight as the physics steps move it, weighs strokes that send it over the
-net to land deep in the other court, and runs the racket through the chosen spot at the stroke's
-speed; a seat with no ball to play keeps its spot. Imported by :class:`TennisRules` only.
+The seat predicts the ball's flight over the next 1.5 s (exactly as
+the physics steps move it in the air, and one bounce off the floor). When the ball is its
+team's to play (the other team played it, or it is the own toss) and it is the teammate best
+placed (the nearest to the ball, a racket in front of the ball counting as further), it weighs
+strokes: a moment to meet the ball on its side (every 0.1 s, before the ball lands on a toss or
+once it has bounced in, else before it lands a second time), and a racket velocity (a direction
+from +x to up, and a speed; for discrete actions only the compass directions E, NE and N, which
+it can swing exactly). A racket that meets the ball along their relative velocity strikes it on
+that line however early or late it comes, and the ball leaves at ``v + 1.65 (u - v)`` (ball
+velocity ``v``, racket velocity ``u``; restitution 0.81, a racket ten times the ball's mass): the
+seat picks the stroke whose shot clears the net by 0.25 and lands nearest 2.6 beyond it, the
+ball at a comfortable height (about 1.1) and soon, with the racket able to stand ready on the
+stroke's line in time. It waits on that line behind the spot of contact, then runs through the
+spot at full thrust from the moment that brings it there at the stroke's speed (a racket at
+rest reaches speed ``v`` after ``-ln(1 - v / V) / 3.6`` s at full thrust, ``V`` its top speed).
+A seat with no ball to play goes to its spot (the back spot, or the front one for the
+teammate nearer the net). It assumes the default court.
 """
 
 from __future__ import annotations
