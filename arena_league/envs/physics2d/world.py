@@ -185,6 +185,9 @@ class World:
         #: cells of every body), or None where the game writes :attr:`applied` itself.
         self.force_matrix: np.ndarray | None = None
         self.link: SpaceLink = space_link(read, self.work, write, self.applied, contacts)
+        #: The second link :meth:`place_all` writes through, made on its first call.
+        self._placement_link: SpaceLink | None = None
+        self._placement: np.ndarray | None = None
         self.space: pymunk.Space | None = None
         self.bodies: dict[str, list[pymunk.Body]] = {}
 
@@ -264,6 +267,8 @@ class World:
             self.bodies[part.name] = placed
         self.space = space
         self.link.bind(space)
+        if self._placement_link is not None:
+            self._placement_link.bind(space)
         expected = [body.id for kind in f.bodies for body in self.bodies[kind.name]]
         if f.has_walls:
             expected.append(space.static_body.id)
@@ -281,6 +286,27 @@ class World:
         for body, p, v in zip(self.bodies[name], xy, velocity):
             body.position = float(p[0]), float(p[1])
             body.velocity = float(v[0]), float(v[1])
+
+    def place_all(self, positions: Mapping[str, Any], velocities: Mapping[str, Any] | None = None) -> None:
+        """Move every body of every kind to ``positions[name]`` (``(count, 2)``) with
+        ``velocities[name]`` (zero when absent) in one batch write through a second link, and read
+        them back: the same Chipmunk setters as :meth:`place`, at a fraction of its cost, for a game
+        that lays out a new start mid-match (the static body keeps its zero position and velocity)."""
+        if self._placement_link is None:
+            fields = BodyFields.POSITION | BodyFields.VELOCITY
+            self._placement = np.zeros((self.n_bodies, 4))
+            self._placement_link = space_link(fields, np.zeros(4 * self.n_bodies + self.spare), fields,
+                                              self._placement.reshape(-1))
+            self._placement_link.bind(self.space)
+        rows = self._placement
+        velocities = velocities or {}
+        for kind in self.field.bodies:
+            first = self._first[kind.name]
+            rows[first: first + kind.count, 0:2] = positions[kind.name]
+            velocity = velocities.get(kind.name)
+            rows[first: first + kind.count, 2:4] = 0.0 if velocity is None else velocity
+        self._placement_link.write_bodies()
+        self.link.read_bodies()
 
     def read(self) -> None:
         """Copy every body's read fields into the work vector."""

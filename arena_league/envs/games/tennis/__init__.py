@@ -555,10 +555,8 @@ class TennisRules(Physics2DRules):
 
     def _move_bodies(self, racket_xy: np.ndarray, racket_velocity: Any, ball_xy: np.ndarray,
                      ball_velocity: Any) -> None:
-        """Set every body's position and velocity (world frame), and read them back."""
-        self.world.place("racket", racket_xy, racket_velocity)
-        self.world.place("ball", ball_xy, ball_velocity)
-        self.world.read()
+        """Set every body's position and velocity (world frame) in one batch write."""
+        self.world.place_all({"racket": racket_xy, "ball": ball_xy}, {"racket": racket_velocity, "ball": ball_velocity})
 
 
     def _start_rally(self, keep_energy: bool = False) -> None:
