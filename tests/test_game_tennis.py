@@ -570,13 +570,14 @@ def test_every_layout_constructs_with_its_documented_sizes(players, action_type)
 def test_unsupported_layouts_and_unknown_or_bad_kwargs_are_refused():
     with pytest.raises(ValueError, match="no 4T1P layout; valid layouts: 2T1P, 2T2P"):
         TennisRules(4, 1)
-    with pytest.raises(ValueError, match=r"unknown game kwargs \['sets'\]; valid: points .*start_jitter"):
+    with pytest.raises(ValueError, match=r"Tennis has no option 'sets'; its options: points: .*start_jitter"):
         TennisRules(2, 1, sets=3)
     for bad in (0, 22, 7.0, True, "7"):
-        with pytest.raises(ValueError, match=r"points \(to win the match\) must be an int in \[1, 21\]"):
+        with pytest.raises(ValueError, match=r"Tennis option points must be an integer in \[1, 21\] "
+                                             r"\(default 7: points to win the match\)"):
             TennisRules(2, 1, points=bad)
     for bad in (-0.1, 0.5, True):
-        with pytest.raises(ValueError, match=r"start_jitter must be a number in \[0.0, 0.3\]"):
+        with pytest.raises(ValueError, match=r"Tennis option start_jitter must be a number in \[0.0, 0.3\]"):
             TennisRules(2, 1, start_jitter=bad)
     with pytest.raises(ValueError, match="action_type 'hybrid' is not offered"):
         TennisRules(2, 1, "hybrid")

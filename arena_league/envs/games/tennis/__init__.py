@@ -147,34 +147,21 @@ Default social tree
     leaves themselves.
 
 Heuristic
-    From the observation alone. The seat predicts the ball's flight over the next 1.5 s (exactly as
-    the physics steps move it in the air, and one bounce off the floor). When the ball is its
-    team's to play (the other team played it, or it is the own toss) and it is the teammate best
-    placed (the nearest to the ball, a racket in front of the ball counting as further), it weighs
-    strokes: a moment to meet the ball on its side (every 0.1 s, before the ball lands on a toss or
-    once it has bounced in, else before it lands a second time), and a racket velocity (a direction
-    from +x to up, and a speed; for discrete actions only the compass directions E, NE and N, which
-    it can swing exactly). A racket that meets the ball along their relative velocity strikes it on
-    that line however early or late it comes, and the ball leaves at ``v + 1.65 (u - v)`` (ball
-    velocity ``v``, racket velocity ``u``; restitution 0.81, a racket ten times the ball's mass): the
-    seat picks the stroke whose shot clears the net by 0.25 and lands nearest 2.6 beyond it, the
-    ball at a comfortable height (about 1.1) and soon, with the racket able to stand ready on the
-    stroke's line in time. It waits on that line behind the spot of contact, then runs through the
-    spot at full thrust from the moment that brings it there at the stroke's speed (a racket at
-    rest reaches speed ``v`` after ``-ln(1 - v / V) / 3.6`` s at full thrust, ``V`` its top speed).
-    A seat with no ball to play goes to its spot (the back spot, or the front one for the
-    teammate nearer the net). It assumes the default court.
+    From the observation alone: the teammate best placed to play the ball predicts its flight,
+    picks a stroke that clears the net and lands deep in the other court, and runs its racket
+    through the spot of contact at the stroke's speed; the others keep their spots. It assumes the
+    default court; :mod:`arena_league.envs.games.tennis.heuristic` describes it in full.
 
 Game kwargs
-    ``points`` (int in [1, 21], default 7: points to win the match), ``start_jitter`` (float in
-    [0, 0.3], default 0.2).
+    ``points`` (an integer in [1, 21], default 7: points to win the match), ``start_jitter`` (a
+    number in [0, 0.3], default 0.2: largest random offset of each serve position).
 
 Playing it (``arena-league play``)
     A coarse text view of the side picture (team digits, ``+`` the net, ``o`` the ball; the view's
-    edge is the hall's: the floor is its bottom line). A move is an action's number or name, a compass direction
-    *on the court as drawn* (``E`` = right, ``N`` = up, whichever side you play: team 1's moves are
-    mirrored into its seat frame for you); Enter repeats the last move. In a browser, the arrow
-    keys or W A S D (two at once: diagonally). Discrete actions only.
+    edge is the hall's: the floor is its bottom line). A move is an action's number or name, a
+    compass direction *on the court as drawn* (``E`` = right, ``N`` = up, whichever side you play:
+    team 1's moves are mirrored into its seat frame for you); Enter repeats the last move. In a
+    browser, the arrow keys or W A S D (two at once: diagonally). Discrete actions only.
 
 Rendering
     A side picture of the hall (400 pixels wide): the air in light grey framed by the floor, the
@@ -202,16 +189,22 @@ import numpy as np
 import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
-from arena_league.envs.games.soccer import SoccerControls
+from arena_league.envs.controls import MirroredCompassControls
+from arena_league.envs.core import cell_bounds
+from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
     COMPASS_MOVES,
-    BodyFields,
-    add_discs,
-    add_walls,
-    checked_kwargs,
-    space_link,
+    ONE,
+    Bodies,
+    CellLayout,
+    Field,
+    Material,
+    Physics2DRules,
+    Run,
+    Walls,
+    World,
+    mirror_signs,
 )
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 from arena_league.envs.social import team_tree
@@ -273,8 +266,8 @@ VELOCITY_UNIT = 4.0
 VELOCITY_BOUND = 3.0
 
 DEFAULT_POINTS = 7
-_POINTS_RANGE = (1, 21)
-_JITTER_RANGE = (0.0, 0.3, 0.2)
+OPTIONS = (Option("points", int, DEFAULT_POINTS, "points to win the match", 1, 21),
+           Option("start_jitter", float, 0.2, "largest random offset of each serve position", 0.0, 0.3))
 
 #: Serve spots of team 0 (team 1's are mirrored), per players per team: one racket at the back;
 #: two as a back and a front racket.
@@ -294,13 +287,55 @@ _FREE_KEEP = SPACE_DAMPING**SUBSTEP
 _FREE_FALL = -GRAVITY * SUBSTEP
 _FREE_TOLERANCE = 1e-9
 
-#: Body fields the physics link reads after every physics step and writes before it.
-_STATE_FIELDS = BodyFields.POSITION | BodyFields.VELOCITY
-_FORCE_FIELDS = BodyFields.FORCE
+
+def tennis_hall(team_of: np.ndarray) -> Field:
+    """The hall seen from the side: floor, fences and ceiling, the net, the rackets' barriers (the
+    plane of the net up to the reach ceiling, and that ceiling, each running into the floor or the
+    fences at its ends so that no racket slips round it), the rackets and the ball, in that order."""
+    F, H, R = FENCE_X, HALL_HEIGHT, WALL_RADIUS
+    reach = REACH_HEIGHT + BARRIER_RADIUS
+    rackets = tuple(Material(ELASTICITY["racket"], FRICTION["racket"], _RACKET_FILTERS[team]) for team in team_of.tolist())
+    return Field(dt=SUBSTEP, damping=SPACE_DAMPING, collision_slop=COLLISION_SLOP, substeps=SUBSTEPS, parts=(
+        Walls((((-F - R, -R), (F + R, -R)),), R, Material(ELASTICITY["floor"], FRICTION["floor"])),
+        Walls((((-F - R, -R), (-F - R, H + R)), ((F + R, -R), (F + R, H + R)), ((-F - R, H + R), (F + R, H + R))),
+              R, Material(ELASTICITY["wall"], FRICTION["wall"])),
+        Walls((((0.0, 0.0), (0.0, NET_HEIGHT - NET_RADIUS)),), NET_RADIUS, Material(ELASTICITY["net"], FRICTION["net"])),
+        Walls((((0.0, -R), (0.0, reach)), ((-F - R, reach), (F + R, reach))), BARRIER_RADIUS,
+              Material(filter=_BARRIER_FILTER)),
+        Bodies("racket", len(team_of), RACKET_RADIUS, RACKET_MASS, rackets),
+        Bodies("ball", 1, BALL_RADIUS, BALL_MASS, Material(ELASTICITY["ball"], FRICTION["ball"], _BALL_FILTER))))
 
 
-class TennisRules(ReplayedMatch, GameRules):
-    """Tennis in a side-view pymunk hall; see the module docstring for the manual."""
+def tennis_observation(players_per_team: int) -> CellLayout:
+    """The observation's runs (seat frame; positions divided by 4, velocities by 4)."""
+    x, y, top, v = FENCE_X * POSITION_SCALE, REACH_HEIGHT * POSITION_SCALE, HALL_HEIGHT * POSITION_SCALE, VELOCITY_BOUND
+    velocity = (-v, v)
+    runs = [Run("active", 1, (0, 1), "own active flag (always 1 in Tennis)"),
+            Run("position", 2, ((-x, 0.0), (0.0, y)), "own position ``x, y`` (the own side, within reach)"),
+            Run("velocity", 2, velocity, "own velocity ``vx, vy``"),
+            Run("ball_relative", 2, ((-x, 2 * x), (-y, top)), "ball position relative to the seat (ball - own)"),
+            Run("ball", 2, ((-x, x), (0.0, top)), "ball position (absolute)"),
+            Run("ball_velocity", 2, velocity, "ball velocity"),
+            Run("played", 1, (0, 1), "1 when the own team played the ball last (or tosses it to serve), 0 when "
+                                     "the other team did"),
+            Run("bounced", 1, (0, 1), "1 once the ball has bounced in on the receiving side since it was played "
+                                      "(it must be returned before it lands again)"),
+            Run("toss", 1, (0, 1), "1 while the ball is a serve's toss not yet struck"),
+            Run("clock", 1, (0, 1), f"steps the ball has spent on its side of the net in a row, as a share of "
+                                    f"{HOLD_LIMIT} (at 1 that side loses the point)"),
+            Run("points", 2, (0, 1), "the own team's points, then the other team's, as shares of ``points``")]
+    for k in range(2 * players_per_team - 1):
+        # in the seat frame teammates lie in x in [-x, 0], opponents in [0, x]
+        mate = k < players_per_team - 1
+        runs += [Run(f"other_{k}", 2, ((-x, x) if mate else (0.0, 2 * x), (-y, y)),
+                     f"{'a teammate' if mate else 'an opponent'}'s position relative to the seat (teammates "
+                     "first then opponents, each in seat order)"),
+                 Run(f"other_{k}_velocity", 2, velocity, "that seat's velocity")]
+    return CellLayout(runs)
+
+
+class TennisRules(Physics2DRules):
+    """Tennis in a side-view pymunk hall; see the package docstring for the manual."""
 
     name: ClassVar[str] = "Tennis"
     version: ClassVar[int] = 1
@@ -312,26 +347,21 @@ class TennisRules(ReplayedMatch, GameRules):
     default_max_cycles: ClassVar[int] = 600
     summary: ClassVar[str] = ("Rackets hit a ball over a net, seen from the side (pymunk; a ball landing twice, "
                               "out or in the net is the other side's point; first to 7 points wins)")
+    options = OPTIONS
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
-        self.check_layout(n_teams, players_per_team, action_type)
-        settings = checked_kwargs("Tennis", kwargs, {
-            "points": (*_POINTS_RANGE, DEFAULT_POINTS, int, " (to win the match)"), "start_jitter": _JITTER_RANGE})
-        points, jitter = settings["points"], settings["start_jitter"]
-        super().__init__(n_teams, players_per_team, action_type)
-        self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
-        self._calls = []
-        self.points = int(points)
-        self.start_jitter = float(jitter)
+        super().__init__(n_teams, players_per_team, action_type, **kwargs)
+        self.points = self.settings["points"]
+        self.start_jitter = self.settings["start_jitter"]
         n = self.n_agents
         self.n_actions = len(COMPASS_MOVE_NAMES)
         self.act_dim = 2
         self.action_meanings = COMPASS_MOVE_NAMES
-        self.obs_dim = 17 + 4 * (n - 1)
+        self.layout = tennis_observation(players_per_team)
+        self.obs_dim = self.layout.size
         self.state_dim = 4 * n + 11
 
-        # +1 for team 0, -1 for team 1: the x sign of each seat's frame
-        self._team_sign = np.where(self.team_of == 0, 1.0, -1.0)
+        self._team_sign = mirror_signs(self.team_of)  # the x sign of each seat's frame
         self._first_seats = np.arange(n_teams) * players_per_team
         # every seat's serve spot, team 1's mirrored
         self._spots = np.tile(np.asarray(_FORMATIONS[players_per_team], dtype=np.float64), (n_teams, 1))
@@ -339,11 +369,9 @@ class TennisRules(ReplayedMatch, GameRules):
         # unit thrust of every move in the seat frame (x + iy): the matrices turn it into the world
         self._moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
         self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
-        self._obs_low, self._obs_high = (np.tile(bound.astype(np.float64), (n, 1)) for bound in self.observation_bounds())
+        self._obs_low, self._obs_high = (bound.reshape(n, self.obs_dim) for bound in self.clip_bounds(self.layout))
         self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
         self._layout_work_vector()
-        self.space: pymunk.Space | None = None
-        self._events: list[dict] = []
         # the rally, kept in plain Python on the hot path (the work vector mirrors it for observations)
         self._player = 0  # the team that played the ball last (the server, for its toss)
         self._bounced = False
@@ -357,62 +385,47 @@ class TennisRules(ReplayedMatch, GameRules):
 
     # --- construction --------------------------------------------------------------------------
     def _layout_work_vector(self) -> None:
-        """One float64 vector holds everything a step reads, and one matrix product of it gives the
-        measures' linear parts and every observation at once (few numpy calls: the hot path is
+        """The world's work vector holds everything a step reads, and one matrix product of it gives
+        the measures' linear parts and every observation at once (few numpy calls: the hot path is
         Python-bound). Their results land in preallocated arrays, seen through views made here.
 
-        Layout of the work vector: ``[x, y, vx, vy]`` of every seat, the ball and pymunk's static
-        body (written in place by the physics link), spare room, the seats' unit thrust in their own
-        frames (as the actions give it: the matrices mirror team 1's into the world), a constant 1,
-        the applied force ``[fx, fy]`` of every body (which the link writes to pymunk), which team
-        played the ball last (two cells), the bounced-in and toss flags, the side clock (a share of
-        HOLD_LIMIT) and the points of each team.
+        After the bodies' ``[x, y, vx, vy]`` (the rackets, the ball and pymunk's static body), the
+        slots: the seats' unit thrust in their own frames (as the actions give it: the matrices
+        mirror team 1's into the world), a constant 1, the applied force ``[fx, fy]`` of every body
+        (which the link writes to pymunk), which team played the ball last (two cells), the
+        bounced-in and toss flags, the side clock (a share of HOLD_LIMIT) and the points of each team.
         """
         n = self.n_agents
-        self._n_bodies = n + 2  # the physics link also visits the space's static body
-        body_floats = 4 * self._n_bodies
-        # pymunk's batch array grows (reallocates) when fewer than 3 free slots are left: leave 8
-        self._thrust_at = body_floats + 8
-        self._one_at = self._thrust_at + 2 * n
-        self._force_at = self._one_at + 1
-        self._played_at = self._force_at + 2 * self._n_bodies
-        self._bounced_at = self._played_at + 2
-        self._toss_at = self._bounced_at + 1
-        self._clock_at = self._toss_at + 1
-        self._score_at = self._clock_at + 1
-        work = np.zeros(self._score_at + 2)
-        work[self._one_at] = 1.0
-        self._work = work
-        table = work[:body_floats].reshape(self._n_bodies, 4)
-        self._racket_pos = table[:n, 0:2]
-        self._ball_state = table[n]
-        self._ball_x_at, self._ball_y_at = 4 * n, 4 * n + 1
-        self._ball_cells = slice(4 * n, 4 * n + 4)
+        world = self.world = World(tennis_hall(self.team_of), applied="force", slots=(
+            ("thrust", 2 * n), (ONE, 1), ("force", 2 * (n + 2)), ("played", 2), ("bounced", 1), ("toss", 1),
+            ("clock", 1), ("score", 2)))
+        self._work, self._link = world.work, world.link
+        ball = world.index("ball")
+        self._thrust_at, self._one_at, self._force_at = world.at("thrust"), world.at(ONE), world.at("force")
+        self._played_at, self._bounced_at, self._toss_at = world.at("played"), world.at("bounced"), world.at("toss")
+        self._clock_at, self._score_at = world.at("clock"), world.at("score")
+        self._racket_pos = world.table[:n, 0:2]
+        self._ball_state = world.table[ball]
+        self._ball_x_at, self._ball_y_at = world.pos(ball, 0), world.pos(ball, 1)
+        self._ball_cells = slice(self._ball_x_at, self._ball_x_at + 4)
         # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
-        bodies_c = table.view(np.complex128)
+        bodies_c = world.table.view(np.complex128)
         self._racket_pos_c = bodies_c[:n, 0]
-        self._racket_vel_c = bodies_c[:n, 1]
-        self._ball_pos_c = bodies_c[n: n + 1, 0]
-        self._thrust = work[self._thrust_at: self._one_at].reshape(n, 2)
-        self._thrust_c = work[self._thrust_at: self._one_at].view(np.complex128)
+        self._ball_pos_c = bodies_c[ball: ball + 1, 0]
+        self._thrust = world.view("thrust").reshape(n, 2)
+        self._thrust_c = world.complex_view("thrust")
         self._thrust_length = np.zeros(n)  # a thrust's length, then at least 1: its scale-back
         self._to_ball_c = np.zeros(n, dtype=np.complex128)  # ball - racket, after every physics step
         self._to_ball = np.zeros(n)  # its length
-        self._force_array = work[self._force_at: self._played_at]
-        self._link = space_link(_STATE_FIELDS, work, _FORCE_FIELDS, self._force_array)
-        # every body's position and velocity, written at once to lay out a serve (the static
-        # body's stay zero); the link reads nothing back into its own array
-        self._placement = np.zeros(4 * self._n_bodies)
-        self._placement_link = space_link(_STATE_FIELDS, np.zeros(4 * self._n_bodies + 8), _STATE_FIELDS,
-                                          self._placement)
+        self._force_array = world.applied
         # applied force of every body in the world frame: thrust against drag for the rackets,
         # gravity for the ball, none for the static body; a product of the cells before the forces
-        self._force_matrix = np.zeros((2 * self._n_bodies, self._force_at))
-        self._force_source = work[: self._force_at]
+        self._force_matrix = np.zeros((2 * world.n_bodies, len(world.force_source)))
+        self._force_source = world.force_source
         for k in range(2 * n):
             self._force_matrix[k, self._thrust_at + k] = THRUST * self._axis_sign(k)
-            self._force_matrix[k, 4 * (k // 2) + 2 + k % 2] = -RACKET_DRAG
-        self._force_matrix[2 * n + 1, self._one_at] = -BALL_MASS * GRAVITY
+            self._force_matrix[k, world.vel(k // 2, k % 2)] = -RACKET_DRAG
+        self._force_matrix[2 * ball + 1, self._one_at] = -BALL_MASS * GRAVITY
         # measures (6 n rows) then observations (n * obs_dim rows), one product per step
         self._matrix = np.concatenate([self._measure_map(), self._observation_map()])
         self._linear = np.zeros(len(self._matrix))
@@ -436,12 +449,6 @@ class TennisRules(ReplayedMatch, GameRules):
         to the world (or back): team 1 sees x mirrored."""
         return float(self._team_sign[cell // 2]) if cell % 2 == 0 else 1.0
 
-    def _pos(self, body: int, axis: int) -> int:
-        return 4 * body + axis
-
-    def _vel(self, body: int, axis: int) -> int:
-        return 4 * body + 2 + axis
-
     def _measure_map(self) -> np.ndarray:
         """The linear parts of the measures as one matrix over the work vector.
 
@@ -452,67 +459,64 @@ class TennisRules(ReplayedMatch, GameRules):
         and the same ``f = THRUST * u - DRAG * v0`` acts in both, so the velocity before the step is
         ``v0 = (THRUST * u - f) / DRAG`` and the impulse ``m v2 - m k^2 v0 - (1 + k) h f``.
         """
-        n = self.n_agents
-        M = np.zeros((6 * n, len(self._work)))
-        ball = n
+        n, world = self.n_agents, self.world
+        M = world.matrix(6 * n)
+        ball = world.index("ball")
         keep = SPACE_DAMPING**SUBSTEP
         before = keep * keep * RACKET_MASS / RACKET_DRAG  # the impulse's share of v0 * DRAG
         for i in range(n):
             for ax in range(2):
                 conj = 1.0 if ax == 0 else -1.0
-                M[2 * i + ax, self._pos(ball, ax)] = conj
-                M[2 * i + ax, self._pos(i, ax)] = -conj
-                M[2 * n + 2 * i + ax, self._vel(i, ax)] = 1.0
+                M[2 * i + ax, world.pos(ball, ax)] = conj
+                M[2 * i + ax, world.pos(i, ax)] = -conj
+                M[2 * n + 2 * i + ax, world.vel(i, ax)] = 1.0
                 row = 4 * n + 2 * i + ax
-                M[row, self._vel(i, ax)] = RACKET_MASS / DT
+                M[row, world.vel(i, ax)] = RACKET_MASS / DT
                 M[row, self._thrust_at + 2 * i + ax] = -before * THRUST * self._axis_sign(2 * i + ax) / DT
                 M[row, self._force_at + 2 * i + ax] = (before - (1.0 + keep) * SUBSTEP) / DT
         return M
 
-    def _other_seats(self, seat: int) -> list[int]:
-        """The other seats in observation order: teammates, then opponents, each in seat order."""
-        team = int(self.team_of[seat])
-        mates = [j for j in np.flatnonzero(self.team_of == team).tolist() if j != seat]
-        return mates + np.flatnonzero(self.team_of != team).tolist()
-
     def _observation_map(self) -> np.ndarray:
         """The observations of every seat as one matrix over the work vector."""
-        n = self.n_agents
-        A = np.zeros((n, self.obs_dim, len(self._work)))
+        n, world, cells = self.n_agents, self.world, self.layout
+        A = np.zeros((n, self.obs_dim, len(world.work)))
         ps, vs = POSITION_SCALE, 1.0 / VELOCITY_UNIT
-        ball = n
+        ball, pos, vel = world.index("ball"), world.pos, world.vel
         for i in range(n):
             rows = A[i]
             sign = self._team_sign[i]
             team = int(self.team_of[i])
-            rows[0, self._one_at] = 1.0
+            # the other seats in observation order: teammates, then opponents, each in seat order
+            others = [j for j in range(n) if j != i and self.team_of[j] == team]
+            others += [j for j in range(n) if self.team_of[j] != team]
+            rows[cells.at("active"), self._one_at] = 1.0
             for ax, scale in ((0, sign), (1, 1.0)):
-                rows[1 + ax, self._pos(i, ax)] = ps * scale
-                rows[3 + ax, self._vel(i, ax)] = vs * scale
-                rows[5 + ax, self._pos(ball, ax)] = ps * scale
-                rows[5 + ax, self._pos(i, ax)] = -ps * scale
-                rows[7 + ax, self._pos(ball, ax)] = ps * scale
-                rows[9 + ax, self._vel(ball, ax)] = vs * scale
-                for k, j in enumerate(self._other_seats(i)):
-                    rows[17 + 4 * k + ax, self._pos(j, ax)] = ps * scale
-                    rows[17 + 4 * k + ax, self._pos(i, ax)] = -ps * scale
-                    rows[19 + 4 * k + ax, self._vel(j, ax)] = vs * scale
-            rows[11, self._played_at + team] = 1.0
-            rows[12, self._bounced_at] = 1.0
-            rows[13, self._toss_at] = 1.0
-            rows[14, self._clock_at] = 1.0
-            rows[15, self._score_at + team] = 1.0 / self.points
-            rows[16, self._score_at + 1 - team] = 1.0 / self.points
-        return A.reshape(n * self.obs_dim, len(self._work))
+                rows[cells.at("position", ax), pos(i, ax)] = ps * scale
+                rows[cells.at("velocity", ax), vel(i, ax)] = vs * scale
+                rows[cells.at("ball_relative", ax), pos(ball, ax)] = ps * scale
+                rows[cells.at("ball_relative", ax), pos(i, ax)] = -ps * scale
+                rows[cells.at("ball", ax), pos(ball, ax)] = ps * scale
+                rows[cells.at("ball_velocity", ax), vel(ball, ax)] = vs * scale
+                for k, j in enumerate(others):
+                    rows[cells.at(f"other_{k}", ax), pos(j, ax)] = ps * scale
+                    rows[cells.at(f"other_{k}", ax), pos(i, ax)] = -ps * scale
+                    rows[cells.at(f"other_{k}_velocity", ax), vel(j, ax)] = vs * scale
+            rows[cells.at("played"), self._played_at + team] = 1.0
+            rows[cells.at("bounced"), self._bounced_at] = 1.0
+            rows[cells.at("toss"), self._toss_at] = 1.0
+            rows[cells.at("clock"), self._clock_at] = 1.0
+            rows[cells.at("points", 0), self._score_at + team] = 1.0 / self.points
+            rows[cells.at("points", 1), self._score_at + 1 - team] = 1.0 / self.points
+        return A.reshape(n * self.obs_dim, len(world.work))
 
     def _state_map(self) -> np.ndarray:
         """The global state as one matrix over the work vector."""
-        n = self.n_agents
-        S = np.zeros((self.state_dim, len(self._work)))
+        n, world = self.n_agents, self.world
+        S = world.matrix(self.state_dim)
         for body in range(n + 1):
             for ax in range(2):
-                S[4 * body + ax, self._pos(body, ax)] = POSITION_SCALE
-                S[4 * body + 2 + ax, self._vel(body, ax)] = 1.0 / VELOCITY_UNIT
+                S[4 * body + ax, world.pos(body, ax)] = POSITION_SCALE
+                S[4 * body + 2 + ax, world.vel(body, ax)] = 1.0 / VELOCITY_UNIT
         row = 4 * (n + 1)
         S[row, self._score_at] = S[row + 1, self._score_at + 1] = 1.0 / self.points
         for k, cell in enumerate((self._played_at, self._played_at + 1, self._bounced_at, self._toss_at,
@@ -520,51 +524,13 @@ class TennisRules(ReplayedMatch, GameRules):
             S[row + 2 + k, cell] = 1.0
         return S
 
-    def _build_space(self, racket_xy: np.ndarray, ball_xy: np.ndarray, ball_velocity: tuple[float, float]) -> None:
-        # A fresh space each match: no cached contacts survive from the previous one, so a seed
-        # gives the same match whatever was played before.
-        space = pymunk.Space()
-        space.damping = SPACE_DAMPING
-        space.collision_slop = COLLISION_SLOP
-        F, H, R = FENCE_X, HALL_HEIGHT, WALL_RADIUS
-        add_walls(space, [((-F - R, -R), (F + R, -R))], R, ELASTICITY["floor"], FRICTION["floor"])
-        add_walls(space, [((-F - R, -R), (-F - R, H + R)), ((F + R, -R), (F + R, H + R)),
-                          ((-F - R, H + R), (F + R, H + R))], R, ELASTICITY["wall"], FRICTION["wall"])
-        add_walls(space, [((0.0, 0.0), (0.0, NET_HEIGHT - NET_RADIUS))], NET_RADIUS, ELASTICITY["net"],
-                  FRICTION["net"])
-        # the rackets' barriers: the plane of the net up to the reach ceiling, and that ceiling,
-        # each running into the floor or the fences at its ends so that no racket slips round it
-        barriers = []
-        reach = REACH_HEIGHT + BARRIER_RADIUS
-        for a, b in (((0.0, -R), (0.0, reach)), ((-F - R, reach), (F + R, reach))):
-            segment = pymunk.Segment(space.static_body, a, b, BARRIER_RADIUS)
-            segment.filter = _BARRIER_FILTER
-            barriers.append(segment)
-        space.add(*barriers)
-        self._rackets = add_discs(space, racket_xy, RACKET_MASS, RACKET_RADIUS, ELASTICITY["racket"],
-                                  FRICTION["racket"])
-        for team, body in zip(self.team_of.tolist(), self._rackets):
-            for shape in body.shapes:
-                shape.filter = _RACKET_FILTERS[team]
-        (self._ball,) = add_discs(space, [ball_xy], BALL_MASS, BALL_RADIUS, ELASTICITY["ball"], FRICTION["ball"])
-        for shape in self._ball.shapes:
-            shape.filter = _BALL_FILTER
-        self._ball.velocity = ball_velocity
-        self.space = space
-        self._link.bind(space)
-        self._placement_link.bind(space)
-        if self._link.body_ids != [body.id for body in self._rackets] + [self._ball.id, space.static_body.id]:
-            raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; Tennis supports "
-                               "pymunk 7 (pip install 'pymunk>=7,<8')")
-        self._link.read_bodies()
-
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
         self._record_reset(seed)
         self.rng = np.random.default_rng(seed)
         self._server = int(self.rng.integers(2))
         racket_xy, ball_xy, ball_velocity = self._draw_serve()
-        self._build_space(racket_xy, ball_xy, ball_velocity)
+        self.world.build({"racket": racket_xy, "ball": ball_xy}, {"ball": (ball_velocity,)})
         self.score[:] = 0
         self._work[self._score_at: self._score_at + 2] = 0.0
         self._start_rally()
@@ -584,20 +550,14 @@ class TennisRules(ReplayedMatch, GameRules):
     def _serve(self) -> None:
         """Lay out the next point's serve in the running space."""
         racket_xy, ball_xy, ball_velocity = self._draw_serve()
-        self._move_bodies(racket_xy, np.zeros_like(racket_xy), ball_xy, ball_velocity)
+        self._move_bodies(racket_xy, None, ball_xy, ball_velocity)
         self._start_rally(keep_energy=True)
 
-    def _move_bodies(self, racket_xy: np.ndarray, racket_velocity: np.ndarray, ball_xy: np.ndarray,
+    def _move_bodies(self, racket_xy: np.ndarray, racket_velocity: Any, ball_xy: np.ndarray,
                      ball_velocity: Any) -> None:
         """Set every body's position and velocity (world frame) in one batch write."""
-        n = self.n_agents
-        layout = self._placement[: 4 * (n + 1)].reshape(n + 1, 4)
-        layout[:n, 0:2] = racket_xy
-        layout[:n, 2:4] = racket_velocity
-        layout[n, 0:2] = ball_xy
-        layout[n, 2:4] = ball_velocity
-        self._placement_link.write_bodies()  # the static body keeps (0, 0) and no velocity
-        self._link.read_bodies()
+        self.world.place_all({"racket": racket_xy, "ball": ball_xy}, {"racket": racket_velocity, "ball": ball_velocity})
+
 
     def _start_rally(self, keep_energy: bool = False) -> None:
         """The rally of a serve by ``self._server``: its toss, on its side, played by it."""
@@ -786,17 +746,7 @@ class TennisRules(ReplayedMatch, GameRules):
         return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        x, y, v = FENCE_X * POSITION_SCALE, REACH_HEIGHT * POSITION_SCALE, VELOCITY_BOUND
-        top = HALL_HEIGHT * POSITION_SCALE
-        n_mates = self.players_per_team - 1
-        velocity = (-v, v, 2)
-        # in the seat frame a seat, and its teammates, lie in x in [-x, 0]; its opponents in [0, x]
-        return cell_bounds((0, 1, 1), (-x, 0.0, 1), (0.0, y, 1), velocity,
-                           (-x, 2 * x, 1), (-y, top, 1), (-x, x, 1), (0.0, top, 1), velocity,
-                           (0, 1, 6),
-                           *[run for _ in range(n_mates) for run in ((-x, x, 1), (-y, y, 1), velocity)],
-                           *[run for _ in range(self.players_per_team) for run in ((0.0, 2 * x, 1), (-y, y, 1),
-                                                                                   velocity)])
+        return self.layout.bounds()
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         x, y, v = FENCE_X * POSITION_SCALE, REACH_HEIGHT * POSITION_SCALE, VELOCITY_BOUND
@@ -813,9 +763,6 @@ class TennisRules(ReplayedMatch, GameRules):
     def team_result(self) -> np.ndarray:
         # more points wins: 1 win, 0.5 draw, 0 loss
         return np.sign(self.score - self.score[::-1]) * 0.5 + 0.5
-
-    def events(self) -> list[dict]:
-        return list(self._events)
 
     # --- tools ---------------------------------------------------------------------------------
     @property
@@ -834,7 +781,7 @@ class TennisRules(ReplayedMatch, GameRules):
         scenarios; the side clock starts afresh and the match continues from there, each team
         keeping its points (or taking ``score``). Each racket must stand within its side and reach,
         and the ball in the hall above the floor."""
-        if self.space is None:
+        if self.world.space is None:
             raise RuntimeError("call reset(seed) before place()")
         racket_xy = np.asarray(racket_xy, dtype=np.float64).reshape(self.n_agents, 2)
         racket_velocity = (np.zeros((self.n_agents, 2)) if racket_velocity is None
@@ -926,248 +873,13 @@ class TennisRules(ReplayedMatch, GameRules):
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
-        return _heuristic(obs, action_type)
+        from arena_league.envs.games.tennis.heuristic import heuristic  # the scripted play, loaded when asked
 
+        return heuristic(obs, action_type)
 
-#: The heuristic's look-ahead: physics steps of the ball's predicted flight (1.5 s); it weighs
-#: meeting the ball after every ``_STRIDE``-th of them.
-_LOOKAHEAD = 30
-_STRIDE = 2
-#: Restitution and friction of the ball on the floor and on a racket (products of the shapes' values).
-_FLOOR_RESTITUTION = ELASTICITY["ball"] * ELASTICITY["floor"]
-_FLOOR_FRICTION = FRICTION["ball"] * FRICTION["floor"]
-_RACKET_RESTITUTION = ELASTICITY["ball"] * ELASTICITY["racket"]
-#: What a head-on stroke gives the ball of the closing velocity: (1 + restitution) times the
-#: racket's share of the two masses (the racket is ten times as heavy).
-_STROKE = (1.0 + _RACKET_RESTITUTION) * RACKET_MASS / (RACKET_MASS + BALL_MASS)
-#: Where the heuristic's shots should land beyond the net, how far above the net they must pass,
-#: and the height it likes to strike the ball at.
-_AIM_X = 2.6
-_NET_MARGIN = 0.25
-_STRIKE_HEIGHT = 1.1
-#: The directions of the racket's swing it weighs (angles above +x, seat frame): every 15 degrees
-#: from +x to up for continuous actions; for discrete ones the compass directions E, NE and N,
-#: which it swings exactly.
-_SWING_ANGLES = {"continuous": np.radians(np.arange(0.0, 91.0, 15.0)), "discrete": np.radians([0.0, 45.0, 90.0])}
-_SWING_DIRECTIONS = {kind: np.stack([np.cos(a), np.sin(a)], axis=1) for kind, a in _SWING_ANGLES.items()}
-#: A racket at rest running at full thrust: its speed after ``t`` seconds is ``V (1 - exp(-rate t))``
-#: under drag and damping (``V`` its top speed).
-_SWING_RATE = (RACKET_DRAG - RACKET_MASS * np.log(SPACE_DAMPING)) / RACKET_MASS
-
-
-def _run_speed(time: np.ndarray) -> np.ndarray:
-    """Speed of a racket ``time`` seconds into a run at full thrust from rest."""
-    return RACKET_TOP_SPEED * (1.0 - np.exp(-_SWING_RATE * time))
-
-
-def _run_distance(time: np.ndarray) -> np.ndarray:
-    """Distance a racket covers in ``time`` seconds of a run at full thrust from rest."""
-    return RACKET_TOP_SPEED * time - _run_speed(time) / _SWING_RATE
-
-
-#: The racket speeds it weighs, and the time and distance a run needs to reach each.
-_SWING_SPEEDS = np.linspace(0.6, 0.92 * RACKET_TOP_SPEED, 8)
-_RUN_TIME = -np.log(1.0 - _SWING_SPEEDS / RACKET_TOP_SPEED) / _SWING_RATE
-_RUN_UP = _run_distance(_RUN_TIME)
-#: The gains of its steering toward where the racket should be, and how fast it should move.
-_POSITION_GAIN = 20.0
-_VELOCITY_GAIN = 5.0
-#: Where the racket's centre can go in the seat frame (x, then y), a little inside the barriers.
-_REACH_LOW = np.array([-FENCE_X + RACKET_RADIUS + 0.05, RACKET_RADIUS + 0.03])
-_REACH_HIGH = np.array([-(RACKET_RADIUS + BARRIER_RADIUS) - 0.03, REACH_HEIGHT - RACKET_RADIUS - 0.05])
-#: Where a racket waits while the other team has the ball: the back spot, or the front one for the
-#: teammate nearer the net.
-_BACK_SPOT, _FRONT_SPOT = np.array(_FORMATIONS[2][0]), np.array(_FORMATIONS[2][1])
-
-
-def _flight_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Coefficients of a free flight's physics steps ``(S1 h, S2 h^2, D, G h)``: after ``k`` steps of
-    ``h``, with ``d`` the damping of one step, Chipmunk (which moves a body by its velocity before it
-    updates that velocity) has the ball at ``p + S1[k] h v + S2[k] h^2 a`` moving at
-    ``D[k] v + G[k] h a``."""
-    d = SPACE_DAMPING**SUBSTEP
-    powers = d ** np.arange(_LOOKAHEAD + 1)
-    gained = (1.0 - powers) / (1.0 - d)  # the sum of d**j for j < k
-    s1 = np.concatenate([[0.0], np.cumsum(powers)[:-1]])
-    s2 = np.concatenate([[0.0], np.cumsum(gained)[:-1]])
-    return s1 * SUBSTEP, s2 * SUBSTEP**2, powers, gained * SUBSTEP
-
-
-_S1, _S2, _DECAY, _GAIN = _flight_tables()
-_DOWN = np.array([0.0, -GRAVITY])
-
-
-def _fly(p: np.ndarray, v: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Free flights from ``p``, ``v`` (``[N, 2]``) after ``k`` (``[N, K]``) physics steps."""
-    position = p[:, None, :] + _S1[k][..., None] * v[:, None, :] + _S2[k][..., None] * _DOWN
-    return position, _DECAY[k][..., None] * v[:, None, :] + _GAIN[k][..., None] * _DOWN
-
-
-def _predict_flight(ball: np.ndarray, velocity: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The ball's positions and velocities after each of the next ``_LOOKAHEAD`` physics steps
-    (``[N, K, 2]`` each, step 0 now), bouncing once off the floor, and how many times it has landed
-    by each step (``[N, K]``: 0, 1, or 2 once it lands again)."""
-    k = np.broadcast_to(np.arange(_LOOKAHEAD + 1), (len(ball), _LOOKAHEAD + 1))
-    position, speed = _fly(ball, velocity, k)
-    low = position[:, :, 1] < BALL_RADIUS
-    low[:, 0] = False
-    bounces = low.any(axis=1)
-    first = np.where(bounces, low.argmax(axis=1), _LOOKAHEAD)
-    rows = np.arange(len(ball))
-    # the bounce: the vertical speed turned back, the horizontal one braked by the floor's friction
-    v_in = speed[rows, first - 1]
-    brake = _FLOOR_FRICTION * (1.0 + _FLOOR_RESTITUTION) * np.abs(v_in[:, 1])
-    v_out = np.stack([np.sign(v_in[:, 0]) * np.maximum(np.abs(v_in[:, 0]) - brake, 0.0),
-                      -_FLOOR_RESTITUTION * v_in[:, 1]], axis=1)
-    after = np.maximum(k - first[:, None], 0)
-    again, again_speed = _fly(position[rows, first], v_out, after)
-    later = (k > first[:, None]) & bounces[:, None]
-    position = np.where(later[..., None], again, position)
-    speed = np.where(later[..., None], again_speed, speed)
-    second = np.cumsum(later & (position[:, :, 1] < BALL_RADIUS) & (after > 1), axis=1) > 0
-    landings = ((k >= first[:, None]) & bounces[:, None]).astype(np.int64) + second
-    return position, speed, landings
-
-
-def _shots(contact: np.ndarray, incoming: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Head-on strokes at balls met at ``contact`` moving at ``incoming`` (``[N, K, 2]``, seat
-    frame) by a racket moving at every speed of ``_SWING_SPEEDS`` in every one of ``directions``:
-    where the struck ball lands (``[N, K, A, S]``; air drag roughly allowed for), whether it clears
-    the net by ``_NET_MARGIN``, and the line of impact (racket to ball, ``[N, K, A, S, 2]``).
-
-    A racket that meets the ball along their relative velocity strikes it on that line, however
-    early or late it comes: the ball leaves at ``v + _STROKE * (u - v)`` (racket velocity ``u``)."""
-    racket = directions[:, None, :] * _SWING_SPEEDS[None, :, None]  # [A, S, 2]
-    closing = racket[None, None] - incoming[:, :, None, None, :]
-    size = np.sqrt(np.einsum("...i,...i->...", closing, closing))
-    line = closing / np.maximum(size, 1e-9)[..., None]
-    v_out = 0.95 * (incoming[:, :, None, None, :] + _STROKE * closing)  # 0.95: about what air drag takes
-    x0, y0 = contact[:, :, None, None, 0], contact[:, :, None, None, 1]
-    vx, vy = v_out[..., 0], v_out[..., 1]
-    t_land = (vy + np.sqrt(vy * vy + 2.0 * GRAVITY * np.maximum(y0 - BALL_RADIUS, 0.0))) / GRAVITY
-    t_net = -x0 / np.maximum(vx, 1e-6)
-    at_net = y0 + vy * t_net - 0.5 * GRAVITY * t_net * t_net
-    clears = (vx > 0.3) & (at_net > NET_HEIGHT + BALL_RADIUS + _NET_MARGIN) & (t_net < t_land)
-    return x0 + vx * t_land, clears, line
-
-
-def _legal_flight(obs: np.ndarray, toss: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The ball's predicted flight seen from each row's seat (positions and velocities, ``[N, K,
-    2]``) and the physics steps at whose end its racket may strike it (``[N, K]``, every
-    ``_STRIDE``-th): on its side at a reachable height, before the ball lands on a toss or once it
-    has bounced in, else before it lands a second time, the first landing in the own court."""
-    position, speed, landings = _predict_flight(obs[:, 7:9] * POSITION_UNIT, obs[:, 9:11] * VELOCITY_UNIT)
-    in_court = (landings == 1) & (position[:, :, 0] < 0.0) & (position[:, :, 0] > -HALF_LENGTH)
-    bounced_in = np.cumsum(in_court, axis=1) > 0
-    at_most_once = (toss | (obs[:, 12] > 0.5))[:, None]
-    legal = np.where(at_most_once, landings == 0, (landings == 0) | ((landings == 1) & bounced_in))
-    legal &= (position[:, :, 1] > 0.35) & (position[:, :, 1] < 2.2) & (position[:, :, 0] < -0.1)
-    legal[:, np.arange(_LOOKAHEAD + 1) % _STRIDE != 0] = False
-    legal[:, 0] = False
-    return position, speed, legal
-
-
-def _strokes(me: np.ndarray, velocity: np.ndarray, position: np.ndarray, speed: np.ndarray, legal: np.ndarray,
-             directions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The best stroke of each seat at the predicted ball (``[N, K, 2]``; at every ``_STRIDE``-th
-    physics step where ``legal``): whether it found one, its moment (physics steps from now), its
-    direction and speed (indices) and the racket's spot at contact (``[N, 2]``)."""
-    n = len(me)
-    moments = np.arange(0, _LOOKAHEAD + 1, _STRIDE)
-    moments = moments[legal[:, moments].any(axis=0)]  # (weighing only the moments some row may strike at)
-    position, speed, legal = position[:, moments], speed[:, moments], legal[:, moments]
-    landing, clears, line = _shots(position, speed, directions)
-    spot = position[:, :, None, None, :] - line * CONTACT  # the racket's centre at contact
-    ready = spot - directions[None, None, :, None, :] * _RUN_UP[:, None]
-
-    def inside(p: np.ndarray) -> np.ndarray:
-        return ((p[..., 0] > _REACH_LOW[0]) & (p[..., 0] < _REACH_HIGH[0]) & (p[..., 1] > _REACH_LOW[1])
-                & (p[..., 1] < _REACH_HIGH[1]))
-
-    # the racket should stand ready behind the spot by the moment less the run's time, or be on the
-    # run already (near the line there, behind the spot within the run-up, moving along it):
-    # lateness costs, as does a run-up that starts out of reach
-    t = moments * SUBSTEP
-    gap = ready - me[:, None, None, None, :]
-    to_ready = np.sqrt(np.einsum("...i,...i->...", gap, gap))
-    late = np.maximum(to_ready / RACKET_TOP_SPEED - np.maximum(t[:, None, None] - _RUN_TIME, 0.0), 0.0)
-    offset = spot - me[:, None, None, None, :]
-    d = directions[None, None, :, None, :]
-    ahead = (offset * d).sum(axis=-1)
-    aside = np.abs(offset[..., 0] * d[..., 1] - offset[..., 1] * d[..., 0])
-    moving = (velocity @ directions.T)[:, None, :, None]
-    running = (aside < 0.15) & (ahead > -0.05) & (ahead <= _RUN_UP + 0.1) & (moving > 0.3)
-    late = np.where(running, 0.0, late)
-    good = legal[:, :, None, None] & clears & inside(spot) & (landing > 0.5) & (landing < HALF_LENGTH - 0.3)
-    cost = (np.abs(landing - _AIM_X) + 0.5 * np.abs(position[:, :, None, None, 1] - _STRIKE_HEIGHT)
-            + 0.3 * t[:, None, None] + 4.0 * late + 2.0 * ~inside(ready))
-    cost = np.where(good, cost, np.inf).reshape(n, -1)
-    best = cost.argmin(axis=1)
-    found = np.isfinite(cost[np.arange(n), best])
-    k, a, w = np.unravel_index(best, good.shape[1:])
-    return found, moments[k], a, w, spot[np.arange(n), k, a, w]
-
-
-def _heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
-    obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
-    n_others, rest = divmod(obs.shape[1] - 17, 4)
-    if rest or n_others not in (1, 3):
-        raise ValueError(f"Tennis heuristic: an observation of {obs.shape[1]} cells is not Tennis's "
-                         "(17 + 4 * (n_agents - 1) cells)")
-    n_mates = (n_others + 1) // 2 - 1
-    me = obs[:, 1:3] * POSITION_UNIT
-    velocity = obs[:, 3:5] * VELOCITY_UNIT
-    ball = obs[:, 7:9] * POSITION_UNIT
-    toss = obs[:, 13] > 0.5
-    # the ball is the seat's team's to play when the other team played it last, or on its own toss
-    to_play = (obs[:, 11] < 0.5) | toss
-
-    # roles: the teammate best placed plays the ball (the nearest, a racket in front of the ball
-    # counting as further: it strikes toward +x); the others keep their spots
-    def placing(xy: np.ndarray) -> np.ndarray:
-        return np.hypot(*(ball - xy).T) + 1.5 * np.maximum(xy[:, 0] - ball[:, 0] + 0.3, 0.0)
-
-    own_placing = placing(me)
-    home = np.tile(_BACK_SPOT, (len(obs), 1))
-    for mate in range(n_mates):
-        mate_xy = me + obs[:, 17 + 4 * mate: 19 + 4 * mate] * POSITION_UNIT
-        to_play &= placing(mate_xy) >= own_placing
-        home[me[:, 0] > mate_xy[:, 0]] = _FRONT_SPOT
-    target = home
-    target_velocity = np.zeros_like(me)
-    running = np.zeros(len(obs), dtype=bool)
-    direction = np.zeros_like(me)
-
-    p = np.flatnonzero(to_play)
-    if len(p):
-        position, speed, legal = _legal_flight(obs[p], toss[p])
-        playable = legal.any(axis=1)
-        p, position, speed, legal = p[playable], position[playable], speed[playable], legal[playable]
-    if len(p):
-        directions = _SWING_DIRECTIONS[action_type]
-        found, k, a, w, spot = _strokes(me[p], velocity[p], position, speed, legal, directions)
-        p, k, a, w, spot = p[found], k[found], a[found], w[found], spot[found]
-        # the stroke: stand ready behind the spot, then run through it at full thrust from the
-        # moment that brings the racket there at the stroke's speed, steering onto the run
-        direction[p] = directions[a]
-        elapsed = np.maximum(_RUN_TIME[w] - k * SUBSTEP, 0.0)  # time into the run
-        target[p] = spot - direction[p] * (_RUN_UP[w] - _run_distance(elapsed))[:, None]
-        target_velocity[p] = direction[p] * _run_speed(elapsed)[:, None]
-        running[p] = elapsed > 0.0
-    target = np.clip(target, _REACH_LOW, _REACH_HIGH)
-    heading = (_POSITION_GAIN * (target - me) + _VELOCITY_GAIN * (target_velocity - velocity)) / THRUST
-    heading += np.where(running[:, None], direction, 0.0)  # the run's full thrust
-    length = np.hypot(heading[:, 0], heading[:, 1])
-    if action_type == "continuous":
-        return np.clip(heading / np.maximum(length, 1.0)[:, None], -1.0, 1.0).astype(np.float32)
-    angle = np.arctan2(heading[:, 1], heading[:, 0])
-    move = 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
-    return np.where(length < 0.3, 0, move).astype(np.int64)
-
-
-class TennisControls(SoccerControls):
+class TennisControls(MirroredCompassControls):
     """Compass moves of one's racket on the court as drawn (E = right, N = up), mirrored for the
-    team that sees the court flipped (Soccer's moves)."""
+    team that sees the court flipped."""
 
     move = "move your racket on the court as drawn"
     key_hint = ("Arrow keys or W A S D swing your racket on the court as drawn (two at once: diagonally); let go "
