@@ -174,23 +174,27 @@ Replay scene
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import pymunk
 
 from arena_league.envs import scene
-from arena_league.envs.controls import CompassControls
-from arena_league.envs.core import GameRules, ReplayedMatch, cell_bounds
+from arena_league.envs.controls import TurnedCompassControls
+from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
     COMPASS_MOVES,
-    BodyFields,
-    add_discs,
-    add_walls,
-    checked_kwargs,
-    space_link,
+    ONE,
+    Bodies,
+    CellLayout,
+    Field,
+    Material,
+    Physics2DRules,
+    Run,
+    Walls,
+    World,
+    team_ranks,
+    team_turns,
 )
 from arena_league.envs.rendering import TEAM_COLOURS, Canvas
 from arena_league.envs.social import team_tree
@@ -230,21 +234,16 @@ VELOCITY_UNIT = 3.0
 #: speed; only a pile-up can push a body faster, and that is clipped).
 VELOCITY_BOUND = 2.0
 
-
 #: What a FightForFood search agent's budget means (the population provenance quotes it).
 SEARCH_BUDGET_MEANING = ("the W pellets the heuristic likes best, each tried first in R rollouts of H steps of a "
                          "point-mass model of the pen where the others play the heuristic, their pellet costs "
                          "jittered by up to E of the pen's side; -v2 models the contacts between agents and with "
                          "the walls, and the eight moves of the discrete action table")
-_VELOCITY_KEPT = SPACE_DAMPING ** DT  # the share of its velocity a body keeps over one step
-# pymunk's restitution of a contact is the product of the two shapes' elasticities
-_AGENT_RESTITUTION = ELASTICITY["agent"] ** 2
-_WALL_RESTITUTION = ELASTICITY["agent"] * ELASTICITY["wall"]
-_REACH = HALF_SIZE - AGENT_RADIUS  # the walls keep an agent's centre within this of the centre
 
 DEFAULT_FOOD = 12
-_FOOD_RANGE = (4, 24)
-_JITTER_RANGE = (0.0, 0.5, 0.3)
+FOOD_RANGE = (4, 24)
+OPTIONS = (Option("food", int, DEFAULT_FOOD, "food pellets in the pen, a multiple of the number of teams", *FOOD_RANGE),
+           Option("start_jitter", float, 0.3, "largest random offset of each start spot", 0.0, 0.5))
 
 #: Start spots of team 0 (the other teams' are turned), per players per team.
 _FORMATIONS = {
@@ -255,38 +254,35 @@ _FORMATIONS = {
 _PLACEMENT_TRIES = 10_000
 #: Where an eaten pellet is sought: so far out of the pen that it is never the nearest nor touched.
 _FAR = complex(1e6, 1e6)
-#: obs_dim - 3 * food of each layout: tells the heuristic the layout from the observation's length.
-_OBS_BASE = {(2, 1): 12, (2, 2): 20, (4, 1): 22}
-
-#: Body fields the physics link reads after every step and writes before it.
-_STATE_FIELDS = BodyFields.POSITION | BodyFields.VELOCITY
-_FORCE_FIELDS = BodyFields.FORCE
 
 
-def _turns(n_teams: int) -> np.ndarray:
-    """``float64[n_teams, 2, 2]``: the rotation by ``t * 360 / n_teams`` degrees for each team ``t``,
-    exact (entries 0 and +-1 for the quarter and half turns the layouts use)."""
-    angles = 2.0 * np.pi * np.arange(n_teams) / n_teams
-    cos, sin = np.round(np.cos(angles), 12), np.round(np.sin(angles), 12)
-    return np.stack([np.stack([cos, -sin], axis=1), np.stack([sin, cos], axis=1)], axis=1) + 0.0
+def pen_field(n_agents: int) -> Field:
+    """The walled square pen, then the agents (discs that do not spin), added in that order."""
+    edge = HALF_SIZE + WALL_RADIUS
+    corners = [(-edge, -edge), (edge, -edge), (edge, edge), (-edge, edge)]
+    return Field(dt=DT, damping=SPACE_DAMPING, collision_slop=COLLISION_SLOP, parts=(
+        Walls(tuple((corners[k], corners[(k + 1) % 4]) for k in range(4)), WALL_RADIUS,
+              Material(ELASTICITY["wall"], FRICTION)),
+        Bodies("agent", n_agents, AGENT_RADIUS, AGENT_MASS, Material(ELASTICITY["agent"], FRICTION))))
 
 
-def _observation_layout(obs_dim: int) -> tuple[int, int, int]:
-    """``(n_teams, players_per_team, food)`` of the observation length ``obs_dim``."""
-    for (teams, players), base in _OBS_BASE.items():
-        food, rest = divmod(obs_dim - base, 3)
-        if rest == 0 and food % teams == 0 and _FOOD_RANGE[0] <= food <= _FOOD_RANGE[1]:
-            return teams, players, food
-    raise ValueError(f"FightForFood heuristic: an observation of {obs_dim} cells is not FightForFood's "
-                     "(6 + n_teams + 3 * food + 4 * (n_agents - 1) cells)")
+def pen_observation(n_teams: int, food: int, n_agents: int) -> CellLayout:
+    """The observation's runs (seat frame; positions divided by 3, velocities by 3)."""
+    v = (-VELOCITY_BOUND, VELOCITY_BOUND)
+    runs = [Run("active", 1, (0, 1), "own active flag (always 1)"), Run("position", 2, (-1, 1), "own position"),
+            Run("velocity", 2, v, "own velocity"),
+            Run("eaten", n_teams, (0, 1), "food eaten by each team, own first, as a share of food"),
+            Run("left", 1, (0, 1), "food left, as a share of food")]
+    for k in range(food):
+        runs += [Run(f"pellet_{k}", 2, (-2, 2), "a pellet relative to the seat (0 once eaten)"),
+                 Run(f"pellet_{k}_there", 1, (0, 1), "1 while that pellet is there")]
+    for k in range(n_agents - 1):
+        runs += [Run(f"other_{k}", 2, (-2, 2), "another seat's position relative to the seat"),
+                 Run(f"other_{k}_velocity", 2, v, "that seat's velocity")]
+    return CellLayout(runs)
 
 
-def _add_turned(rows: np.ndarray, cell: int, columns: tuple[int, int], matrix: np.ndarray) -> None:
-    """Add ``matrix @ work[columns]`` to observation cells ``cell, cell + 1`` of one seat's rows."""
-    rows[cell: cell + 2, list(columns)] += matrix
-
-
-class FightForFoodRules(ReplayedMatch, GameRules):
+class FightForFoodRules(Physics2DRules):
     """FightForFood in a walled pymunk pen; see the module docstring for the manual."""
 
     name: ClassVar[str] = "FightForFood"
@@ -299,94 +295,73 @@ class FightForFoodRules(ReplayedMatch, GameRules):
     default_max_cycles: ClassVar[int] = 300
     summary: ClassVar[str] = ("Agents shove each other off limited food pellets; the match ends when the food is "
                               "gone (pymunk; most food wins)")
+    options = OPTIONS
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str = "discrete", **kwargs) -> None:
-        self.check_layout(n_teams, players_per_team, action_type)
-        low, high = _FOOD_RANGE
-        settings = checked_kwargs("FightForFood", kwargs, {"food": (low, high, DEFAULT_FOOD, int),
-                                                           "start_jitter": _JITTER_RANGE})
-        food, jitter = settings["food"], settings["start_jitter"]
+        super().__init__(n_teams, players_per_team, action_type, **kwargs)
+        food = self.food = self.settings["food"]
+        self.start_jitter = self.settings["start_jitter"]
         if food % n_teams:
+            low, high = FOOD_RANGE
             raise ValueError(f"FightForFood food must be an int in [{low}, {high}] and a multiple of the number of "
                              f"teams ({n_teams} in {n_teams}T{players_per_team}P), so that every team's side gets "
                              f"the same pellets; not {food!r}")
-        super().__init__(n_teams, players_per_team, action_type)
-        self._arguments = ((n_teams, players_per_team, action_type), dict(kwargs))
-        self._calls = []
-        self.food = int(food)
-        self.start_jitter = float(jitter)
         n = self.n_agents
         self.n_actions = len(COMPASS_MOVE_NAMES)
         self.act_dim = 2
         self.action_meanings = COMPASS_MOVE_NAMES
-        self.obs_dim = 6 + n_teams + 3 * self.food + 4 * (n - 1)
-        self.state_dim = 4 * n + 3 * self.food + n_teams + 1
+        self.layout = pen_observation(n_teams, food, n)
+        self.obs_dim = self.layout.size
+        self.state_dim = 4 * n + 3 * food + n_teams + 1
 
-        self._turns = _turns(n_teams)
+        self._turns = team_turns(n_teams)
         # unit thrust of every move in the seat frame (x + iy): the matrices turn it into the world
         self._moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
         self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
         # which pellet each team sees in each slot: within a group, its own image first
-        groups = np.arange(self.food // n_teams)[:, None] * n_teams
+        groups = np.arange(food // n_teams)[:, None] * n_teams
         self._slot_pellet = np.stack([(groups + (np.arange(n_teams) + t) % n_teams).reshape(-1)
                                       for t in range(n_teams)])
-        self._first_seats = np.arange(n_teams) * players_per_team
-        self._pellet_cell = 6 + n_teams  # the first pellet cell of the observation
-        self._obs_low, self._obs_high = (np.tile(bound.astype(np.float64), (n, 1)) for bound in self.observation_bounds())
+        self._obs_low, self._obs_high = (bound.reshape(n, self.obs_dim) for bound in self.clip_bounds(self.layout))
         self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
         self._layout_work_vector()
-        self.space: pymunk.Space | None = None
-        self._events: list[dict] = []
 
     # --- construction --------------------------------------------------------------------------
     def _layout_work_vector(self) -> None:
-        """One float64 vector holds everything a step reads, and one matrix product of it gives the
-        measures' linear parts and every observation at once (few numpy calls: the hot path is
-        Python-bound). Their results land in preallocated arrays, seen through views made here.
+        """The world's work vector holds everything a step reads, and one matrix product of it gives
+        the measures' linear parts and every observation at once (few numpy calls: the hot path is
+        Python-bound); the results land in preallocated arrays, seen through views made here.
 
-        Layout of the work vector: ``[x, y, vx, vy]`` of every seat and pymunk's static body (written
-        in place by the physics link), spare room, the seats' velocities before the step, their
-        unit thrust in their own frames (as the actions give it: the matrices turn it into the world),
-        every pellet's ``x, y``, every pellet's still-there flag, the food
-        eaten by each team, the food left, and a constant 1.
+        Slots after the bodies' block: the seats' velocities before the step, their unit thrust in
+        their own frames (as the actions give it: the matrices turn it into the world), every
+        pellet's ``x, y``, every pellet's still-there flag, the food eaten by each team, the food
+        left, and a constant 1.
         """
         n, food, teams = self.n_agents, self.food, self.n_teams
-        self._n_bodies = n + 1  # the physics link also visits the space's static body
-        body_floats = 4 * self._n_bodies
-        # pymunk's batch array grows (reallocates) when fewer than 3 free slots are left: leave 8
-        self._v_before_at = body_floats + 8
-        self._thrust_at = self._v_before_at + 2 * n
-        self._pellet_at = self._thrust_at + 2 * n
-        self._present_at = self._pellet_at + 2 * food
-        self._eaten_at = self._present_at + food
-        self._left_at = self._eaten_at + teams
-        self._one_at = self._left_at + 1
-        work = np.zeros(self._one_at + 1)
-        work[self._one_at] = 1.0
-        self._work = work
-        table = work[:body_floats].reshape(self._n_bodies, 4)
-        self._agent_pos = table[:n, 0:2]
+        world = self.world = World(pen_field(n), slots=(("v_before", 2 * n), ("thrust", 2 * n), ("pellet", 2 * food),
+                                                        ("present", food), ("eaten", teams), ("left", 1), (ONE, 1)))
+        self._work = world.work
+        self._left_at = world.at("left")
+        self._agent_pos = world.table[:n, 0:2]
         # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
-        agents_c = table[:n].view(np.complex128)
+        agents_c = world.table[:n].view(np.complex128)
         self._agent_pos_column = agents_c[:, 0:1]
         self._agent_vel_c = agents_c[:, 1]
-        self._v_before_c = work[self._v_before_at: self._thrust_at].view(np.complex128)
-        self._thrust = work[self._thrust_at: self._pellet_at].reshape(n, 2)
-        self._thrust_c = work[self._thrust_at: self._pellet_at].view(np.complex128)
-        self._pellet_xy = work[self._pellet_at: self._present_at].reshape(food, 2)
-        self._pellet_c = work[self._pellet_at: self._present_at].view(np.complex128)
-        self._present = work[self._present_at: self._eaten_at]
-        self._eaten = work[self._eaten_at: self._left_at]
+        self._v_before_c = world.complex_view("v_before")
+        self._thrust = world.view("thrust").reshape(n, 2)
+        self._thrust_c = world.complex_view("thrust")
+        self._pellet_xy = world.view("pellet").reshape(food, 2)
+        self._pellet_c = world.complex_view("pellet")
+        self._present = world.view("present")
+        self._eaten = world.view("eaten")
         self._thrust_length = np.zeros(n)  # a thrust's length, then at least 1: its scale-back
-        self._force_array = np.zeros(2 * self._n_bodies)
-        self._link = space_link(_STATE_FIELDS, work, _FORCE_FIELDS, self._force_array)
         # applied force of every body (zero for the static body), in the world frame
-        self._force_matrix = np.zeros((2 * self._n_bodies, len(work)))
+        world.force_matrix = world.matrix(2 * world.n_bodies)
         for i in range(n):
             turn = self._turns[self.team_of[i]]
             for ax in range(2):
-                self._force_matrix[2 * i + ax, self._thrust_at + 2 * i: self._thrust_at + 2 * i + 2] = THRUST * turn[ax]
-                self._force_matrix[2 * i + ax, self._v_before_at + 2 * i + ax] = -AGENT_DRAG
+                world.force_matrix[2 * i + ax, world.at("thrust", 2 * i): world.at("thrust", 2 * i + 2)] = THRUST * turn[ax]
+                world.force_matrix[2 * i + ax, world.at("v_before", 2 * i + ax)] = -AGENT_DRAG
         # measures (4 n rows) then observations (n * obs_dim rows), one product per step; the rows of
         # an eaten pellet's relative position are zeroed in the match's copy (its flag is 0 already)
         self._full_matrix = np.concatenate([self._measure_map(), self._observation_map()])
@@ -397,10 +372,10 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         self._obs_rows = self._linear[4 * n:].reshape(n, self.obs_dim)
         self._obs_work = np.zeros((n, self.obs_dim))
         # per seat, the matrix rows of each pellet's relative position (two each)
-        self._pellet_rows = np.zeros((n, self.food, 2), dtype=np.intp)
+        self._pellet_rows = np.zeros((n, food, 2), dtype=np.intp)
         for seat in range(n):
             slots = np.argsort(self._slot_pellet[self.team_of[seat]])  # the slot of each pellet
-            first = 4 * n + seat * self.obs_dim + self._pellet_cell + 3 * slots
+            first = 4 * n + seat * self.obs_dim + self.layout.at("pellet_0") + 3 * slots
             self._pellet_rows[seat] = np.stack([first, first + 1], axis=1)
         self._state_matrix = self._state_map()
         # The measures are arrays updated in place every step (the Measures contract allows it),
@@ -420,16 +395,6 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         m = self.measures
         m.speed, m.force = self._norms[:n], self._norms[n:]
 
-    def _seat_rotation(self, seat: int) -> np.ndarray:
-        """World -> the seat's frame: the inverse (transpose) of its team's turn."""
-        return self._turns[self.team_of[seat]].T
-
-    def _pos(self, seat: int) -> tuple[int, int]:
-        return 4 * seat, 4 * seat + 1
-
-    def _vel(self, seat: int) -> tuple[int, int]:
-        return 4 * seat + 2, 4 * seat + 3
-
     def _other_seats(self, seat: int) -> list[int]:
         """The other seats in observation order: teammates, then the other teams in turn order."""
         team = int(self.team_of[seat])
@@ -438,30 +403,34 @@ class FightForFoodRules(ReplayedMatch, GameRules):
 
     def _observation_map(self) -> np.ndarray:
         """The observations of every seat as one matrix over the work vector."""
-        n, teams = self.n_agents, self.n_teams
-        A = np.zeros((n, self.obs_dim, len(self._work)))
+        n, teams, world, cells = self.n_agents, self.n_teams, self.world, self.layout
+        A = np.zeros((n, self.obs_dim, len(world.work)))
         ps, vs = POSITION_SCALE, 1.0 / VELOCITY_UNIT
+        pos = [[world.pos(i, 0), world.pos(i, 1)] for i in range(n)]
+        vel = [[world.vel(i, 0), world.vel(i, 1)] for i in range(n)]
         for i in range(n):
             rows = A[i]
-            rotation = self._seat_rotation(i)
+            rotation = self._turns[self.team_of[i]].T  # world -> the seat's frame
             team = int(self.team_of[i])
-            rows[0, self._one_at] = 1.0
-            _add_turned(rows, 1, self._pos(i), ps * rotation)
-            _add_turned(rows, 3, self._vel(i), vs * rotation)
+
+            def turned(cell: str, columns: list[int], matrix: np.ndarray) -> None:
+                rows[cells.at(cell): cells.at(cell) + 2, columns] += matrix  # noqa: B023 (this seat's rows)
+
+            rows[cells.at("active"), world.at(ONE)] = 1.0
+            turned("position", pos[i], ps * rotation)
+            turned("velocity", vel[i], vs * rotation)
             for k in range(teams):
-                rows[5 + k, self._eaten_at + (team + k) % teams] = 1.0 / self.food
-            rows[5 + teams, self._left_at] = 1.0 / self.food
+                rows[cells.at("eaten", k), world.at("eaten", (team + k) % teams)] = 1.0 / self.food
+            rows[cells.at("left"), world.at("left")] = 1.0 / self.food
             for slot, pellet in enumerate(self._slot_pellet[team]):
-                cell = self._pellet_cell + 3 * slot
-                _add_turned(rows, cell, (self._pellet_at + 2 * pellet, self._pellet_at + 2 * pellet + 1), ps * rotation)
-                _add_turned(rows, cell, self._pos(i), -ps * rotation)
-                rows[cell + 2, self._present_at + pellet] = 1.0
-            first = self._pellet_cell + 3 * self.food
+                turned(f"pellet_{slot}", [world.at("pellet", 2 * pellet), world.at("pellet", 2 * pellet + 1)], ps * rotation)
+                turned(f"pellet_{slot}", pos[i], -ps * rotation)
+                rows[cells.at(f"pellet_{slot}_there"), world.at("present", pellet)] = 1.0
             for k, j in enumerate(self._other_seats(i)):
-                _add_turned(rows, first + 4 * k, self._pos(j), ps * rotation)
-                _add_turned(rows, first + 4 * k, self._pos(i), -ps * rotation)
-                _add_turned(rows, first + 4 * k + 2, self._vel(j), vs * rotation)
-        return A.reshape(n * self.obs_dim, len(self._work))
+                turned(f"other_{k}", pos[j], ps * rotation)
+                turned(f"other_{k}", pos[i], -ps * rotation)
+                turned(f"other_{k}_velocity", vel[j], vs * rotation)
+        return A.reshape(n * self.obs_dim, len(world.work))
 
     def _measure_map(self) -> np.ndarray:
         """The linear parts of the measures as one matrix over the work vector.
@@ -471,54 +440,37 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         contact force is the impulse the solver added beyond damping and the applied force (Chipmunk
         integrates ``v' = v * damping**dt + f / m * dt`` before solving contacts), divided by ``dt``.
         """
-        n = self.n_agents
-        M = np.zeros((4 * n, len(self._work)))
+        n, world = self.n_agents, self.world
+        M = world.matrix(4 * n)
         # velocity kept from before the step, drag included (force = THRUST * thrust - DRAG * v)
         keep = SPACE_DAMPING**DT - AGENT_DRAG * DT / AGENT_MASS
         for i in range(n):
             turn = self._turns[self.team_of[i]]
             for ax in range(2):
-                M[2 * i + ax, self._vel(i)[ax]] = 1.0 if ax == 0 else -1.0
+                M[2 * i + ax, world.vel(i, ax)] = 1.0 if ax == 0 else -1.0
                 row = 2 * n + 2 * i + ax
-                M[row, self._vel(i)[ax]] = AGENT_MASS / DT
-                M[row, self._v_before_at + 2 * i + ax] = -keep * AGENT_MASS / DT
-                M[row, self._thrust_at + 2 * i: self._thrust_at + 2 * i + 2] = -THRUST * turn[ax]
+                M[row, world.vel(i, ax)] = AGENT_MASS / DT
+                M[row, world.at("v_before", 2 * i + ax)] = -keep * AGENT_MASS / DT
+                M[row, world.at("thrust", 2 * i): world.at("thrust", 2 * i + 2)] = -THRUST * turn[ax]
         return M
 
     def _state_map(self) -> np.ndarray:
         """The global state as one matrix over the work vector."""
-        n, food = self.n_agents, self.food
-        S = np.zeros((self.state_dim, len(self._work)))
+        n, food, world = self.n_agents, self.food, self.world
+        S = world.matrix(self.state_dim)
         for i in range(n):
             for ax in range(2):
-                S[4 * i + ax, self._pos(i)[ax]] = POSITION_SCALE
-                S[4 * i + 2 + ax, self._vel(i)[ax]] = 1.0 / VELOCITY_UNIT
+                S[4 * i + ax, world.pos(i, ax)] = POSITION_SCALE
+                S[4 * i + 2 + ax, world.vel(i, ax)] = 1.0 / VELOCITY_UNIT
         for k in range(food):
             row = 4 * n + 3 * k
-            S[row, self._pellet_at + 2 * k] = S[row + 1, self._pellet_at + 2 * k + 1] = POSITION_SCALE
-            S[row + 2, self._present_at + k] = 1.0
+            S[row, world.at("pellet", 2 * k)] = S[row + 1, world.at("pellet", 2 * k + 1)] = POSITION_SCALE
+            S[row + 2, world.at("present", k)] = 1.0
         row = 4 * n + 3 * food
-        for t in range(self.n_teams + 1):
-            S[row + t, self._eaten_at + t] = 1.0 / food  # the teams' food, then the food left
+        for t in range(self.n_teams):
+            S[row + t, world.at("eaten", t)] = 1.0 / food
+        S[row + self.n_teams, world.at("left")] = 1.0 / food
         return S
-
-    def _build_space(self, agent_xy: np.ndarray) -> None:
-        # A fresh space each match: no cached contacts survive from the previous one, so a seed
-        # gives the same match whatever was played before.
-        space = pymunk.Space()
-        space.damping = SPACE_DAMPING
-        space.collision_slop = COLLISION_SLOP
-        edge = HALF_SIZE + WALL_RADIUS
-        corners = [(-edge, -edge), (edge, -edge), (edge, edge), (-edge, edge)]
-        add_walls(space, [(corners[k], corners[(k + 1) % 4]) for k in range(4)], WALL_RADIUS, ELASTICITY["wall"],
-                  FRICTION)
-        self._agents = add_discs(space, agent_xy, AGENT_MASS, AGENT_RADIUS, ELASTICITY["agent"], FRICTION)
-        self.space = space
-        self._link.bind(space)
-        if self._link.body_ids != [body.id for body in self._agents] + [space.static_body.id]:
-            raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; FightForFood supports "
-                               "pymunk 7 (pip install 'pymunk>=7,<8')")
-        self._link.read_bodies()
 
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
@@ -529,7 +481,7 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         team0 = slots + self.rng.uniform(-jitter, jitter, slots.shape)
         starts = np.concatenate([team0 @ turn.T for turn in self._turns])
         pellets = self._draw_food(starts)
-        self._build_space(starts)
+        self.world.build({"agent": starts})
         self._set_food(pellets, np.ones(self.food, dtype=bool))
         self._eaten[:] = 0.0
         self._work[self._left_at] = float(self.food)
@@ -568,8 +520,8 @@ class FightForFoodRules(ReplayedMatch, GameRules):
 
     def _measure_still_state(self) -> None:
         """Measures of the bodies as they stand, with no step behind them (no force, no food)."""
-        work = self._work
-        work[self._v_before_at: self._pellet_at] = 0.0
+        world = self.world
+        world.work[world.at("v_before"): world.at("pellet")] = 0.0
         self._v_before_c[:] = self._agent_vel_c
         self.measures.energy[:] = 0.0
         self.measures.resource_gain[:] = 0.0
@@ -621,12 +573,7 @@ class FightForFoodRules(ReplayedMatch, GameRules):
             np.divide(thrust, length, out=thrust)
         self._v_before_c[:] = self._agent_vel_c
 
-        # thrust against a linear drag; pymunk clears the forces after every step
-        np.dot(self._force_matrix, self._work, out=self._force_array)
-        link = self._link
-        link.write_bodies()
-        link.step(DT)
-        link.read_bodies()
+        self.world.step()  # thrust against a linear drag
 
         if self._gained:
             self.measures.resource_gain[:] = 0.0
@@ -680,16 +627,13 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         return state.clip(self._state_low, self._state_high, out=state).astype(np.float32)
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        v = VELOCITY_BOUND
-        return cell_bounds((0, 1, 1), (-1, 1, 2), (-v, v, 2), (0, 1, self.n_teams + 1),
-                           *[run for _ in range(self.food) for run in ((-2, 2, 2), (0, 1, 1))],
-                           *[run for _ in range(self.n_agents - 1) for run in ((-2, 2, 2), (-v, v, 2))])
+        return self.layout.bounds()
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        v = VELOCITY_BOUND
-        return cell_bounds(*[run for _ in range(self.n_agents) for run in ((-1, 1, 2), (-v, v, 2))],
-                           *[run for _ in range(self.food) for run in ((-1, 1, 2), (0, 1, 1))],
-                           (0, 1, self.n_teams + 1))
+        v = (-VELOCITY_BOUND, VELOCITY_BOUND)
+        return CellLayout([*[Run(f"seat_{k}", 4, ((-1, 1), (-1, 1), v, v)) for k in range(self.n_agents)],
+                           *[Run(f"pellet_{k}", 3, ((-1, 1), (-1, 1), (0, 1))) for k in range(self.food)],
+                           Run("food", self.n_teams + 1, (0, 1))]).bounds()
 
     def finish(self) -> None:
         self._record("finish")
@@ -697,14 +641,7 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         self._set_outcome()
 
     def team_result(self) -> np.ndarray:
-        # the number of teams beaten on food, plus half the number tied with
-        food = self._eaten
-        beaten = (food[:, None] > food[None, :]).sum(axis=1)
-        tied = (food[:, None] == food[None, :]).sum(axis=1) - 1
-        return beaten + 0.5 * tied
-
-    def events(self) -> list[dict]:
-        return list(self._events)
+        return team_ranks(self._eaten)  # ranked by food
 
     # --- tools ---------------------------------------------------------------------------------
     @property
@@ -727,7 +664,7 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         given positions with given still-there flags (for tests and scripted scenarios); the match
         continues from there, each team keeping the food it has eaten. Every agent and pellet must
         lie inside the pen, and at least one pellet must be left."""
-        if self.space is None:
+        if self.world.space is None:
             raise RuntimeError("call reset(seed) before place()")
         agent_xy = np.asarray(agent_xy, dtype=np.float64).reshape(self.n_agents, 2)
         agent_velocity = (np.zeros((self.n_agents, 2)) if agent_velocity is None
@@ -746,10 +683,8 @@ class FightForFoodRules(ReplayedMatch, GameRules):
         if not present.any():
             raise ValueError("at least one pellet must be left: the match ends when the food is exhausted")
         self._record("place", agent_xy.copy(), agent_velocity.copy(), pellet_xy.copy(), present.copy())
-        for body, xy, v in zip(self._agents, agent_xy, agent_velocity):
-            body.position = float(xy[0]), float(xy[1])
-            body.velocity = float(v[0]), float(v[1])
-        self._link.read_bodies()
+        self.world.place("agent", agent_xy, agent_velocity)
+        self.world.read()
         self._set_food(pellet_xy, present)
         self._work[self._left_at] = float(present.sum())
         self._events = []
@@ -799,9 +734,9 @@ class FightForFoodRules(ReplayedMatch, GameRules):
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
-        seen = _seen(obs)
-        choice = _pellet_costs(seen.ahead, seen.others_ahead[:, :, None, :], seen.there).argmin(axis=1)
-        return _steer(seen.velocity, seen.ahead[np.arange(len(choice)), choice], seen.there.any(axis=1), action_type)
+        from arena_league.envs.games.fightforfood.heuristic import heuristic  # the scripted play, on demand
+
+        return heuristic(obs, action_type)
 
     search_budget_meaning: ClassVar[str] = SEARCH_BUDGET_MEANING
     search_versions: ClassVar[tuple[int, ...]] = (1, 2)
@@ -809,182 +744,17 @@ class FightForFoodRules(ReplayedMatch, GameRules):
     @staticmethod
     def search(obs: np.ndarray, uniforms: np.ndarray, *, action_type: str, width: int, rollouts: int, horizon: int,
                epsilon: float, version: int = 1) -> np.ndarray:
+        from arena_league.envs.games.fightforfood.heuristic import plan_moves
+
         return plan_moves(obs, uniforms, width=width, rollouts=rollouts, horizon=horizon, epsilon=epsilon,
                           action_type=action_type, version=version)
 
 
-@dataclass(frozen=True)
-class _Seen:
-    """What the heuristic and the search read from FightForFood observations (``N`` rows)."""
-
-    layout: tuple[int, int, int]  # n_teams, players per team, food
-    place: np.ndarray  # [N, 2], the seat's own position
-    velocity: np.ndarray  # [N, 2], the seat's own
-    to_pellet: np.ndarray  # [N, food, 2], pellet - seat
-    there: np.ndarray  # [N, food], still-there flags
-    others: np.ndarray  # [N, others, 4], each other seat's offset and velocity cells as observed
-    ahead: np.ndarray  # [N, food, 2], pellet - seat after this step's drift
-    others_ahead: np.ndarray  # [N, others, 2], each other seat - seat after this step's drift
-
-
-def _seen(obs: np.ndarray) -> _Seen:
-    """The observation read as the heuristic reads it. The physics moves every body by its present
-    velocity before the thrust acts: offsets are judged from where the bodies will be after this step."""
-    obs = np.asarray(obs, dtype=np.float64).reshape(-1, np.shape(obs)[-1])
-    n_teams, players, food = _observation_layout(obs.shape[1])
-    velocity = obs[:, 3:5] * VELOCITY_UNIT
-    first = 6 + n_teams
-    pellets = obs[:, first: first + 3 * food].reshape(-1, food, 3)
-    to_pellet = pellets[:, :, 0:2] * HALF_SIZE
-    others = obs[:, first + 3 * food:].reshape(-1, n_teams * players - 1, 4)
-    drift = velocity[:, None, :] * DT
-    return _Seen((n_teams, players, food), obs[:, 1:3] * HALF_SIZE, velocity, to_pellet, pellets[:, :, 2] > 0.5,
-                 others, to_pellet - drift, others[:, :, 0:2] * HALF_SIZE + others[:, :, 2:4] * (VELOCITY_UNIT * DT) - drift)
-
-
-def _pellet_costs(to_pellet: np.ndarray, others: np.ndarray, there: np.ndarray) -> np.ndarray:
-    """The heuristic's cost of every pellet, ``[..., food]``, from the seat's offsets to the pellets
-    ``[..., food, 2]``, the other agents' offsets from the seat ``[..., others, 1, 2]`` and the
-    still-there flags: its own distance, plus twice what it lags the nearest other agent (teammates
-    too: they split the food) by more than -0.1; inf for eaten pellets."""
-    own_distance = np.linalg.norm(to_pellet, axis=-1)
-    other_distance = np.linalg.norm(to_pellet[..., None, :, :] - others, axis=-1).min(axis=-2)
-    cost = own_distance + 2.0 * np.maximum(0.0, own_distance - other_distance + 0.1)
-    return np.where(there, cost, np.inf)
-
-
-def _steer(velocity: np.ndarray, way: np.ndarray, any_left: np.ndarray, action_type: str) -> np.ndarray:
-    """The heuristic's action toward offset ``way`` (``[N, 2]``): full thrust along it, less the
-    sideways drift of ``velocity``; noop (or no thrust) where no food is left."""
-    distance = np.linalg.norm(way, axis=1, keepdims=True)
-    direction = way / np.maximum(distance, 1e-9)
-    drift = velocity - np.einsum("ij,ij->i", velocity, direction)[:, None] * direction
-    heading = np.where(any_left[:, None], direction - 0.5 * drift, 0.0)
-    length = np.linalg.norm(heading, axis=1)
-    if action_type == "continuous":
-        return np.clip(heading / np.maximum(length, 1e-9)[:, None], -1.0, 1.0).astype(np.float32)
-    return np.where(length < 1e-6, 0, _move_of(heading)).astype(np.int64)
-
-
-def _move_of(heading: np.ndarray) -> np.ndarray:
-    """The discrete move (1 to 8) nearest each heading ``[..., 2]``."""
-    angle = np.arctan2(heading[..., 1], heading[..., 0])
-    return 1 + np.round(angle / (np.pi / 4)).astype(np.int64) % 8
-
-
-def _contacts(pos: np.ndarray, vel: np.ndarray, own: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The search model's contacts (version 2), after a step: agents ``[..., A, 2]`` (positions in the
-    seat's frame, relative to the seat's place ``own`` at the start) that overlap and close in rebound
-    as equal masses do and are pushed apart; an agent past a wall is put back on it, its speed into
-    the wall reversed and scaled by the wall's restitution."""
-    n_agents = pos.shape[-2]
-    for i in range(n_agents):
-        for j in range(i + 1, n_agents):
-            apart = pos[..., j, :] - pos[..., i, :]
-            distance = np.linalg.norm(apart, axis=-1, keepdims=True)
-            normal = apart / np.maximum(distance, 1e-9)
-            closing = ((vel[..., j, :] - vel[..., i, :]) * normal).sum(axis=-1, keepdims=True)
-            touching = distance < 2 * AGENT_RADIUS
-            impulse = np.where(touching & (closing < 0), -(1 + _AGENT_RESTITUTION) * closing / 2, 0.0) * normal
-            vel[..., i, :] -= impulse
-            vel[..., j, :] += impulse
-            overlap = np.where(touching, AGENT_RADIUS - distance / 2, 0.0) * normal
-            pos[..., i, :] -= overlap
-            pos[..., j, :] += overlap
-    place = pos + own
-    out = np.abs(place) > _REACH
-    side = np.sign(place)
-    vel = np.where(out & (vel * side > 0), -_WALL_RESTITUTION * vel, vel)
-    pos = np.where(out, side * _REACH - own, pos)
-    return pos, vel
-
-
-def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
-               epsilon: float, action_type: str = "discrete", version: int = 1) -> np.ndarray:
-    """The FightForFood search agent's action per observation row (module docstring, "Search
-    agent"): ``float32[N, obs_dim]`` and one uniform per seat to ``int64[N]`` (or ``float32[N, 2]``)."""
-    if version not in FightForFoodRules.search_versions:
-        raise ValueError(f"FightForFood's search has versions {FightForFoodRules.search_versions}, not {version!r}")
-    seen = _seen(obs)
-    n_teams, players, food = seen.layout
-    n, n_agents = len(seen.there), n_teams * players
-    velocity, there, to_pellet, others = seen.velocity, seen.there, seen.to_pellet, seen.others
-    if n == 0 or width == 1 or not there.any():  # one candidate: the heuristic's own pellet
-        return FightForFoodRules.heuristic(obs, action_type)
-    # the pen in the seat's frame, the seat at the origin: agents [N, A, 2] (the seat first)
-    position = np.concatenate([np.zeros((n, 1, 2)), others[:, :, 0:2] * HALF_SIZE], axis=1)
-    speed = np.concatenate([velocity[:, None, :], others[:, :, 2:4] * VELOCITY_UNIT], axis=1)
-    team = np.arange(n_agents) // players  # the seat's team is 0, the others' in turn order
-    # candidates: the W pellets the heuristic likes best (judged as the heuristic judges them)
-    ahead = seen.ahead
-    order = np.argsort(_pellet_costs(ahead, seen.others_ahead[:, :, None, :], there), axis=1, kind="stable")
-    width = min(width, food)
-    candidate = order[:, :width]  # [N, W]
-    # the rollouts: batch rows (seat, candidate, rollout)
-    batch = (n, width, rollouts)
-    expand = (slice(None), None, None)
-    pos = np.broadcast_to(position[expand], (*batch, n_agents, 2)).copy()
-    vel = np.broadcast_to(speed[expand], (*batch, n_agents, 2)).copy()
-    food_at = np.broadcast_to(to_pellet[expand], (*batch, food, 2))
-    left = np.broadcast_to(there[expand], (*batch, food)).copy()
-    first_leg = np.broadcast_to(candidate[:, :, None], batch).copy()  # the seat's pellet until it is gone
-    # each seat's own draws, from its uniform: its choice does not depend on the rest of the batch
-    draws = np.zeros((n, 1, rollouts, n_agents, food))
-    if epsilon > 0:
-        seeds = (np.asarray(uniforms, dtype=np.float64).reshape(n) * 2**53).astype(np.int64)
-        draws[:] = np.stack([np.random.default_rng(int(seed)).random((1, rollouts, n_agents, food)) for seed in seeds])
-    jitter = epsilon * 2 * HALF_SIZE * draws * (np.arange(n_agents) > 0)[:, None]  # the others' costs only
-    eaten = np.zeros((*batch, n_teams))
-    place = seen.place[:, None, None, None, :]  # the seat's place, against the batch's agents (version 2's walls)
-    for _ in range(horizon):
-        pos += vel * DT  # the physics moves every body by its velocity before the thrust acts
-        offsets = food_at[..., None, :, :] - pos[..., :, None, :]  # [N, W, R, A, F, 2]
-        rival = pos[..., None, :, :] - pos[..., :, None, :]  # [N, W, R, A, A, 2]: agent j from agent i
-        rival += np.where(np.eye(n_agents, dtype=bool)[..., None], 1e6, 0.0)  # not oneself
-        cost = _pellet_costs(offsets, rival[..., None, :], left[..., None, :]) + jitter
-        choice = cost.argmin(axis=-1)  # [N, W, R, A]
-        choice[..., 0] = np.where(np.take_along_axis(left, first_leg[..., None], axis=-1)[..., 0], first_leg,
-                                  choice[..., 0])
-        way = np.take_along_axis(offsets, choice[..., None, None], axis=-2)[..., 0, :]
-        direction = way / np.maximum(np.linalg.norm(way, axis=-1, keepdims=True), 1e-9)
-        drift = vel - (vel * direction).sum(axis=-1, keepdims=True) * direction
-        heading = direction - 0.5 * drift
-        heading /= np.maximum(np.linalg.norm(heading, axis=-1, keepdims=True), 1e-9)
-        if version > 1 and action_type == "discrete":
-            heading = COMPASS_MOVES[_move_of(heading)]
-        vel = vel * _VELOCITY_KEPT + DT * (THRUST * heading - AGENT_DRAG * vel) / AGENT_MASS
-        # eating: the nearest agent within reach of a pellet still there eats it (no one moved since
-        # the offsets were taken)
-        reach = np.linalg.norm(offsets, axis=-1)  # [N, W, R, A, F]
-        nearest = reach.argmin(axis=-2)
-        eats = left & (reach.min(axis=-2) < EAT_DISTANCE)
-        for t in range(n_teams):
-            eaten[..., t] += (eats & (team[nearest] == t)).sum(axis=-1)
-        left &= ~eats
-        if version > 1:
-            pos, vel = _contacts(pos, vel, place)
-    # at the horizon (where the last step's reach was taken), the pellets left count a half for the
-    # team whose agent is nearest
-    for t in range(n_teams):
-        eaten[..., t] += 0.5 * (left & (team[reach.argmin(axis=-2)] == t)).sum(axis=-1)
-    margin = eaten[..., 0] - (eaten[..., 1:].max(axis=-1) if n_teams > 1 else 0.0)
-    value = margin.mean(axis=2) - 1e-3 * np.arange(width)  # ties go to the heuristic's order
-    chosen = candidate[np.arange(n), value.argmax(axis=1)]
-    return _steer(velocity, ahead[np.arange(n), chosen], there.any(axis=1), action_type)
-
-
-class FightForFoodControls(CompassControls):
+class FightForFoodControls(TurnedCompassControls):
     """Compass moves on the pen as drawn (E = right), turned into the seat's frame."""
 
     move = "move on the pen as drawn"
     key_hint = "Arrow keys or W A S D run on the pen as drawn (two at once: diagonally); let go to stop pushing."
-
-    def seat_move(self, action: int) -> int:
-        if action == 0:
-            return action
-        # the seat's frame is the world turned back by its team's turn: so is the move
-        shift = 8 * int(self.rules.team_of[self.seat]) // self.rules.n_teams
-        return 1 + (action - 1 - shift) % 8
 
 
 RULES = FightForFoodRules
