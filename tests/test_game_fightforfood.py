@@ -13,7 +13,9 @@ import pytest
 from physics2d_matches import assert_replays_bit_for_bit, heuristic_against_random, play
 
 from arena_league.envs import make
-from arena_league.envs.games.fightforfood import (
+from arena_league.envs.games.fightforfood import FightForFoodControls, FightForFoodRules
+from arena_league.envs.games.fightforfood import heuristic as scripted_play
+from arena_league.envs.games.fightforfood.pen import (
     AGENT_RADIUS,
     EAT_DISTANCE,
     FOOD_GAP,
@@ -23,10 +25,7 @@ from arena_league.envs.games.fightforfood import (
     START_CLEARANCE,
     VELOCITY_BOUND,
     VELOCITY_UNIT,
-    FightForFoodControls,
-    FightForFoodRules,
 )
-from arena_league.envs.games.fightforfood import heuristic as scripted_play
 from arena_league.envs.rendering import TEAM_COLOURS
 
 NOOP, E, N, W, S = 0, 1, 3, 5, 7  # discrete moves in the seat frame

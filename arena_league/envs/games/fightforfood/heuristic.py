@@ -1,6 +1,40 @@
 """FightForFood's scripted play: the heuristic and the search agent that plans over a model of the
-pen, from the observation alone (the game's manual, "Heuristic" and "Search agent", says what they
-do). Imported by the game's rules only.
+pen, from the observation alone (the rules offer them as ``heuristic`` and ``search``; the game's
+manual is the package's docstring).
+
+Heuristic
+    From the observation alone. For every pellet still there it compares the seat's distance with
+    the nearest other agent's (teammates count, so that teammates split the food), and heads for
+    the pellet of least ``d_own + 2 * max(0, d_own - d_other + 0.1)``: the nearest one it reaches
+    first, else the least contested. Distances are judged from where every body will be after the
+    step (pymunk moves a body by its present velocity before the thrust acts; judged from where
+    they are, a seat between two pellets turns from one to the other every step). It steers at
+    full thrust, damping its sideways drift, and does not shove rivals on purpose.
+
+Search agent (``scripted:search-wW-rR-hH[-eE][-v2]``, :func:`plan_moves`)
+    A planner over a model of the pen, from the observation alone (it holds the whole state). Its
+    candidates are the ``W`` pellets the heuristic likes best. For each it plays ``R`` rollouts of
+    ``H`` steps of a point-mass model: every body moves by its velocity, then thrusts at full
+    strength as the heuristic steers it, under the game's damping and drag; the nearest agent within
+    reach of a pellet eats it. The seat heads for the candidate until it is gone and then plays the
+    heuristic; every other agent plays the heuristic, its pellet costs jittered by a uniform draw of
+    up to ``E`` times the pen's side (6) in each rollout (``E`` = 0: one rollout says all). A
+    rollout's value is the food the seat's team ate less the best other team's, each pellet left at
+    the horizon counting a half for the team whose agent is nearest; the seat steers, as the
+    heuristic does, for the candidate of the highest mean value (ties: the heuristic's order). Its
+    draws come from a generator seeded by the seat's uniform, so a match replays exactly. ``W`` = 1
+    is the heuristic.
+
+    Two versions. The first (no suffix; the searchers of the ``base-v1`` population) leaves contacts
+    out and steers every body in any direction. The second (``-v2``) models what the first left
+    out: with discrete actions every body thrusts along one of the eight moves of the action table,
+    as the heuristic's rounded heading does; agents that touch rebound (restitution 0.25, equal
+    masses, overlaps pushed apart) and the walls stop them (restitution 0.4), so the planner sees a
+    rival it would bump and a shove that clears a pellet. Against the heuristic (2T1P, discrete, 100
+    matches, seats alternating; ``python benchmarks/search_agents.py FightForFood-2T1P-v1 ...``):
+    ``search-w8-r1-h40`` won 64, drew 33 and lost 3, ``search-w8-r1-h40-v2`` won 91 and drew 9;
+    ``search-w4-r1-h40`` 57, 40 and 3, its ``-v2`` 79 and 21. Two heuristics mirror each other to a
+    6 to 6 draw; the planner finds the pellet that breaks the tie.
 """
 
 from __future__ import annotations
@@ -9,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from arena_league.envs.games.fightforfood import (
+from arena_league.envs.games.fightforfood.pen import (
     AGENT_DRAG,
     AGENT_MASS,
     AGENT_RADIUS,
@@ -21,11 +55,18 @@ from arena_league.envs.games.fightforfood import (
     SPACE_DAMPING,
     THRUST,
     VELOCITY_UNIT,
-    FightForFoodRules,
 )
 from arena_league.envs.physics2d import COMPASS_MOVES
 
-__all__ = ["heuristic", "plan_moves"]
+__all__ = ["SEARCH_BUDGET_MEANING", "SEARCH_VERSIONS", "heuristic", "plan_moves"]
+
+#: What a FightForFood search agent's budget means (the population provenance quotes it).
+SEARCH_BUDGET_MEANING = ("the W pellets the heuristic likes best, each tried first in R rollouts of H steps of a "
+                         "point-mass model of the pen where the others play the heuristic, their pellet costs "
+                         "jittered by up to E of the pen's side; -v2 models the contacts between agents and with "
+                         "the walls, and the eight moves of the discrete action table")
+#: The search agent's versions ("Search agent" above).
+SEARCH_VERSIONS = (1, 2)
 
 _VELOCITY_KEPT = SPACE_DAMPING ** DT  # the share of its velocity a body keeps over one step
 # pymunk's restitution of a contact is the product of the two shapes' elasticities
@@ -143,9 +184,8 @@ def plan_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: i
                epsilon: float, action_type: str = "discrete", version: int = 1) -> np.ndarray:
     """The FightForFood search agent's action per observation row (module docstring, "Search
     agent"): ``float32[N, obs_dim]`` and one uniform per seat to ``int64[N]`` (or ``float32[N, 2]``)."""
-    versions = FightForFoodRules.search_versions
-    if version not in versions:
-        raise ValueError(f"FightForFood's search has versions {versions}, not {version!r}")
+    if version not in SEARCH_VERSIONS:
+        raise ValueError(f"FightForFood's search has versions {SEARCH_VERSIONS}, not {version!r}")
     seen = _seen(obs)
     n_teams, players, food = seen.layout
     n, n_agents = len(seen.there), n_teams * players
