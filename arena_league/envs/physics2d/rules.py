@@ -3,7 +3,9 @@
 :class:`Physics2DRules` checks the layout and the game's declared options, records the calls that
 pickling replays (pymunk's contact caches cannot be copied, see
 :class:`~arena_league.envs.core.ReplayedMatch`), and gives the common tools: observations clipped
-to their declared bounds, the seats' frames, and the compass moves a discrete action names.
+to their declared bounds, the seats' frames (a two-team field mirrored in x, :func:`mirror_signs`;
+an n-team field turned about its centre, :func:`team_turns`), the compass moves a discrete action
+names, and the teams ranked by score (:func:`team_ranks`).
 """
 
 from __future__ import annotations

@@ -143,7 +143,6 @@ Replay scene
     eaten by each team (text): entities ``pen``, ``agent/<seat>``, ``food``, ``score``.
 """
 
-
 from __future__ import annotations
 
 from typing import Any, ClassVar
