@@ -13,8 +13,9 @@ import pytest
 from physics2d_matches import assert_replays_bit_for_bit, heuristic_against_random, play
 
 from arena_league.envs import make
-from arena_league.envs.games import fightforfood
-from arena_league.envs.games.fightforfood import (
+from arena_league.envs.games.fightforfood import FightForFoodControls, FightForFoodRules
+from arena_league.envs.games.fightforfood import heuristic as scripted_play
+from arena_league.envs.games.fightforfood.pen import (
     AGENT_RADIUS,
     EAT_DISTANCE,
     FOOD_GAP,
@@ -24,8 +25,6 @@ from arena_league.envs.games.fightforfood import (
     START_CLEARANCE,
     VELOCITY_BOUND,
     VELOCITY_UNIT,
-    FightForFoodControls,
-    FightForFoodRules,
 )
 from arena_league.envs.rendering import TEAM_COLOURS
 
@@ -437,7 +436,7 @@ def test_every_layout_constructs_with_its_documented_sizes(teams, players, actio
 def test_unsupported_layouts_and_unknown_or_bad_kwargs_are_refused():
     with pytest.raises(ValueError, match="no 3T1P layout; valid layouts: 2T1P, 2T2P, 4T1P"):
         FightForFoodRules(3, 1)
-    with pytest.raises(ValueError, match=r"unknown game kwargs \['pellets'\]; valid: food .*start_jitter"):
+    with pytest.raises(ValueError, match=r"FightForFood has no option 'pellets'; its options: food: .*start_jitter"):
         FightForFoodRules(2, 1, pellets=8)
     with pytest.raises(ValueError, match=r"food must be an int in \[4, 24\] and a multiple of the number of teams "
                                          r"\(4 in 4T1P\)"):
@@ -603,13 +602,13 @@ def test_the_second_versions_model_has_contacts_and_walls():
     # two agents closing head on at 1 unit/s, just touching: they part at a quarter of the speed
     pos = np.array([[[-0.24, 0.0], [0.24, 0.0]]])
     vel = np.array([[[1.0, 0.0], [-1.0, 0.0]]])
-    pos, vel = fightforfood._contacts(pos, vel, np.zeros((1, 1, 2)))
+    pos, vel = scripted_play._contacts(pos, vel, np.zeros((1, 1, 2)))
     assert vel == pytest.approx(np.array([[[-0.25, 0.0], [0.25, 0.0]]]))
     assert pos == pytest.approx(np.array([[[-0.25, 0.0], [0.25, 0.0]]]))  # pushed apart to touch
     # apart ones pass by; one past a wall (the seat's place counts) is put back on it, rebounding
     pos = np.array([[[0.0, 0.0], [1.0, 0.0]]])
     vel = np.array([[[0.5, 0.5], [1.0, 0.0]]])
-    pos, vel = fightforfood._contacts(pos, vel, np.array([[2.5, 0.0]]))
+    pos, vel = scripted_play._contacts(pos, vel, np.array([[2.5, 0.0]]))
     assert pos == pytest.approx(np.array([[[0.0, 0.0], [0.25, 0.0]]]))
     assert vel == pytest.approx(np.array([[[0.5, 0.5], [-0.4, 0.0]]]))
 

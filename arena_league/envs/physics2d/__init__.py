@@ -33,6 +33,8 @@ from arena_league.envs.physics2d.rules import (
     COMPASS_MOVES,
     Physics2DRules,
     mirror_signs,
+    team_ranks,
+    team_turns,
 )
 from arena_league.envs.physics2d.world import ONE, Bodies, Field, Material, Walls, World
 
@@ -58,4 +60,6 @@ __all__ = [
     "checked_kwargs",
     "mirror_signs",
     "space_link",
+    "team_ranks",
+    "team_turns",
 ]

@@ -3,7 +3,9 @@
 :class:`Physics2DRules` checks the layout and the game's declared options, records the calls that
 pickling replays (pymunk's contact caches cannot be copied, see
 :class:`~arena_league.envs.core.ReplayedMatch`), and gives the common tools: observations clipped
-to their declared bounds, the seats' frames, and the compass moves a discrete action names.
+to their declared bounds, the seats' frames (a two-team field mirrored in x, :func:`mirror_signs`;
+an n-team field turned about its centre, :func:`team_turns`), the compass moves a discrete action
+names, and the teams ranked by score (:func:`team_ranks`).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import numpy as np
 from arena_league.envs.core import GameRules, ReplayedMatch
 from arena_league.envs.physics2d.cells import CellLayout
 
-__all__ = ["COMPASS_MOVES", "COMPASS_MOVE_NAMES", "Physics2DRules", "mirror_signs"]
+__all__ = ["COMPASS_MOVES", "COMPASS_MOVE_NAMES", "Physics2DRules", "mirror_signs", "team_ranks", "team_turns"]
 
 #: The 2D games' discrete moves, in the seat frame: noop, then a unit thrust counter-clockwise from
 #: ``+x`` (E), 45 degrees apart.
@@ -29,6 +31,24 @@ def mirror_signs(team_of: np.ndarray) -> np.ndarray:
     """The x sign of each seat's frame in a two-team game played on a field mirrored in x: +1
     for team 0 (the world frame), -1 for team 1, so that every seat attacks ``+x``."""
     return np.where(team_of == 0, 1.0, -1.0)
+
+
+def team_turns(n_teams: int) -> np.ndarray:
+    """``float64[n_teams, 2, 2]``: the rotation by ``t * 360 / n_teams`` degrees for each team ``t``
+    of a field with the layout's rotational symmetry (team ``t``'s side is team 0's turned so),
+    exact for the half and quarter turns (entries 0 and +-1). A seat's frame is the world turned
+    back by its team's turn: the transpose."""
+    angles = 2.0 * np.pi * np.arange(n_teams) / n_teams
+    cos, sin = np.round(np.cos(angles), 12), np.round(np.sin(angles), 12)
+    return np.stack([np.stack([cos, -sin], axis=1), np.stack([sin, cos], axis=1)], axis=1) + 0.0
+
+
+def team_ranks(score: np.ndarray) -> np.ndarray:
+    """Each team's result from its ``score`` (more is better): the number of teams it beat plus
+    half the number it tied with (1 / 0.5 / 0 with two teams; ``n_teams - 1`` for a clear first)."""
+    beaten = (score[:, None] > score[None, :]).sum(axis=1)
+    tied = (score[:, None] == score[None, :]).sum(axis=1) - 1
+    return beaten + 0.5 * tied
 
 
 class Physics2DRules(ReplayedMatch, GameRules):
