@@ -11,6 +11,11 @@ BlowBlow): a game is a declaration over it, not a copy of it.
   with their bounds and meanings;
 - :mod:`~arena_league.envs.physics2d.rules`: :class:`Physics2DRules`, the base of a game's rules
   (options, pickling by replay, clipping), seat frames and compass moves;
+- :mod:`~arena_league.envs.physics2d.contacts`: each body's contact impulses summed over a step;
+- :mod:`~arena_league.envs.physics2d.gather`: observations gathered as scaled differences of cells
+  (where a matrix product would cost more);
+- :mod:`~arena_league.envs.physics2d.picture`: walls and bodies drawn as declared, for the
+  top-down picture and the replay scene;
 - :mod:`~arena_league.envs.physics2d.geometry`: outlines and walls (a field with chamfered corners
   and goal boxes, walls whose inner faces follow an outline);
 - :mod:`~arena_league.envs.physics2d.ballgames`: what the two-team ball games on a goal field
@@ -18,7 +23,6 @@ BlowBlow): a game is a declaration over it, not a copy of it.
   scripted approach, picture and replay scene.
 """
 
-from arena_league.envs.physics2d._legacy import add_discs, add_walls, checked_kwargs
 from arena_league.envs.physics2d.cells import CellLayout, Run
 from arena_league.envs.physics2d.link import (
     DIRECT_AVAILABLE,
@@ -32,6 +36,7 @@ from arena_league.envs.physics2d.rules import (
     COMPASS_MOVE_NAMES,
     COMPASS_MOVES,
     Physics2DRules,
+    SeatThrust,
     mirror_signs,
     team_ranks,
     team_turns,
@@ -51,13 +56,11 @@ __all__ = [
     "Material",
     "Physics2DRules",
     "Run",
+    "SeatThrust",
     "SpaceLink",
     "Walls",
     "World",
-    "add_discs",
-    "add_walls",
     "body_cells",
-    "checked_kwargs",
     "mirror_signs",
     "space_link",
     "team_ranks",

@@ -17,7 +17,7 @@ import numpy as np
 from arena_league.envs.core import GameRules, ReplayedMatch
 from arena_league.envs.physics2d.cells import CellLayout
 
-__all__ = ["COMPASS_MOVES", "COMPASS_MOVE_NAMES", "Physics2DRules", "mirror_signs", "team_ranks", "team_turns"]
+__all__ = ["COMPASS_MOVES", "COMPASS_MOVE_NAMES", "Physics2DRules", "SeatThrust", "mirror_signs", "team_ranks", "team_turns"]
 
 #: The 2D games' discrete moves, in the seat frame: noop, then a unit thrust counter-clockwise from
 #: ``+x`` (E), 45 degrees apart.
@@ -25,6 +25,39 @@ COMPASS_MOVE_NAMES = ("noop", "E", "NE", "N", "NW", "W", "SW", "S", "SE")
 COMPASS_MOVES = np.array([(0.0, 0.0)] + [(np.cos(k * np.pi / 4), np.sin(k * np.pi / 4)) for k in range(8)])
 COMPASS_MOVES[np.abs(COMPASS_MOVES) < 1e-12] = 0.0
 COMPASS_MOVES.flags.writeable = False
+
+
+class SeatThrust:
+    """Sets each seat's thrust, in its own frame, from its action, and its ``energy`` measure.
+
+    ``thrust`` is the seats' thrust slot read as complex numbers ``x + iy`` (one per seat). A
+    discrete action names a compass move at full strength (energy 1, noop 0); a continuous one is
+    the thrust itself, scaled back to length 1 when longer, so diagonals are no stronger (energy its
+    squared length, at most 1).
+    """
+
+    def __init__(self, thrust: np.ndarray, action_type: str) -> None:
+        self.thrust = thrust
+        self.pairs = thrust.view(np.float64).reshape(-1, 2)
+        self.length = np.zeros(len(thrust))
+        self.discrete = action_type == "discrete"
+        self.moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
+        self.move_energy = (COMPASS_MOVES**2).sum(axis=1)
+
+    def set(self, actions: np.ndarray, energy: np.ndarray) -> None:
+        thrust = self.thrust
+        if self.discrete:
+            self.moves.take(actions, out=thrust)
+            self.move_energy.take(actions, out=energy)
+            return
+        self.pairs[:] = actions
+        length = np.abs(thrust, out=self.length)
+        np.square(length, out=energy)
+        # (a Python max of a few cells is cheaper than the two ufuncs when no thrust is too long)
+        if max(energy.tolist()) > 1.0:
+            np.minimum(energy, 1.0, out=energy)
+            np.maximum(length, 1.0, out=length)
+            np.divide(thrust, length, out=thrust)
 
 
 def mirror_signs(team_of: np.ndarray) -> np.ndarray:

@@ -171,8 +171,8 @@ from arena_league.envs.games.fightforfood.pen import (
 from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
-    COMPASS_MOVES,
     Physics2DRules,
+    SeatThrust,
     team_ranks,
     team_turns,
 )
@@ -218,8 +218,6 @@ class FightForFoodRules(Physics2DRules):
         self.state_dim = 4 * n + 3 * food + n_teams + 1
         self.turns = team_turns(n_teams)
         # unit thrust of every move in the seat frame (x + iy): the matrices turn it into the world
-        self._moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
-        self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
         # which pellet each team sees in each slot: within a group, its own image first
         groups = np.arange(food // n_teams)[:, None] * n_teams
         self.slot_pellet = np.stack([(groups + (np.arange(n_teams) + t) % n_teams).reshape(-1) for t in range(n_teams)])
@@ -241,13 +239,11 @@ class FightForFoodRules(Physics2DRules):
         self._agent_pos_column = agents_c[:, 0:1]
         self._agent_vel_c = agents_c[:, 1]
         self._v_before_c = world.complex_view("v_before")
-        self._thrust = world.view("thrust").reshape(n, 2)
-        self._thrust_c = world.complex_view("thrust")
+        self._seat_thrust = SeatThrust(world.complex_view("thrust"), self.action_type)
         self._pellet_xy = world.view("pellet").reshape(food, 2)
         self._pellet_c = world.complex_view("pellet")
         self._present = world.view("present")
         self._eaten = world.view("eaten")
-        self._thrust_length = np.zeros(n)  # a thrust's length, then at least 1: its scale-back
         world.force_matrix = force_matrix(world, self.team_of, self.turns)
         # measures (4 n rows) then observations (n * obs_dim rows), one product per step; the rows of
         # an eaten pellet's relative position are zeroed in the match's copy (its flag is 0 already)
@@ -348,19 +344,7 @@ class FightForFoodRules(Physics2DRules):
 
     def step(self, actions: np.ndarray) -> None:
         self._record("step", actions.copy())
-        energy = self.measures.energy
-        thrust = self._thrust_c
-        if self.action_type == "discrete":
-            self._moves.take(actions, out=thrust)
-            self._move_energy.take(actions, out=energy)
-        else:
-            self._thrust[:] = actions
-            length = np.abs(thrust, out=self._thrust_length)
-            np.square(length, out=energy)
-            np.minimum(energy, 1.0, out=energy)
-            # a thrust longer than 1 is scaled back to length 1
-            np.maximum(length, 1.0, out=length)
-            np.divide(thrust, length, out=thrust)
+        self._seat_thrust.set(actions, self.measures.energy)
         self._v_before_c[:] = self._agent_vel_c
 
         self.world.step()  # thrust against a linear drag

@@ -194,7 +194,6 @@ from arena_league.envs.core import cell_bounds
 from arena_league.envs.options import Option
 from arena_league.envs.physics2d import (
     COMPASS_MOVE_NAMES,
-    COMPASS_MOVES,
     ONE,
     Bodies,
     CellLayout,
@@ -202,6 +201,7 @@ from arena_league.envs.physics2d import (
     Material,
     Physics2DRules,
     Run,
+    SeatThrust,
     Walls,
     World,
     mirror_signs,
@@ -367,8 +367,6 @@ class TennisRules(Physics2DRules):
         self._spots = np.tile(np.asarray(_FORMATIONS[players_per_team], dtype=np.float64), (n_teams, 1))
         self._spots[:, 0] *= self._team_sign
         # unit thrust of every move in the seat frame (x + iy): the matrices turn it into the world
-        self._moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
-        self._move_energy = (COMPASS_MOVES**2).sum(axis=1)
         self._obs_low, self._obs_high = (bound.reshape(n, self.obs_dim) for bound in self.clip_bounds(self.layout))
         self._state_low, self._state_high = (bound.astype(np.float64) for bound in self.state_bounds())
         self._layout_work_vector()
@@ -412,9 +410,7 @@ class TennisRules(Physics2DRules):
         bodies_c = world.table.view(np.complex128)
         self._racket_pos_c = bodies_c[:n, 0]
         self._ball_pos_c = bodies_c[ball: ball + 1, 0]
-        self._thrust = world.view("thrust").reshape(n, 2)
-        self._thrust_c = world.complex_view("thrust")
-        self._thrust_length = np.zeros(n)  # a thrust's length, then at least 1: its scale-back
+        self._seat_thrust = SeatThrust(world.complex_view("thrust"), self.action_type)
         self._to_ball_c = np.zeros(n, dtype=np.complex128)  # ball - racket, after every physics step
         self._to_ball = np.zeros(n)  # its length
         self._force_array = world.applied
@@ -612,21 +608,7 @@ class TennisRules(Physics2DRules):
 
     def step(self, actions: np.ndarray) -> None:
         self._record("step", actions.copy())
-        energy = self.measures.energy
-        thrust = self._thrust_c
-        if self.action_type == "discrete":
-            self._moves.take(actions, out=thrust)
-            self._move_energy.take(actions, out=energy)
-        else:
-            self._thrust[:] = actions
-            length = np.abs(thrust, out=self._thrust_length)
-            np.square(length, out=energy)
-            # a thrust longer than 1 is scaled back to length 1 (a Python max of a few cells is
-            # cheaper than the two ufuncs when none is)
-            if max(energy.tolist()) > 1.0:
-                np.minimum(energy, 1.0, out=energy)
-                np.maximum(length, 1.0, out=length)
-                np.divide(thrust, length, out=thrust)
+        self._seat_thrust.set(actions, self.measures.energy)
         if self._gained:
             self.measures.resource_gain[:] = 0.0
             self._gained = False
