@@ -1,0 +1,91 @@
+"""The 2D engine's declarations: a field built in declared order, the work vector addressed by name,
+observation layouts with their bounds, and the seats' compass thrust."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from arena_league.envs.physics2d import (
+    ONE,
+    Bodies,
+    CellLayout,
+    Field,
+    Material,
+    Run,
+    SeatThrust,
+    Walls,
+    World,
+)
+
+WALLS = Walls((((-3.0, -2.0), (3.0, -2.0)), ((3.0, -2.0), (3.0, 2.0))), 0.1, Material(0.5, 0.2))
+
+
+def field(**extra) -> Field:
+    return Field(dt=0.1, damping=0.5, collision_slop=0.01, parts=(
+        WALLS, Bodies("agent", 2, 0.25, 1.0, Material(0.5, 0.3)), Bodies("ball", 1, 0.2, 0.4, rotates=True)), **extra)
+
+
+def test_work_vector_is_addressed_by_body_and_slot_names():
+    world = World(field(), slots=(("v_before", 4), ("thrust", 4), (ONE, 1)))
+    assert world.n_bodies == 4  # two agents, the ball, the walls' static body
+    assert (world.index("agent", 1), world.index("ball")) == (1, 2)
+    assert (world.pos(2, 0), world.pos(2, 1), world.vel(2, 0), world.vel(2, 1)) == (8, 9, 10, 11)
+    # the bodies' block, room pymunk's batch array needs, then the slots in declared order
+    assert world.at("v_before") == 4 * 4 + 8
+    assert world.at("thrust", 3) == world.at("v_before") + 4 + 3
+    assert world.work[world.at(ONE)] == 1.0
+    world.view("thrust")[:] = [1.0, 2.0, 3.0, 4.0]
+    assert world.complex_view("thrust").tolist() == [1 + 2j, 3 + 4j]
+
+
+def test_a_match_is_built_in_declared_order_and_read_into_the_work_vector():
+    world = World(field(), slots=((ONE, 1),))
+    world.build({"agent": [[-1.0, 0.5], [1.0, -0.5]], "ball": [[0.0, 0.25]]}, velocities={"ball": [[0.5, 0.0]]})
+    assert world.table[:3, 0:2].tolist() == [[-1.0, 0.5], [1.0, -0.5], [0.0, 0.25]]
+    assert world.table[2, 2:4].tolist() == [0.5, 0.0]
+    assert [len(world.bodies[k]) for k in ("agent", "ball")] == [2, 1]
+    assert world.bodies["agent"][0].moment == float("inf") and world.bodies["ball"][0].moment < float("inf")
+    world.place_all({"agent": [[-2.0, 0.0], [2.0, 0.0]], "ball": [[0.0, 1.0]]}, {"agent": [[0.1, 0.0], [0.0, 0.0]]})
+    assert world.table[:3, 0:4].tolist() == [[-2.0, 0.0, 0.1, 0.0], [2.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]]
+
+
+def test_the_force_matrix_pushes_bodies_before_every_physics_step():
+    world = World(field(substeps=2), slots=(("thrust", 4), (ONE, 1)))
+    world.build({"agent": [[-1.0, 0.0], [1.0, 1.0]], "ball": [[0.0, -1.0]]})
+    world.force_matrix = world.matrix(2 * world.n_bodies)
+    world.force_matrix[0, world.at("thrust", 0)] = 5.0  # agent 0 pushed along +x only
+    world.view("thrust")[0] = 1.0
+    world.step()
+    assert world.table[0, 2] > 0.0 and world.table[1, 2] == 0.0 and world.table[2, 2] == 0.0
+
+
+def test_a_slot_for_the_applied_forces_must_hold_every_body():
+    with pytest.raises(ValueError, match="give it 8 cells"):
+        World(field(), slots=(("force", 6),), applied="force")
+    world = World(field(), slots=(("before", 2), ("force", 8)), applied="force")
+    assert len(world.force_source) == world.at("force")
+
+
+def test_layouts_name_their_runs_and_bound_every_cell():
+    layout = CellLayout([Run("active", 1, (0, 1), "own flag"), Run("position", 2, ((-1, 1), (-0.5, 0.5))),
+                         Run("velocity", 2, (-2, 2))])
+    assert (layout.size, layout.at("position", 1), layout.at("velocity")) == (5, 2, 3)
+    low, high = layout.bounds()
+    assert low.tolist() == [0, -1, -0.5, -2, -2] and high.tolist() == [1, 1, 0.5, 2, 2]
+    assert [row["cells"] for row in layout.table()] == ["0", "1-2", "3-4"]
+    with pytest.raises(ValueError, match="two runs named 'active'"):
+        CellLayout([Run("active", 1, (0, 1)), Run("active", 1, (0, 1))])
+    with pytest.raises(ValueError, match="3 bounds for 2 cells"):
+        CellLayout([Run("position", 2, ((0, 1), (0, 1), (0, 1)))]).bounds()
+
+
+def test_seat_thrust_scales_a_long_vector_back_and_names_compass_moves():
+    thrust = np.zeros(3, dtype=np.complex128)
+    energy = np.zeros(3)
+    continuous = SeatThrust(thrust, "continuous")
+    continuous.set(np.array([[3.0, 4.0], [0.3, 0.4], [0.0, 0.0]]), energy)
+    assert np.allclose(thrust, [0.6 + 0.8j, 0.3 + 0.4j, 0.0]) and np.allclose(energy, [1.0, 0.25, 0.0])
+    discrete = SeatThrust(thrust, "discrete")
+    discrete.set(np.array([0, 1, 3]), energy)  # noop, E, N
+    assert np.allclose(thrust, [0.0, 1.0, 1.0j]) and energy.tolist() == [0.0, 1.0, 1.0]
