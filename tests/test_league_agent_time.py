@@ -132,16 +132,38 @@ def test_the_engine_never_hands_a_submitted_agent_a_size_validation_did_not_time
 
 # --- the overage bank of a match ---------------------------------------------------------------------
 
+def _call_seconds(path: Path) -> float:
+    """How long one forward of the agent at ``path`` takes on this machine (the fastest of three)."""
+    import time
+
+    import onnxruntime as ort
+
+    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    feed = {session.get_inputs()[0].name: np.zeros((2, game_spec(GAME).rules(2, 2).obs_dim), dtype=np.float32)}
+    times = []
+    for _ in range(3):
+        start = time.perf_counter()
+        session.run(None, feed)
+        times.append(time.perf_counter() - start)
+    return min(times)
+
+
 def test_an_agent_a_little_slow_every_step_forfeits_once_its_bank_is_used_up(tmp_path):
-    slow = onnx_ref(save(slow_always(GAME), tmp_path / "slow.onnx"))
+    path = save(slow_always(GAME), tmp_path / "slow.onnx")
+    slow = onnx_ref(path)
     other = onnx_ref(save(plain(GAME, seed=1), tmp_path / "other.onnx"))
-    limits = SandboxLimits(call_seconds=5.0, step_seconds=0.05, overage_seconds=1.0)
+    # The budgets follow the agent's own speed on this machine (its loop took 0.2 s a call where the
+    # test was written, 0.035 s on a later machine): each call overdraws about three quarters of
+    # itself, so a bank of three calls lasts a few steps, never a whole match.
+    call = _call_seconds(path)
+    step_seconds, overage_seconds = float(f"{call / 4:.2g}"), float(f"{3 * call:.2g}")
+    limits = SandboxLimits(call_seconds=5.0, step_seconds=step_seconds, overage_seconds=overage_seconds)
     spec = MatchSpec(0, GAME, (slow.key, slow.key, other.key, other.key), 7)
     [result] = play_matches([spec], {slow.key: slow, other.key: other}, sandbox_limits=limits)
     assert set(result.forfeit_of) == {slow.key}
     reason = result.forfeit_of[slow.key]
-    assert "ran out of time in the match: its overage bank of 1 s" in reason and "0.05 s a step" in reason
-    # its calls take about 0.2 s: the bank lasts a few steps, not a whole match
+    assert f"ran out of time in the match: its overage bank of {overage_seconds:g} s" in reason, reason
+    assert f"{step_seconds:g} s a step" in reason, reason
     assert 1 <= result.steps < game_spec(GAME).rules.default_max_cycles, result.steps
     assert result.team_scores()[result.teams[0]] == 0.0  # a forfeit loses
 
