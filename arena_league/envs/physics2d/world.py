@@ -317,15 +317,17 @@ class World:
         before each of ``substeps`` steps of ``dt``, the bodies read back. ``after_each``, if
         given, is called after every physics step (to read that step's contacts, say)."""
         link = self.link
-        if self.force_matrix is not None:
-            np.dot(self.force_matrix, self.force_source, out=self.applied)
+        forces = self.force_matrix
+        if forces is not None:
+            np.dot(forces, self.force_source, out=self.applied)
         link.write_bodies()
         link.step(self._dt)
         if after_each is not None:
             after_each()
-        for _ in range(self._more_substeps):
-            link.write_bodies()
-            link.step(self._dt)
-            if after_each is not None:
-                after_each()
+        if self._more_substeps:  # (a test is cheaper than an empty loop on the hot path)
+            for _ in range(self._more_substeps):
+                link.write_bodies()
+                link.step(self._dt)
+                if after_each is not None:
+                    after_each()
         link.read_bodies()
