@@ -136,102 +136,47 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
-import pymunk
 
-from arena_league.envs import scene
 from arena_league.envs.controls import TurnedCompassControls, arrow_keys, key_controls
-from arena_league.envs.options import Option
-from arena_league.envs.physics2d import (
-    COMPASS_MOVE_NAMES,
-    COMPASS_MOVES,
-    ONE,
-    Bodies,
-    CellLayout,
-    Field,
-    Material,
-    Physics2DRules,
-    Run,
-    World,
-    mirror_signs,
+from arena_league.envs.games.blowblow.platform import (
+    AGENT_RADIUS,
+    BLOW_ACTION,
+    BLOW_COOLDOWN,
+    BLOW_IMPULSE,
+    BLOW_RANGE,
+    CENTRE_TIE,
+    COS_HALF_ANGLE,
+    DEFAULT_PLATFORM_RADIUS,
+    DT,
+    GONE_FILTER,
+    HEADING_MIN_THRUST,
+    OTHER_CELLS,
+    SPACE_DAMPING,
+    VELOCITY_BOUND,
+    VELOCITY_UNIT,
+    PlatformRules,
+    action_tables,
+    blowblow_observation,
+    blowblow_state,
+    check_placement,
+    marked_at_start,
+    platform_picture,
+    platform_scene,
+    start_spots,
 )
-from arena_league.envs.rendering import TEAM_COLOURS, Canvas
+from arena_league.envs.options import Option
+from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, ONE, mirror_signs
 from arena_league.envs.social import team_tree
 
-AGENT_RADIUS = 0.25
-AGENT_MASS = 1.0
-#: Physics step per env step (seconds), and the fraction of its velocity a body keeps after one
-#: second (pymunk ``Space.damping``).
-DT = 0.1
-SPACE_DAMPING = 0.5
-#: Full thrust of an agent, and the drag coefficient opposing its velocity.
-THRUST = 5.0
-AGENT_DRAG = 2.0
-#: An agent's top speed, where full thrust meets drag and damping (about 1.86 units/s).
-AGENT_TOP_SPEED = THRUST / (AGENT_DRAG - AGENT_MASS * np.log(SPACE_DAMPING))
-#: A thrust shorter than this fraction of full strength leaves the heading as it was.
-HEADING_MIN_THRUST = 0.1
-#: Momentum of a blow's puff (the blower's recoil), the reach of its cone (between centres), the
-#: cone's half-angle, and the steps from a blow until the seat may blow again.
-BLOW_IMPULSE = 1.2
-BLOW_RANGE = 2.5
-BLOW_HALF_ANGLE = math.radians(30.0)
-BLOW_COOLDOWN = 6
-#: Overlap pymunk tolerates between touching bodies (its default, 0.1, is large at this scale).
-COLLISION_SLOP = 0.01
-#: Contact restitution and friction are the products of the two shapes' values: 0.25 and 0.09.
-ELASTICITY = 0.5
-FRICTION = 0.3
-#: Observation scales: positions are divided by the platform's radius, velocities by VELOCITY_UNIT;
-#: velocity cells are bounded by VELOCITY_BOUND (6 units/s, three times an agent's top speed).
-VELOCITY_UNIT = 3.0
-VELOCITY_BOUND = 2.0
-#: Mean distances from the centre this close count as equal when a cut match is judged (mirrored
-#: play stays mirrored up to the solver's rounding).
-CENTRE_TIE = 1e-6
-DEFAULT_PLATFORM_RADIUS = 3.0
+#: What users of the game import from the package (the platform's data among it).
+__all__ = ["AGENT_RADIUS", "BLOW_COOLDOWN", "BLOW_IMPULSE", "BLOW_RANGE", "DT", "RULES", "SPACE_DAMPING",
+           "VELOCITY_BOUND", "VELOCITY_UNIT", "BlowBlowControls", "BlowBlowRules"]
+
 OPTIONS = (Option("platform_radius", float, DEFAULT_PLATFORM_RADIUS, "radius of the round platform", 2.0, 4.0),
            Option("start_jitter", float, 0.3, "largest random offset of each start position", 0.0, 0.5))
 
-#: Start spots of team 0 in units of the platform's radius (team 1's are turned), per players per team.
-_FORMATIONS = {1: ((-0.45, 0.0),), 2: ((-0.45, 0.25), (-0.45, -0.25))}
-#: The discrete blow action, after the compass moves; the observation's cells of the seat's own,
-#: and per other seat.
-BLOW_ACTION = len(COMPASS_MOVE_NAMES)
-OWN_CELLS, OTHER_CELLS = 9, 8
-_COS_HALF_ANGLE = math.cos(BLOW_HALF_ANGLE)
-#: A seat that fell collides with nothing.
-_GONE_FILTER = pymunk.ShapeFilter(categories=0, mask=0)
 
-
-def blowblow_field(n_agents: int) -> Field:
-    """The agents (discs that do not spin) and no walls: the platform's edge is judged, not built."""
-    return Field(dt=DT, damping=SPACE_DAMPING, collision_slop=COLLISION_SLOP, parts=(
-        Bodies("agent", n_agents, AGENT_RADIUS, AGENT_MASS, Material(ELASTICITY, FRICTION)),))
-
-
-def _seat_runs(prefix: str, relative: bool) -> list[Run]:
-    span = 2 if relative else 1
-    return [Run(f"{prefix}on", 1, (0, 1), "on-platform flag: 1 while the seat is on the platform"),
-            Run(f"{prefix}position", 2, (-span, span), "position relative to the seat" if relative else "position"),
-            Run(f"{prefix}velocity", 2, (-VELOCITY_BOUND, VELOCITY_BOUND), "velocity"),
-            Run(f"{prefix}heading", 2, (-1, 1), "heading (a unit vector)"),
-            Run(f"{prefix}cooldown", 1, (0, 1), "steps left before the seat may blow again, over 6")]
-
-
-def blowblow_observation(n_agents: int) -> CellLayout:
-    """The observation's runs: the seat's own cells, then every other seat's, the teammate first,
-    then the opponents in seat order."""
-    own = _seat_runs("", False)
-    return CellLayout([own[0], Run("size", 1, (0, 1), "R / 4 (the platform's size: positions are in units of R)"),
-                       *own[1:], *[run for k in range(n_agents - 1) for run in _seat_runs(f"other_{k}_", True)]])
-
-
-def blowblow_state(n_agents: int) -> CellLayout:
-    """The global state's runs (world frame): every seat's own cells, in seat order."""
-    return CellLayout([run for k in range(n_agents) for run in _seat_runs(f"seat_{k}_", False)])
-
-
-class BlowBlowRules(Physics2DRules):
+class BlowBlowRules(PlatformRules):
     """BlowBlow on a pymunk platform; see the module docstring for the manual."""
 
     name: ClassVar[str] = "BlowBlow"
@@ -257,151 +202,18 @@ class BlowBlowRules(Physics2DRules):
         self.obs_dim, self.state_dim = self.layout.size, self.state_layout.size
         # the seat frame of team 1 is the world turned by half a turn: every vector times -1
         self._sign = mirror_signs(self.team_of)
-        moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
-        self._move_table = np.append(moves, 0j)  # the moves, then the blow: no thrust
-        self._energy_table = np.abs(self._move_table) ** 2
-        self._sets_heading_table = self._energy_table > 0.0
+        self._move_table, self._energy_table, self._sets_heading_table = action_tables()
         self._obs_low, self._obs_high = (b.reshape(n, self.obs_dim) for b in self.clip_bounds(self.layout))
         self._state_low, self._state_high = (b.astype(np.float64) for b in self.state_layout.bounds())
-        # the opponent each seat marks at the start: the one straight ahead, across the platform
-        # (team 0's seat k stands opposite team 1's seat 1 - k)
-        p = players_per_team
-        self._marked_at_start = [int(1 - self.team_of[i]) * p + (p - 1 - i % p) for i in range(n)]
+        self._marked_at_start = marked_at_start(self.team_of, players_per_team)
         self._layout_work_vector()
-
-    # --- construction --------------------------------------------------------------------------
-    def _layout_work_vector(self) -> None:
-        """The world's work vector holds everything a step reads: ``[x, y, vx, vy]`` of every seat,
-        then per seat (world frame) its heading, its velocity before the step, its thrust as a
-        fraction of full strength and the impulse its blows and those it caught give it this step;
-        the step from which each seat may blow again, the step count and a constant 1. One matrix
-        product of it gives the measures' linear parts and every observation at once (few numpy
-        calls: the hot path is Python-bound), the world's force matrix the forces; results land in
-        preallocated arrays, seen through the views made here."""
-        n = self.n_agents
-        world = self.world = World(blowblow_field(n), slots=(
-            ("heading", 2 * n), ("v_before", 2 * n), ("thrust", 2 * n), ("impulse", 2 * n), ("ready", n),
-            ("step", 1), (ONE, 1)))
-        self._work, self._step_at, self._ready_at = world.work, world.at("step"), world.at("ready")
-        # complex views (x + iy) of the 2-vectors: fewer, cheaper numpy calls on the hot path
-        self._agent_pos_c, self._agent_vel_c = world.table.view(np.complex128).T
-        self._heading_c, self._v_before_c, self._thrust_c, self._impulse_c = (
-            world.complex_view(slot) for slot in ("heading", "v_before", "thrust", "impulse"))
-        # forces: thrust against a linear drag, and this step's impulses spread over the step
-        F = world.force_matrix = world.matrix(2 * n)
-        for k in range(2 * n):
-            F[k, world.vel(k // 2, k % 2)] = -AGENT_DRAG
-            F[k, world.at("thrust", k)] = THRUST
-            F[k, world.at("impulse", k)] = 1.0 / DT
-        # measures then observations (n * obs_dim rows), one product per step; the rows of what a
-        # seat that fell shows, and of what it sees, are zeroed in the match's copy
-        self._measure_rows = 10 * n
-        self._full_matrix = np.concatenate([self._measure_map(), self._observation_map()])
-        self._matrix = self._full_matrix.copy()
-        self._linear = np.zeros(len(self._matrix))
-        linear_c = self._linear[: self._measure_rows].view(np.complex128)
-        # every seat's position (as of the last product), way to its target, contact force, velocity
-        # and heading (conjugated); distance from the centre, to the target, contact force, speed
-        self._position_c, self._to_target_c = linear_c[:n], linear_c[n: 2 * n]
-        self._velocity_heading_conj, self._norm_source = linear_c[3 * n:].reshape(2, n), linear_c[: 4 * n]
-        self._norms = np.zeros(4 * n)
-        self._radius = self._norms[:n]
-        self._obs_rows = self._linear[self._measure_rows:].reshape(n, self.obs_dim)
-        self._obs_work = np.zeros((n, self.obs_dim))
-        self._along_c = np.zeros((2, n), dtype=np.complex128)
-        self._along_real = self._along_c.real
-        self._along = np.zeros((2, n))  # velocity and heading along the way to the target
-        m = self.measures
-        m.velocity_to_target, m.facing_target = self._along
-        m.target_distance, m.force, m.speed = self._norms[n:].reshape(3, n)
-        self._kept_distance, self._kept_facing = np.zeros(n), np.zeros(n)
-        self._move_xy = np.zeros((n, 2))  # step buffers
-        self._move_c = self._move_xy.view(np.complex128).reshape(n)
-        self._move_length, self._turns_heading = np.zeros(n), np.zeros(n, dtype=bool)
-        # per seat, the rows to zero once it fell: its position (its radius, by which falls are
-        # judged, reads 0 from then on), its own observation and its cells in the others'
-        obs_row = [self._measure_rows + i * self.obs_dim for i in range(n)]
-        self._seat_rows = [np.array([2 * seat, 2 * seat + 1, *range(obs_row[seat], obs_row[seat] + self.obs_dim), *[
-            obs_row[i] + self.layout.at(f"other_{self._other_seats(i).index(seat)}_on") + c
-            for i in range(n) if i != seat for c in range(OTHER_CELLS)]], dtype=np.intp) for seat in range(n)]
-        self._full_state_matrix = self.world.matrix(self.state_dim)
-        for i in range(n):
-            self._seat_cells(self._full_state_matrix[OTHER_CELLS * i: OTHER_CELLS * (i + 1)], i, 1.0, None)
-
-    def _measure_map(self) -> np.ndarray:
-        """The linear parts of the measures over the work vector; rows, read as complex numbers:
-        every seat's position; its way to its target (marked opponent - own; :meth:`_retarget`);
-        its contact force, the impulse the solver added beyond damping, drag, thrust and blows
-        (Chipmunk integrates ``v' = v * damping**dt + f / m * dt`` before it solves the contacts),
-        over ``dt``; its velocity and its heading conjugated (their products with the way to the
-        target give dot products)."""
-        n, world = self.n_agents, self.world
-        M = world.matrix(self._measure_rows)
-        keep = SPACE_DAMPING**DT - AGENT_DRAG * DT / AGENT_MASS
-        force, velocity, heading = 4 * n, 6 * n, 8 * n
-        for i in range(n):
-            self._retarget(M, i, self._marked_at_start[i])
-            for axis, conj in ((0, 1.0), (1, -1.0)):
-                k = 2 * i + axis
-                M[k, world.pos(i, axis)] = 1.0
-                M[force + k, world.vel(i, axis)] = AGENT_MASS / DT
-                M[force + k, world.at("v_before", k)] = -keep * AGENT_MASS / DT
-                M[force + k, world.at("thrust", k)] = -THRUST
-                M[force + k, world.at("impulse", k)] = -1.0 / DT
-                M[velocity + k, world.vel(i, axis)] = conj
-                M[heading + k, world.at("heading", k)] = conj
-        return M
-
-    def _retarget(self, matrix: np.ndarray, seat: int, target: int) -> None:
-        """Point the rows of ``seat``'s way to its target, in ``matrix``, at the seat ``target``."""
-        first = 2 * (self.n_agents + seat)
-        matrix[first: first + 2] = 0.0
-        for axis in range(2):
-            matrix[first + axis, self.world.pos(target, axis)] = 1.0
-            matrix[first + axis, self.world.pos(seat, axis)] = -1.0
-
-    def _other_seats(self, seat: int) -> list[int]:
-        """The other seats in observation order: teammates, then the opponents (seat order each)."""
-        team = int(self.team_of[seat])
-        return ([j for j in range(self.n_agents) if j != seat and self.team_of[j] == team]
-                + [j for j in range(self.n_agents) if self.team_of[j] != team])
-
-    def _seat_cells(self, rows: np.ndarray, seat: int, frame: float, relative_to: int | None) -> None:
-        """Eight cells about ``seat`` from the work vector: flag, position (relative to the seat
-        ``relative_to``, if any), velocity, heading and cooldown, turned by ``frame`` (+1 or -1)."""
-        world = self.world
-        ps, vs = frame / self.platform_radius, frame / VELOCITY_UNIT
-        rows[0, world.at(ONE)] = 1.0
-        for axis in range(2):
-            rows[1 + axis, world.pos(seat, axis)] += ps
-            if relative_to is not None:
-                rows[1 + axis, world.pos(relative_to, axis)] -= ps
-            rows[3 + axis, world.vel(seat, axis)] = vs
-            rows[5 + axis, world.at("heading", 2 * seat + axis)] = frame
-        rows[7, self._ready_at + seat] = 1.0 / BLOW_COOLDOWN
-        rows[7, self._step_at] = -1.0 / BLOW_COOLDOWN
-
-    def _observation_map(self) -> np.ndarray:
-        """The observations of every seat as one matrix over the work vector."""
-        n, width, cells = self.n_agents, len(self._work), self.layout
-        A = np.zeros((n, self.obs_dim, width))
-        for i in range(n):
-            own = np.zeros((OTHER_CELLS, width))
-            self._seat_cells(own, i, float(self._sign[i]), None)
-            A[i, cells.at("on")], A[i, cells.at("position"): OWN_CELLS] = own[0], own[1:]
-            A[i, cells.at("size"), self.world.at(ONE)] = self.platform_radius / 4.0
-            for m, j in enumerate(self._other_seats(i)):
-                first = cells.at(f"other_{m}_on")
-                self._seat_cells(A[i, first: first + OTHER_CELLS], j, float(self._sign[i]), i)
-        return A.reshape(n * self.obs_dim, width)
 
     # --- the match -----------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
         self._record_reset(seed)
         self.rng = np.random.default_rng(seed)
-        spots = np.asarray(_FORMATIONS[self.players_per_team], dtype=np.float64) * self.platform_radius
-        team0 = spots + self.rng.uniform(-self.start_jitter, self.start_jitter, spots.shape)
-        self.world.build({"agent": np.concatenate([team0, -team0])})
+        self.world.build({"agent": start_spots(self.rng, self.players_per_team, self.start_jitter,
+                                                 self.platform_radius)})
         n = self.n_agents
         self._work[self.world.at("heading"): self.world.at(ONE)] = 0.0
         self._heading_c[:] = self._sign  # toward the other team: +x in every seat frame
@@ -501,7 +313,7 @@ class BlowBlowRules(Physics2DRules):
                     continue
                 distance = abs(way)
                 # in the cone: within range, and within the half-angle of the heading
-                if distance < nearest and along >= _COS_HALF_ANGLE * distance:
+                if distance < nearest and along >= COS_HALF_ANGLE * distance:
                     target, nearest, toward = other, distance, way
             if target is not None:
                 impulses[target] += BLOW_IMPULSE * (1.0 - nearest / BLOW_RANGE) * toward / nearest
@@ -535,7 +347,7 @@ class BlowBlowRules(Physics2DRules):
             self._team_on[self.team_of[seat]] -= 1
             body = self.world.bodies["agent"][seat]
             for shape in body.shapes:
-                shape.filter = _GONE_FILTER
+                shape.filter = GONE_FILTER
             body.velocity = 0.0, 0.0  # it stays where it fell
             self._agent_vel_c[seat] = self._turn[seat] = 0.0
             self._matrix[self._seat_rows[seat]] = 0.0
@@ -617,13 +429,7 @@ class BlowBlowRules(Physics2DRules):
         agent_velocity = np.zeros((n, 2)) if agent_velocity is None else np.asarray(agent_velocity, dtype=np.float64)
         agent_velocity = agent_velocity.reshape(n, 2)
         heading = None if heading is None else np.asarray(heading, dtype=np.float64).reshape(n)
-        off = np.flatnonzero(on & (np.linalg.norm(agent_xy, axis=1) > self.platform_radius))
-        if len(off):
-            raise ValueError(f"agent {off[0]} at {agent_xy[off[0]].tolist()} is off the platform: its centre must "
-                             f"lie within {self.platform_radius} of the platform's centre")
-        xy = np.where(on[:, None], agent_xy, self.agents()[0])
-        if (np.linalg.norm(xy[:, None] - xy[None], axis=2) + np.eye(n) * 99).min() < AGENT_RADIUS:
-            raise ValueError(f"agents must stand at least {AGENT_RADIUS} apart (centre to centre)")
+        check_placement(agent_xy, on, self.agents()[0], self.platform_radius)
         self._record("place", agent_xy.copy(), agent_velocity.copy(), None if heading is None else heading.copy())
         for seat in self._seats_on:
             body = self.world.bodies["agent"][seat]
@@ -636,50 +442,15 @@ class BlowBlowRules(Physics2DRules):
         self._measure_still_state()
 
     def render_topdown(self) -> np.ndarray:
-        R, dark = self.platform_radius, (20, 20, 20)
-        canvas = Canvas(-R - 0.6, R + 0.6, -R - 0.6, R + 0.6, size=400, background=(30, 30, 40))
-        canvas.circle(0.0, 0.0, R + 0.05, fill=(150, 150, 150))  # the edge
-        canvas.circle(0.0, 0.0, R, fill=(205, 185, 140))
         xy, _, heading = self.agents()
-        for seat in (e["seat"] for e in self._events if e["kind"] == "blow"):  # the last step's blows' cones
-            x, y = xy[seat]
-            angle = math.atan2(heading[seat, 1], heading[seat, 0])
-            arc = [canvas.px(x + BLOW_RANGE * math.cos(angle + a), y + BLOW_RANGE * math.sin(angle + a))
-                   for a in np.linspace(-BLOW_HALF_ANGLE, BLOW_HALF_ANGLE, 7)]
-            canvas.draw.polygon([canvas.px(x, y), *arc], fill=(170, 205, 235))
-        for seat, ((x, y), (hx, hy)) in enumerate(zip(xy, heading)):
-            colour = TEAM_COLOURS[self.team_of[seat]]
-            if not self._on[seat]:
-                canvas.circle(x, y, AGENT_RADIUS, fill=tuple(c // 3 for c in colour), outline=dark)
-                continue
-            canvas.circle(x, y, AGENT_RADIUS, fill=colour, outline=dark)
-            canvas.line(x, y, x + AGENT_RADIUS * hx, y + AGENT_RADIUS * hy, fill=dark, width_px=3)
-        return canvas.array()
+        blowers = [e["seat"] for e in self._events if e["kind"] == "blow"]
+        return platform_picture(self.platform_radius, xy, heading, self._on, self.team_of, blowers)
 
     def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
-        R, ts = self.platform_radius, timestamp_ns
-        below = 2 * R + 1.2  # the void, far below the platform: dark ground
-        out = [scene.entity("platform", ts,
-                            cubes=[scene.cube(0.0, 0.0, -1.0, (below, below, 0.1), (0.12, 0.12, 0.16, 1.0))],
-                            cylinders=[scene.disc(0.0, 0.0, 2 * R, (0.8, 0.73, 0.55, 1.0), height=0.1)])]
         xy, _, heading = self.agents()
-        yaw = np.arctan2(heading[:, 1], heading[:, 0])
-        for seat in range(self.n_agents):
-            x, y = (float(v) for v in xy[seat])
-            team = int(self.team_of[seat])
-            if self._on[seat]:
-                out.append(scene.entity(f"agent/{seat}", ts, cylinders=[
-                    scene.disc(x, y, 2 * AGENT_RADIUS, scene.team_colour(team), height=0.3)], arrows=[
-                    scene.arrow(x, y, 0.35, float(yaw[seat]), 0.5, (0.1, 0.1, 0.1, 1.0))]))
-            else:  # fallen: faded, below the platform's top
-                out.append(scene.entity(f"agent/{seat}", ts, cylinders=[
-                    scene.disc(x, y, 2 * AGENT_RADIUS, scene.team_colour(team, 0.4), height=0.05)]))
-        blows = [e["seat"] for e in self._events if e["kind"] == "blow"]
-        out.append(scene.entity("blows", ts, arrows=[
-            scene.arrow(float(xy[s, 0]), float(xy[s, 1]), 0.2, float(yaw[s]), BLOW_RANGE, (0.67, 0.8, 0.92, 0.6))
-            for s in blows]))
-        score = " : ".join(str(int(on)) for on in self._team_on)
-        return [*out, scene.entity("score", ts, texts=[scene.text(0, R + 0.6, 0.2, score)])]
+        blowers = [e["seat"] for e in self._events if e["kind"] == "blow"]
+        return platform_scene(timestamp_ns, self.platform_radius, xy, heading, self._on, self.team_of, blowers,
+                              self._team_on)
 
     def human_controls(self, seat: int) -> BlowBlowControls:
         return BlowBlowControls(self, seat)

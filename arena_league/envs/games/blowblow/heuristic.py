@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from arena_league.envs.games.blowblow import (
+from arena_league.envs.games.blowblow.platform import (
     AGENT_RADIUS,
     BLOW_ACTION,
     DT,
