@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from arena_league.envs.games.tennis import (
+from arena_league.envs.games.tennis.court import (
     _FORMATIONS,
     BALL_MASS,
     BALL_RADIUS,
