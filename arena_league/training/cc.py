@@ -293,7 +293,7 @@ class CC(TrainerBase):
         rollout, start, collect_time = self._collect()
         # GAE over V(s, i), then the core's clipped update of actor and centralised critic
         learner = self.learners[0]
-        stats = self._update(rollout, 0, learner)
+        stats = self._update(rollout, [0])[0]
         self.iteration += 1
         self.seats.after_update(learner, self.collector)
         # log

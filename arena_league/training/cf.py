@@ -65,7 +65,7 @@ from arena_league.policies.families import legal_mask
 from arena_league.policies.policy import Policy
 from arena_league.training.cc import TeamSeats, paper_config, paper_runner
 from arena_league.training.ppo import Learner, PPOConfig
-from arena_league.training.rollout import RolloutCollector, learner_batch
+from arena_league.training.rollout import RolloutCollector
 from arena_league.training.schemes import register_scheme
 from arena_league.training.trainer import TrainerBase, annealed_lr, figure, format_record, iteration_record
 
@@ -305,8 +305,7 @@ class CF(TrainerBase):
         advantages = np.zeros(rollout.rewards.shape, dtype=np.float32)
         advantages[t_idx, s_idx] = advantage.numpy()
         # actor: the core's clipped update on those advantages (no value loss: no value critic)
-        batch = learner_batch(rollout, 0, learner, advantages=advantages)
-        stats = learner.update(batch, self.rng, lr)
+        stats = self._update(rollout, [0], advantages=advantages)[0]
         stats.value_loss, stats.explained_variance = critic_loss, explained
         self.iteration += 1
         self.seats.after_update(learner, self.collector)

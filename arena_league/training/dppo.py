@@ -68,8 +68,8 @@ class DPPO(TrainerBase):
         """One iteration: a shared rollout, then each learner's GAE and update on its own seats."""
         # rollout: every learner acts for its seats of every env, one forward each per step
         rollout, start, collect_time = self._collect()
-        # GAE and an independent update per learner
-        stats = [self._update(rollout, code, learner) for code, learner in enumerate(self.learners)]
+        # GAE and an independent update per learner, the learners stacked into one computation
+        stats = self._update(rollout)
         self.iteration += 1
         record = iteration_record(self, rollout, stats, start, collect_time)
         record["learner_returns"] = _returns_by_learner(rollout, len(self.learners))

@@ -160,7 +160,7 @@ class PBT(TrainerBase):
         rollout, start, collect_time = self._collect()
         # GAE and an update per learner that played
         played = set(np.unique(rollout.controllers).tolist())
-        stats = [self._update(rollout, code, learner) for code, learner in enumerate(self.learners) if code in played]
+        stats = self._update(rollout, [code for code in range(len(self.learners)) if code in played])
         self.iteration += 1
         events = self.exploit_and_explore() if self.iteration % self.interval == 0 else []
         record = iteration_record(self, rollout, stats, start, collect_time)

@@ -278,6 +278,9 @@ class Learner:
         self.value_norm: RunningMeanStd | None = RunningMeanStd() if config.norm_value and self.critic else None
         self.optimiser = torch.optim.Adam(self.trainable_parameters(), lr=config.learning_rate, eps=config.adam_eps)
         self.updates = 0
+        #: Draws this learner's minibatches: its own, so its updates do not depend on the learners
+        #: it is stacked with.
+        self.rng = np.random.default_rng(np.random.SeedSequence([int(seed), 6]))
 
     # --- parameters -------------------------------------------------------------------------------
     def trainable_parameters(self) -> list[nn.Parameter]:

@@ -40,6 +40,8 @@ import torch
 
 from arena_league.policies.policy import Policy
 from arena_league.training.ppo import Batch, Learner, gae
+from arena_league.training.stack import LearnerStack, stackable, stacks_of
+from arena_league.training.vector import env_batch
 
 __all__ = ["Episode", "Opponent", "Rollout", "RolloutCollector", "check_trainable", "learner_batch"]
 
@@ -156,7 +158,8 @@ class RolloutCollector:
 
     Args:
         env_fn: makes one env (``arena_league.envs.make(game_id, ...)`` or any env with the array API).
-        num_envs: K, the envs stepped together.
+        num_envs: K, the envs stepped together (as an :class:`~arena_league.training.vector.EnvBatch`:
+            the game's whole-array engine where it has one, else K separate envs).
         seed: seeds the collector's generator (env resets, action noise, opponents' uniforms).
         seating: ``(env_index, episode) -> codes`` or ``(codes, owners)``, called whenever an env
             starts an episode (see the module docstring).
@@ -166,18 +169,19 @@ class RolloutCollector:
 
     def __init__(self, env_fn: Callable[[], Any], num_envs: int, seed: int, seating: SeatingFn,
                  opponents: Sequence[Opponent] = (), on_episode: Callable[[Episode], None] | None = None) -> None:
-        self.envs = [env_fn() for _ in range(num_envs)]
-        for env in self.envs:
-            check_trainable(env)
-        rules = self.envs[0].rules
-        self.n_agents = int(rules.n_agents)
-        self.obs_dim = int(rules.obs_dim)
-        self.discrete = rules.action_type == "discrete"
-        self.n_actions = int(getattr(rules, "n_actions", 0))
-        self.act_dim = int(getattr(rules, "act_dim", 0))
-        self.turn_based = bool(rules.turn_based)
-        self.state_dim = int(rules.state_dim)
-        self.team_of = np.asarray(rules.team_of, dtype=np.int64)
+        probe = env_fn()
+        check_trainable(probe)
+        self.envs = env_batch(env_fn, num_envs)
+        batch = self.envs
+        self.n_agents = batch.n_agents
+        self.obs_dim = batch.obs_dim
+        self.discrete = batch.discrete
+        self.n_actions = batch.n_actions
+        self.act_dim = batch.act_dim
+        self.turn_based = batch.turn_based
+        self.state_dim = batch.state_dim
+        self.team_of = batch.team_of
+        self.masked = batch.masked
         self.seating = seating
         self.opponents: list[Opponent] = list(opponents)
         self.on_episode = on_episode
@@ -185,37 +189,37 @@ class RolloutCollector:
         K, n = num_envs, self.n_agents
         self.num_envs = K
         self.n_slots = K * n
+        self.seats = np.tile(np.arange(n), K)
         self.controllers = np.zeros(self.n_slots, dtype=np.int64)
         self.owners = np.zeros(self.n_slots, dtype=np.int64)
         self.episode_count = np.zeros(K, dtype=np.int64)
         self.episode_return = np.zeros(self.n_slots, dtype=np.float64)
         self.episode_length = np.zeros(K, dtype=np.int64)
-        self.obs = np.zeros((self.n_slots, self.obs_dim), dtype=np.float32)
-        self.masked = False
         self._learner_state: dict[int, np.ndarray] = {}
         self._opponent_state: list[np.ndarray | None] = [None] * self.n_slots
+        self._plan: list[tuple[Any, list[int], np.ndarray, np.ndarray]] | None = None
         for k in range(K):
             self._start(k)
-        self.masked = self.envs[0].rules.action_mask() is not None
 
     # --- episodes -----------------------------------------------------------------------------------
     def _start(self, k: int) -> None:
         """Reset env k with a fresh seed and seat its controllers for the next episode."""
         n = self.n_agents
-        env = self.envs[k]
-        obs = env.reset_arrays(int(self.rng.integers(2**62)))
-        self.obs[k * n:(k + 1) * n] = obs[:, : self.obs_dim]
+        self.envs.reset(k, int(self.rng.integers(2**62)))
         seats = self.seating(k, int(self.episode_count[k]))
         codes, owners = (seats if isinstance(seats, tuple) else (seats, np.zeros(n, dtype=np.int64)))
         codes = np.asarray(codes, dtype=np.int64)
         if codes.shape != (n,):
             raise ValueError(f"the seating callback returned {codes.shape} controller codes; give one per seat ({n})")
-        self.controllers[k * n:(k + 1) * n] = codes
-        self.owners[k * n:(k + 1) * n] = np.asarray(owners, dtype=np.int64)
-        self.episode_return[k * n:(k + 1) * n] = 0.0
+        block = slice(k * n, (k + 1) * n)
+        if not np.array_equal(self.controllers[block], codes):
+            self._plan = None
+        self.controllers[block] = codes
+        self.owners[block] = np.asarray(owners, dtype=np.int64)
+        self.episode_return[block] = 0.0
         self.episode_length[k] = 0
         for states in self._learner_state.values():
-            states[k * n:(k + 1) * n] = 0.0
+            states[block] = 0.0
         for slot in range(k * n, (k + 1) * n):
             code = int(self.controllers[slot])
             if code < 0:
@@ -230,22 +234,33 @@ class RolloutCollector:
                              f"{len(self.opponents)}; set collector.opponents before seating them")
         return self.opponents[index]
 
-    def _acting(self) -> np.ndarray:
-        acting = np.zeros(self.n_slots, dtype=bool)
-        n = self.n_agents
-        for k, env in enumerate(self.envs):
-            if self.turn_based:
-                acting[k * n + int(env.rules.current_player())] = True
-            else:
-                acting[k * n:(k + 1) * n] = env.rules.measures.active
-        return acting
+    def _acting_plan(self, stacks: list[tuple[Any, list[int]]]) -> list[tuple[Any, list[int], np.ndarray, np.ndarray]]:
+        """Per stack of learners: (the stack, its codes, the slots its learners hold now, and each
+        slot's position in the stack); recomputed only when a new episode seats other controllers."""
+        if self._plan is None:
+            plan = []
+            for stack, codes in stacks:
+                position = np.full(int(max(codes)) + 1, -1, dtype=np.int64)
+                position[codes] = np.arange(len(codes))
+                held = (self.controllers >= 0) & (self.controllers <= max(codes))
+                rows = np.flatnonzero(held)
+                rows = rows[position[self.controllers[rows]] >= 0]
+                if rows.size:
+                    plan.append((stack, codes, rows, position[self.controllers[rows]]))
+            self._plan = plan
+        return self._plan
 
     # --- the rollout ----------------------------------------------------------------------------------
-    def collect(self, learners: Sequence[Learner], num_steps: int) -> Rollout:
-        """``num_steps`` lockstep steps of every env; learner ``c`` acts for the slots coded ``c``."""
+    def collect(self, learners: Sequence[Learner], num_steps: int, *, stacked: bool = True) -> Rollout:
+        """``num_steps`` lockstep steps of every env; learner ``c`` acts for the slots coded ``c``.
+
+        The learners that stack (:func:`~arena_league.training.stack.stacks_of`) act together: one
+        stacked actor forward and one stacked critic forward per step for all the slots they hold;
+        ``stacked=False`` makes each learner a stack of its own (the same rollout, more calls)."""
         T, S, n, K = num_steps, self.n_slots, self.n_agents, self.num_envs
+        batch = self.envs
         needs_state = any(getattr(lr, "needs_state", False) for lr in learners)
-        seats = np.tile(np.arange(n), K)
+        seats = self.seats
         env_of = np.repeat(np.arange(K), n)
         obs_buf = np.zeros((T, S, self.obs_dim), dtype=np.float32)
         if self.discrete:
@@ -270,57 +285,66 @@ class RolloutCollector:
             if learner.architecture.recurrent:
                 self._learner_state.setdefault(code, np.zeros((S, learner.architecture.gru_size), dtype=np.float32))
                 policy_states[code] = np.zeros((T, S, learner.architecture.gru_size), dtype=np.float32)
+        groups = stacks_of(range(len(learners)), learners) if stacked else [[c] for c in range(len(learners))]
+        stacks = [(LearnerStack([learners[c] for c in codes]) if stackable([learners[c] for c in codes]) else None,
+                  codes) for codes in groups]
+        self._plan = None
         episodes: list[Episode] = []
         opponent_tables = self._opponent_tables()
         k_uniform = max(1, self.act_dim) if not self.discrete else 1
+        any_opponents = bool(self.opponents)
         for t in range(T):
             # observe: observations, legal actions, who acts, global states
-            obs = self.obs
+            obs = batch.observations().reshape(S, self.obs_dim)
             obs_buf[t] = obs
-            acting = self._acting()
-            acting_buf[t] = acting
+            acting = acting_buf[t]
+            acting[:] = batch.acting().reshape(S)
             controllers[t] = self.controllers
             owners[t] = self.owners
             mask = None
             if masks is not None:
                 mask = masks[t]
-                for k, env in enumerate(self.envs):
-                    mask[k * n:(k + 1) * n] = env.rules.action_mask()
+                mask[:] = batch.action_masks().reshape(S, self.n_actions)
             state_rows = None
             if states is not None:
-                for k, env in enumerate(self.envs):
-                    states[t, k] = env.state()
+                states[t] = batch.states()
                 state_rows = states[t][env_of]
             # one fixed-size draw per step, whoever acts: learners' noise and opponents' uniforms
             noise = self.rng.random(S) if self.discrete else self.rng.standard_normal((S, self.act_dim))
             uniforms = self.rng.random((S, k_uniform))
-            # act: one batched forward per learner over every slot it holds
-            for code in np.unique(self.controllers).tolist():
-                rows = np.flatnonzero(self.controllers == code)
-                if code >= 0:
-                    self._learner_act(t, code, learners[code], rows, obs, noise, mask, state_rows, seats, acting,
-                                      actions, env_actions, logprobs, values, value_preds, policy_states,
+            # act: one stacked forward per stack of learners over every slot they hold
+            for stack, codes, rows, members in self._acting_plan(stacks):
+                if stack is None:
+                    self._learner_act(t, codes[0], learners[codes[0]], rows, obs, noise, mask, state_rows, seats,
+                                      acting, actions, env_actions, logprobs, values, value_preds, policy_states,
                                       critic_inputs)
+                    continue
+                critic_input = self._critic_input(t, T, stack, codes, rows, members, obs, state_rows, critic_inputs)
+                out = stack.act(members, obs[rows], noise[rows], None if mask is None else mask[rows], critic_input)
+                actions[t, rows] = out.actions
+                env_actions[t, rows] = out.env_actions
+                logprobs[t, rows] = out.logprobs
+                values[t, rows] = out.values
+                value_preds[t, rows] = out.value_preds
             # act: one call per distinct fixed opponent policy over its acting rows
-            self._opponents_act(opponent_tables, obs, uniforms, mask, acting, env_actions[t])
-            opponent_rows = self.controllers < 0
-            actions[t][opponent_rows] = env_actions[t][opponent_rows]
+            if any_opponents:
+                self._opponents_act(opponent_tables, obs, uniforms, mask, acting, env_actions[t])
+                opponent_rows = self.controllers < 0
+                actions[t][opponent_rows] = env_actions[t][opponent_rows]
             # step every env; an ended episode is recorded and its env reset at once
-            for k, env in enumerate(self.envs):
-                seat_actions = env_actions[t, k * n:(k + 1) * n]
-                if self.discrete:
-                    seat_actions = np.where(acting[k * n:(k + 1) * n], seat_actions, 0)
-                next_obs, reward, terminated, truncated = env.step_arrays(seat_actions)
-                rewards[t, k * n:(k + 1) * n] = reward
-                self.episode_return[k * n:(k + 1) * n] += reward
-                self.episode_length[k] += 1
-                self.obs[k * n:(k + 1) * n] = next_obs[:, : self.obs_dim]
-                if terminated or truncated:
-                    dones[t, k * n:(k + 1) * n] = True
-                    episode = Episode(k, self.controllers[k * n:(k + 1) * n].copy(),
-                                      self.owners[k * n:(k + 1) * n].copy(),
-                                      self.episode_return[k * n:(k + 1) * n].copy(),
-                                      np.asarray(env.team_result(), dtype=np.float64).copy(), self.team_of,
+            step_actions = env_actions[t]
+            if self.discrete:
+                step_actions = np.where(acting, step_actions, 0)
+            reward, ended = batch.step(step_actions.reshape(K, n, *step_actions.shape[1:]))
+            rewards[t] = reward.reshape(S)
+            self.episode_return += rewards[t]
+            self.episode_length += 1
+            if ended.any():
+                for k in np.flatnonzero(ended).tolist():
+                    block = slice(k * n, (k + 1) * n)
+                    dones[t, block] = True
+                    episode = Episode(k, self.controllers[block].copy(), self.owners[block].copy(),
+                                      self.episode_return[block].copy(), batch.team_result(k), self.team_of,
                                       int(self.episode_length[k]))
                     episodes.append(episode)
                     if self.on_episode is not None:
@@ -329,25 +353,44 @@ class RolloutCollector:
                     self._start(k)
         # bootstrap: the value of the observation after the last step, under the slot's controller
         next_values = np.zeros(S, dtype=np.float32)
-        next_state_rows = None
-        if needs_state:
-            next_state_rows = np.stack([env.state() for env in self.envs])[env_of]
-        for code in np.unique(self.controllers).tolist():
-            if code < 0:
-                continue
-            rows = np.flatnonzero(self.controllers == code)
-            learner = learners[code]
-            features = learner.critic_features(self.obs[rows], None if next_state_rows is None else
-                                               next_state_rows[rows], seats[rows], n)
-            next_values[rows] = learner.values(features)
+        next_obs = batch.observations().reshape(S, self.obs_dim)
+        next_state_rows = batch.states()[env_of] if needs_state else None
+        for stack, codes, rows, members in self._acting_plan(stacks):
+            if stack is None:
+                learner = learners[codes[0]]
+                features = learner.critic_features(next_obs[rows], None if next_state_rows is None else
+                                                   next_state_rows[rows], seats[rows], n)
+                next_values[rows] = learner.values(features)
+            else:
+                features = stack.learners[0].critic_features(next_obs[rows], None if next_state_rows is None else
+                                                             next_state_rows[rows], seats[rows], n)
+                next_values[rows] = stack.values(members, features)
         return Rollout(obs_buf, actions, env_actions, logprobs, values, value_preds, rewards, dones, acting_buf,
                        controllers, owners, masks, states, policy_states, critic_inputs, next_values, n, episodes)
+
+    def _critic_input(self, t: int, T: int, stack: LearnerStack, codes: list[int], rows: np.ndarray,
+                      members: np.ndarray, obs: np.ndarray, state_rows: np.ndarray | None,
+                      critic_inputs: dict[int, np.ndarray]) -> np.ndarray:
+        """The stack's critic input rows (its learners share one kind of critic), kept per learner
+        in the rollout when the critic reads more than the observation."""
+        first = stack.learners[0]
+        critic_input = first.critic_features(obs[rows], None if state_rows is None else state_rows[rows],
+                                             self.seats[rows], self.n_agents)
+        if _own_critic_features(first):
+            for i, code in enumerate(codes):
+                store = critic_inputs.get(code)
+                if store is None:
+                    store = critic_inputs[code] = np.zeros((T, self.n_slots, critic_input.shape[1]), dtype=np.float32)
+                mine = members == i
+                store[t, rows[mine]] = critic_input[mine]
+        return critic_input
 
     def _learner_act(self, t: int, code: int, learner: Learner, rows: np.ndarray, obs: np.ndarray,
                      noise: np.ndarray, mask: np.ndarray | None, state_rows: np.ndarray | None, seats: np.ndarray,
                      acting: np.ndarray, actions: np.ndarray, env_actions: np.ndarray, logprobs: np.ndarray,
                      values: np.ndarray, value_preds: np.ndarray, policy_states: dict[int, np.ndarray],
                      critic_inputs: dict[int, np.ndarray]) -> None:
+        """A learner that does not stack (a recurrent or convolutional actor) acts on its own."""
         h = None
         if code in policy_states:
             h = self._learner_state[code][rows]

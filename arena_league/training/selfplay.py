@@ -273,7 +273,7 @@ class SelfPlay(TrainerBase):
         rollout, start, collect_time = self._collect()
         # GAE and the update
         learner = self.learners[0]
-        stats = self._update(rollout, 0, learner)
+        stats = self._update(rollout, [0])[0]
         self.iteration += 1
         # the pool: add the learner as it is now
         if learner.updates % self.pool_every == 0:

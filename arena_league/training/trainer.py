@@ -21,8 +21,9 @@ import torch
 
 from arena_league.policies.architecture import Architecture
 from arena_league.policies.threads import torch_threads
-from arena_league.training.ppo import Learner, PPOConfig, UpdateStats, game_architecture
+from arena_league.training.ppo import Learner, PPOConfig, UpdateStats, game_architecture, ppo_update
 from arena_league.training.rollout import RolloutCollector, check_trainable, learner_batch
+from arena_league.training.stack import LearnerStack, stackable, stacks_of
 
 __all__ = ["PPO", "TrainerBase", "annealed_lr", "figure", "format_record", "iteration_record"]
 
@@ -36,6 +37,9 @@ class TrainerBase(ABC):
     count) and gives the caller's thread count back afterwards."""
 
     scheme = "base"
+    #: Learners that can share one computation do (:mod:`arena_league.training.stack`); False
+    #: updates and acts each learner as a stack of its own, with the same results.
+    stack_learners: bool = True
 
     def iterate(self) -> dict[str, Any]:
         """One iteration of the scheme (rollout, GAE, update and the scheme's own steps); its log record."""
@@ -66,14 +70,29 @@ class TrainerBase(ABC):
     def _collect(self) -> tuple[Any, float, float]:
         """``config.num_steps`` lockstep steps of every env: (the rollout, its start time, seconds)."""
         start = time.perf_counter()
-        rollout = self.collector.collect(self.learners, self.config.num_steps)
+        rollout = self.collector.collect(self.learners, self.config.num_steps, stacked=self.stack_learners)
         self.env_steps += rollout.env_steps
         return rollout, start, time.perf_counter() - start
 
-    def _update(self, rollout: Any, code: int, learner: Learner) -> UpdateStats:
-        """GAE over the slots learner ``code`` held, then its clipped update at the annealed step size."""
-        batch = learner_batch(rollout, code, learner)
-        return learner.update(batch, self.rng, annealed_lr(learner.config, self.env_steps, self.total_steps))
+    def _update(self, rollout: Any, codes: list[int] | None = None,
+                advantages: np.ndarray | None = None, value_loss: bool = True) -> list[UpdateStats]:
+        """GAE over the slots each learner of ``codes`` (default: all) held, then their clipped
+        updates at the annealed step size: learners that stack update together
+        (:class:`~arena_league.training.stack.LearnerStack`), the others one by one. Returns
+        each learner's statistics in the order of ``codes``."""
+        codes = list(range(len(self.learners))) if codes is None else list(codes)
+        stats: dict[int, UpdateStats] = {}
+        groups = stacks_of(codes, self.learners) if self.stack_learners else [[c] for c in codes]
+        for group in groups:
+            learners = [self.learners[c] for c in group]
+            batches = [learner_batch(rollout, c, self.learners[c], advantages) for c in group]
+            rates = [annealed_lr(lr.config, self.env_steps, self.total_steps) for lr in learners]
+            if stackable(learners):
+                results = LearnerStack(learners).update(batches, rates, value_loss=value_loss)
+            else:
+                results = [ppo_update_one(lr, b, rate, value_loss) for lr, b, rate in zip(learners, batches, rates)]
+            stats.update(zip(group, results))
+        return [stats[c] for c in codes]
 
 
 class PPO(TrainerBase):
@@ -107,12 +126,20 @@ class PPO(TrainerBase):
         # rollout: num_steps lockstep steps of num_envs games, one forward per step for all seats
         rollout, start, collect_time = self._collect()
         # GAE and the update
-        stats = self._update(rollout, 0, self.learners[0])
+        stats = self._update(rollout)
         self.iteration += 1
-        record = iteration_record(self, rollout, [stats], start, collect_time)
+        record = iteration_record(self, rollout, stats, start, collect_time)
         if self.log:
             self.log(format_record(record))
         return record
+
+
+def ppo_update_one(learner: Learner, batch: Any, learning_rate: float, value_loss: bool = True) -> UpdateStats:
+    """One learner's update on its own (an actor that does not stack), drawing from its generator."""
+    stats = ppo_update(learner, batch, learner.config, learner.optimiser, learner.rng, learning_rate=learning_rate,
+                       value_loss=value_loss)
+    learner.updates += 1
+    return stats
 
 
 def annealed_lr(config: PPOConfig, env_steps: int, total_steps: int | None) -> float:
