@@ -71,7 +71,7 @@ def _rollout_batch(game: str, learner_seed: int = 3) -> tuple[Learner, object]:
     return learner, learner_batch(rollout, 0, learner)
 
 
-@pytest.mark.parametrize("game", ["Crossroads-2T2P-v1", "Sumo-2T1P-v1"])
+@pytest.mark.parametrize("game", ["Crossroads-2T2P-v1", "Sumo-2T1P-v1", "GoBang-2T1P-v1", "Snake-2T2P-v1"])
 def test_a_stack_of_one_updates_as_the_ppo_update(game: str) -> None:
     learner, batch = _rollout_batch(game)
     reference = copy.deepcopy(learner)

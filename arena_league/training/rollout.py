@@ -40,7 +40,7 @@ import torch
 
 from arena_league.policies.policy import Policy
 from arena_league.training.ppo import Batch, Learner, gae
-from arena_league.training.stack import LearnerStack, stackable, stacks_of
+from arena_league.training.stack import LearnerStack, RowLayout, stackable, stacks_of
 from arena_league.training.vector import env_batch
 
 __all__ = ["Episode", "Opponent", "Rollout", "RolloutCollector", "check_trainable", "learner_batch"]
@@ -133,6 +133,8 @@ class Rollout:
     """``float32[S]`` value of the observation after the last step, under the slot's then controller."""
     n_agents: int
     episodes: list[Episode] = field(default_factory=list)
+    gae_cache: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = field(default_factory=dict, repr=False)
+    """GAE over every slot per (gamma, lambda), computed once for all the learners that share them."""
 
     @property
     def num_steps(self) -> int:
@@ -197,7 +199,7 @@ class RolloutCollector:
         self.episode_length = np.zeros(K, dtype=np.int64)
         self._learner_state: dict[int, np.ndarray] = {}
         self._opponent_state: list[np.ndarray | None] = [None] * self.n_slots
-        self._plan: list[tuple[Any, list[int], np.ndarray, np.ndarray]] | None = None
+        self._plan: list[tuple[Any, list[int], np.ndarray, np.ndarray, RowLayout]] | None = None
         for k in range(K):
             self._start(k)
 
@@ -234,7 +236,8 @@ class RolloutCollector:
                              f"{len(self.opponents)}; set collector.opponents before seating them")
         return self.opponents[index]
 
-    def _acting_plan(self, stacks: list[tuple[Any, list[int]]]) -> list[tuple[Any, list[int], np.ndarray, np.ndarray]]:
+    def _acting_plan(self, stacks: list[tuple[Any, list[int]]]
+                     ) -> list[tuple[Any, list[int], np.ndarray, np.ndarray, RowLayout]]:
         """Per stack of learners: (the stack, its codes, the slots its learners hold now, and each
         slot's position in the stack); recomputed only when a new episode seats other controllers."""
         if self._plan is None:
@@ -246,7 +249,8 @@ class RolloutCollector:
                 rows = np.flatnonzero(held)
                 rows = rows[position[self.controllers[rows]] >= 0]
                 if rows.size:
-                    plan.append((stack, codes, rows, position[self.controllers[rows]]))
+                    members = position[self.controllers[rows]]
+                    plan.append((stack, codes, rows, members, RowLayout(members, len(codes))))
             self._plan = plan
         return self._plan
 
@@ -313,14 +317,15 @@ class RolloutCollector:
             noise = self.rng.random(S) if self.discrete else self.rng.standard_normal((S, self.act_dim))
             uniforms = self.rng.random((S, k_uniform))
             # act: one stacked forward per stack of learners over every slot they hold
-            for stack, codes, rows, members in self._acting_plan(stacks):
+            for stack, codes, rows, members, layout in self._acting_plan(stacks):
                 if stack is None:
                     self._learner_act(t, codes[0], learners[codes[0]], rows, obs, noise, mask, state_rows, seats,
                                       acting, actions, env_actions, logprobs, values, value_preds, policy_states,
                                       critic_inputs)
                     continue
                 critic_input = self._critic_input(t, T, stack, codes, rows, members, obs, state_rows, critic_inputs)
-                out = stack.act(members, obs[rows], noise[rows], None if mask is None else mask[rows], critic_input)
+                out = stack.act(members, obs[rows], noise[rows], None if mask is None else mask[rows], critic_input,
+                                layout)
                 actions[t, rows] = out.actions
                 env_actions[t, rows] = out.env_actions
                 logprobs[t, rows] = out.logprobs
@@ -355,7 +360,7 @@ class RolloutCollector:
         next_values = np.zeros(S, dtype=np.float32)
         next_obs = batch.observations().reshape(S, self.obs_dim)
         next_state_rows = batch.states()[env_of] if needs_state else None
-        for stack, codes, rows, members in self._acting_plan(stacks):
+        for stack, codes, rows, members, _ in self._acting_plan(stacks):
             if stack is None:
                 learner = learners[codes[0]]
                 features = learner.critic_features(next_obs[rows], None if next_state_rows is None else
@@ -462,8 +467,11 @@ def learner_batch(rollout: Rollout, code: int, learner: Learner, advantages: np.
     """
     config = learner.config
     if advantages is None:
-        advantages, returns = gae(rollout.rewards, rollout.values, rollout.dones, rollout.next_values, config.gamma,
-                                  config.gae_lambda)
+        key = (config.gamma, config.gae_lambda)
+        if key not in rollout.gae_cache:
+            rollout.gae_cache[key] = gae(rollout.rewards, rollout.values, rollout.dones, rollout.next_values,
+                                         config.gamma, config.gae_lambda)
+        advantages, returns = rollout.gae_cache[key]
     else:
         returns = (advantages + rollout.values).astype(np.float32)
     t_idx, s_idx = np.nonzero(rollout.controllers == code)

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from arena_league.policies.policy import legal_mask, sample_from_logits
+from arena_league.policies.policy import legal_mask
 from arena_league.training.ppo import (
     _ILLEGAL_LOGIT,
     _SQUASH_EPS,
@@ -43,35 +43,71 @@ from arena_league.training.ppo import (
     Batch,
     Learner,
     UpdateStats,
-    _categorical_logprob,
 )
 
-__all__ = ["LearnerStack", "stackable", "stacks_of"]
+__all__ = ["LearnerStack", "RowLayout", "stackable", "stacks_of"]
 
 _BETA1, _BETA2 = 0.9, 0.999  # torch.optim.Adam's defaults, which every Learner's optimiser uses
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
 
 
-class _NumpyTanh(torch.autograd.Function):
-    """``tanh`` computed by numpy, differentiated as ``1 - tanh^2`` (see the module docstring)."""
+def _mlp_run(theta: torch.Tensor, x: torch.Tensor, layers: tuple, activation: str
+             ) -> tuple[torch.Tensor, list[torch.Tensor]]:
+    """A stacked MLP ``x [L, M, in] -> [L, M, out]`` whose weights are columns of the flat ``theta
+    [L, P]`` (``layers``: each layer's weight column, bias column, in and out); returns the output
+    and each layer's input, which :func:`_mlp_grad` reads. ``tanh`` runs in numpy, in place."""
+    L = theta.shape[0]
+    inputs = [x]
+    last = len(layers) - 1
+    for i, (w, b, din, dout) in enumerate(layers):
+        x = torch.bmm(x, theta[:, w: w + din * dout].view(L, din, dout)).add_(theta[:, None, b: b + dout])
+        if i < last:
+            if activation == "tanh":
+                np.tanh(x.numpy(), out=x.numpy())
+            else:
+                x.clamp_(min=0.0)
+            inputs.append(x)
+    return x, inputs
+
+
+def _mlp_grad(theta: torch.Tensor, inputs: list[torch.Tensor], grad: torch.Tensor, layers: tuple,
+              activation: str) -> torch.Tensor:
+    """The gradient ``[L, P]`` of a loss in ``theta`` through :func:`_mlp_run`, given the loss's
+    gradient in the output (the inputs' own gradient is not needed: observations are data)."""
+    L = theta.shape[0]
+    grad_theta = torch.zeros_like(theta)
+    grad = grad.contiguous()
+    for i in range(len(layers) - 1, -1, -1):
+        w, b, din, dout = layers[i]
+        h = inputs[i]
+        grad_theta[:, w: w + din * dout].view(L, din, dout).copy_(torch.bmm(h.transpose(1, 2), grad))
+        grad_theta[:, b: b + dout] = grad.sum(1)
+        if i == 0:
+            break
+        grad = torch.bmm(grad, theta[:, w: w + din * dout].view(L, din, dout).transpose(1, 2))
+        if activation == "tanh":
+            g, y = grad.numpy(), h.numpy()
+            g *= 1.0 - y * y
+        else:
+            grad.mul_(h > 0)
+    return grad_theta
+
+
+class _StackedMLP(torch.autograd.Function):
+    """:func:`_mlp_run` as one autograd node (instead of a few per layer), differentiated by
+    :func:`_mlp_grad` into a ``[L, P]`` gradient that autograd adds to ``theta.grad``."""
 
     @staticmethod
-    def forward(ctx, x: torch.Tensor) -> torch.Tensor:
-        y = torch.from_numpy(np.tanh(x.detach().numpy()))
-        ctx.save_for_backward(y)
-        return y
+    def forward(ctx, theta: torch.Tensor, x: torch.Tensor, layers: tuple, activation: str) -> torch.Tensor:
+        out, inputs = _mlp_run(theta, x, layers, activation)
+        ctx.save_for_backward(theta, *inputs)
+        ctx.layers, ctx.activation = layers, activation
+        return out
 
     @staticmethod
-    def backward(ctx, grad: torch.Tensor) -> torch.Tensor:
-        (y,) = ctx.saved_tensors
-        g = y.numpy() * y.numpy()
-        np.subtract(1.0, g, out=g)
-        g *= grad.numpy()
-        return torch.from_numpy(g)
-
-
-def _activate(x: torch.Tensor, activation: str) -> torch.Tensor:
-    return _NumpyTanh.apply(x) if activation == "tanh" else torch.relu(x)
+    def backward(ctx, grad: torch.Tensor) -> tuple:
+        theta, *inputs = ctx.saved_tensors
+        return _mlp_grad(theta, inputs, grad, ctx.layers, ctx.activation), None, None, None
 
 
 def _stack_key(learner: Learner) -> tuple | None:
@@ -117,13 +153,56 @@ def _layers(module: torch.nn.Module) -> list[tuple[torch.nn.Parameter, torch.nn.
     return [(layer.weight, layer.bias) for layer in module.hidden] + [(module.head.weight, module.head.bias)]
 
 
-def _group_rows(codes: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Rows grouped by learner: (order, group of each ordered row, position in its group, rows per group)."""
-    counts = np.bincount(codes, minlength=n_groups)
-    order = np.argsort(codes, kind="stable")
-    grouped = codes[order]
-    starts = np.cumsum(counts) - counts
-    return order, grouped, np.arange(len(codes)) - starts[grouped], max(1, int(counts.max()))
+class RowLayout:
+    """Rows of a batch laid out by learner as ``[L, M, features]`` (M the most rows a learner
+    holds; learners with fewer are padded with zeros), and the way back."""
+
+    def __init__(self, members: np.ndarray, n_learners: int) -> None:
+        members = np.asarray(members, dtype=np.int64)
+        self.n, self.L = len(members), n_learners
+        counts = np.bincount(members, minlength=n_learners)
+        self.m = max(1, int(counts.max()))
+        self.order = np.argsort(members, kind="stable")
+        grouped = members[self.order]
+        starts = np.cumsum(counts) - counts
+        self.group_of, self.pos = grouped, np.arange(self.n) - starts[grouped]
+        # every learner holds as many rows: a reshape of the ordered rows, no padding
+        self.even = bool((counts == self.m).all())
+        self.identity = self.even and bool((self.order == np.arange(self.n)).all())
+
+    def group(self, rows: np.ndarray) -> np.ndarray:
+        """``[N, F] -> [L, M, F]``."""
+        if self.identity:
+            return rows.reshape(self.L, self.m, -1)
+        if self.even:
+            return rows[self.order].reshape(self.L, self.m, -1)
+        out = np.zeros((self.L, self.m, rows.shape[1]), dtype=rows.dtype)
+        out[self.group_of, self.pos] = rows[self.order]
+        return out
+
+    def ungroup(self, grouped: np.ndarray) -> np.ndarray:
+        """``[L, M, F] -> [N, F]`` in the rows' own order."""
+        if self.identity:
+            return grouped.reshape(self.n, -1)
+        out = np.empty((self.n, grouped.shape[2]), dtype=grouped.dtype)
+        out[self.order] = grouped.reshape(-1, grouped.shape[2]) if self.even else grouped[self.group_of, self.pos]
+        return out
+
+
+def _sample_categorical(logits: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """``sample_from_logits`` (inverse CDF, one uniform per row) and the sample's log-probability
+    (``_categorical_logprob``), from one softmax: the same numbers as those two functions."""
+    z = logits.astype(np.float64)
+    if mask is not None:
+        z[~mask] = -np.inf
+    z -= z.max(axis=1, keepdims=True)
+    p = np.exp(z)
+    total = p.sum(axis=1)
+    cdf = np.cumsum(p, axis=1)
+    cdf /= cdf[:, -1:]
+    actions = np.minimum((cdf < uniforms[:, None]).sum(axis=1), logits.shape[1] - 1).astype(np.int64)
+    return actions, z[np.arange(len(actions)), actions] - np.log(total)
 
 
 @dataclass
@@ -183,6 +262,15 @@ class _Flat:
                     self.sq[i, cols] = self._stacked(state["exp_avg_sq"], transpose)
                     self.steps[i] = float(state["step"])
         self.theta = theta.requires_grad_(True)
+        # per part, each layer's (weight column, bias column, in, out), as _StackedMLP reads them
+        self.layouts: dict[str, tuple] = {}
+        for e in range(0, len(entries) - 1, 2):
+            part, (din, dout), _, _ = entries[e]
+            if entries[e + 1][0] == part and part != "log_std":
+                self.layouts[part] = (*self.layouts.get(part, ()), (int(self.offsets[e]), int(self.offsets[e + 1]),
+                                                                    din, dout))
+        self.log_std_column = next((int(self.offsets[e]) for e, entry in enumerate(entries) if entry[0] == "log_std"),
+                                   None)
 
     @staticmethod
     def _stacked(t: torch.Tensor, transpose: bool) -> torch.Tensor:
@@ -206,14 +294,15 @@ class _Flat:
             entries.append(("log_std", tuple(learners[0].log_std.shape), False, tuple(lr.log_std for lr in learners)))
         return cls(learners, entries)
 
-    def views(self) -> tuple[list[torch.Tensor], list[torch.Tensor] | None, torch.Tensor | None]:
-        """(actor layers, critic layers or None, ``log_std [L, act_dim]`` or None) as views of
-        ``theta`` (made afresh per minibatch, each backward then reaches ``theta``)."""
-        L = self.theta.shape[0]
-        out: dict[str, list[torch.Tensor]] = {"actor": [], "critic": [], "log_std": []}
-        for e, (part, shape, _, _) in enumerate(self.entries):
-            out[part].append(self.theta[:, self.offsets[e]: self.offsets[e + 1]].view(L, *shape))
-        return out["actor"], out["critic"] or None, out["log_std"][0] if out["log_std"] else None
+    def mlp(self, part: str, x: torch.Tensor, activation: str) -> torch.Tensor:
+        """The stacked actor's or critic's output for ``x [L, M, in]``, differentiable in ``theta``."""
+        return _StackedMLP.apply(self.theta, x, self.layouts[part], activation)
+
+    def log_std(self) -> torch.Tensor | None:
+        """The stacked ``log_std [L, act_dim]`` (a view of ``theta``), or None for discrete actors."""
+        if self.log_std_column is None:
+            return None
+        return self.theta[:, self.log_std_column:]
 
     @torch.no_grad()
     def step(self, live: torch.Tensor, max_norm: torch.Tensor, lrs: np.ndarray, eps: float) -> None:
@@ -283,6 +372,9 @@ class LearnerStack:
         self.has_critic = first.critic is not None
         self._actor: _Act | None = None
         self._critic: _Act | None = None
+        self._log_std: np.ndarray | None = None
+        self._value_std: np.ndarray | None = None
+        self._value_mean: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.learners)
@@ -293,38 +385,36 @@ class LearnerStack:
         activation = self.architecture.activation
         self._actor = _Act.of([lr.actor for lr in self.learners], activation)
         self._critic = _Act.of([lr.critic for lr in self.learners], activation) if self.has_critic else None
+        if self.learners[0].log_std is not None:
+            self._log_std = np.stack([lr.log_std.detach().numpy().copy() for lr in self.learners])
+        norms = [lr.value_norm for lr in self.learners]
+        self._value_std = self._value_mean = None
+        if self.has_critic and all(v is not None for v in norms):
+            self._value_std = np.array([v.std for v in norms])
+            self._value_mean = np.array([v.mean for v in norms])
 
     def act(self, members: np.ndarray, obs: np.ndarray, noise: np.ndarray, mask: np.ndarray | None,
-            critic_input: np.ndarray | None) -> ActResult:
+            critic_input: np.ndarray | None, layout: RowLayout | None = None) -> ActResult:
         """Sample actions for N rows, row ``i`` played by stacked learner ``members[i]`` (see
-        :meth:`Learner.act <arena_league.training.ppo.Learner.act>` for the arguments)."""
+        :meth:`Learner.act <arena_league.training.ppo.Learner.act>` for the arguments; ``layout``
+        is ``RowLayout(members, len(stack))``, which a caller acting for the same rows every step
+        computes once)."""
         if self._actor is None:
             self.refresh()
         assert self._actor is not None
-        L, n = len(self.learners), len(members)
-        if L == 1:
-            out = self._actor(obs[None])[0]
-            preds = self._critic(critic_input[None])[0, :, 0] if self._critic is not None else None
-        else:
-            order, group, pos, m = _group_rows(members, L)
-            x = np.zeros((L, m, obs.shape[1]), dtype=np.float32)
-            x[group, pos] = obs[order]
-            out = np.empty((n, self._actor.weights[-1].shape[2]), dtype=np.float32)
-            out[order] = self._actor(x)[group, pos]
-            preds = None
-            if self._critic is not None:
-                c = np.zeros((L, m, critic_input.shape[1]), dtype=np.float32)
-                c[group, pos] = critic_input[order]
-                preds = np.empty(n, dtype=np.float32)
-                preds[order] = self._critic(c)[group, pos, 0]
+        n = len(members)
+        layout = layout or RowLayout(members, len(self.learners))
+        out = layout.ungroup(self._actor(layout.group(obs)))
+        preds = None
+        if self._critic is not None:
+            preds = layout.ungroup(self._critic(layout.group(critic_input)))[:, 0]
         if self.discrete:
-            mask = legal_mask(mask, out.shape)
-            actions = sample_from_logits(out, np.asarray(noise, dtype=np.float64).reshape(n, 1), mask)
-            logprobs = _categorical_logprob(out, actions, mask).astype(np.float32)
+            actions, logprobs = _sample_categorical(out, np.asarray(noise, dtype=np.float64).reshape(n),
+                                                    legal_mask(mask, out.shape))
             env_actions = actions
         else:
             mean = np.tanh(out)
-            log_std = np.stack([lr.log_std.detach().numpy() for lr in self.learners])[members]
+            log_std = self._log_std[members]
             squash = self.config.continuous_head == "tanh"
             if squash:
                 mean = np.arctanh(np.clip(mean, -1.0 + _SQUASH_EPS, 1.0 - _SQUASH_EPS))
@@ -336,35 +426,27 @@ class LearnerStack:
                 env_actions = np.tanh(actions)
             else:
                 env_actions = np.clip(actions, -1.0, 1.0)
-            logprobs = logprobs.astype(np.float32)
         values = value_preds = np.zeros(n, dtype=np.float32)
         if preds is not None:
             value_preds = preds
-            values = np.empty(n, dtype=np.float32)
-            for i, learner in enumerate(self.learners):
-                rows = members == i
-                values[rows] = learner.denormalize(preds[rows])
-        return ActResult(env_actions, actions, logprobs, values, value_preds, None)
+            values = self._denormalize(preds, members)
+        return ActResult(env_actions, actions, logprobs.astype(np.float32), values, value_preds, None)
+
+    def _denormalize(self, preds: np.ndarray, members: np.ndarray) -> np.ndarray:
+        """As each row's learner's ``denormalize`` (float64, then float32)."""
+        if self._value_std is None:
+            return preds.astype(np.float32)
+        return (preds.astype(np.float64) * self._value_std[members] + self._value_mean[members]).astype(np.float32)
 
     def values(self, members: np.ndarray, critic_input: np.ndarray) -> np.ndarray:
         """Denormalised value estimates of critic input rows, row ``i`` by learner ``members[i]``."""
-        n = len(members)
+        if not self.has_critic:
+            return np.zeros(len(members), dtype=np.float32)
         if self._critic is None:
-            if self.has_critic:
-                self.refresh()
-            else:
-                return np.zeros(n, dtype=np.float32)
+            self.refresh()
         assert self._critic is not None
-        order, group, pos, m = _group_rows(members, len(self.learners))
-        c = np.zeros((len(self.learners), m, critic_input.shape[1]), dtype=np.float32)
-        c[group, pos] = critic_input[order]
-        preds = np.empty(n, dtype=np.float32)
-        preds[order] = self._critic(c)[group, pos, 0]
-        values = np.empty(n, dtype=np.float32)
-        for i, learner in enumerate(self.learners):
-            rows = members == i
-            values[rows] = learner.denormalize(preds[rows])
-        return values
+        layout = RowLayout(members, len(self.learners))
+        return self._denormalize(layout.ungroup(self._critic(layout.group(critic_input)))[:, 0], members)
 
     # --- updating ---------------------------------------------------------------------------------
     def update(self, batches: Sequence[Batch], learning_rates: Sequence[float], *,
@@ -424,11 +506,14 @@ class LearnerStack:
                 in_mb = in_epoch[:, part]
                 live = torch.from_numpy(taken[:, k].any(axis=1) & running)
                 mb = {name: tensor[:, part] for name, tensor in shuffled.items()}
-                actor, critic, log_std = flat_params.views()
-                loss, terms = self._minibatch_loss(mb, in_mb, live, actor, critic, log_std, clip, ent_coef, vf_coef,
-                                                   train_critic)
                 flat_params.theta.grad = None
-                loss.backward()
+                if self.discrete:  # its gradient written out by hand: a few dozen operations, no graph
+                    terms = self._discrete_minibatch(mb, in_mb, live, flat_params, clip, ent_coef, vf_coef,
+                                                     train_critic)
+                else:
+                    loss, terms = self._minibatch_loss(mb, in_mb, live, flat_params, clip, ent_coef, vf_coef,
+                                                       train_critic)
+                    loss.backward()
                 flat_params.step(live, max_norm, lrs, config.adam_eps)
                 live_np = live.numpy()
                 sums += terms.double() * live
@@ -442,8 +527,7 @@ class LearnerStack:
                     running[i] = False
         flat_params.write_back(lrs)
         results = []
-        explained = (self._explained_variance(data, valid, flat_params.views()[1]) if train_critic
-                     else [float("nan")] * L)
+        explained = self._explained_variance(data, valid, flat_params) if train_critic else [float("nan")] * L
         for i, learner in enumerate(learners):
             count = max(int(n_minibatches[i]), 1)
             results.append(UpdateStats(policy_loss=float(sums[0, i]) / count, value_loss=float(sums[1, i]) / count,
@@ -496,19 +580,8 @@ class LearnerStack:
         return data, valid, sizes
 
     # the loss of one minibatch, summed over learners
-    def _forward(self, layers: list[torch.Tensor], x: torch.Tensor) -> torch.Tensor:
-        activation = self.architecture.activation
-        last = len(layers) // 2 - 1
-        for i in range(len(layers) // 2):
-            # bmm then an in-place bias: baddbmm first copies the broadcast bias, which cost more here
-            x = torch.bmm(x, layers[2 * i]).add_(layers[2 * i + 1])
-            if i < last:
-                x = _activate(x, activation)
-        return x
-
     def _minibatch_loss(self, mb: dict[str, torch.Tensor], in_mb: torch.Tensor, live: torch.Tensor,
-                        actor: list[torch.Tensor], critic: list[torch.Tensor] | None,
-                        log_std: torch.Tensor | None, clip: torch.Tensor, ent_coef: torch.Tensor,
+                        flat: _Flat, clip: torch.Tensor, ent_coef: torch.Tensor,
                         vf_coef: torch.Tensor, train_critic: bool) -> tuple[torch.Tensor, torch.Tensor]:
         """(the loss summed over the live learners, ``[5, L]`` per-learner policy loss, value loss,
         entropy, approximate KL and clip fraction)."""
@@ -516,13 +589,15 @@ class LearnerStack:
         acting = mb["acting"] & in_mb
         acting_f = acting.float()
         n_acting = acting_f.sum(1).clamp(min=1.0)
-        out = self._forward(actor, mb["obs"])
+        activation = self.architecture.activation
+        out = flat.mlp("actor", mb["obs"], activation)
         if self.discrete:
             logits = out if "masks" not in mb else out.masked_fill(~mb["masks"], _ILLEGAL_LOGIT)
             log_p = torch.log_softmax(logits, dim=2)
             entropy = -(log_p.exp() * log_p).sum(2)
             new_logprob = log_p.gather(2, mb["actions"].long().unsqueeze(2)).squeeze(2)
         else:
+            log_std = flat.log_std()
             assert log_std is not None
             mean = torch.tanh(out)
             if config.continuous_head == "tanh":
@@ -538,23 +613,16 @@ class LearnerStack:
         with torch.no_grad():
             approx_kl = (((ratio - 1) - log_ratio) * acting_f).sum(1) / n_acting
             clip_fraction = (((ratio - 1.0).abs() > clip).float() * acting_f).sum(1) / n_acting
-        advantages = mb["advantages"]
-        if config.norm_adv:
-            counts = acting_f.sum(1, keepdim=True)
-            mean_adv = (advantages * acting_f).sum(1, keepdim=True) / counts.clamp(min=1.0)
-            var = (((advantages - mean_adv) ** 2) * acting_f).sum(1, keepdim=True) / (counts - 1.0).clamp(min=1.0)
-            normalised = (advantages - mean_adv) / (var.sqrt() + 1e-8)
-            advantages = torch.where(counts > 1, normalised, advantages)
+        advantages = self._normalised_advantages(mb["advantages"], acting_f)
         surrogate = torch.max(-advantages * ratio, -advantages * ratio.clamp(1 - clip, 1 + clip))
         policy_loss = (surrogate * acting_f).sum(1) / n_acting
         entropy_loss = (entropy * acting_f).sum(1) / n_acting
         per_learner = policy_loss - ent_coef * entropy_loss
         v_loss = torch.zeros_like(policy_loss)
         if train_critic:
-            assert critic is not None
             rows_f = in_mb.float()
             n_rows = rows_f.sum(1).clamp(min=1.0)
-            new_value = self._forward(critic, mb["critic_input"]).squeeze(2)
+            new_value = flat.mlp("critic", mb["critic_input"], activation).squeeze(2)
             target, old = mb["returns"], mb["values"]
             unclipped = (new_value - target) ** 2
             if config.clip_vloss:
@@ -568,11 +636,86 @@ class LearnerStack:
         terms = torch.stack([policy_loss.detach(), v_loss.detach(), entropy_loss.detach(), approx_kl, clip_fraction])
         return loss, terms
 
-    def _explained_variance(self, data: dict[str, torch.Tensor], valid: torch.Tensor,
-                            critic: list[torch.Tensor] | None) -> list[float]:
-        assert critic is not None
+    @torch.no_grad()
+    def _discrete_minibatch(self, mb: dict[str, torch.Tensor], in_mb: torch.Tensor, live: torch.Tensor,
+                            flat: _Flat, clip: torch.Tensor, ent_coef: torch.Tensor, vf_coef: torch.Tensor,
+                            train_critic: bool) -> torch.Tensor:
+        """:meth:`_minibatch_loss` of a categorical policy, with the loss's gradient in ``theta``
+        written out (set as ``flat.theta.grad``) instead of taken by autograd. The same
+        derivatives as autograd's: the clipped surrogate passes the gradient of the unclipped
+        ratio where it is the larger term (ties included), none where the clipped one is; the
+        value loss likewise; log-softmax and entropy by their closed forms. Returns the ``[5, L]``
+        terms."""
+        config = self.config
+        activation = self.architecture.activation
+        theta = flat.theta.detach()
+        acting_f = (mb["acting"] & in_mb).float()
+        n_acting = acting_f.sum(1, keepdim=True).clamp(min=1.0)
+        live_f = live.float()[:, None]
+        out, actor_inputs = _mlp_run(theta, mb["obs"], flat.layouts["actor"], activation)
+        masks = mb.get("masks")
+        z = out if masks is None else out.masked_fill(~masks, _ILLEGAL_LOGIT)
+        z = z - z.max(2, keepdim=True).values
+        e = z.exp()
+        total = e.sum(2, keepdim=True)
+        p = e / total
+        log_p = z - total.log()
+        entropy = -(p * log_p).sum(2)
+        taken = mb["actions"].long().unsqueeze(2)
+        log_ratio = log_p.gather(2, taken).squeeze(2) - mb["logprobs"]
+        ratio = log_ratio.exp()
+        n = n_acting[:, 0]
+        approx_kl = (((ratio - 1) - log_ratio) * acting_f).sum(1) / n
+        clip_fraction = (((ratio - 1.0).abs() > clip).float() * acting_f).sum(1) / n
+        advantages = self._normalised_advantages(mb["advantages"], acting_f)
+        unclipped = -advantages * ratio
+        surrogate = torch.max(unclipped, -advantages * ratio.clamp(1 - clip, 1 + clip))
+        policy_loss = (surrogate * acting_f).sum(1) / n
+        entropy_loss = (entropy * acting_f).sum(1) / n
+        weight = acting_f * live_f / n_acting  # d loss / d (a row's surrogate)
+        d_logprob = torch.where(unclipped >= surrogate, unclipped, torch.zeros(())) * weight
+        d_entropy = (-ent_coef[:, None] * weight).unsqueeze(2)
+        grad_z = -p * (d_logprob.unsqueeze(2) + d_entropy * (log_p + entropy.unsqueeze(2)))
+        grad_z.scatter_add_(2, taken, d_logprob.unsqueeze(2))
+        if masks is not None:
+            grad_z.mul_(masks)
+        grad = _mlp_grad(theta, actor_inputs, grad_z, flat.layouts["actor"], activation)
+        v_loss = torch.zeros_like(policy_loss)
+        if train_critic:
+            rows_f = in_mb.float()
+            n_rows = rows_f.sum(1, keepdim=True).clamp(min=1.0)
+            value, critic_inputs = _mlp_run(theta, mb["critic_input"], flat.layouts["critic"], activation)
+            value = value.squeeze(2)
+            error = value - mb["returns"]
+            squared = error * error
+            slope = error  # d (squared / 2) / d value, through the larger of the two terms
+            if config.clip_vloss:
+                old = mb["values"]
+                change = value - old
+                clipped = old + change.clamp(-clip, clip) - mb["returns"]
+                larger = squared >= clipped * clipped
+                # inside the clip range the clipped term differs from the plain one by rounding only,
+                # and passes its gradient; outside, it passes none
+                slope = torch.where(larger, error, clipped * ((change >= -clip) & (change <= clip)))
+                squared = torch.max(squared, clipped * clipped)
+            v_loss = 0.5 * (squared * rows_f).sum(1) / n_rows[:, 0]
+            d_value = vf_coef[:, None] * rows_f * live_f / n_rows * slope
+            grad += _mlp_grad(theta, critic_inputs, d_value.unsqueeze(2), flat.layouts["critic"], activation)
+        flat.theta.grad = grad
+        return torch.stack([policy_loss, v_loss, entropy_loss, approx_kl, clip_fraction])
+
+    def _normalised_advantages(self, advantages: torch.Tensor, acting_f: torch.Tensor) -> torch.Tensor:
+        """Advantages normalised per learner over its acting rows (when it has more than one)."""
+        if not self.config.norm_adv:
+            return advantages
+        counts = acting_f.sum(1, keepdim=True)
+        mean = (advantages * acting_f).sum(1, keepdim=True) / counts.clamp(min=1.0)
+        var = (((advantages - mean) ** 2) * acting_f).sum(1, keepdim=True) / (counts - 1.0).clamp(min=1.0)
+        return torch.where(counts > 1, (advantages - mean) / (var.sqrt() + 1e-8), advantages)
+
+    def _explained_variance(self, data: dict[str, torch.Tensor], valid: torch.Tensor, flat: _Flat) -> list[float]:
         with torch.no_grad():
-            predicted = self._forward(critic, data["critic_input"]).squeeze(2)
+            predicted = flat.mlp("critic", data["critic_input"], self.architecture.activation).squeeze(2)
         out = []
         for i in range(len(self.learners)):
             rows = valid[i]
