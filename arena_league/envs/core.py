@@ -37,7 +37,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, ClassVar
 
 import numpy as np
@@ -93,20 +93,32 @@ class Measures:
             self.active = np.ones(self.n_agents, dtype=bool)
 
     @classmethod
-    def allocate(cls, n_agents: int, names: frozenset[str] | set[str] | tuple[str, ...]) -> Measures:
-        """Zeroed arrays for the named measures (bools for flags, float64 otherwise)."""
+    def allocate(cls, n_agents: int, names: frozenset[str] | set[str] | tuple[str, ...],
+                 n_slots: int | None = None) -> Measures:
+        """Zeroed arrays for the named measures (bools for flags, float64 otherwise); with
+        ``n_slots``, the measures of that many matches at once: arrays ``[n_slots, n_agents]``
+        (a whole-array engine's, see :meth:`row`)."""
         unknown = set(names) - set(MEASURE_DOCS)
         if unknown:
             raise ValueError(f"unknown measures {sorted(unknown)}; valid: {sorted(MEASURE_DOCS)}")
-        m = cls(n_agents)
+        shape = n_agents if n_slots is None else (n_slots, n_agents)
+        m = cls(n_agents, active=np.ones(shape, dtype=bool))
         for name in names:
             if name == "active":
                 continue
             dtype = bool if name in _BOOL_MEASURES else np.float64
-            setattr(m, name, np.zeros(n_agents, dtype=dtype))
+            setattr(m, name, np.zeros(shape, dtype=dtype))
         if "alive" in names:
             m.alive[:] = True
         return m
+
+    def row(self, slot: int) -> Measures:
+        """The measures of match ``slot`` of measures held for many matches (every array's first
+        axis is the match): the same class with each array replaced by its row ``slot`` (a view,
+        so it follows the many-match arrays when they are updated in place)."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        return type(self)(**{name: value[slot] if isinstance(value, np.ndarray) else value
+                             for name, value in values.items()})
 
     def copy_of(self, names: tuple[str, ...]) -> dict[str, np.ndarray]:
         """A snapshot of the named measures (for rewards that need the previous step)."""

@@ -18,6 +18,14 @@ An engine adapter offers, for ``n_slots`` matches:
   act_dim]`` for continuous actions): steps every live match, returns the slots whose match ended
   (terminated or cut at ``max_cycles``);
 * ``steps(slot) -> int`` and ``team_result(slot) -> float64[n_teams]`` of an ended match.
+
+A training run steps its envs on the same engines
+(:class:`arena_league.training.engine_batch.EngineBatch`), computing rewards through the env's
+social tree; for that an engine also offers ``measures`` (a ``Measures`` of ``[n_slots, n_agents]``
+arrays holding what the rules' measures would, kept current by ``start`` and ``step``, ``outcome``
+set when a match ends by the rules or at ``max_cycles``), ``state() -> float32[n_slots, state_dim]``,
+``current_player() -> int64[n_slots]`` in turn-based games, and ``observe()`` rows of a match that
+ended equal to the rules' observation after the end.
 """
 
 from __future__ import annotations

@@ -155,5 +155,15 @@ class EnvList(EnvBatch):
 
 
 def env_batch(env_fn: Callable[[], Any], num_envs: int) -> EnvBatch:
-    """The :class:`EnvBatch` of ``num_envs`` envs made by ``env_fn``: K separate envs."""
-    return EnvList([env_fn() for _ in range(num_envs)])
+    """The :class:`EnvBatch` of ``num_envs`` envs made by ``env_fn``: the game's whole-array engine
+    (:class:`~arena_league.training.engine_batch.EngineBatch`, built from one env's rules) where
+    the game has one and the observations are the rules' own (no broadcast boards, no global
+    state in them); else K separate envs."""
+    from arena_league.training.engine_batch import EngineBatch, engine_fits
+
+    if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+        raise ValueError(f"num_envs must be a positive integer, not {num_envs!r}")
+    probe = env_fn()
+    if engine_fits(probe):
+        return EngineBatch(probe, num_envs)
+    return EnvList([probe, *(env_fn() for _ in range(num_envs - 1))])

@@ -138,7 +138,7 @@ import numpy as np
 
 from arena_league.envs import scene
 from arena_league.envs.controls import Controls
-from arena_league.envs.core import GameRules, cell_bounds
+from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.options import Option
 from arena_league.envs.rendering import Canvas
 
@@ -312,7 +312,12 @@ class GoBangBoards:
 
 class GoBangMatches:
     """GoBang matches stepped together on a ``GoBangBoards`` engine: the match engine's whole-array
-    path (turn order, observation layout, illegal moves and draws as in the module docstring)."""
+    path (turn order, observation layout, illegal moves and draws as in the module docstring).
+
+    ``measures`` holds every match's measures as ``GoBangRules`` sets them (``[n_slots, n_agents]``
+    arrays: ``active`` always, ``outcome`` set when a match ends), ``state()`` every match's global
+    state and ``current_player()`` every match's seat to move: what a training batch
+    (``arena_league.training.engine_batch``) reads."""
 
     def __init__(self, rules: GoBangRules, n_slots: int, max_cycles: int) -> None:
         self.n_slots = n_slots
@@ -325,11 +330,13 @@ class GoBangMatches:
         self.boards.done[:] = True  # idle slots: the engine leaves finished boards alone
         self._steps = np.zeros(n_slots, dtype=np.int64)
         self._seats = np.arange(self.n_agents)
+        self.measures = Measures.allocate(self.n_agents, rules.measures_provided, n_slots)
 
     def start(self, slot: int, seed: int) -> None:
         # GoBang draws nothing at random: the seed is not needed, the board starts empty
         self.boards.reset(np.array([slot]))
         self._steps[slot] = 0
+        self.measures.outcome[slot] = 0.0
 
     def current_player(self) -> np.ndarray:
         """The seat to move on each board (GoBangRules.current_player, for every board at once)."""
@@ -339,10 +346,20 @@ class GoBangMatches:
     def observe(self) -> np.ndarray:
         by_colour = self.boards.observe()  # [B, 2, obs_dim], 2T1P layout
         if self.players_per_team == 1:
-            return by_colour
-        obs = by_colour[:, self.team_of]  # teammates share a colour; "my turn" is per seat
-        obs[:, :, 2 * self.n_cells] = self.current_player()[:, None] == self._seats[None, :]
+            obs = by_colour
+        else:
+            obs = by_colour[:, self.team_of]  # teammates share a colour; "my turn" is per seat
+            obs[:, :, 2 * self.n_cells] = self.current_player()[:, None] == self._seats[None, :]
+        over = self._game_over()
+        if over.any():  # nobody's turn once the rules ended the game, as the rules observe it
+            obs[over, :, 2 * self.n_cells: 2 * self.n_cells + 2] = 0.0
         return obs
+
+    def _game_over(self) -> np.ndarray:
+        """``bool[n_slots]``: the rules ended the match (a five, an illegal move, a full board);
+        a match cut at ``max_cycles`` is not over for the rules."""
+        boards = self.boards
+        return boards.done & ((boards.winner >= 0) | (boards.n_stones == self.n_cells))
 
     def action_mask(self) -> np.ndarray:
         legal = self.boards.legal_mask()
@@ -360,7 +377,22 @@ class GoBangMatches:
         # the env cuts a match at max_cycles: a draw (no winner yet, or the board would have ended it)
         cut = live & ~boards.done & (self._steps >= self.max_cycles)
         boards.done |= cut
-        return live & boards.done
+        ended = live & boards.done
+        if ended.any():  # +1 / -1 for the winning / losing team, 0 for a draw or a cut
+            winner = boards.winner[ended][:, None]
+            self.measures.outcome[ended] = np.where(winner < 0, 0.0,
+                                                    np.where(self.team_of[None, :] == winner, 1.0, -1.0))
+        return ended
+
+    def state(self) -> np.ndarray:
+        """``float32[n_slots, state_dim]``: every match's global state (``GoBangRules.state``)."""
+        boards = self.boards
+        state = np.empty((self.n_slots, self.n_cells + 2))
+        cells = boards.cells
+        state[:, : self.n_cells] = np.where(cells == BLACK, 1.0, np.where(cells == WHITE, -1.0, 0.0))
+        state[:, self.n_cells] = np.where(boards.to_move == 0, 1.0, -1.0)
+        state[:, self.n_cells + 1] = boards.n_stones / self.n_cells
+        return state.astype(np.float32)
 
     def steps(self, slot: int) -> int:
         return int(self._steps[slot])

@@ -181,7 +181,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from arena_league.envs import scene
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
-from arena_league.envs.core import GameRules, cell_bounds
+from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.options import Option
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 
@@ -818,22 +818,37 @@ class SnakeBoards:
 class SnakeMatches:
     """Snake matches stepped together on a ``SnakeBoards`` engine built like ``SnakeRules``' own
     one-board engine (same size, food, start length, view, teams and quarter turns); each match's
-    board key is drawn from its seed exactly as ``SnakeRules.reset`` draws it."""
+    board key is drawn from its seed exactly as ``SnakeRules.reset`` draws it.
+
+    ``measures`` holds every match's measures as ``SnakeRules`` sets them (``[n_slots, n_agents]``
+    arrays, kept current by ``start`` and ``step``; ``outcome`` set when a match ends, by the rules
+    or cut at ``max_cycles``), and ``state()`` every match's global state: what a training batch
+    (``arena_league.training.engine_batch``) computes rewards from."""
 
     def __init__(self, rules: SnakeRules, n_slots: int, max_cycles: int) -> None:
         one = rules.engine
         self.n_slots = n_slots
         self.max_cycles = max_cycles
+        self.team_of = np.asarray(rules.team_of, dtype=np.int64)
+        self.n_teams = rules.n_teams
         self.boards = SnakeBoards(n_slots, one.n_snakes, size=one.size, n_food=one.n_food,
                                   start_length=one.start_length, view_radius=one.view_radius,
                                   team_of=one.team_of, rotations=one.rotations)
         self.boards.done[:] = True  # idle slots: the engine leaves finished boards alone
         self._steps = np.zeros(n_slots, dtype=np.int64)
+        self.measures = Measures.allocate(rules.n_agents, rules.measures_provided, n_slots)
 
     def start(self, slot: int, seed: int) -> None:
         key = np.random.default_rng(seed).integers(0, 2**64, size=1, dtype=np.uint64)
         self.boards.reset(np.array([slot]), keys=key)
         self._steps[slot] = 0
+        m = self.measures
+        m.active[slot] = True
+        m.alive[slot] = True
+        m.resource_gain[slot] = 0.0
+        m.velocity_to_target[slot] = 0.0
+        m.target_distance[slot] = self.boards.food_distance[slot]
+        m.outcome[slot] = 0.0
 
     def observe(self) -> np.ndarray:
         return self.boards.observe()
@@ -851,7 +866,26 @@ class SnakeMatches:
         self._steps += live
         cut = live & ~boards.done & (self._steps >= self.max_cycles)  # the env's max_cycles
         boards.done[cut] = True
-        return live & boards.done
+        ended = live & boards.done
+        self._update_measures(live, ended)
+        return ended
+
+    def _update_measures(self, live: np.ndarray, ended: np.ndarray) -> None:
+        """The measures of the matches just stepped, as ``SnakeRules.step`` (and ``finish``) set them."""
+        m, boards, rows = self.measures, self.boards, live[:, None]
+        np.copyto(m.alive, boards.alive, where=rows)
+        np.copyto(m.active, boards.alive, where=rows)
+        np.copyto(m.resource_gain, boards.ate, where=rows)
+        np.copyto(m.velocity_to_target, boards.toward_food, where=rows)
+        np.copyto(m.target_distance, boards.food_distance, where=rows)
+        if ended.any():
+            finished = np.flatnonzero(ended)
+            scores = boards.team_scores(finished)
+            m.outcome[finished] = 2.0 * scores[:, self.team_of] / (self.n_teams - 1) - 1.0
+
+    def state(self) -> np.ndarray:
+        """``float32[n_slots, state_dim]``: every match's global state (``SnakeRules.state``)."""
+        return self.boards.state()
 
     def steps(self, slot: int) -> int:
         return int(self._steps[slot])

@@ -72,6 +72,8 @@ DROP = 0.02
 #: Measures every robot game emits.
 BASE_MEASURES = frozenset({"active", "target_distance", "velocity_to_target", "facing_target", "energy", "force",
                            "speed", "fallen", "outcome"})
+#: Measures a robot game may add to ``BASE_MEASURES`` (kept in ``MatchState`` for every game).
+_OPTIONAL_MEASURES = frozenset({"arrived", "alive", "object_progress"})
 #: Game options every robot game takes, after its own (``RobotGameRules.game_options``).
 COMMON_OPTIONS: tuple[Option, ...] = (
     Option("frame_skip", int, 5, "MuJoCo sub-steps of 0.01 s per match step", low=1, high=20),
@@ -421,20 +423,18 @@ class RobotGameRules(GameRules):
 
     def _publish_measures(self) -> None:
         """Point the measures at row 0 of the match state (updated in place every step)."""
-        st, m = self.match, self.measures
-        m.block = st.block[0]
+        self.point_measures(self.measures, self.match, 0)
+
+    def point_measures(self, m: RobotMeasures, st: MatchState, slot: int | None) -> None:
+        """Point ``m`` at the arrays of the matches in ``st`` (updated in place every step): at
+        row ``slot``, or at every row (arrays ``[B, n_agents]``, ``block`` ``[B, rows,
+        n_agents]``) when ``slot`` is None."""
+        rows = slice(None) if slot is None else slot
+        m.block = st.block[rows]
         m.block_rows = st.block_rows
-        m.active = st.active[0]
-        m.outcome = st.outcome[0]
-        m.fallen = st.fallen[0]
-        for name in ("target_distance", "velocity_to_target", "facing_target", "energy", "force", "speed"):
-            setattr(m, name, getattr(st, name)[0])
-        if "arrived" in self.measures_provided:
-            m.arrived = st.arrived[0]
-        if "alive" in self.measures_provided:
-            m.alive = st.alive[0]
-        if "object_progress" in self.measures_provided:
-            m.object_progress = st.object_progress[0]
+        for name in ("active", "outcome", "fallen", "target_distance", "velocity_to_target", "facing_target",
+                     "energy", "force", "speed", *(_OPTIONAL_MEASURES & self.measures_provided)):
+            setattr(m, name, getattr(st, name)[rows])
 
     # --- the shared step -----------------------------------------------------------------------
     def place(self, data: mujoco.MjData, pose: StartPose, rng: np.random.Generator | None) -> None:
@@ -640,6 +640,11 @@ class RobotMatches:
     workers (default: the CPUs this process may use, at most 8) each step a contiguous share of the
     live matches with ``mj_step`` and take its readout product (both release the GIL); measures
     and judgement then run once over all matches as numpy arrays.
+
+    ``measures`` are every match's measures as the rules hold them (:class:`RobotMeasures` of
+    ``[n_slots, n_agents]`` arrays, views of the match state, ``anneal`` the rules'), and
+    ``state()`` every match's global state: what a training batch
+    (``arena_league.training.engine_batch``) computes rewards from.
     """
 
     def __init__(self, rules: RobotGameRules, n_slots: int, max_cycles: int, threads: int | None = None) -> None:
@@ -660,6 +665,8 @@ class RobotMatches:
         self.match.done[:] = True  # idle until started
         self._ctrl_views = [d.ctrl.reshape(rules.n_agents, rules.act_dim) for d in self.datas]
         self._sensor_views = [d.sensordata for d in self.datas]
+        self.measures = RobotMeasures(rules.n_agents, anneal=rules.measures.anneal)
+        rules.point_measures(self.measures, self.match, None)
         self._pool = ThreadPoolExecutor(self.threads, thread_name_prefix="robot-matches") if self.threads > 1 else None
 
     def close(self) -> None:
@@ -729,6 +736,16 @@ class RobotMatches:
 
     def team_result(self, slot: int) -> np.ndarray:
         return self.match.result[slot].copy()
+
+    def state(self) -> np.ndarray:
+        """``float32[n_slots, state_dim]``: every match's global state, each as the rules' ``state()``
+        computes it (one matrix-vector product per match, so the arithmetic is the same)."""
+        rules = self.rules
+        out = np.empty((self.n_slots, rules.state_dim), dtype=np.float32)
+        for slot, sensors in enumerate(self._sensor_views):
+            state = rules._state_matrix @ sensors
+            out[slot] = state.clip(rules._state_low, rules._state_high, out=state)
+        return out
 
 
 RobotGameRules.batched_matches = RobotMatches  # defined after the rules it steps
