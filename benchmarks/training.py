@@ -16,9 +16,11 @@ Sumo-2T1P-v1: MuJoCo robots) it measures, each figure in its own process pinned 
   shared by every seat, the setting the peers run), its speed-up over each peer;
 * ``peers`` (``--peers``, the default, where installed): Stable-Baselines3 PPO over SuperSuit's vector
   envs (each seat of each of 8 envs one entry, 128 steps per entry and update, the same
-  hyper-parameters and network sizes) and RLlib PPO (new API stack, the env runner and the learner in
-  the benchmark's process), on the same game. A peer that is missing or cannot run a game is
-  skipped with one line saying why.
+  hyper-parameters and network sizes), RLlib PPO (new API stack, the env runner and the learner in
+  the benchmark's process), on the same game, and ``cleanrl_style``, a textbook single-file PPO
+  written here after CleanRL's ``ppo.py`` (one env through the dict API, one forward per seat per
+  step; discrete games). A peer that is missing or cannot run a game is skipped with one line
+  saying why.
 
 An env step is one game step of all seats. Each training figure counts from the end of its first
 iteration (a warm-up) for at least ``--seconds`` and whole iterations; ``steps_per_cpu_s`` divides
@@ -29,9 +31,9 @@ With ``--against PATH`` (another checkout of the repository, e.g. ``git worktree
 347ea07``) every scheme cell also runs with ``PYTHONPATH=PATH``, in the same run and at the same
 time as this tree's (one core each when ``--jobs`` is 2), and the document gives the ratio new/old.
 
-    PYTHONPATH=. python benchmarks/training.py                       # defaults: about 5 minutes
+    PYTHONPATH=. python benchmarks/training.py                      # defaults: about 5 minutes on 2 cores
+    PYTHONPATH=. python benchmarks/training.py --against /tmp/old     # about 8 minutes
     PYTHONPATH=. python benchmarks/training.py --seconds 2 --games Crossroads-2T2P-v1 --schemes ppo,dppo
-    PYTHONPATH=. python benchmarks/training.py --against /tmp/old --no-peers
 """
 
 from __future__ import annotations
@@ -54,7 +56,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 GAMES = ("Crossroads-2T2P-v1", "Snake-2T2P-v1", "Sumo-2T1P-v1")
 SCHEMES = ("ppo", "dppo", "sp", "pbt", "cc", "cf")
-PEERS = ("sb3", "rllib")
+PEERS = ("sb3", "rllib", "cleanrl_style")
 ENGINES = {"Crossroads-2T2P-v1": "pymunk 2D", "Snake-2T2P-v1": "numpy grid", "Sumo-2T1P-v1": "MuJoCo robots"}
 #: The issue's criteria: a scheme's env steps/s as a share of the env's own, per game and scheme.
 CRITERIA = {("Crossroads-2T2P-v1", "ppo"): 0.5, ("Crossroads-2T2P-v1", "dppo"): 0.4,
@@ -97,8 +99,8 @@ def worker_env(game_id: str, api: str, seconds: float, seed: int) -> dict:
     rules = env.rules
     agents = list(env.possible_agents)
     rng = np.random.default_rng(seed)
-    masked = rules.action_mask() is not None if hasattr(rules, "action_mask") else False
     env.reset(seed=seed)
+    masked = bool(getattr(rules, "masks_actions", False))
     pool = [[rules.random_action(i, rng) for i in range(len(agents))] for _ in range(1024)]
     if api == "arrays":
         pool_arrays = [np.asarray(actions) for actions in pool]
@@ -218,6 +220,154 @@ def worker_sb3(game_id: str, seconds: float, seed: int) -> dict:
     return result
 
 
+def worker_cleanrl_style(game_id: str, seconds: float, seed: int) -> dict:
+    """A textbook single-file PPO written here after CleanRL's ``ppo.py`` (Huang et al. 2022): one env
+    through the PettingZoo dict API, one forward per seat per step (actor and critic), sampling with
+    ``torch.distributions.Categorical``, 1024 steps per rollout (4096 seat-samples on four seats).
+    Discrete actions only."""
+    import torch
+    from torch import nn
+    from torch.distributions.categorical import Categorical
+
+    from arena_league.envs import make
+
+    # hyper-parameters: CleanRL ppo.py's, with one env and 1024 steps (4096 seat-samples per update)
+    num_steps, learning_rate, gamma, gae_lambda = 1024, 2.5e-4, 0.99, 0.95
+    num_minibatches, update_epochs, clip_coef, ent_coef, vf_coef, max_grad_norm = 4, 4, 0.1, 0.01, 0.5, 0.5
+
+    # seeding
+    rng = np.random.default_rng(seed)
+    torch.manual_seed(seed)
+    torch.set_num_threads(1)
+
+    env = make(game_id)
+    agents = env.possible_agents
+    n_agents = len(agents)
+    obs_dim = env.observation_space(agents[0]).shape[0]
+    n_actions = env.action_space(agents[0]).n
+
+    def layer_init(layer: nn.Linear, std: float = np.sqrt(2), bias_const: float = 0.0) -> nn.Linear:
+        torch.nn.init.orthogonal_(layer.weight, std)
+        torch.nn.init.constant_(layer.bias, bias_const)
+        return layer
+
+    class Agent(nn.Module):
+        def __init__(self) -> None:
+            super().__init__()
+            self.critic = nn.Sequential(layer_init(nn.Linear(obs_dim, 64)), nn.Tanh(),
+                                        layer_init(nn.Linear(64, 64)), nn.Tanh(), layer_init(nn.Linear(64, 1), std=1.0))
+            self.actor = nn.Sequential(layer_init(nn.Linear(obs_dim, 64)), nn.Tanh(), layer_init(nn.Linear(64, 64)),
+                                       nn.Tanh(), layer_init(nn.Linear(64, n_actions), std=0.01))
+
+        def get_value(self, x):
+            return self.critic(x)
+
+        def get_action_and_value(self, x, action=None):
+            probs = Categorical(logits=self.actor(x))
+            if action is None:
+                action = probs.sample()
+            return action, probs.log_prob(action), probs.entropy(), self.critic(x)
+
+    agent = Agent()
+    optimizer = torch.optim.Adam(agent.parameters(), lr=learning_rate, eps=1e-5)
+
+    # storage: one row per step, one column per seat
+    obs = torch.zeros((num_steps, n_agents, obs_dim))
+    actions = torch.zeros((num_steps, n_agents))
+    logprobs = torch.zeros((num_steps, n_agents))
+    rewards = torch.zeros((num_steps, n_agents))
+    dones = torch.zeros((num_steps, n_agents))
+    values = torch.zeros((num_steps, n_agents))
+
+    episode = 0
+    next_obs_dict, _ = env.reset(seed=seed)
+    next_obs = torch.tensor(np.stack([next_obs_dict[a] for a in agents]))
+    next_done = torch.zeros(n_agents)
+    episode_return, returns = np.zeros(n_agents), []
+    iteration_returns: list[float] = []
+    env_steps, start, start_cpu, counted_from, counted_steps = 0, 0.0, 0.0, None, 0
+    while True:
+        iteration_start_returns = len(returns)
+        # rollout: one env, one forward per seat per step
+        for step in range(num_steps):
+            obs[step] = next_obs
+            dones[step] = next_done
+            step_actions = {}
+            for i, name in enumerate(agents):
+                with torch.no_grad():
+                    action, logprob, _, value = agent.get_action_and_value(next_obs[i].unsqueeze(0))
+                values[step, i] = value.flatten()
+                actions[step, i] = action
+                logprobs[step, i] = logprob
+                step_actions[name] = int(action.item())
+            next_obs_dict, reward, terminations, truncations, _ = env.step(step_actions)
+            env_steps += 1
+            rewards[step] = torch.tensor([reward[a] for a in agents], dtype=torch.float32)
+            episode_return += rewards[step].numpy()
+            done = any(terminations.values()) or any(truncations.values())
+            if done:
+                returns.append(float(episode_return.mean()))
+                episode_return[:] = 0.0
+                episode += 1
+                next_obs_dict, _ = env.reset(seed=seed + episode)
+            next_obs = torch.tensor(np.stack([next_obs_dict[a] for a in agents]))
+            next_done = torch.full((n_agents,), float(done))
+        # GAE
+        with torch.no_grad():
+            next_value = agent.get_value(next_obs).reshape(1, -1)
+            advantages = torch.zeros_like(rewards)
+            lastgaelam = 0
+            for t in reversed(range(num_steps)):
+                if t == num_steps - 1:
+                    nextnonterminal = 1.0 - next_done
+                    nextvalues = next_value
+                else:
+                    nextnonterminal = 1.0 - dones[t + 1]
+                    nextvalues = values[t + 1]
+                delta = rewards[t] + gamma * nextvalues * nextnonterminal - values[t]
+                advantages[t] = lastgaelam = delta + gamma * gae_lambda * nextnonterminal * lastgaelam
+            returns_t = advantages + values
+        # optimise
+        b_obs = obs.reshape((-1, obs_dim))
+        b_logprobs, b_actions = logprobs.reshape(-1), actions.reshape(-1)
+        b_advantages, b_returns, b_values = advantages.reshape(-1), returns_t.reshape(-1), values.reshape(-1)
+        batch_size = b_obs.shape[0]
+        minibatch_size = batch_size // num_minibatches
+        b_inds = np.arange(batch_size)
+        for _epoch in range(update_epochs):
+            rng.shuffle(b_inds)
+            for begin in range(0, batch_size, minibatch_size):
+                mb_inds = b_inds[begin:begin + minibatch_size]
+                _, newlogprob, entropy, newvalue = agent.get_action_and_value(b_obs[mb_inds], b_actions.long()[mb_inds])
+                ratio = (newlogprob - b_logprobs[mb_inds]).exp()
+                mb_advantages = b_advantages[mb_inds]
+                mb_advantages = (mb_advantages - mb_advantages.mean()) / (mb_advantages.std() + 1e-8)
+                pg_loss = torch.max(-mb_advantages * ratio,
+                                    -mb_advantages * torch.clamp(ratio, 1 - clip_coef, 1 + clip_coef)).mean()
+                newvalue = newvalue.view(-1)
+                v_loss_unclipped = (newvalue - b_returns[mb_inds]) ** 2
+                v_clipped = b_values[mb_inds] + torch.clamp(newvalue - b_values[mb_inds], -clip_coef, clip_coef)
+                v_loss = 0.5 * torch.max(v_loss_unclipped, (v_clipped - b_returns[mb_inds]) ** 2).mean()
+                loss = pg_loss - ent_coef * entropy.mean() + v_loss * vf_coef
+                optimizer.zero_grad()
+                loss.backward()
+                nn.utils.clip_grad_norm_(agent.parameters(), max_grad_norm)
+                optimizer.step()
+        # log
+        new = returns[iteration_start_returns:]
+        iteration_returns.append(float(np.mean(new)) if new else float("nan"))
+        now = time.perf_counter()
+        if counted_from is None:  # the first iteration is a warm-up
+            counted_from, start, start_cpu = env_steps, now, time.process_time()
+            continue
+        counted_steps = env_steps - counted_from
+        if now - start >= seconds:
+            break
+    elapsed, cpu = time.perf_counter() - start, time.process_time() - start_cpu
+    return {"steps_per_s": round(counted_steps / elapsed), "steps_per_cpu_s": round(counted_steps / cpu),
+            "env_steps": counted_steps, "iterations": len(iteration_returns) - 1, "seconds": round(elapsed, 2)}
+
+
 def worker_rllib(game_id: str, seconds: float, seed: int) -> dict:
     import ray
     from ray.rllib.algorithms.ppo import PPOConfig as RLlibPPOConfig
@@ -274,6 +424,8 @@ def run_worker(args: argparse.Namespace) -> dict:
         return worker_sb3(game, seconds, seed)
     if kind == "rllib":
         return worker_rllib(game, seconds, seed)
+    if kind == "cleanrl_style":
+        return worker_cleanrl_style(game, seconds, seed)
     return worker_scheme(game, kind, seconds, seed)
 
 
@@ -333,7 +485,7 @@ def peer_missing(peer: str) -> str | None:
     """Why ``peer`` cannot run here, or None."""
     import importlib.util
 
-    needs = {"sb3": ("stable_baselines3", "supersuit"), "rllib": ("ray", "tree")}[peer]
+    needs = {"sb3": ("stable_baselines3", "supersuit"), "rllib": ("ray", "tree"), "cleanrl_style": ()}[peer]
     missing = [m for m in needs if importlib.util.find_spec(m) is None]
     if not missing:
         return None
@@ -392,12 +544,15 @@ def benchmark(args: argparse.Namespace) -> dict:
             if not scheme_applies(scheme, action_type):
                 entry["schemes"][scheme] = {"skipped": f"{scheme} does not train {action_type} actions"}
                 continue
+            entry["schemes"][scheme] = {}  # the document lists the schemes in the order asked
             tasks.append(((game, "schemes", scheme, "ours"), (scheme, game, ROOT)))
             if against is not None:
                 tasks.append(((game, "schemes", scheme, "old"), (scheme, game, against)))
         for peer in PEERS if args.peers else ():
             if peer_skips[peer]:
                 entry["peers"][peer] = {"skipped": peer_skips[peer]}
+            elif peer == "cleanrl_style" and action_type != "discrete":
+                entry["peers"][peer] = {"skipped": "the single-file PPO written here samples discrete actions only"}
             else:
                 tasks.append(((game, "peers", peer, "ours"), (peer, game, ROOT)))
 
@@ -449,6 +604,8 @@ def benchmark(args: argparse.Namespace) -> dict:
             "seconds_per_measure": args.seconds, "seed": args.seed, "jobs": args.jobs,
             "pinned_one_core_per_process": cores.taskset, "torch_threads_per_process": 1,
             "env_step": "one game step of all seats",
+            "reading": "steps_per_s is per wall-clock second; on a shared machine steps_per_cpu_s (per CPU second "
+                       "of the worker) and the cpu_ ratios are the steadier comparison",
             "ours": f"PPOConfig defaults: {N_ENVS} envs x {N_STEPS} steps per update, 64-64 tanh, "
                     f"{EPOCHS} epochs x {MINIBATCHES} minibatches; pbt: population_size 4; cc/cf: those values, "
                     "their critics' extra options at their defaults; first iteration a warm-up",
@@ -458,6 +615,9 @@ def benchmark(args: argparse.Namespace) -> dict:
                    "gamma 0.99, pi/vf [64, 64] Tanh",
             "rllib": "RLlib PPO, new API stack, one shared policy, num_env_runners 0, num_learners 0, "
                      f"{N_ENVS} envs per runner, fragment {N_STEPS}, the same hyper-parameters and sizes",
+            "cleanrl_style": "a textbook single-file PPO written here after CleanRL's ppo.py: one env through the "
+                             "dict API, one forward per seat per step, 1024 steps per rollout, the same "
+                             "hyper-parameters; discrete games only",
             "speedup_over_peer": "ppo only: the peers train one policy shared by every seat, as ppo does",
             "against": str(against) if against else None,
             "criteria": "issue 37: ppo on Crossroads-2T2P >= 50% of the env's own steps/s, dppo and pbt >= 40%, "

@@ -15,7 +15,9 @@ against each reference and over both (``population_performance``).
 With ``--against PATH`` (another checkout of the repository, e.g. ``git worktree add /tmp/old
 347ea07``) every run is repeated with ``PYTHONPATH=PATH`` (same seeds, same evaluation matches), and
 each scheme says whether this tree's mean lies within the old interval and the old mean within this
-tree's: two trees that learn alike should both say yes.
+tree's (two trees that learn alike should both say yes), with the difference of the means and
+Welch's t-test p-value (an interval of zero width, every seed at the same win rate, says no to
+any other mean: read the difference then).
 
     PYTHONPATH=. python benchmarks/training_learning.py                  # about 6 minutes on 2 cores
     PYTHONPATH=. python benchmarks/training_learning.py --against /tmp/old   # about 12 minutes
@@ -101,6 +103,22 @@ def summary(runs: list[dict]) -> dict:
     return out
 
 
+def welch(new: list[float], old: list[float]) -> dict:
+    """The difference of the two trees' means over seeds, and Welch's two-sided t-test p-value
+    (None when both sides have no spread, e.g. every seed at 0)."""
+    from scipy import stats
+
+    difference = float(np.mean(new) - np.mean(old))
+    p_value = None
+    if len(new) > 1 and len(old) > 1 and (np.std(new) > 0 or np.std(old) > 0):
+        p_value = round(float(stats.ttest_ind(new, old, equal_var=False).pvalue), 4)
+    return {"difference": round(difference, 4), "welch_p": p_value}
+
+
+def figure_of(run: dict, key: str) -> float:
+    return run["population_performance"] if key == "population_performance" else run["per_reference"][key]
+
+
 def within(value: dict, bounds: dict) -> bool | None:
     if bounds.get("ci95") is None:
         return None
@@ -151,8 +169,12 @@ def benchmark(args: argparse.Namespace) -> dict:
             cell[side]["summary"] = summary(list(cell[side]["runs"].values()))
         if against is not None and "error" not in cell["new"]["summary"] and "error" not in cell["old"]["summary"]:
             new, old = cell["new"]["summary"], cell["old"]["summary"]
+            new_runs = [r for r in cell["new"]["runs"].values() if "error" not in r]
+            old_runs = [r for r in cell["old"]["runs"].values() if "error" not in r]
             cell["unchanged"] = {key: {"new_mean_within_old_ci": within(new[key], old[key]),
-                                       "old_mean_within_new_ci": within(old[key], new[key])}
+                                       "old_mean_within_new_ci": within(old[key], new[key]),
+                                       **welch([figure_of(r, key) for r in new_runs],
+                                               [figure_of(r, key) for r in old_runs])}
                                  for key in ("population_performance", *REFERENCES)}
     return {
         "benchmark": "training_learning",
