@@ -119,3 +119,23 @@ def test_learners_that_differ_in_what_an_update_shares_are_not_stacked() -> None
     assert stacks_of([0, 1, 2, 3], [learner, more_epochs, same, gru]) == [[0, 2], [1], [3]]
     with pytest.raises(ValueError, match="do not stack"):
         LearnerStack([learner, more_epochs])
+
+
+@pytest.mark.parametrize("game", ["Crossroads-2T2P-v1", "Sumo-2T1P-v1"])
+def test_a_snapshot_pool_plays_as_the_stacked_policy(game: str) -> None:
+    from arena_league.policies.families import StackedPolicy
+    from arena_league.training.stack import SnapshotPool
+
+    learner, _ = _rollout_batch(game)
+    members = [Learner(learner.architecture, learner.config, seed).actor_parameters() for seed in range(5)]
+    pool = SnapshotPool(learner.architecture, members)
+    reference = StackedPolicy(learner.architecture, members, compute_dtype=torch.float32)
+    rng = np.random.default_rng(2)
+    for owners in (np.array([4, 0, 4, 2, 2, 4, 0]), np.array([1]), np.array([3, 3, 3])):
+        obs = rng.standard_normal((len(owners), learner.architecture.obs_dim)).astype(np.float32)
+        uniforms = rng.random((len(owners), max(1, learner.architecture.act_dim)))
+        ours, _ = pool.act(obs, uniforms, owners=owners)
+        theirs, _ = reference.act(obs, uniforms, owners=owners)
+        np.testing.assert_allclose(ours, theirs, rtol=1e-5, atol=1e-6)
+    with pytest.raises(ValueError, match="owners"):
+        pool.act(obs, uniforms, owners=np.array([5, 0, 0]))

@@ -53,12 +53,12 @@ import numpy as np
 import torch
 
 from arena_league.policies.architecture import Architecture
-from arena_league.policies.families import StackedPolicy
 from arena_league.policies.policy import Policy
 from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
 from arena_league.training.schemes import register_scheme, scheme_runner
 from arena_league.training.selfplay import OPPONENT_SAMPLING, OpponentPool, load_fixed_opponent
+from arena_league.training.stack import snapshot_pool
 from arena_league.training.trainer import TrainerBase, figure, format_record, iteration_record
 
 __all__ = ["CC", "CCConfig", "CentralCriticLearner", "TeamSeats", "central_critic_features", "paper_config",
@@ -208,7 +208,7 @@ class TeamSeats:
     def opponents(self) -> list[Opponent]:
         """The collector's fixed policies: every pool snapshot (one stacked forward), or the fixed one."""
         if self.pool is not None:
-            stacked = StackedPolicy(self.architecture, self.pool.params, compute_dtype=torch.float32)
+            stacked = snapshot_pool(self.architecture, self.pool.params)
             return [Opponent(stacked, owner=i, name=f"self@{self.pool.added_at[i]}") for i in range(len(self.pool))]
         if self.fixed is not None:
             return [Opponent(self.fixed, name=self.opponent)]

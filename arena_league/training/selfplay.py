@@ -38,7 +38,7 @@ past players and exploiters. The learner's running score against each is logged.
 
 The pool holds at most ``pool_size`` snapshots; once full, a new snapshot replaces the oldest in
 place. All pool members play as one stacked policy (one batched forward for every opponent seat
-of every env, with owner indices; :class:`~arena_league.policies.families.StackedPolicy`).
+of every env, with owner indices; :func:`~arena_league.training.stack.snapshot_pool`).
 """
 
 from __future__ import annotations
@@ -50,10 +50,10 @@ import numpy as np
 import torch
 
 from arena_league.policies.architecture import Architecture
-from arena_league.policies.families import StackedPolicy
 from arena_league.policies.policy import Policy
 from arena_league.training.ppo import Learner, PPOConfig
 from arena_league.training.rollout import Episode, Opponent, RolloutCollector
+from arena_league.training.stack import snapshot_pool
 from arena_league.training.trainer import TrainerBase, figure, format_record, iteration_record
 
 __all__ = ["OPPONENT_SAMPLING", "OpponentPool", "RunningScores", "SelfPlay", "load_fixed_opponent", "pfsp_weights"]
@@ -239,7 +239,7 @@ class SelfPlay(TrainerBase):
     def _pool_opponents(self) -> list[Opponent]:
         """The fixed opponents first (their codes never move), then every pool member as an opponent
         of one stacked policy (one forward for all their seats)."""
-        stacked = StackedPolicy(self.architecture, self.pool.params, compute_dtype=torch.float32)
+        stacked = snapshot_pool(self.architecture, self.pool.params)
         return self.fixed + [Opponent(stacked, owner=i, name=f"sp@{self.pool.added_at[i]}")
                              for i in range(len(self.pool))]
 

@@ -29,13 +29,14 @@ or convolutional actors, are updated one by one by :func:`~arena_league.training
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import torch
 
-from arena_league.policies.policy import legal_mask
+from arena_league.policies.architecture import Architecture
+from arena_league.policies.policy import Policy, legal_mask, sample_from_logits
 from arena_league.training.ppo import (
     _ILLEGAL_LOGIT,
     _SQUASH_EPS,
@@ -45,7 +46,7 @@ from arena_league.training.ppo import (
     UpdateStats,
 )
 
-__all__ = ["LearnerStack", "RowLayout", "stackable", "stacks_of"]
+__all__ = ["LearnerStack", "RowLayout", "SnapshotPool", "snapshot_pool", "stackable", "stacks_of"]
 
 _BETA1, _BETA2 = 0.9, 0.999  # torch.optim.Adam's defaults, which every Learner's optimiser uses
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
@@ -214,6 +215,19 @@ class _Act:
     activation: str
 
     @classmethod
+    def from_parameters(cls, members: Sequence[Mapping[str, torch.Tensor]], activation: str) -> _Act:
+        """From agents' parameter dicts (the arena-policy layout: ``hidden.<i>.weight|bias``, ``head.*``)."""
+        names = [f"hidden.{i}" for i in range(sum(1 for k in members[0] if k.startswith("hidden.")) // 2)] + ["head"]
+        weights = [np.ascontiguousarray(np.stack([m[f"{n}.weight"].detach().numpy().T for m in members]))
+                   for n in names]
+        biases = [np.stack([m[f"{n}.bias"].detach().numpy()[None, :] for m in members]) for n in names]
+        return cls(weights, biases, activation)
+
+    def subset(self, members: np.ndarray) -> _Act:
+        """The stack of the given members only."""
+        return _Act([w[members] for w in self.weights], [b[members] for b in self.biases], self.activation)
+
+    @classmethod
     def of(cls, modules: Sequence[torch.nn.Module], activation: str) -> _Act:
         layers = [_layers(m) for m in modules]
         weights = [np.ascontiguousarray(np.stack([ls[i][0].detach().numpy().T for ls in layers]))
@@ -349,6 +363,42 @@ class _Flat:
         for learner, lr in zip(self.learners, lrs):
             for group in learner.optimiser.param_groups:
                 group["lr"] = float(lr)
+
+
+# --- frozen snapshots -------------------------------------------------------------------------------------
+
+class SnapshotPool(Policy):
+    """Frozen snapshots of a learner (SP's and CC's opponent pools) as one policy: ``act(...,
+    owners=)`` plays each row with its owner's weights through the stack's numpy forward, the
+    owners present stacked (so a pool of 64 with a few in play computes a few), and samples as
+    :class:`~arena_league.policies.families.StackedPolicy` does (inverse CDF of the row's uniform;
+    a continuous snapshot plays its mean). MLP actors whose architecture adds no noise."""
+
+    def __init__(self, arch: Architecture, members: Sequence[Mapping[str, torch.Tensor]]) -> None:
+        if arch.family != "mlp" or arch.noise != "none" or not members:
+            raise ValueError("a SnapshotPool holds MLP snapshots without sampling noise; use StackedPolicy")
+        self.architecture = arch
+        self.spec = arch.spec
+        self.name = f"pool-mlp x{len(members)}"
+        self.n_members = len(members)
+        self._all = _Act.from_parameters(members, arch.activation)
+        self._last: tuple[bytes, RowLayout, _Act] | None = None
+
+    def act(self, obs: np.ndarray, uniforms: np.ndarray, mask: np.ndarray | None = None,
+            state: np.ndarray | None = None, owners: np.ndarray | None = None
+            ) -> tuple[np.ndarray, np.ndarray | None]:
+        owners = np.zeros(len(obs), dtype=np.int64) if owners is None else np.asarray(owners, dtype=np.int64)
+        if owners.shape != (len(obs),) or (owners.size and (owners.min() < 0 or owners.max() >= self.n_members)):
+            raise ValueError(f"owners must be int[{len(obs)}] with values in 0..{self.n_members - 1}")
+        key = owners.tobytes()
+        if self._last is None or self._last[0] != key:  # seats change owners only when episodes start
+            present, members = np.unique(owners, return_inverse=True)
+            self._last = (key, RowLayout(members.reshape(-1), len(present)), self._all.subset(present))
+        _, layout, net = self._last
+        out = layout.ungroup(net(layout.group(np.asarray(obs, dtype=np.float32))))
+        if self.architecture.action_type == "continuous":
+            return np.tanh(out).astype(np.float32), None
+        return sample_from_logits(out, uniforms, legal_mask(mask, out.shape)), None
 
 
 # --- the stack ----------------------------------------------------------------------------------------
@@ -724,3 +774,14 @@ class LearnerStack:
             out.append(float("nan") if variance == 0 else
                        1.0 - float((target - predicted[i][rows]).var()) / variance)
         return out
+
+
+def snapshot_pool(arch: Architecture, members: Sequence[Mapping[str, torch.Tensor]]) -> Policy:
+    """The policy of a pool of snapshots: a :class:`SnapshotPool` where it applies, else the
+    general :class:`~arena_league.policies.families.StackedPolicy` (recurrent or convolutional
+    actors)."""
+    if arch.family == "mlp" and arch.noise == "none":
+        return SnapshotPool(arch, members)
+    from arena_league.policies.families import StackedPolicy
+
+    return StackedPolicy(arch, members, compute_dtype=torch.float32)
