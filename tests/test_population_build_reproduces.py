@@ -1,6 +1,7 @@
-"""``population build`` makes the same population as before the build was cut into its stages: a
-small Crossroads build (8 members out of 16 trained snapshots, a warm-started run among them) gives
-the very members, ratings, intervals, figures and provenance the earlier code recorded."""
+"""``population build`` makes the recorded population: a small Crossroads build (8 members out of 16
+trained snapshots, a warm-started run among them) gives the very members, ratings, intervals,
+figures and provenance recorded in ``tests/data`` (first by the commit before the build was cut
+into stages; re-recorded when training's numbers changed on purpose, as its ``about`` says)."""
 
 from __future__ import annotations
 
