@@ -117,14 +117,17 @@ def test_background_evaluation_gives_the_inline_results_and_the_time_split_is_re
     lines = []
     background = train(GAME, "ppo", out_dir=tmp_path / "background", report_dir=tmp_path / "report",
                        eval_background=True, log=lines.append, **options)
-    strip = [{k: v for k, v in e.items() if k != "eval_seconds"} for e in inline.evaluations]
-    assert strip == [{k: v for k, v in e.items() if k != "eval_seconds"} for e in background.evaluations]
+    timed = ("eval_seconds", "eval_cpu_seconds")
+    strip = [{k: v for k, v in e.items() if k not in timed} for e in inline.evaluations]
+    assert strip == [{k: v for k, v in e.items() if k not in timed} for e in background.evaluations]
     assert [e["env_steps"] for e in background.evaluations] == [64, 128, 256]
     assert sum(line.startswith("eval at") for line in lines) == 3
     for report, where in ((inline, False), (background, True)):
         timing = report.timing
         assert timing["eval_background"] is where and timing["evaluations"] == 3
-        assert all(e["eval_seconds"] > 0 for e in report.evaluations)
+        assert all(e["eval_seconds"] > 0 and e["eval_cpu_seconds"] > 0 for e in report.evaluations)
+        assert timing["eval_cpu_seconds"] == pytest.approx(sum(e["eval_cpu_seconds"] for e in report.evaluations),
+                                                           abs=1e-2)
         assert timing["eval_seconds"] == pytest.approx(sum(e["eval_seconds"] for e in report.evaluations), abs=1e-2)
         assert 0 < timing["eval_wait_seconds"] <= timing["seconds"]
         assert timing["eval_share"] == pytest.approx(timing["eval_wait_seconds"] / timing["seconds"], rel=0.02)

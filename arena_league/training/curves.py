@@ -84,7 +84,8 @@ class TrainingReport:
     (imitation env steps, which the history's ``env_steps`` do not count), ``rows`` and ``fit``."""
     timing: dict[str, Any] = field(default_factory=dict)
     """Where the run's time went (seconds): ``seconds`` (all of :func:`train`), ``eval_seconds`` (the
-    evaluations' play, wherever it ran), ``eval_wait_seconds`` (how long training stood still for
+    evaluations' play, wherever it ran; ``eval_cpu_seconds``: the CPU time it took, less than
+    ``eval_seconds`` where its process waited for a core), ``eval_wait_seconds`` (how long training stood still for
     them: all their play when inline; copying the weights out and waiting for the last results
     when in the background), ``eval_share`` (``eval_wait_seconds / seconds``), ``plot_seconds``,
     ``eval_background``, ``eval_processes`` and ``evaluations``. Background play takes cores of
@@ -281,9 +282,10 @@ class _Evaluations:
         self.record = record
         self.evaluator = _Evaluator(game_id, references, env_kwargs)
         self.pending: list[dict[str, Any]] = []  # asked for, not recorded yet: env_steps, iteration
-        self.finished: dict[int, tuple[dict[str, Any], float]] = {}  # index -> evaluation, seconds
+        self.finished: dict[int, tuple[dict[str, Any], float, float]] = {}  # index -> evaluation, seconds, CPU
         self.submitted = 0
         self.play_seconds = 0.0
+        self.cpu_seconds = 0.0
         self.wait_seconds = 0.0
         self.workers: list[Any] = []
         if background and not self.evaluator.sandboxed and _pickles(self.evaluator.references):
@@ -291,16 +293,19 @@ class _Evaluations:
 
     def _start_workers(self, game_id: str, references: Mapping[str, Any], env_kwargs: Mapping[str, Any],
                        n: int) -> None:
-        from arena_league.matchmaking.backends import _process_context
+        import multiprocessing
+
         from arena_league.policies.sandbox import _without_main_module
 
-        # the match pool's fork server: the league's modules are imported there once, so the
-        # processes start without importing torch again
-        context = _process_context()
+        # spawned, not forked from a fork server: starting one returns at once (the process imports
+        # the league on a core of its own), where the fork server's first start holds the caller
+        # until it has imported torch
+        context = multiprocessing.get_context("spawn")
         self.tasks, self.results = context.Queue(), context.Queue()
         args = (self.tasks, self.results, game_id, dict(references), dict(env_kwargs))
-        self.workers = [context.Process(target=_evaluation_worker, name=f"arena-train-evaluation-{k}", args=args)
-                        for k in range(n)]
+        # daemons: a worker left behind ends with this process
+        self.workers = [context.Process(target=_evaluation_worker, name=f"arena-train-evaluation-{k}", args=args,
+                                        daemon=True) for k in range(n)]
         with _without_main_module():
             for worker in self.workers:
                 worker.start()
@@ -312,25 +317,38 @@ class _Evaluations:
         index = self.submitted
         self.submitted += 1
         self.pending.append({"env_steps": env_steps, "iteration": iteration})
+        task = (index, policies, self.matches, self.seed, index * 1_000_000)
         if self.workers:
-            self.tasks.put((index, policies, self.matches, self.seed, index * 1_000_000))
-            self.wait_seconds += time.perf_counter() - started
-            return
-        evaluation = self.evaluator.evaluate(policies, self.matches, self.seed, index * 1_000_000)
-        seconds = time.perf_counter() - started
-        self.wait_seconds += seconds
-        self.finished[index] = (evaluation, seconds)
+            self.tasks.put(task)
+        else:
+            self._play_here(task)
+        self.wait_seconds += time.perf_counter() - started
+
+    def _play_here(self, task: tuple) -> None:
+        """Play an evaluation task in this process."""
+        index, policies, matches, seed, first_match_id = task
+        started, cpu = time.perf_counter(), time.process_time()
+        evaluation = self.evaluator.evaluate(policies, matches, seed, first_match_id)
+        self.finished[index] = (evaluation, time.perf_counter() - started, time.process_time() - cpu)
         self._record_in_order()
 
     def collect(self, wait: bool) -> None:
-        """Record the background results that are in (``wait``: all of them, waiting as needed)."""
+        """Record the background results that are in. With ``wait``, all of them: training is over,
+        so this process plays the tasks no worker has taken yet (a worker still starting, or all
+        busy) beside them."""
         if not self.workers or not self.pending:
             return
         started = time.perf_counter()
         while self.pending:
+            if wait:
+                try:  # fails at once while a worker waits on the queue: that worker takes the task
+                    self._play_here(self.tasks.get_nowait())
+                    continue
+                except queue.Empty:
+                    pass
             try:
-                index, evaluation, seconds, error = (self.results.get(timeout=_POLL_SECONDS) if wait
-                                                     else self.results.get_nowait())
+                index, evaluation, seconds, cpu, error = (self.results.get(timeout=_POLL_SECONDS) if wait
+                                                          else self.results.get_nowait())
             except queue.Empty:
                 if not wait:
                     break
@@ -342,40 +360,38 @@ class _Evaluations:
                 continue
             if error is not None:
                 raise error
-            self.finished[index] = (evaluation, seconds)
+            self.finished[index] = (evaluation, seconds, cpu)
             self._record_in_order()
         self.wait_seconds += time.perf_counter() - started
 
     def _record_in_order(self) -> None:
         """Record the finished evaluations that every earlier one precedes."""
         while self.pending and (self.submitted - len(self.pending)) in self.finished:
-            evaluation, seconds = self.finished.pop(self.submitted - len(self.pending))
+            evaluation, seconds, cpu = self.finished.pop(self.submitted - len(self.pending))
             self.play_seconds += seconds
-            evaluation.update(self.pending.pop(0), eval_seconds=round(seconds, 4))
+            self.cpu_seconds += cpu
+            evaluation.update(self.pending.pop(0), eval_seconds=round(seconds, 4), eval_cpu_seconds=round(cpu, 4))
             self.record(evaluation)
 
     def timing(self, seconds: float, plot_seconds: float) -> dict[str, Any]:
         """The run's time split (see :attr:`TrainingReport.timing`), the run having taken ``seconds``."""
         return {"seconds": round(seconds, 3), "eval_seconds": round(self.play_seconds, 3),
-                "eval_wait_seconds": round(self.wait_seconds, 3),
+                "eval_cpu_seconds": round(self.cpu_seconds, 3), "eval_wait_seconds": round(self.wait_seconds, 3),
                 "eval_share": round(self.wait_seconds / seconds, 4) if seconds > 0 else None,
                 "plot_seconds": round(plot_seconds, 3), "eval_background": bool(self.workers),
                 "eval_processes": len(self.workers), "evaluations": self.submitted}
 
     def close(self) -> None:
-        """Stop the background processes (at once when evaluations are still pending: the run failed)."""
+        """Stop the background processes: with every evaluation in, tell them to end (without
+        waiting for their interpreters to wind down); else (the run failed) end them at once."""
         if not self.workers:
             return
         for worker in self.workers:
             if self.pending:
                 worker.terminate()
+                worker.join()
             else:
                 self.tasks.put(None)
-        for worker in self.workers:
-            worker.join(timeout=10)
-            if worker.is_alive():
-                worker.kill()
-                worker.join()
         self.tasks.close()
         self.results.close()
 
@@ -383,7 +399,7 @@ class _Evaluations:
 def _evaluation_worker(tasks: Any, results: Any, game_id: str, references: dict[str, Any],
                        env_kwargs: dict[str, Any]) -> None:
     """A background evaluation process: plays the evaluations it takes from ``tasks`` until it
-    takes None, putting ``(index, evaluation, seconds, error)`` on ``results``."""
+    takes None, putting ``(index, evaluation, seconds, CPU seconds, error)`` on ``results``."""
     import torch
 
     # one compute thread: the other cores are the trainer's, and the forwards are small
@@ -391,14 +407,14 @@ def _evaluation_worker(tasks: Any, results: Any, game_id: str, references: dict[
     evaluator = _Evaluator(game_id, references, env_kwargs)
     while (task := tasks.get()) is not None:
         index, policies, matches, seed, first_match_id = task
-        started = time.perf_counter()
+        started, cpu = time.perf_counter(), time.process_time()
         try:
             evaluation = evaluator.evaluate(policies, matches, seed, first_match_id)
         except Exception as error:  # handed to train(), which raises it
-            results.put((index, None, 0.0,
+            results.put((index, None, 0.0, 0.0,
                          error if _pickles(error) else RuntimeError(f"{type(error).__name__}: {error}")))
             return
-        results.put((index, evaluation, time.perf_counter() - started, None))
+        results.put((index, evaluation, time.perf_counter() - started, time.process_time() - cpu, None))
 
 
 def _pickles(value: Any) -> bool:
