@@ -210,6 +210,9 @@ def evaluate_learners(learners: Sequence[Any], game_id: str, references: Mapping
 
 def _learner_policies(learners: Sequence[Any]) -> list[Any]:
     """The learners' frozen policies (a copy of their weights now), under the keys ``learner:<i>``."""
+    # Learner.policy computes in float32, the actors' training dtype: the rows an evaluation's
+    # forwards batch follow from its specs and EVAL_BATCH_MATCHES alone, so its results are still a
+    # function of the seed, the same inline and in a worker
     return [learner.policy(name=f"learner:{index}") for index, learner in enumerate(learners)]
 
 
