@@ -54,9 +54,10 @@ PERFORMANCE_PLOT = "population_performance.png"
 CURVES_FILE = "curves.json"
 #: The warm start's shade: a colour the curves (matplotlib's default cycle) do not take.
 _WARM_START_COLOUR = "#6a51a3"
-#: Matches an evaluation keeps in flight at most: the default evaluation (4 learners x 2 references
-#: x 20 matches) plays all its 160 at once, so every policy makes one call per step for all of them.
-EVAL_BATCH_MATCHES = 256
+#: Matches an evaluation keeps in flight at most. Playing all of the default evaluation's 160 at
+#: once (fewer, larger policy calls) took 20% more CPU than 64 at a time on Crossroads-2T2P, whose
+#: rules' own step is 70% of an evaluation and slows as more matches' physics is kept live.
+EVAL_BATCH_MATCHES = 64
 #: How long train() waits for a background evaluation before looking whether its processes still live.
 _POLL_SECONDS = 0.5
 #: Background evaluation processes at most (one per core the trainer leaves, up to this many).
