@@ -1149,7 +1149,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="matches per reference agent at each evaluation (default 20)")
     p.add_argument("--eval-inline", action="store_true",
                    help="play the evaluations between iterations (default: in a background process while "
-                        "training goes on, when more than one core is free)")
+                        "training goes on, on a machine with more than one core)")
     p.add_argument("--reference", nargs="+", default=None,
                    help="the fixed reference population (default scripted:random scripted:heuristic)")
     p.add_argument("--snapshot-every", type=_positive_int, default=None, help="env steps between snapshots")

@@ -39,7 +39,7 @@ def train_entrant(game_id: str, scheme: str = "sp", *, steps: int = 100_000, see
     steps; ``hidden`` sets the actor's hidden widths; ``reference`` is the fixed population of the
     performance curve (default: the scripted random and heuristic agents); ``eval_background``:
     whether its evaluations play in a background process while training goes on (default: when
-    more than one core is free to this process). Returns the training report."""
+    this process may run on more than one core). Returns the training report."""
     from arena_league.training.curves import DEFAULT_REFERENCE, train  # matplotlib: imported on first use
 
     overrides: dict[str, Any] = {}
