@@ -747,7 +747,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     report = train_entrant(args.game, args.scheme, steps=args.steps, seed=args.seed, report_dir=args.report,
                            eval_every=args.eval_every, eval_matches=args.eval_matches, reference=args.reference,
                            snapshot_every=args.snapshot_every, out_dir=args.out, warm_start_steps=args.warm_start,
-                           hidden=args.hidden, log=log, home=args.home)
+                           hidden=args.hidden, log=log, home=args.home,
+                           eval_background=False if args.eval_inline else None)
     document = report.as_dict()
     if args.json:
         emit_json(document)
@@ -760,6 +761,13 @@ def cmd_train(args: argparse.Namespace) -> int:
     stdout.print(f"{args.scheme} on {args.game}: {trained} env steps in {len(report.history)} iteration(s){rounded}, "
                  f"{len(report.snapshots)} snapshot(s); population performance "
                  f"{'-' if performance is None else f'{performance:.3f}'}")
+    timing = report.timing
+    if timing.get("evaluations"):
+        where = (f"in {timing['eval_processes']} background process(es)" if timing["eval_background"]
+                 else "between iterations")
+        stdout.print(f"  evaluation: {timing['evaluations']} evaluation(s) played {where} in "
+                     f"{timing['eval_seconds']:.1f} s; training waited {timing['eval_wait_seconds']:.1f} s for them, "
+                     f"{100 * (timing['eval_share'] or 0.0):.0f}% of the run's {timing['seconds']:.1f} s")
     for name, path in report.plots.items():
         stdout.print(f"  {name}: {path}")
     for snapshot in report.snapshots[-3:]:
@@ -1139,6 +1147,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--eval-every", type=_positive_int, default=10, help="iterations between evaluations (default 10)")
     p.add_argument("--eval-matches", type=_positive_int, default=20,
                    help="matches per reference agent at each evaluation (default 20)")
+    p.add_argument("--eval-inline", action="store_true",
+                   help="play the evaluations between iterations (default: in a background process while "
+                        "training goes on, on a machine with more than one core)")
     p.add_argument("--reference", nargs="+", default=None,
                    help="the fixed reference population (default scripted:random scripted:heuristic)")
     p.add_argument("--snapshot-every", type=_positive_int, default=None, help="env steps between snapshots")

@@ -99,6 +99,7 @@ def test_train_prints_the_rounded_steps_and_no_nan(home):
                           timeout=300, env={**os.environ, "COLUMNS": "200"})
     assert done.returncode == 0, done.stderr
     assert "10 asked for, rounded up to whole iterations" in done.stdout
+    assert "evaluation: 1 evaluation(s) played" in done.stdout and "training waited" in done.stdout
     assert "nan" not in done.stderr and "return - (no episode ended in this iteration)" in done.stderr
 
 

@@ -166,3 +166,22 @@ def test_every_path_gives_the_env_results(game_id):
     assert all(0 < r.steps <= 40 for r in expected)
     if n_teams > 2:
         assert all(r.positions is not None and min(r.positions) == 1 for r in expected)
+
+
+def test_a_runner_for_other_policies_reuses_the_envs_and_plays_as_a_new_runner():
+    game_id = "Crossroads-2T1P-v1"
+    env_kwargs = {"max_cycles": 30}
+    specs = _league(game_id, 4)
+    first = load_agents(_scripted(game_id))
+    runner = LockstepRunner(game_id, first, batch_size=8, env_kwargs=env_kwargs)
+    runner.play(specs)
+    envs = runner.envs(8)
+    spec = runner.spec
+    arch = Architecture("mlp", spec.obs_dim, "discrete", n_actions=spec.n_actions, hidden=(8,))
+    # the same keys now name torch agents: the new runner plays on the old runner's envs
+    torch_agents = {"random": TorchPolicy(arch, seed=1), "heuristic": TorchPolicy(arch, seed=2)}
+    again = runner.with_policies(torch_agents)
+    assert all(a is b for a, b in zip(again.envs(8), envs))
+    fresh = LockstepRunner(game_id, torch_agents, batch_size=8, env_kwargs=env_kwargs).play(specs)
+    assert again.play(specs) == fresh
+    assert runner.play(specs) == LockstepRunner(game_id, first, batch_size=8, env_kwargs=env_kwargs).play(specs)

@@ -30,14 +30,16 @@ def train_entrant(game_id: str, scheme: str = "sp", *, steps: int = 100_000, see
                   reference: Sequence[str] | None = None, snapshot_every: int | None = None,
                   out_dir: str | Path | None = None, warm_start_steps: int | None = None,
                   hidden: Sequence[int] | None = None, log: Callable[[str], None] | None = None,
-                  home: str | Path | None = None) -> Any:
+                  home: str | Path | None = None, eval_background: bool | None = None) -> Any:
     """Train ``game_id`` with ``scheme`` for ``steps`` env steps (rounded up to whole iterations:
     the report's ``env_steps`` says how many were trained); snapshots go to ``out_dir`` (default
     ``report_dir/snapshots``, else a new :func:`runs_folder` of the league ``home``; submit them
     with ``arena-league submit``), plots and ``curves.json`` to ``report_dir``. With
     ``warm_start_steps`` the learners first imitate the game's heuristic (DAgger) for that many env
     steps; ``hidden`` sets the actor's hidden widths; ``reference`` is the fixed population of the
-    performance curve (default: the scripted random and heuristic agents). Returns the training report."""
+    performance curve (default: the scripted random and heuristic agents); ``eval_background``:
+    whether its evaluations play in a background process while training goes on (default: when
+    this process may run on more than one core). Returns the training report."""
     from arena_league.training.curves import DEFAULT_REFERENCE, train  # matplotlib: imported on first use
 
     overrides: dict[str, Any] = {}
@@ -49,4 +51,5 @@ def train_entrant(game_id: str, scheme: str = "sp", *, steps: int = 100_000, see
         out_dir = runs_folder(home, game_id, scheme, seed)
     return train(game_id, scheme, steps=steps, seed=seed, report_dir=report_dir, eval_every=eval_every,
                  eval_matches=eval_matches, reference=tuple(reference or DEFAULT_REFERENCE),
-                 snapshot_every=snapshot_every, out_dir=out_dir, log=log, **overrides)
+                 snapshot_every=snapshot_every, out_dir=out_dir, log=log, eval_background=eval_background,
+                 **overrides)

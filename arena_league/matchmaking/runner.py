@@ -46,6 +46,7 @@ match's game rules directly, or, for games whose rules declare a whole-array eng
 
 from __future__ import annotations
 
+import copy
 import sys
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -161,14 +162,14 @@ class _EnvMatches:
     (the env's own ``step_arrays`` minus the rewards: count the step, end when the rules say so,
     cut at ``max_cycles`` with the rules' ``finish``)."""
 
-    def __init__(self, runner: LockstepRunner, width: int, first_env: Any, direct: bool) -> None:
+    def __init__(self, runner: LockstepRunner, width: int, direct: bool) -> None:
         self.runner = runner
         self.direct = direct
-        self.envs = [first_env] + [make(runner.game_id, **runner.env_kwargs) for _ in range(width - 1)]
+        self.envs = runner.envs(width)
         self.obs: list[np.ndarray | None] = [None] * width
         self.recorders: list[Any] = [None] * width
         self.steps = [0] * width
-        self.max_cycles = first_env.max_cycles
+        self.max_cycles = self.envs[0].max_cycles
 
     def start(self, position: int, spec: MatchSpec) -> None:
         env = self.envs[position]
@@ -359,6 +360,32 @@ class LockstepRunner:
         self.uniforms_per_seat = self.spec.uniforms_per_seat
         probe.reset_arrays(0)
         self.masked = probe.rules.action_mask() is not None
+        # the envs of the rules and env paths, made as first needed and kept: every match resets its
+        # env with its seed, so later plays (and runners of with_policies) reuse them
+        self._env_pool: list[Any] = [probe]
+        self._bind()
+
+    def with_policies(self, policies: Mapping[str, Policy]) -> LockstepRunner:
+        """A runner of the same game, options and path for ``policies``, sharing this runner's envs:
+        a caller that plays new weights over and over (training's evaluations) makes its envs once.
+        The two runners must not play at the same time."""
+        other = copy.copy(self)
+        other.policies = dict(policies)
+        for key, policy in other.policies.items():
+            if not isinstance(policy, Policy):
+                raise TypeError(f"agent {key!r} maps to a {type(policy).__name__}, not a Policy")
+        other._bind()
+        return other
+
+    def envs(self, width: int) -> list[Any]:
+        """``width`` envs of this runner's game and options (the probe first), made once and reused."""
+        while len(self._env_pool) < width:
+            self._env_pool.append(make(self.game_id, **self.env_kwargs))
+        return self._env_pool[:width]
+
+    def _bind(self) -> None:
+        """Check the policies against the game and group them into policy units."""
+        game_id = self.game_id
         for key, policy in self.policies.items():
             if policy.spec.action_type != self.spec.action_type:
                 raise ValueError(f"agent {key!r} outputs {policy.spec.action_type} actions but {game_id} is "
@@ -511,7 +538,7 @@ class LockstepRunner:
             from arena_league.matchmaking.batched import batched_engine
 
             return _EngineMatches(self, batched_engine(self._probe, width))
-        return _EnvMatches(self, width, self._probe, direct=path == "rules")
+        return _EnvMatches(self, width, direct=path == "rules")
 
     def unit_agents(self) -> list[list[str]]:
         """The agent keys of each policy unit, in unit order (the index a ``guard`` is called with)."""

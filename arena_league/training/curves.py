@@ -17,12 +17,24 @@ return to draw: it is left out of the line and marked by a tick on the bottom ed
 finished no episode at all says so on the plot. When the learners were warm-started by imitation
 (``warm_start``, :mod:`arena_league.training.imitation`), both plots shade the warm start as the
 span of its own env steps left of 0, where the RL env steps of the curves begin.
+
+Evaluation does not stall training: an evaluation plays its learners x references x matches in one
+batched call of the match engine (the learners stacked into one forward, the envs and loaded
+references kept from one evaluation to the next), and on a machine with more than one core it runs
+in background processes while training goes on, the learners' weights copied out at the iteration
+it measures. Its results are the same wherever it runs (a match's result is a function of its spec
+and its agents). The report's ``timing`` says how long the evaluations played and how long training
+waited for them.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import pickle
+import queue
 import tempfile
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,8 +44,8 @@ import numpy as np
 
 from arena_league.training.schemes import ENV_OPTIONS, Snapshot, json_safe, run_scheme
 
-__all__ = ["TrainingReport", "evaluate_learners", "performance_figure", "plot_curves", "pyplot", "reward_figure",
-           "save_figure", "train"]
+__all__ = ["EVAL_BATCH_MATCHES", "TrainingReport", "evaluate_learners", "performance_figure", "plot_curves", "pyplot",
+           "reward_figure", "save_figure", "train"]
 
 #: The default reference population: the game's built-in scripted agents.
 DEFAULT_REFERENCE = ("scripted:random", "scripted:heuristic")
@@ -42,6 +54,14 @@ PERFORMANCE_PLOT = "population_performance.png"
 CURVES_FILE = "curves.json"
 #: The warm start's shade: a colour the curves (matplotlib's default cycle) do not take.
 _WARM_START_COLOUR = "#6a51a3"
+#: Matches an evaluation keeps in flight at most. Playing all of the default evaluation's 160 at
+#: once (fewer, larger policy calls) took 20% more CPU than 64 at a time on Crossroads-2T2P, whose
+#: rules' own step is 70% of an evaluation and slows as more matches' physics is kept live.
+EVAL_BATCH_MATCHES = 64
+#: How long train() waits for a background evaluation before looking whether its processes still live.
+_POLL_SECONDS = 0.5
+#: Background evaluation processes at most (one per core the trainer leaves, up to this many).
+_MAX_WORKERS = 4
 
 
 @dataclass
@@ -63,6 +83,15 @@ class TrainingReport:
     warm_start: dict[str, Any] | None = None
     """The imitation before RL, when the learners were warm-started: ``expert``, ``env_steps``
     (imitation env steps, which the history's ``env_steps`` do not count), ``rows`` and ``fit``."""
+    timing: dict[str, Any] = field(default_factory=dict)
+    """Where the run's time went (seconds): ``seconds`` (all of :func:`train`), ``eval_seconds`` (the
+    evaluations' play, wherever it ran; ``eval_cpu_seconds``: the CPU time it took, less than
+    ``eval_seconds`` where its process waited for a core), ``eval_wait_seconds`` (how long training stood still for
+    them: all their play when inline; copying the weights out and waiting for the last results
+    when in the background), ``eval_share`` (``eval_wait_seconds / seconds``), ``plot_seconds``,
+    ``eval_background``, ``eval_processes`` and ``evaluations``. Background play takes cores of
+    its own: where no core is free it slows training instead of stalling it, which the wait does
+    not show (``benchmarks/train_evaluation.py`` sets a run beside its training alone)."""
 
     @property
     def env_steps(self) -> int:
@@ -75,14 +104,15 @@ class TrainingReport:
                            "reference": list(self.reference), "history": self.history,
                            "evaluations": self.evaluations,
                            "snapshots": [{"name": s.name, "path": str(s.path), "steps": s.steps} for s in self.snapshots],
-                           "plots": {k: str(v) for k, v in self.plots.items()}, "warm_start": self.warm_start})
+                           "plots": {k: str(v) for k, v in self.plots.items()}, "warm_start": self.warm_start,
+                           "timing": self.timing})
 
 
 def train(game_id: str, scheme: str = "sp", steps: int = 100_000, seed: int = 0,
           report_dir: str | Path | None = None, *, eval_every: int = 10, eval_matches: int = 20,
           reference: Sequence[str] = DEFAULT_REFERENCE, snapshot_every: int | None = None,
           out_dir: str | Path | None = None, log: Callable[[str], None] | None = None,
-          **overrides: Any) -> TrainingReport:
+          eval_background: bool | None = None, **overrides: Any) -> TrainingReport:
     """Train ``game_id`` with ``scheme`` and measure its curves; with ``report_dir``, write the plots.
 
     Args:
@@ -100,11 +130,16 @@ def train(game_id: str, scheme: str = "sp", steps: int = 100_000, seed: int = 0,
         snapshot_every: env steps between saved snapshots (default: at the end only).
         out_dir: where the run's snapshots go (default ``report_dir/snapshots``, else a new
             temporary folder).
-        log: called with a line per iteration and per evaluation.
+        log: called with a line per iteration and per evaluation (an evaluation's line comes once
+            its results are in: with a background evaluation, a few iterations later).
+        eval_background: play the evaluations in background processes (one per core beside the
+            trainer's, at most four) while training goes on (None: when this process may run on
+            more than one core). The results are the same.
         **overrides: hyper-parameters, env options and scheme options (see :func:`run_scheme`).
     """
     from arena_league.matchmaking import AgentRef
 
+    started = time.perf_counter()
     if eval_every < 1 or eval_matches < 1:
         raise ValueError(f"eval_every and eval_matches must be at least 1, got {eval_every} and {eval_matches}")
     env_options = {k: v for k, v in overrides.items() if k in ENV_OPTIONS}
@@ -116,6 +151,19 @@ def train(game_id: str, scheme: str = "sp", steps: int = 100_000, seed: int = 0,
     if out_dir is None:
         out_dir = Path(report_dir) / "snapshots" if report_dir is not None else Path(
             tempfile.mkdtemp(prefix="arena-train-"))
+    if eval_background is None:
+        eval_background = _cores() > 1
+
+    def record(evaluation: dict[str, Any]) -> None:
+        report.evaluations.append(evaluation)
+        if log is not None:
+            log(f"eval at {evaluation['env_steps']} steps: population performance "
+                f"{evaluation['population_performance']:.3f} "
+                + " ".join(f"{k} {v:.2f}" for k, v in evaluation["per_reference"].items())
+                + f" ({evaluation['eval_seconds']:.2f} s)")
+
+    evaluations = _Evaluations(game_id, references, eval_matches, int(seed), match_env, bool(eval_background),
+                               record)
 
     def on_iteration(trainer: Any, record: Mapping[str, Any]) -> None:
         imitation = getattr(trainer, "warm_start_record", None)
@@ -126,23 +174,25 @@ def train(game_id: str, scheme: str = "sp", steps: int = 100_000, seed: int = 0,
         report.history.append(json_safe({k: v for k, v in record.items() if k != "losses"}))
         last = trainer.env_steps >= steps
         if trainer.iteration == 1 or trainer.iteration % eval_every == 0 or last:
-            evaluation = evaluate_learners(trainer.learners, game_id, references, eval_matches,
-                                           league_seed=seed, first_match_id=len(report.evaluations) * 1_000_000,
-                                           env_kwargs=match_env)
-            evaluation.update(env_steps=int(trainer.env_steps), iteration=int(trainer.iteration))
-            report.evaluations.append(evaluation)
-            if log is not None:
-                log(f"eval at {trainer.env_steps} steps: population performance "
-                    f"{evaluation['population_performance']:.3f} "
-                    + " ".join(f"{k} {v:.2f}" for k, v in evaluation["per_reference"].items()))
+            evaluations.submit(trainer.learners, env_steps=int(trainer.env_steps), iteration=int(trainer.iteration))
+        evaluations.collect(wait=False)
 
-    report.snapshots = run_scheme(scheme, game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
-                                  out_dir=out_dir, callback=on_iteration, log=log, **overrides)
+    try:
+        report.snapshots = run_scheme(scheme, game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
+                                      out_dir=out_dir, callback=on_iteration, log=log, **overrides)
+        evaluations.collect(wait=True)
+    finally:
+        evaluations.close()
     if not report.history:
         raise ValueError(f"{out_dir} already holds this finished run, so nothing was trained or measured; "
                          "pass another out_dir (or delete that run's folder) to train and plot again")
+    report.timing = evaluations.timing(time.perf_counter() - started, 0.0)
     if report_dir is not None:
+        plotting = time.perf_counter()
         report.plots = plot_curves(report, report_dir)
+        # curves.json again, its timing now counting the plots too
+        report.timing = evaluations.timing(time.perf_counter() - started, time.perf_counter() - plotting)
+        report.plots["curves"].write_text(json.dumps(report.as_dict(), indent=1, allow_nan=False) + "\n")
     return report
 
 
@@ -150,33 +200,242 @@ def evaluate_learners(learners: Sequence[Any], game_id: str, references: Mapping
                       league_seed: int = 0, first_match_id: int = 0,
                       env_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Population performance of each learner against ``references`` (key -> AgentRef or Policy),
-    from ``matches`` matches per pair played by the match engine (the learner's team rotating)."""
-    from arena_league.envs import game_spec
-    from arena_league.matchmaking import play_matches, specs_for_seatings
+    from ``matches`` matches per pair played by the match engine (the learner's team rotating).
 
-    n_teams = game_spec(game_id).n_teams
-    agents: dict[str, Any] = dict(references)
-    seatings, owners = [], []
-    for index, learner in enumerate(learners):
-        key = f"learner:{index}"
-        agents[key] = learner.policy(name=key)
-        for ref in references:
-            for m in range(matches):
-                team = m % n_teams
-                seatings.append(tuple(key if t == team else ref for t in range(n_teams)))
-                owners.append((index, ref, team))
-    specs = specs_for_seatings(game_id, seatings, league_seed=league_seed, first_match_id=first_match_id)
-    results = play_matches(specs, agents, backend="inprocess", batch_size=min(64, len(specs)),
-                           env_kwargs=dict(env_kwargs or {}))
-    points: dict[tuple[int, str], list[float]] = {}
-    for (index, ref, team), result in zip(owners, results):
-        score = result.team_scores()[team] / max(n_teams - 1, 1)
-        points.setdefault((index, ref), []).append(score)
-    per_learner = [float(np.mean([np.mean(points[(i, ref)]) for ref in references])) for i in range(len(learners))]
-    per_reference = {ref: float(np.mean([np.mean(points[(i, ref)]) for i in range(len(learners))]))
-                     for ref in references}
-    return {"population_performance": float(np.mean(per_learner)), "per_learner": per_learner,
-            "per_reference": per_reference, "matches_per_pair": matches}
+    All learner x reference x match matches are played by one batched call (learners of one
+    architecture stacked into one forward); a match's result depends on its spec and its agents
+    only, so the figures are those of one call per learner."""
+    evaluator = _Evaluator(game_id, references, env_kwargs)
+    return evaluator.evaluate(_learner_policies(learners), matches, league_seed, first_match_id)
+
+
+def _learner_policies(learners: Sequence[Any]) -> list[Any]:
+    """The learners' frozen policies (a copy of their weights now), under the keys ``learner:<i>``."""
+    # Learner.policy computes in float32, the actors' training dtype: the rows an evaluation's
+    # forwards batch follow from its specs and EVAL_BATCH_MATCHES alone, so its results are still a
+    # function of the seed, the same inline and in a worker
+    return [learner.policy(name=f"learner:{index}") for index, learner in enumerate(learners)]
+
+
+class _Evaluator:
+    """Evaluations of one game against one reference population: the references are loaded once
+    and the match engine's envs are made once, then every evaluation only brings new learners."""
+
+    def __init__(self, game_id: str, references: Mapping[str, Any], env_kwargs: Mapping[str, Any] | None) -> None:
+        from arena_league.envs import game_spec
+        from arena_league.matchmaking import AgentRef
+
+        self.game_id = game_id
+        self.references = dict(references)
+        self.env_kwargs = dict(env_kwargs or {})
+        self.n_teams = game_spec(game_id).n_teams
+        # submitted (sandboxed) references play in the sandbox's child, which play_matches drives
+        self.sandboxed = any(isinstance(r, AgentRef) and r.sandboxed for r in self.references.values())
+        self._loaded: dict[str, Any] | None = None
+        self._runner: Any = None
+
+    def evaluate(self, policies: Sequence[Any], matches: int, league_seed: int, first_match_id: int
+                 ) -> dict[str, Any]:
+        from arena_league.matchmaking import LockstepRunner, load_agents, play_matches, specs_for_seatings
+
+        n_teams = self.n_teams
+        seatings, owners = [], []
+        for index in range(len(policies)):
+            key = f"learner:{index}"
+            for ref in self.references:
+                for m in range(matches):
+                    team = m % n_teams
+                    seatings.append(tuple(key if t == team else ref for t in range(n_teams)))
+                    owners.append((index, ref, team))
+        specs = specs_for_seatings(self.game_id, seatings, league_seed=league_seed, first_match_id=first_match_id)
+        learners = {f"learner:{index}": policy for index, policy in enumerate(policies)}
+        width = min(EVAL_BATCH_MATCHES, len(specs))
+        if self.sandboxed:
+            results = play_matches(specs, self.references | learners, backend="inprocess", batch_size=width,
+                                   env_kwargs=self.env_kwargs)
+        else:
+            if self._loaded is None:
+                self._loaded = load_agents(self.references)
+            agents = self._loaded | learners
+            self._runner = (LockstepRunner(self.game_id, agents, batch_size=EVAL_BATCH_MATCHES,
+                                           env_kwargs=self.env_kwargs)
+                            if self._runner is None else self._runner.with_policies(agents))
+            results = self._runner.play(specs)
+        points: dict[tuple[int, str], list[float]] = {}
+        for (index, ref, team), result in zip(owners, results):
+            score = result.team_scores()[team] / max(n_teams - 1, 1)
+            points.setdefault((index, ref), []).append(score)
+        per_learner = [float(np.mean([np.mean(points[(i, ref)]) for ref in self.references]))
+                       for i in range(len(policies))]
+        per_reference = {ref: float(np.mean([np.mean(points[(i, ref)]) for i in range(len(policies))]))
+                         for ref in self.references}
+        return {"population_performance": float(np.mean(per_learner)), "per_learner": per_learner,
+                "per_reference": per_reference, "matches_per_pair": matches}
+
+
+class _Evaluations:
+    """:func:`train`'s evaluations, handed to ``record`` in the order they were asked for: played
+    at once (inline), or by background processes (one per core left to spare, at most
+    :data:`_MAX_WORKERS`), each playing whole evaluations while the trainer goes on (the learners'
+    weights are copied out at :meth:`submit`, so training may change them at once)."""
+
+    def __init__(self, game_id: str, references: Mapping[str, Any], matches: int, seed: int,
+                 env_kwargs: Mapping[str, Any], background: bool, record: Callable[[dict[str, Any]], None]) -> None:
+        self.matches = matches
+        self.seed = seed
+        self.record = record
+        self.evaluator = _Evaluator(game_id, references, env_kwargs)
+        self.pending: list[dict[str, Any]] = []  # asked for, not recorded yet: env_steps, iteration
+        self.finished: dict[int, tuple[dict[str, Any], float, float]] = {}  # index -> evaluation, seconds, CPU
+        self.submitted = 0
+        self.play_seconds = 0.0
+        self.cpu_seconds = 0.0
+        self.wait_seconds = 0.0
+        self.workers: list[Any] = []
+        if background and not self.evaluator.sandboxed and _pickles(self.evaluator.references):
+            self._start_workers(game_id, references, env_kwargs, max(1, min(_MAX_WORKERS, _cores() - 1)))
+
+    def _start_workers(self, game_id: str, references: Mapping[str, Any], env_kwargs: Mapping[str, Any],
+                       n: int) -> None:
+        import multiprocessing
+
+        from arena_league.policies.sandbox import _without_main_module
+
+        # spawned, not forked from a fork server: starting one returns at once (the process imports
+        # the league on a core of its own), where the fork server's first start holds the caller
+        # until it has imported torch
+        context = multiprocessing.get_context("spawn")
+        self.tasks, self.results = context.Queue(), context.Queue()
+        args = (self.tasks, self.results, game_id, dict(references), dict(env_kwargs))
+        # daemons: a worker left behind ends with this process
+        self.workers = [context.Process(target=_evaluation_worker, name=f"arena-train-evaluation-{k}", args=args,
+                                        daemon=True) for k in range(n)]
+        with _without_main_module():
+            for worker in self.workers:
+                worker.start()
+
+    def submit(self, learners: Sequence[Any], *, env_steps: int, iteration: int) -> None:
+        """Evaluate ``learners`` as they are now, at ``env_steps`` (iteration ``iteration``)."""
+        started = time.perf_counter()
+        policies = _learner_policies(learners)
+        index = self.submitted
+        self.submitted += 1
+        self.pending.append({"env_steps": env_steps, "iteration": iteration})
+        task = (index, policies, self.matches, self.seed, index * 1_000_000)
+        if self.workers:
+            self.tasks.put(task)
+        else:
+            self._play_here(task)
+        self.wait_seconds += time.perf_counter() - started
+
+    def _play_here(self, task: tuple) -> None:
+        """Play an evaluation task in this process."""
+        index, policies, matches, seed, first_match_id = task
+        started, cpu = time.perf_counter(), time.process_time()
+        evaluation = self.evaluator.evaluate(policies, matches, seed, first_match_id)
+        self.finished[index] = (evaluation, time.perf_counter() - started, time.process_time() - cpu)
+        self._record_in_order()
+
+    def collect(self, wait: bool) -> None:
+        """Record the background results that are in. With ``wait``, all of them: training is over,
+        so this process plays the tasks no worker has taken yet (a worker still starting, or all
+        busy) beside them."""
+        if not self.workers or not self.pending:
+            return
+        started = time.perf_counter()
+        while self.pending:
+            if wait:
+                try:  # fails at once while a worker waits on the queue: that worker takes the task
+                    self._play_here(self.tasks.get_nowait())
+                    continue
+                except queue.Empty:
+                    pass
+            try:
+                index, evaluation, seconds, cpu, error = (self.results.get(timeout=_POLL_SECONDS) if wait
+                                                          else self.results.get_nowait())
+            except queue.Empty:
+                if not wait:
+                    break
+                dead = [w for w in self.workers if not w.is_alive()]
+                if dead:
+                    raise RuntimeError(f"a training evaluation process ended (exit code {dead[0].exitcode}) before "
+                                       "every evaluation was played; rerun with eval_background=False to see the "
+                                       "evaluation's own error") from None
+                continue
+            if error is not None:
+                raise error
+            self.finished[index] = (evaluation, seconds, cpu)
+            self._record_in_order()
+        self.wait_seconds += time.perf_counter() - started
+
+    def _record_in_order(self) -> None:
+        """Record the finished evaluations that every earlier one precedes."""
+        while self.pending and (self.submitted - len(self.pending)) in self.finished:
+            evaluation, seconds, cpu = self.finished.pop(self.submitted - len(self.pending))
+            self.play_seconds += seconds
+            self.cpu_seconds += cpu
+            evaluation.update(self.pending.pop(0), eval_seconds=round(seconds, 4), eval_cpu_seconds=round(cpu, 4))
+            self.record(evaluation)
+
+    def timing(self, seconds: float, plot_seconds: float) -> dict[str, Any]:
+        """The run's time split (see :attr:`TrainingReport.timing`), the run having taken ``seconds``."""
+        return {"seconds": round(seconds, 3), "eval_seconds": round(self.play_seconds, 3),
+                "eval_cpu_seconds": round(self.cpu_seconds, 3), "eval_wait_seconds": round(self.wait_seconds, 3),
+                "eval_share": round(self.wait_seconds / seconds, 4) if seconds > 0 else None,
+                "plot_seconds": round(plot_seconds, 3), "eval_background": bool(self.workers),
+                "eval_processes": len(self.workers), "evaluations": self.submitted}
+
+    def close(self) -> None:
+        """Stop the background processes: with every evaluation in, tell them to end (without
+        waiting for their interpreters to wind down); else (the run failed) end them at once."""
+        if not self.workers:
+            return
+        for worker in self.workers:
+            if self.pending:
+                worker.terminate()
+                worker.join()
+            else:
+                self.tasks.put(None)
+        self.tasks.close()
+        self.results.close()
+
+
+def _evaluation_worker(tasks: Any, results: Any, game_id: str, references: dict[str, Any],
+                       env_kwargs: dict[str, Any]) -> None:
+    """A background evaluation process: plays the evaluations it takes from ``tasks`` until it
+    takes None, putting ``(index, evaluation, seconds, CPU seconds, error)`` on ``results``."""
+    import torch
+
+    # one compute thread: the other cores are the trainer's, and the forwards are small
+    torch.set_num_threads(1)
+    evaluator = _Evaluator(game_id, references, env_kwargs)
+    while (task := tasks.get()) is not None:
+        index, policies, matches, seed, first_match_id = task
+        started, cpu = time.perf_counter(), time.process_time()
+        try:
+            evaluation = evaluator.evaluate(policies, matches, seed, first_match_id)
+        except Exception as error:  # handed to train(), which raises it
+            results.put((index, None, 0.0, 0.0,
+                         error if _pickles(error) else RuntimeError(f"{type(error).__name__}: {error}")))
+            return
+        results.put((index, evaluation, time.perf_counter() - started, time.process_time() - cpu, None))
+
+
+def _pickles(value: Any) -> bool:
+    """Whether ``value`` can be sent to another process."""
+    try:
+        pickle.dumps(value)
+    except Exception:  # any failure means: keep it in this process
+        return False
+    return True
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
 
 
 def plot_curves(report: TrainingReport, report_dir: str | Path) -> dict[str, Path]:
