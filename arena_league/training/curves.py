@@ -386,16 +386,16 @@ class _Evaluations:
                 "eval_processes": len(self.workers), "evaluations": self.submitted}
 
     def close(self) -> None:
-        """Stop the background processes: with every evaluation in, tell them to end (without
-        waiting for their interpreters to wind down); else (the run failed) end them at once."""
+        """End the background processes at once (every evaluation is in, or the run failed: either
+        way they hold nothing), then release the queues. A worker told to end by a message could
+        still be starting, and would then find the queues it unpickles gone and print a traceback;
+        ending it by its id is immediate and silent."""
         if not self.workers:
             return
         for worker in self.workers:
-            if self.pending:
-                worker.terminate()
-                worker.join()
-            else:
-                self.tasks.put(None)
+            worker.terminate()
+        for worker in self.workers:
+            worker.join()
         self.tasks.close()
         self.results.close()
 
