@@ -2,10 +2,12 @@
 
 Arena (Song et al., "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent
 Intelligence", AAAI 2020) trains its baselines on many parallel games; here, as in the league's
-match engine, the rows of all seats of all K envs are grouped by who controls them, so each
-learner makes one actor forward (and one critic forward) per step over every seat it holds, and
-each fixed opponent policy (a scripted agent, a snapshot, or a whole stacked pool of snapshots
-with owner indices) one ``act`` call.
+match engine, the rows of all seats of all K envs are grouped by who controls them: the learners
+that stack (:mod:`arena_league.training.stack`) make one stacked actor forward (and one critic
+forward) per step over every seat they hold, and each fixed opponent policy (a scripted agent, a
+snapshot, or a whole pool of snapshots with owner indices) one ``act`` call. The envs are read
+and stepped as arrays (:class:`~arena_league.training.vector.EnvBatch`: the game's whole-array
+engine where it has one).
 
 Slots: seat ``i`` of env ``k`` is slot ``s = k * n_agents + i``; every array of a
 :class:`Rollout` is ``[T, S, ...]`` over T steps and S = K * n_agents slots. Who controls a slot is
