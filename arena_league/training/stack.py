@@ -15,6 +15,11 @@ read and write); a :class:`LearnerStack` copies them into tensors with a leading
   normalisation, loss terms, gradient-norm clip, step size and Adam moments. The learners'
   parameters do not interact, so a learner's result does not depend on which learners it was
   stacked with (``tests/test_training_stack.py`` trains the same seeds stacked and one by one).
+  The backward is written out: the MLP's by :func:`_mlp_grad` (one autograd node for the whole
+  network), and for categorical policies the whole loss's, which leaves no graph to build.
+
+* **frozen snapshots** (SP's and CC's opponent pools) play through the same numpy forward
+  (:class:`SnapshotPool`).
 
 ``tanh`` runs in numpy (forward) with its derivative ``1 - y^2`` (backward): on this machine's
 torch build the CPU kernel took 130 us for a 1024 x 64 block, numpy 10 us.
