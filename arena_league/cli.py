@@ -60,10 +60,12 @@ def progress_bar(description: str, total: int) -> Iterator[Callable[[int, int], 
 # --- commands ------------------------------------------------------------------------------------
 
 def cmd_games(args: argparse.Namespace) -> int:
-    from arena_league.league import check_game, game_rows, option_line
+    from arena_league.league import check_game, game_manual, game_rows, option_line
 
     wanted = None if args.game is None else check_game(args.game)
     rows = [row for row in game_rows() if wanted in (None, row["game_id"])]
+    if wanted:
+        rows[0]["manual"] = game_manual(wanted)
     if args.json:
         emit_json({"games": rows})
         return 0
@@ -80,7 +82,9 @@ def cmd_games(args: argparse.Namespace) -> int:
             for record in row["options"]:
                 stdout.print(f"  {escape(option_line(record))}", highlight=False, soft_wrap=True)
         else:
-            stdout.print("Options: see the game's manual (its module's docstring).", highlight=False)
+            stdout.print("Options: none beyond the layout and action type.", highlight=False)
+        stdout.print("", highlight=False)
+        stdout.print(escape(row["manual"]), highlight=False, soft_wrap=True)
     return 0
 
 

@@ -33,7 +33,7 @@ from arena_league import lazy_exports
 #: Submodule -> the names this package offers from it.
 _EXPORTS: dict[str, tuple[str, ...]] = {
     "agents": ("agent_detail", "agent_rows", "latest_placements", "recent_matches", "reinstate_agent", "resolve_agent"),
-    "catalog": ("check_game", "game_ids", "game_rows", "option_line", "verify_social_tree"),
+    "catalog": ("check_game", "game_ids", "game_manual", "game_rows", "option_line", "verify_social_tree"),
     "errors": (
         "USER_ERRORS", "ForbiddenError", "JobCancelledError", "JobFailedError", "JobInterrupted", "NotFoundError",
         "RateLimitedError",

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 from arena_league.envs import default_tree, game_options, game_spec, list_games, make_rules
 from arena_league.envs.options import options_catalog
 from arena_league.envs.social.verify import VerificationReport, verify
 
-__all__ = ["check_game", "game_ids", "game_rows", "option_line", "verify_social_tree"]
+__all__ = ["check_game", "game_ids", "game_manual", "game_rows", "option_line", "verify_social_tree"]
 
 
 def game_ids() -> list[str]:
@@ -42,6 +43,13 @@ def game_rows() -> list[dict[str, Any]]:
             "options": options_catalog(game_options(game_id)),
         })
     return rows
+
+
+def game_manual(game_id: str) -> str:
+    """The game's manual: its module's docstring (rules, observation cell by cell, actions), as the
+    terminal, the web game page and the docs site show it."""
+    module = inspect.getmodule(game_spec(game_id).rules)
+    return inspect.cleandoc(module.__doc__ or "") if module is not None else ""
 
 
 def option_line(record: dict[str, Any]) -> str:

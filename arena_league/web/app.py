@@ -10,6 +10,9 @@ Besides the routes (:mod:`.api`, :mod:`.pages`) it sets up
   across machines);
 * the front door (:mod:`.guard`): a write's token, its size and the uploads in flight are checked
   before its body is read (401, 413, 429), and a body is counted as it streams (413 past its limit);
+* the guide (the docs site, once built with ``mkdocs build``) under ``/guide``: the folder named by
+  ``ARENA_LEAGUE_GUIDE``, else a checkout's ``site/``; where none is built, ``/guide`` answers 404
+  with how to build it;
 * one log line per request on stderr (method, path, status, milliseconds, owner);
 * errors as ``{"detail": ...}`` (the API and the ``.json`` twins) or as a page: 400 for bad input,
   401, 403, 404 and 429 as their names say, 507 for a full disk (naming which, without the
@@ -21,6 +24,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import os
 import time
 from collections.abc import AsyncIterator
 from pathlib import Path
@@ -43,7 +47,21 @@ from arena_league.web.deps import STATUS_OF, status_of
 from arena_league.web.guard import DATABASE_FULL, FULL_RETRY_SECONDS, FrontDoor
 from arena_league.web.workers import WorkerPool, worker_command
 
-__all__ = ["create_app"]
+__all__ = ["GUIDE_ENV", "create_app", "guide_folder"]
+
+#: Names a built docs site to serve under ``/guide`` (default: a checkout's ``site/``).
+GUIDE_ENV = "ARENA_LEAGUE_GUIDE"
+#: What ``/guide`` answers where no site is built.
+GUIDE_MISSING = ("the guide is not built here: in a checkout, `pip install -e \".[dev]\"` then `mkdocs build` "
+                 f"writes it into site/ (or set {GUIDE_ENV} to a built site's folder)")
+
+
+def guide_folder() -> Path | None:
+    """The built docs site to serve: ``$ARENA_LEAGUE_GUIDE``, else the ``site/`` beside the package
+    in a checkout; None where neither holds an ``index.html``."""
+    named = os.environ.get(GUIDE_ENV)
+    folder = Path(named) if named else Path(__file__).resolve().parents[2] / "site"
+    return folder if (folder / "index.html").is_file() else None
 
 logger = logging.getLogger("arena_league.web")
 
@@ -93,6 +111,15 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
     app.include_router(play.router)
     app.openapi = lambda: _openapi(app)
     app.mount("/static", StaticFiles(directory=str(Path(__file__).parent / "static")), name="static")
+    guide = guide_folder()
+    app.state.guide = guide is not None
+    if guide is not None:
+        app.mount("/guide", StaticFiles(directory=str(guide), html=True), name="guide")
+    else:
+        @app.get("/guide", include_in_schema=False)
+        @app.get("/guide/{rest:path}", include_in_schema=False)
+        async def no_guide(rest: str = "") -> Response:
+            raise HTTPException(404, GUIDE_MISSING)
 
     def respond(request: Request, status: int, message: str, headers: dict[str, str] | None = None) -> Response:
         wants_page = (not request.url.path.startswith("/api/") and not request.url.path.endswith(".json")

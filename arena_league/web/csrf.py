@@ -60,6 +60,11 @@ _CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; style-src-attr
 _DOCS_CSP = ("default-src 'self'; script-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net; "
              "style-src 'self' 'unsafe-inline' https://cdn.jsdelivr.net; img-src 'self' data: https:; "
              "worker-src 'self' blob:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'")
+# the guide is the docs site built by mkdocs-material, served from this server: its pages carry
+# small inline scripts and styles of their own (theme and search set-up), and load nothing else
+_GUIDE_CSP = ("default-src 'self'; script-src 'self' 'unsafe-inline'; style-src 'self' 'unsafe-inline'; "
+              "img-src 'self' data:; font-src 'self' data:; connect-src 'self'; worker-src 'self' blob:; "
+              "object-src 'none'; base-uri 'self'; form-action 'self'; frame-ancestors 'none'")
 #: Sent with every HTTP response (the CSP's ``style-src-attr`` lets the heatmap's and the team
 #: swatches' computed colours stay attributes; no script runs but the site's own files).
 SECURITY_HEADERS: dict[str, str] = {"Content-Security-Policy": _CSP, "X-Content-Type-Options": "nosniff",
@@ -244,10 +249,14 @@ class SecurityHeaders:
             await self.app(scope, receive, send)
             return
         docs = scope["path"].startswith(("/docs", "/redoc"))
+        guide = scope["path"] == "/guide" or scope["path"].startswith("/guide/")
 
         async def with_headers(message: dict) -> None:
             if message["type"] == "http.response.start":
-                add_security_headers(MutableHeaders(scope=message), docs=docs)
+                headers = MutableHeaders(scope=message)
+                if guide:
+                    headers.setdefault("Content-Security-Policy", _GUIDE_CSP)
+                add_security_headers(headers, docs=docs)
             await send(message)
 
         await self.app(scope, receive, with_headers)

@@ -90,7 +90,8 @@ def game_page(request: Request, game: str, viewer: Viewer, method: Method = "bt"
               owner: str | None = None, sort: str | None = None) -> HTMLResponse:
     view = _game(request, game, method, kind, owner, sort, viewer)
     return _page(request, "game.html", view, viewer,
-                 _seen(request, {"method": method, "kind": kind, "owner": owner, "sort": sort}))
+                 _seen(request, {"method": method, "kind": kind, "owner": owner, "sort": sort}),
+                 manual=ops.game_manual(game), guide=request.app.state.guide)
 
 
 # --- agents -------------------------------------------------------------------------------------
