@@ -157,7 +157,7 @@ def game_page(row: dict[str, Any], populations: list[tuple[str, Path]]) -> str:
     module = sys.modules[spec.rules.__module__]
     lines = [f"# {game_id}", "", f"{row['summary'][:1].upper()}{row['summary'][1:]}.", "",
              f"![{game_id} from above, seed {PICTURE_SEED}]({game_id}.png){{ width=\"400\" }}", "",
-             table(["", ""], [
+             table(["property", "value"], [
                  ["teams x players", f"{row['teams']} x {row['players_per_team']}"],
                  ["turns", "in turn" if row["turn_based"] else "simultaneous"],
                  ["action types", ", ".join(row["action_types"])],
@@ -266,7 +266,7 @@ def ladder_figure(document: dict[str, Any]) -> Any:
     axes.set_xlabel("rank among members")
     axes.set_ylabel("rating (Elo scale)")
     axes.set_title(f"{document['game_id']} {document['name']}: members' ratings with 95% intervals")
-    axes.legend(title="scheme", fontsize=8, loc="upper right")
+    axes.legend(title="scheme", fontsize=8, loc="lower left")  # ratings fall left to right: that corner is empty
     axes.grid(alpha=0.3)
     return figure
 
@@ -302,12 +302,13 @@ def population_markdown(game_id: str, name: str, folder: Path, document: dict[st
     page = population_page(game_id, name)
     lines = [readme.rstrip(), "", f"Game: [{game_id}](../games/{game_id}.md).", "", "## Rating ladder", "",
              f"![rating ladder of {game_id} {name}]({page}.png)", ""]
+    # the README a build writes has its own figures and criteria tables: these are the raw records, for one without
     criteria = provenance.get("criteria", {})
-    if criteria:
+    if criteria and "## Criteria" not in readme:
         lines += ["## Criteria (from population.json)", "",
                   table(["criterion", "met"], [[f"`{k}`", "yes" if v else "no"] for k, v in criteria.items()])]
     figures = provenance.get("figures", {})
-    if figures:
+    if figures and "## Figures" not in readme:
         lines += ["## Figures (from population.json)", "",
                   table(["figure", "value"], [[f"`{k}`", json.dumps(v) if isinstance(v, (dict, list)) else v]
                                               for k, v in figures.items()])]
