@@ -968,8 +968,8 @@ def load_agent(source: str | os.PathLike[str] | AgentArtifact, game_id: str, *, 
         compute_dtype: dtype torch families compute in (float64: actions do not depend on batching).
 
     Raises:
-        UnsafeArtifactError, ArtifactTooLargeError, CorruptArtifactError, ManifestError,
-        SpaceMismatchError (all :class:`ArtifactError`, a ``ValueError``).
+        ArtifactError: a ``ValueError``; one of UnsafeArtifactError, ArtifactTooLargeError,
+            CorruptArtifactError, ManifestError and SpaceMismatchError says which check refused it.
     """
     offered = action_types(game_id)  # raises for an unknown game id
     artifact = source if isinstance(source, AgentArtifact) else read_artifact(source, limits)
