@@ -14,7 +14,7 @@ Steps, each printed with its command, exit code, time and the end of its output:
    wheel carries;
 4. ``arena-league population pull Snake-2T2P-v1 --mirror URL`` from an ``http.server`` serving the
    checkout's ``checkpoints/`` on 127.0.0.1;
-5. the README's torch export snippet (read from README.md) on a small GoBang MLP, then
+5. the torch export snippet of ``docs/submitting.md`` (read from there) on a small GoBang MLP, then
    ``arena-league submit model.onnx``.
 
 Prints a JSON summary on stdout; exits 1 when a step fails. About a minute on 2 cores (the
@@ -56,12 +56,12 @@ class QuietHandler(http.server.SimpleHTTPRequestHandler):
         pass
 
 
-def readme_export_snippet() -> str:
-    """The README's ``torch.onnx.export(...)`` call, as it stands there."""
-    text = (REPO / "README.md").read_text()
+def documented_export_snippet() -> str:
+    """The ``torch.onnx.export(...)`` call of ``docs/submitting.md``, as it stands there."""
+    text = (REPO / "docs" / "submitting.md").read_text()
     found = re.search(r"^ {4}(torch\.onnx\.export\(.*?\)\))\s*$", text, flags=re.MULTILINE | re.DOTALL)
     if found is None:
-        raise SystemExit("README.md has no `torch.onnx.export(...)` snippet")
+        raise SystemExit("docs/submitting.md has no `torch.onnx.export(...)` snippet")
     return "\n".join(line.removeprefix("    ") for line in found.group(1).splitlines())
 
 
@@ -108,9 +108,9 @@ def main() -> int:
                   "obs_dim = make_rules('GoBang-2T1P-v1').obs_dim\n"
                   "model = torch.nn.Sequential(torch.nn.Linear(obs_dim, 32), torch.nn.Tanh(),\n"
                   "                            torch.nn.Linear(32, 225))  # GoBang's 225 cells\n"
-                  + readme_export_snippet() + "\n")
+                  + documented_export_snippet() + "\n")
         (cwd / "export.py").write_text(script)
-        steps.append(step("README export snippet", [str(python), "export.py"], cwd=cwd, env=env))
+        steps.append(step("documented export snippet", [str(python), "export.py"], cwd=cwd, env=env))
         steps.append(step("submit the export", [command, "submit", "model.onnx", "--game", "GoBang-2T1P-v1", "--name",
                                                 "alice-v1"], cwd=cwd, env=env))
         summary = {"work": str(work), "wheel": wheel.name, "wheel_bytes": wheel.stat().st_size,

@@ -2,7 +2,7 @@
 
 For each folder under ``checkpoints/<game>/<name>/`` the best member (highest frozen rating) plays
 the game's ``scripted:heuristic`` in ``--matches`` fresh matches, seats alternating, on the batched
-engine; the JSON gives its wins, draws and losses, its win rate (the README's population table) and
+engine; the JSON gives its wins, draws and losses, its win rate (the population table of ``docs/populations.md``) and
 the figure the build recorded, where it did. A population has headroom when the win rate is at
 least 0.6 (``build.HEADROOM``)::
 

@@ -38,7 +38,7 @@ class TinyAgent(nn.Module):
 
 
 def export(agent: nn.Module, path: Path, **options) -> Path:
-    """The README's export call: torch's default exporter, the league's I/O names, a dynamic batch."""
+    """The export call of docs/submitting.md: torch's default exporter, the league's I/O names, a dynamic batch."""
     obs = torch.zeros(2, agent.net[0].in_features)
     torch.onnx.export(agent, (obs,), str(path), input_names=["obs"], output_names=["logits"],
                       dynamic_shapes=({0: "batch"},), **options)

@@ -53,7 +53,7 @@ def test_the_wheel_carries_the_index_the_example_and_the_quickstart_population(w
     entry = next(p for p in index["populations"] if (p["game_id"], p["name"]) == (GAME, NAME))
     assert population_folder_address(folder) == entry["address"]
     assert not [n for n in names if n.startswith(PACKAGED + "populations/") and f"/{GAME}/{NAME}/" not in n]
-    assert "Requires-Dist: onnxscript>=0.5" in metadata.splitlines()  # not an extra: the README's export needs it
+    assert "Requires-Dist: onnxscript>=0.5" in metadata.splitlines()  # not an extra: docs/submitting.md's export needs it
     assert wheel.stat().st_size < 8_000_000
 
 
