@@ -300,7 +300,9 @@ def population_markdown(game_id: str, name: str, folder: Path, document: dict[st
     provenance = document.get("provenance", {})
     readme = (folder / "README.md").read_text() if (folder / "README.md").exists() else f"# {game_id} {name}\n"
     page = population_page(game_id, name)
-    lines = [readme.rstrip(), "", f"Game: [{game_id}](../games/{game_id}.md).", "", "## Rating ladder", "",
+    lines = [readme.rstrip(), "", f"Game: [{game_id}](../games/{game_id}.md). Why its recipe is what it is: the "
+             "[per-game build notes](../populations.md#per-game-build-notes) and the "
+             "[population build notes](../population-build-notes.md).", "", "## Rating ladder", "",
              f"![rating ladder of {game_id} {name}]({page}.png)", ""]
     # the README a build writes has its own figures and criteria tables: these are the raw records, for one without
     criteria = provenance.get("criteria", {})
