@@ -300,8 +300,9 @@ def main(argv: list[str] | None = None) -> int:
                     "affinity": pinning},
         "arena_league": rows,
         "pettingzoo": peers,
-        "grid_batched": batched_grid(args.seconds),
-        "robots": robots(args.seconds),
+        # the engines' own sections time every game of their kind: with --games, only the ids named
+        "grid_batched": batched_grid(args.seconds) if args.games is None else "skipped: --games names the ids",
+        "robots": robots(args.seconds) if args.games is None else "skipped: --games names the ids",
         "summary": {
             "slowest_2d_physics_steps_per_s": min((r["steps_per_s"] for r in physics), default=None),
             "fastest_pettingzoo_steps_per_s": fastest_peer,

@@ -204,6 +204,12 @@ def game_page(row: dict[str, Any], populations: list[tuple[str, Path]]) -> str:
     else:
         lines += ["None: agents of this game are ranked once a base population is built for it "
                   "(`arena-league population build`).", ""]
+    lines += ["## Throughput", "",
+              "The env's own steps per second on your machine, with random actions, beside PettingZoo's "
+              "butterfly envs in the same run:", "", "```bash",
+              f"PYTHONPATH=. python benchmarks/env_throughput.py --games {game_id}", "```", "",
+              "Measured figures for each game family, and training's speed on one game of each engine, are "
+              "on the [performance page](../performance.md).", ""]
     lines += ["## Manual", "", f"The docstring of `{module.__name__}`.", ""]
     lines += [rst_to_markdown(inspect.cleandoc(module.__doc__ or "(no manual)")), ""]
     return "\n".join(lines)
