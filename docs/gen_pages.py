@@ -53,7 +53,7 @@ PICTURE_SEED = 0
 
 def cell(value: Any) -> str:
     """``value`` as one markdown table cell: pipes escaped, one line, angle brackets shown as text
-    outside code spans (a ``<scheme>`` in a help string is a placeholder, not an HTML tag)."""
+    outside code spans (a ``<scheme>`` in a help string stands for a value the reader gives, not an HTML tag)."""
     text = " ".join(str(value).split())
     parts = re.split(r"(`[^`]*`)", text)
     out = []
