@@ -421,9 +421,11 @@ class Learner:
         return self._continuous_logprob(mean, std, actions), entropy
 
     # --- learning ---------------------------------------------------------------------------------
-    def update(self, batch: Batch, rng: np.random.Generator, learning_rate: float | None = None) -> UpdateStats:
+    def update(self, batch: Batch, rng: np.random.Generator, learning_rate: float | None = None, *,
+               value_loss: bool = True) -> UpdateStats:
         """One PPO update on ``batch`` (see :func:`ppo_update`)."""
-        stats = ppo_update(self, batch, self.config, self.optimiser, rng, learning_rate=learning_rate)
+        stats = ppo_update(self, batch, self.config, self.optimiser, rng, learning_rate=learning_rate,
+                           value_loss=value_loss)
         self.updates += 1
         return stats
 

@@ -175,7 +175,7 @@ class RolloutCollector:
                  opponents: Sequence[Opponent] = (), on_episode: Callable[[Episode], None] | None = None) -> None:
         probe = env_fn()
         check_trainable(probe)
-        self.envs = env_batch(env_fn, num_envs)
+        self.envs = env_batch(env_fn, num_envs, probe)
         batch = self.envs
         self.n_agents = batch.n_agents
         self.obs_dim = batch.obs_dim

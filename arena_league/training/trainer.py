@@ -21,7 +21,7 @@ import torch
 
 from arena_league.policies.architecture import Architecture
 from arena_league.policies.threads import torch_threads
-from arena_league.training.ppo import Learner, PPOConfig, UpdateStats, game_architecture, ppo_update
+from arena_league.training.ppo import Learner, PPOConfig, UpdateStats, game_architecture
 from arena_league.training.rollout import RolloutCollector, check_trainable, learner_batch
 from arena_league.training.stack import LearnerStack, stackable, stacks_of
 
@@ -90,7 +90,8 @@ class TrainerBase(ABC):
             if stackable(learners):
                 results = LearnerStack(learners).update(batches, rates, value_loss=value_loss)
             else:
-                results = [ppo_update_one(lr, b, rate, value_loss) for lr, b, rate in zip(learners, batches, rates)]
+                results = [lr.update(b, lr.rng, rate, value_loss=value_loss)
+                           for lr, b, rate in zip(learners, batches, rates)]
             stats.update(zip(group, results))
         return [stats[c] for c in codes]
 
@@ -132,14 +133,6 @@ class PPO(TrainerBase):
         if self.log:
             self.log(format_record(record))
         return record
-
-
-def ppo_update_one(learner: Learner, batch: Any, learning_rate: float, value_loss: bool = True) -> UpdateStats:
-    """One learner's update on its own (an actor that does not stack), drawing from its generator."""
-    stats = ppo_update(learner, batch, learner.config, learner.optimiser, learner.rng, learning_rate=learning_rate,
-                       value_loss=value_loss)
-    learner.updates += 1
-    return stats
 
 
 def annealed_lr(config: PPOConfig, env_steps: int, total_steps: int | None) -> float:

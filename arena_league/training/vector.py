@@ -154,16 +154,17 @@ class EnvList(EnvBatch):
         return np.asarray(self.envs[k].team_result(), dtype=np.float64).copy()
 
 
-def env_batch(env_fn: Callable[[], Any], num_envs: int) -> EnvBatch:
+def env_batch(env_fn: Callable[[], Any], num_envs: int, probe: Any = None) -> EnvBatch:
     """The :class:`EnvBatch` of ``num_envs`` envs made by ``env_fn``: the game's whole-array engine
     (:class:`~arena_league.training.engine_batch.EngineBatch`, built from one env's rules) where
     the game has one and the observations are the rules' own (no broadcast boards, no global
-    state in them); else K separate envs."""
+    state in them); else K separate envs. ``probe``: an env the caller already made with ``env_fn``
+    (it becomes the first env, or the engine's template), so none is made twice."""
     from arena_league.training.engine_batch import EngineBatch, engine_fits
 
     if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
         raise ValueError(f"num_envs must be a positive integer, not {num_envs!r}")
-    probe = env_fn()
+    probe = env_fn() if probe is None else probe
     if engine_fits(probe):
         return EngineBatch(probe, num_envs)
     return EnvList([probe, *(env_fn() for _ in range(num_envs - 1))])
