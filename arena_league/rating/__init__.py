@@ -1,9 +1,11 @@
 """Rating engine of arena-league: pure numpy/scipy functions over outcome tables and payoff
 matrices; ratings know nothing of games or SQL.
 
-- :mod:`.outcomes`: per-seat match records, pairwise results, deduplicated win/draw counts.
+- :mod:`.outcomes`: per-seat match records, pairwise results, deduplicated win/draw counts (seat-blind,
+  or keeping the side each agent held).
 - :mod:`.elo`: classic online Elo.
-- :mod:`.bradley_terry`: Bradley-Terry on the Elo scale (draws as halves, or Davidson).
+- :mod:`.bradley_terry`: Bradley-Terry on the Elo scale (draws as halves, or Davidson), with an
+  optional seat term.
 - :mod:`.bootstrap`: bootstrap intervals for ratings, ranks, percentiles, Nash scores, alpha-Rank.
 - :mod:`.teams`: OpenSkill (Plackett-Luce) for team games and free-for-all.
 - :mod:`.nash`: Nash averaging (Balduzzi et al. 2018).
@@ -35,6 +37,7 @@ from arena_league.rating.alpharank import (
 from arena_league.rating.bootstrap import (
     BootstrapInterval,
     RatingIntervals,
+    SeatTerm,
     alpha_rank_intervals,
     bootstrap_ratings,
     bootstrap_statistic,
@@ -56,6 +59,7 @@ from arena_league.rating.outcomes import (
     OutcomeTable,
     PairCounts,
     PairwiseResults,
+    SeatCounts,
     SeatResult,
 )
 from arena_league.rating.placement import (
@@ -99,7 +103,9 @@ __all__ = [
     "Ranks",
     "RatingIntervals",
     "ReducibleChainError",
+    "SeatCounts",
     "SeatResult",
+    "SeatTerm",
     "SkillRatings",
     "alpha_rank",
     "alpha_rank_intervals",

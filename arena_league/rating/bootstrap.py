@@ -8,6 +8,10 @@ over the (pair, outcome) cells of :class:`PairCounts`, so that a round costs the
 matrix, not the number of matches. Bradley-Terry rounds are all solved at once by batched Newton
 steps warm-started from the point estimate.
 
+With :class:`SeatCounts` the fit carries a seat term (see
+:func:`~arena_league.rating.bradley_terry.fit_bradley_terry`), resampled the same way over the
+(side pair, pair, outcome) cells, and its interval is reported as a :class:`SeatTerm`.
+
 Ranks and their intervals are the league's one definition
 (:func:`~arena_league.rating.ranks.competition_ranks`): 1 + the agents rated above the rating,
 above the interval's upper end (the best place) and at or above its lower end (the worst).
@@ -15,10 +19,12 @@ above the interval's upper end (the best place) and at or above its lower end (t
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import expit
 
 from arena_league.rating.alpharank import alpha_rank
 from arena_league.rating.bradley_terry import (
@@ -26,21 +32,59 @@ from arena_league.rating.bradley_terry import (
     ELO_BASE,
     ELO_SCALE,
     DrawModel,
-    StrengthFitter,
+    SeatStrengthFitter,
     anchoring,
+    strength_fitter,
 )
 from arena_league.rating.nash import nash_averaging
-from arena_league.rating.outcomes import PSEUDO_COUNT, PairCounts
+from arena_league.rating.outcomes import PSEUDO_COUNT, PairCounts, SeatCounts
 from arena_league.rating.ranks import competition_ranks
 
 __all__ = [
     "BootstrapInterval",
     "RatingIntervals",
+    "SeatTerm",
     "alpha_rank_intervals",
     "bootstrap_ratings",
     "bootstrap_statistic",
     "nash_intervals",
 ]
+
+
+@dataclass(frozen=True)
+class SeatTerm:
+    """The fitted advantage of each side, with its bootstrap percentile interval.
+
+    ``advantage`` is in rating points per side (side 0 = 0): agent i at side a plays j at side b as
+    if rated ``rating_i + advantage[a]`` against ``rating_j + advantage[b]``. ``first_share`` is the
+    share of the points side 0 takes from side 1 between equally rated agents: sigmoid(h_0 - h_1)
+    with draws as halves, and under Davidson the expected score (e^(d/2) + nu/2) / (e^(d/2) +
+    e^(-d/2) + nu) at d = h_0 - h_1.
+    """
+
+    advantage: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    first_share: float
+    first_share_lower: float
+    first_share_upper: float
+    level: float
+
+    def to_dict(self) -> dict[str, float | list[float]]:
+        """Plain floats and lists, for JSON."""
+        return {"advantage": [float(v) for v in self.advantage], "lower": [float(v) for v in self.lower],
+                "upper": [float(v) for v in self.upper], "first_share": float(self.first_share),
+                "first_share_lower": float(self.first_share_lower),
+                "first_share_upper": float(self.first_share_upper), "level": float(self.level)}
+
+    def describe(self) -> str:
+        """One line: the first seat's share of even matches and its edge over the second in Elo."""
+        edge = self.advantage[0] - self.advantage[1]
+        # side 0 is fixed at 0, so the edge's interval is the mirror of side 1's
+        edge_lower, edge_upper = self.advantage[0] - self.upper[1], self.advantage[0] - self.lower[1]
+        return (f"the first seat wins {100 * self.first_share:.0f}% [{100 * self.first_share_lower:.0f}, "
+                f"{100 * self.first_share_upper:.0f}] of even matches ({edge:+.0f} Elo [{edge_lower:.0f}, "
+                f"{edge_upper:.0f}])")
 
 
 @dataclass(frozen=True)
@@ -65,6 +109,8 @@ class RatingIntervals:
     """Bootstrap replicates of the ratings, ``(rounds, n)``."""
     level: float
     draw_nu: float | None
+    seats: SeatTerm | None = None
+    """The seat term and its interval, when rated from :class:`SeatCounts`; else None."""
 
 
 @dataclass(frozen=True)
@@ -79,7 +125,7 @@ class BootstrapInterval:
 
 
 def bootstrap_ratings(
-    counts: PairCounts,
+    counts: PairCounts | SeatCounts,
     *,
     rounds: int = 100,
     level: float = 0.95,
@@ -95,18 +141,19 @@ def bootstrap_ratings(
 
     Arguments are those of :func:`arena_league.rating.bradley_terry`, plus the number of bootstrap
     ``rounds``, the interval ``level`` and the ``seed``. Each replicate is anchored like the point
-    estimate, so a pinned agent has a zero-width interval and the others are relative to it.
+    estimate, so a pinned agent has a zero-width interval and the others are relative to it. With
+    :class:`SeatCounts` the ratings carry a seat term and :attr:`RatingIntervals.seats` reports it.
     """
     n = counts.n_agents
     if n < 2:
         raise ValueError("rating intervals need at least two agents")
     _check_level(level, rounds)
-    fitter = StrengthFitter(n, draw_model, prior_sd)
-    fitter.check_identifiable(counts.wins, counts.draws)
-    point, _ = fitter.fit(counts.wins[None], counts.draws[None])
-    wins, draws = counts.resample(np.random.default_rng(seed), rounds)
-    fitter.check_identifiable(wins, draws)
-    replicates, _ = fitter.fit(wins, draws, x0=np.repeat(point, rounds, axis=0))
+    fitter, data = strength_fitter(counts, draw_model, prior_sd)
+    fitter.check_identifiable(*data)
+    point, _ = fitter.fit(*(c[None] for c in data))
+    resampled = counts.resample(np.random.default_rng(seed), rounds)
+    fitter.check_identifiable(*resampled)
+    replicates, _ = fitter.fit(*resampled, x0=np.repeat(point, rounds, axis=0))
     to_ratings = anchoring(counts.agents, anchor=anchor, pin=pin, base=base, scale=scale)
     rating = to_ratings(point[0, :n])
     samples = to_ratings(replicates[:, :n])
@@ -120,7 +167,33 @@ def bootstrap_ratings(
         percentile_lower=100.0 * (n - ranks.rank_upper) / others,
         percentile_upper=100.0 * (n - ranks.rank_lower) / others,
         samples=samples, level=level,
-        draw_nu=float(np.exp(point[0, -1])) if draw_model == "davidson" else None)
+        draw_nu=float(np.exp(point[0, -1])) if draw_model == "davidson" else None,
+        seats=_seat_term(fitter, point[0], replicates, level, scale)
+        if isinstance(fitter, SeatStrengthFitter) else None)
+
+
+def _seat_term(fitter: SeatStrengthFitter, point: np.ndarray, replicates: np.ndarray, level: float,
+               scale: float) -> SeatTerm:
+    """The seat term of the point estimate ``(p,)`` with the percentile interval of the replicates
+    ``(rounds, p)``."""
+    points = scale / math.log(10.0)
+    advantage, samples = points * fitter.seat_strengths(point), points * fitter.seat_strengths(replicates)
+    lower, upper = _percentile_interval(samples, level)
+    davidson = fitter.draw_model == "davidson"
+
+    def first_share(x: np.ndarray) -> np.ndarray:
+        h = fitter.seat_strengths(x)
+        d = h[..., 0] - h[..., 1]
+        if not davidson:
+            return expit(d)
+        nu = np.exp(x[..., -1])
+        # (e^(d/2) + nu/2) / (e^(d/2) + e^(-d/2) + nu), divided through by e^(|d|/2) to stay finite
+        up, down, tie = np.exp(0.5 * (d - np.abs(d))), np.exp(-0.5 * (d + np.abs(d))), nu * np.exp(-0.5 * np.abs(d))
+        return (up + 0.5 * tie) / (up + down + tie)
+
+    share_lower, share_upper = _percentile_interval(first_share(replicates), level)
+    return SeatTerm(advantage, lower, upper, float(first_share(point)), float(share_lower), float(share_upper),
+                    level)
 
 
 def bootstrap_statistic(

@@ -27,15 +27,19 @@ import scipy
 import scipy.linalg
 from numpy.typing import ArrayLike
 from scipy import sparse
+from scipy.optimize import linprog
 from scipy.sparse.csgraph import connected_components
+from scipy.special import expit
 
-from arena_league.rating.outcomes import PairCounts
+from arena_league.rating.outcomes import PairCounts, SeatCounts
 
 __all__ = [
     "DEFAULT_PRIOR_SD",
     "ELO_BASE",
     "ELO_SCALE",
     "BradleyTerryFit",
+    "SeatStrengthFitter",
+    "StrengthFitter",
     "bradley_terry",
     "fit_bradley_terry",
 ]
@@ -63,6 +67,10 @@ class BradleyTerryFit:
     draw_nu: float | None
     """Davidson's tie parameter nu (P(draw) = nu / (2 + nu) between equals); None for "half"."""
     iterations: int
+    seat_advantage: np.ndarray | None = None
+    """With :class:`SeatCounts`: each side's advantage in rating points (side 0 = 0), so that agent i
+    at side a scores against j at side b as if rated ``ratings[i] + seat_advantage[a]`` against
+    ``ratings[j] + seat_advantage[b]``; None for seat-blind counts."""
 
 
 def bradley_terry(
@@ -101,7 +109,7 @@ def bradley_terry(
 
 
 def fit_bradley_terry(
-    counts: PairCounts,
+    counts: PairCounts | SeatCounts,
     *,
     draw_model: DrawModel = "half",
     prior_sd: float = DEFAULT_PRIOR_SD,
@@ -110,13 +118,36 @@ def fit_bradley_terry(
     base: float = ELO_BASE,
     scale: float = ELO_SCALE,
 ) -> BradleyTerryFit:
-    """Fits Bradley-Terry to deduplicated counts; arguments as in :func:`bradley_terry`."""
-    strengths = StrengthFitter(counts.n_agents, draw_model, prior_sd)
-    strengths.check_identifiable(counts.wins, counts.draws)
-    x, iterations = strengths.fit(counts.wins[None], counts.draws[None])
+    """Fits Bradley-Terry to deduplicated counts; arguments as in :func:`bradley_terry`.
+
+    With :class:`SeatCounts` the model gains a term per side: P(i at side a beats j at side b) =
+    sigmoid(theta_i - theta_j + h_a - h_b) (Davidson likewise in that d), with h_0 = 0 and the other
+    sides' h under the ratings' prior; :attr:`BradleyTerryFit.seat_advantage` reports h in rating
+    points. Ratings are anchored as without it.
+    """
+    fitter, data = strength_fitter(counts, draw_model, prior_sd)
+    fitter.check_identifiable(*data)
+    x, iterations = fitter.fit(*(c[None] for c in data))
     to_ratings = anchoring(counts.agents, anchor=anchor, pin=pin, base=base, scale=scale)
     nu = float(np.exp(x[0, -1])) if draw_model == "davidson" else None
-    return BradleyTerryFit(counts.agents, to_ratings(x[:, : counts.n_agents])[0], draw_model, nu, iterations)
+    seats = None
+    if isinstance(fitter, SeatStrengthFitter):
+        seats = scale / math.log(10.0) * fitter.seat_strengths(x)[0]
+    return BradleyTerryFit(counts.agents, to_ratings(x[:, : counts.n_agents])[0], draw_model, nu, iterations,
+                           seats)
+
+
+def strength_fitter(
+    counts: PairCounts | SeatCounts, draw_model: DrawModel, prior_sd: float
+) -> tuple[StrengthFitter | SeatStrengthFitter, tuple[np.ndarray, ...]]:
+    """The fitter for seat-blind or seat-keeping counts, and the count arrays its methods take:
+    ``(wins, draws)`` or ``(won, lost, drawn)``, as the counts' ``resample`` returns them stacked."""
+    if isinstance(counts, SeatCounts):
+        return (SeatStrengthFitter(counts.n_agents, counts.n_sides, draw_model, prior_sd),
+                (counts.won, counts.lost, counts.drawn))
+    if isinstance(counts, PairCounts):
+        return StrengthFitter(counts.n_agents, draw_model, prior_sd), (counts.wins, counts.draws)
+    raise TypeError(f"counts must be PairCounts or SeatCounts, got {type(counts).__name__}")
 
 
 def anchoring(
@@ -174,6 +205,50 @@ def solve_positive_definite(h: np.ndarray, g: np.ndarray) -> np.ndarray:
     return np.stack([scipy.linalg.solve(a, b, assume_a="pos", check_finite=False) for a, b in zip(h, g)])
 
 
+Objective = Callable[[np.ndarray, bool], tuple[np.ndarray, np.ndarray | None, np.ndarray | None]]
+
+
+def newton(objective: Objective, x: np.ndarray, max_iter: int = 100, tol: float = 1e-10) -> tuple[np.ndarray, int]:
+    """Minimises a strictly convex objective by Newton's method with Armijo backtracking, for a
+    batch of independent problems at once.
+
+    Args:
+        objective: ``objective(x, derivatives)`` maps parameters ``(batch, p)`` to the values
+            ``(batch,)`` and, when ``derivatives`` is true, the gradients ``(batch, p)`` and the
+            positive definite Hessians ``(batch, p, p)`` (else None for both).
+        x: the starting point ``(batch, p)``.
+        max_iter, tol: at most ``max_iter`` steps; stop once every step is below ``tol``.
+
+    Returns:
+        The minimisers ``(batch, p)`` and the number of iterations.
+    """
+    f, g, h = objective(x, True)
+    for iterations in range(1, max_iter + 1):
+        step = -solve_positive_definite(h, g)
+        size = np.abs(step).max(axis=-1)
+        if (size < tol).all():
+            return x, iterations
+        slope = (g * step).sum(axis=-1)
+        # Try the full Newton step first (its derivatives are needed next anyway); backtrack
+        # only the batch elements whose objective did not decrease enough.
+        f_new, g_new, h_new = objective(x + step, True)
+        # Near the optimum rounding noise swamps the decrease; a Newton step is then exact.
+        ok = (f_new <= f + 1e-4 * slope) | (size < 1e-6)
+        if ok.all():
+            x, f, g, h = x + step, f_new, g_new, h_new
+            continue
+        t = np.where(ok, 1.0, 0.5)
+        for _ in range(60):
+            f_new = objective(x + t[:, None] * step, False)[0]
+            ok = (f_new <= f + 1e-4 * t * slope) | (t * size < 1e-6)
+            if ok.all():
+                break
+            t = np.where(ok, t, 0.5 * t)
+        x = x + t[:, None] * step
+        f, g, h = objective(x, True)
+    raise RuntimeError(f"Bradley-Terry Newton did not converge in {max_iter} iterations")
+
+
 class StrengthFitter:
     """Penalised Newton fit of log-strengths (and Davidson's log nu), batched over leading axes.
 
@@ -184,13 +259,10 @@ class StrengthFitter:
     """
 
     def __init__(self, n_agents: int, draw_model: DrawModel = "half", prior_sd: float = DEFAULT_PRIOR_SD):
-        if draw_model not in ("half", "davidson"):
-            raise ValueError(f"draw_model must be 'half' or 'davidson', got {draw_model!r}")
-        if not prior_sd > 0:
-            raise ValueError(f"prior_sd must be positive (math.inf for no prior), got {prior_sd}")
+        _check_model(draw_model, prior_sd)
         self.n = n_agents
         self.draw_model = draw_model
-        self.ridge = 0.0 if math.isinf(prior_sd) else (ELO_SCALE / (math.log(10.0) * prior_sd)) ** 2
+        self.ridge = _ridge(prior_sd)
         # Davidson's log nu gets a very weak prior around nu = 1 so that it stays finite in a league
         # (or a bootstrap round) without draws.
         self.eta_ridge = 1e-2
@@ -238,31 +310,9 @@ class StrengthFitter:
         pairs = (wins[:, self.first, self.second], wins[:, self.second, self.first],
                  draws[:, self.first, self.second])
         objective = self._half if self.draw_model == "half" else self._davidson
-        f, g, h = objective(x, *pairs, derivatives=True)
-        for iterations in range(1, max_iter + 1):
-            step = -solve_positive_definite(h, g)
-            size = np.abs(step).max(axis=-1)
-            if (size < tol).all():
-                return x.reshape((*batch, x.shape[-1])), iterations
-            slope = (g * step).sum(axis=-1)
-            # Try the full Newton step first (its derivatives are needed next anyway); backtrack
-            # only the batch elements whose objective did not decrease enough.
-            f_new, g_new, h_new = objective(x + step, *pairs, derivatives=True)
-            # Near the optimum rounding noise swamps the decrease; a Newton step is then exact.
-            ok = (f_new <= f + 1e-4 * slope) | (size < 1e-6)
-            if ok.all():
-                x, f, g, h = x + step, f_new, g_new, h_new
-                continue
-            t = np.where(ok, 1.0, 0.5)
-            for _ in range(60):
-                f_new = objective(x + t[:, None] * step, *pairs, derivatives=False)[0]
-                ok = (f_new <= f + 1e-4 * t * slope) | (t * size < 1e-6)
-                if ok.all():
-                    break
-                t = np.where(ok, t, 0.5 * t)
-            x = x + t[:, None] * step
-            f, g, h = objective(x, *pairs, derivatives=True)
-        raise RuntimeError(f"Bradley-Terry Newton did not converge in {max_iter} iterations")
+        x, iterations = newton(lambda y, derivatives: objective(y, *pairs, derivatives=derivatives), x,
+                               max_iter, tol)
+        return x.reshape((*batch, x.shape[-1])), iterations
 
     def _to_agents(self, per_pair: np.ndarray, matrix: sparse.csr_matrix) -> np.ndarray:
         """Sums per-pair values ``(batch, pairs)`` onto agents through ``matrix``."""
@@ -329,3 +379,179 @@ class StrengthFitter:
         h[:, -1, :-1] = cross
         h[:, -1, -1] = (games * (r - r * r)).sum(-1) + self.eta_ridge
         return f, np.concatenate([g_theta, g_eta[:, None]], axis=-1), h
+
+
+class SeatStrengthFitter:
+    """Penalised Newton fit of log-strengths with a seat term: side advantages h (h_0 = 0) and,
+    under Davidson, log nu; batched over leading axes like :class:`StrengthFitter`.
+
+    Parameters are laid out as ``(theta_0 .. theta_{n-1}, h_1 .. h_{S-1}[, log nu])``. The side
+    advantages get the ratings' Gaussian prior, so that a league where one side always wins keeps
+    a finite advantage. Work is done on the dense ``(batch, K, n, n)`` count arrays of
+    :class:`SeatCounts`: each cell's first and second derivatives in d = theta_i - theta_j + h_a -
+    h_b are summed onto the parameters (the theta block is the Laplacian of the summed curvatures,
+    the theta-h terms are row-minus-column sums, the h-h terms total sums).
+    """
+
+    def __init__(self, n_agents: int, n_sides: int, draw_model: DrawModel = "half",
+                 prior_sd: float = DEFAULT_PRIOR_SD):
+        _check_model(draw_model, prior_sd)
+        self.n = n_agents
+        self.n_sides = n_sides
+        self.draw_model = draw_model
+        self.ridge = _ridge(prior_sd)
+        self.eta_ridge = 1e-2  # as in StrengthFitter
+        a, b = np.triu_indices(n_sides, 1)
+        # sides[k, s] = +1 if side s is pair k's first side, -1 if its second; column 0 (h_0 = 0) dropped
+        sides = np.zeros((a.size, n_sides))
+        sides[np.arange(a.size), a] = 1.0
+        sides[np.arange(a.size), b] = -1.0
+        self.sides = sides[:, 1:]
+        self.n_strengths = n_agents + n_sides - 1
+
+    def seat_strengths(self, x: np.ndarray) -> np.ndarray:
+        """The side advantages ``(..., n_sides)`` in strength units, h_0 = 0."""
+        h = x[..., self.n:self.n_strengths]
+        return np.concatenate([np.zeros((*h.shape[:-1], 1)), h], axis=-1)
+
+    def check_identifiable(self, won: np.ndarray, lost: np.ndarray, drawn: np.ndarray) -> None:
+        """Without a prior the MLE exists only if no direction of the parameters (other than a
+        common shift of the strengths) raises every match's likelihood: a linear program per league
+        looks for such a direction (won cells want d up, lost cells down, drawn cells d fixed)."""
+        if self.ridge > 0:
+            return
+        shape = (-1, self.n_sides * (self.n_sides - 1) // 2, self.n, self.n)
+        for w, lo, dr in zip(won.reshape(shape), lost.reshape(shape), drawn.reshape(shape)):
+            k, i, j = np.nonzero(w + lo + dr)
+            design = np.zeros((k.size, self.n_strengths))
+            design[np.arange(k.size), i] += 1.0
+            design[np.arange(k.size), j] -= 1.0
+            design[:, self.n:] = self.sides[k]
+            sign = np.sign(w[k, i, j] - lo[k, i, j])
+            split = ((w[k, i, j] > 0) & (lo[k, i, j] > 0)) | (dr[k, i, j] > 0)
+            fixed = design[split]
+            one_way = design[~split] * sign[~split, None]
+            gauge = np.r_[np.ones(self.n), np.zeros(self.n_sides - 1)][None, :]
+            result = linprog(-one_way.sum(axis=0), A_ub=-one_way if one_way.size else None,
+                             b_ub=np.zeros(one_way.shape[0]) if one_way.size else None,
+                             A_eq=np.vstack([fixed, gauge]), b_eq=np.zeros(fixed.shape[0] + 1),
+                             bounds=(-1.0, 1.0), method="highs")
+            rank = np.linalg.matrix_rank(np.vstack([design, gauge]))
+            if (result.status == 0 and -result.fun > 1e-9) or rank < self.n_strengths:
+                raise ValueError("with prior_sd=inf the maximum-likelihood ratings or seat advantages are "
+                                 "infinite or not unique: some agents or sides never lost (or never won) "
+                                 "against the others; use a finite prior_sd (the default) or play agents "
+                                 "on both sides")
+
+    def start(self, won: np.ndarray, lost: np.ndarray, drawn: np.ndarray) -> np.ndarray:
+        """Starting point: equal strengths, no seat advantage, and nu from the draw share."""
+        batch = won.shape[:-3]
+        x = np.zeros((*batch, self.n_strengths + (self.draw_model == "davidson")))
+        if self.draw_model == "davidson":
+            n_draws = drawn.sum(axis=(-3, -2, -1))
+            n_matches = np.maximum(won.sum(axis=(-3, -2, -1)) + lost.sum(axis=(-3, -2, -1)) + n_draws, 1.0)
+            share = np.clip(n_draws / n_matches, 0.5 / n_matches, 0.99)
+            x[..., -1] = np.log(2.0 * share / (1.0 - share))
+        return x
+
+    def fit(self, won: np.ndarray, lost: np.ndarray, drawn: np.ndarray, x0: np.ndarray | None = None,
+            max_iter: int = 100, tol: float = 1e-10) -> tuple[np.ndarray, int]:
+        """Minimises the negative log-posterior for each batch element of the counts
+        ``(..., K, n, n)``. Returns the parameters ``(..., n + n_sides - 1 [+1 for log nu])`` and
+        the iterations."""
+        batch = won.shape[:-3]
+        cells = won.shape[-3:]
+        won, lost, drawn = (c.reshape((-1, *cells)) for c in (won, lost, drawn))
+        x = self.start(won, lost, drawn) if x0 is None else np.array(x0, dtype=float).reshape(won.shape[0], -1)
+        objective = self._half if self.draw_model == "half" else self._davidson
+        x, iterations = newton(lambda y, derivatives: objective(y, won, lost, drawn, derivatives), x,
+                               max_iter, tol)
+        return x.reshape((*batch, x.shape[-1])), iterations
+
+    def _gaps(self, x: np.ndarray) -> np.ndarray:
+        """d = theta_i - theta_j + h_a - h_b per cell, ``(batch, K, n, n)``."""
+        theta = x[:, : self.n]
+        seat = x[:, self.n:self.n_strengths] @ self.sides.T
+        return theta[:, None, :, None] - theta[:, None, None, :] + seat[:, :, None, None]
+
+    def _to_parameters(self, per_cell: np.ndarray) -> np.ndarray:
+        """Sums per-cell derivatives in d ``(batch, K, n, n)`` onto theta and h."""
+        theta = (per_cell.sum(-1) - per_cell.sum(-2)).sum(1)
+        return np.concatenate([theta, per_cell.sum((-2, -1)) @ self.sides], axis=-1)
+
+    def _finish(self, x: np.ndarray, f: np.ndarray, d_f: np.ndarray, d2_f: np.ndarray):
+        """Adds the ridge (or the gauge fix without one) and maps per-cell first and second
+        derivatives (in d) to the gradient and Hessian over (theta, h)."""
+        strengths = x[:, : self.n_strengths]
+        f = f + self._penalty(strengths)
+        g = self._to_parameters(d_f) + self.ridge * strengths
+        n = self.n
+        summed = d2_f.sum(1)
+        summed = summed + summed.transpose(0, 2, 1)
+        h = np.empty((x.shape[0], self.n_strengths, self.n_strengths))
+        h[:, :n, :n] = -summed
+        idx = np.arange(n)
+        h[:, idx, idx] += summed.sum(-1)
+        cross = np.einsum("rki,ks->ris", d2_f.sum(-1) - d2_f.sum(-2), self.sides)
+        h[:, :n, n:] = cross
+        h[:, n:, :n] = cross.transpose(0, 2, 1)
+        h[:, n:, n:] = np.einsum("rk,ks,kt->rst", d2_f.sum((-2, -1)), self.sides, self.sides)
+        diagonal = np.arange(self.n_strengths)
+        h[:, diagonal, diagonal] += self.ridge
+        if self.ridge == 0:
+            h[:, :n, :n] += 1.0 / n  # the gauge fix of StrengthFitter
+        return f, g, h
+
+    def _penalty(self, strengths: np.ndarray) -> np.ndarray:
+        return 0.5 * self.ridge * (strengths**2).sum(-1)
+
+    def _half(self, x: np.ndarray, won: np.ndarray, lost: np.ndarray, drawn: np.ndarray, derivatives: bool):
+        points, against = won + 0.5 * drawn, lost + 0.5 * drawn
+        games = points + against
+        d = self._gaps(x)
+        f = (games * np.logaddexp(0.0, -d) + against * d).sum((-3, -2, -1))
+        if not derivatives:
+            return f + self._penalty(x), None, None
+        p = expit(d)
+        games_p = games * p
+        return self._finish(x, f, games_p - points, games_p * (1.0 - p))
+
+    def _davidson(self, x: np.ndarray, won: np.ndarray, lost: np.ndarray, drawn: np.ndarray,
+                  derivatives: bool):
+        # per cell, as in StrengthFitter._davidson
+        eta = x[:, -1]
+        games = won + lost + drawn
+        d = self._gaps(x)
+        a = np.exp(-0.5 * np.abs(d))
+        nu_a = np.exp(eta)[:, None, None, None] * a
+        q = 1.0 + a * a + nu_a
+        log_d = 0.5 * np.abs(d) + np.log(q)
+        n_draws = drawn.sum((-3, -2, -1))
+        f = (-0.5 * ((won - lost) * d).sum((-3, -2, -1)) - eta * n_draws + (games * log_d).sum((-3, -2, -1))
+             + 0.5 * self.eta_ridge * eta**2)
+        if not derivatives:
+            return f + self._penalty(x[:, : self.n_strengths]), None, None
+        s = np.sign(d) * 0.5 * (1.0 - a * a) / q
+        r = nu_a / q
+        g_eta = -n_draws + (games * r).sum((-3, -2, -1)) + self.eta_ridge * eta
+        f, g_strengths, h_strengths = self._finish(x, f, -0.5 * (won - lost) + games * s,
+                                                   games * ((1.0 + a * a) / (4.0 * q) - s * s))
+        h = np.empty((x.shape[0], self.n_strengths + 1, self.n_strengths + 1))
+        h[:, :-1, :-1] = h_strengths
+        cross = self._to_parameters(-games * s * r)
+        h[:, :-1, -1] = cross
+        h[:, -1, :-1] = cross
+        h[:, -1, -1] = (games * (r - r * r)).sum((-3, -2, -1)) + self.eta_ridge
+        return f, np.concatenate([g_strengths, g_eta[:, None]], axis=-1), h
+
+
+def _check_model(draw_model: str, prior_sd: float) -> None:
+    if draw_model not in ("half", "davidson"):
+        raise ValueError(f"draw_model must be 'half' or 'davidson', got {draw_model!r}")
+    if not prior_sd > 0:
+        raise ValueError(f"prior_sd must be positive (math.inf for no prior), got {prior_sd}")
+
+
+def _ridge(prior_sd: float) -> float:
+    """The prior's precision on strengths (natural-log units) for a prior sd in rating points."""
+    return 0.0 if math.isinf(prior_sd) else (ELO_SCALE / (math.log(10.0) * prior_sd)) ** 2

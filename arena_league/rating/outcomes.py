@@ -21,7 +21,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["OUTCOME_PLACE", "PSEUDO_COUNT", "OutcomeTable", "PairCounts", "PairwiseResults", "SeatResult"]
+__all__ = ["OUTCOME_PLACE", "PSEUDO_COUNT", "OutcomeTable", "PairCounts", "PairwiseResults", "SeatCounts",
+           "SeatResult"]
 
 OUTCOME_PLACE: dict[str, int] = {"win": 0, "draw": 0, "loss": 1}
 """Finishing place of a team given its two-team outcome word (0 is first; equal places tie)."""
@@ -50,13 +51,17 @@ class SeatResult(NamedTuple):
 @dataclass(frozen=True)
 class PairwiseResults:
     """Matches reduced to pairwise results, in match order: ``first`` scored ``score`` against
-    ``second`` (1 win, 0.5 draw, 0 loss). A match of k teams gives k(k-1)/2 results."""
+    ``second`` (1 win, 0.5 draw, 0 loss). A match of k teams gives k(k-1)/2 results.
+    ``first_team`` and ``second_team`` are the team indices (the sides) the two held in the match,
+    ``first_team < second_team``; None when the results were not read from a match table."""
 
     agents: list[str]
     match: np.ndarray
     first: np.ndarray
     second: np.ndarray
     score: np.ndarray
+    first_team: np.ndarray | None = None
+    second_team: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.first.shape[0])
@@ -200,8 +205,8 @@ class OutcomeTable:
         """
         if self.match.size == 0:
             empty = np.zeros(0, dtype=np.int64)
-            return PairwiseResults(self.agents, empty, empty, empty, np.zeros(0))
-        match, _, agent_lo, agent_hi, place = self._team_groups()
+            return PairwiseResults(self.agents, empty, empty, empty, np.zeros(0), empty, empty)
+        match, team, agent_lo, agent_hi, place = self._team_groups()
         mixed = np.flatnonzero(agent_lo != agent_hi)
         if mixed.size:
             raise ValueError(f"match {self.match_ids[match[mixed[0]]]!r}: a team holds several agents; "
@@ -217,16 +222,26 @@ class OutcomeTable:
             a, b = np.triu_indices(k, 1)
             ra, rb = rows[:, a].reshape(-1), rows[:, b].reshape(-1)
             parts.append((match[ra], agent_lo[ra], agent_lo[rb],
-                          0.5 * (1.0 + np.sign(place[rb] - place[ra]))))
-        m, first, second, score = (np.concatenate(c) for c in zip(*parts))
+                          0.5 * (1.0 + np.sign(place[rb] - place[ra])), team[ra], team[rb]))
+        m, first, second, score, first_team, second_team = (np.concatenate(c) for c in zip(*parts))
         order = np.argsort(m, kind="stable")
         keep = order[first[order] != second[order]]
-        return PairwiseResults(self.agents, m[keep], first[keep], second[keep], score[keep])
+        return PairwiseResults(self.agents, m[keep], first[keep], second[keep], score[keep],
+                               first_team[keep], second_team[keep])
 
     def pair_counts(self) -> PairCounts:
         """Deduplicated win and draw counts between agents (see :class:`PairCounts`)."""
         results = self.pairwise()
         return PairCounts.from_results(results.first, results.second, results.score, self.agents)
+
+    def seat_counts(self) -> SeatCounts:
+        """Win, loss and draw counts that keep the side (the team index in the match) each agent
+        held (see :class:`SeatCounts`); teams of one agent each, as in :meth:`pairwise`. The number
+        of sides is one more than the largest team index in the table."""
+        results = self.pairwise()
+        n_sides = max(2, int(self.team.max()) + 1 if self.team.size else 2)
+        return SeatCounts.from_results(results.first, results.second, results.first_team, results.second_team,
+                                       results.score, self.agents, n_sides)
 
 
 @dataclass(frozen=True)
@@ -345,3 +360,114 @@ class PairCounts:
         draws[:, draw_cells] = resampled[:, win_cells.size:]
         draws = draws.reshape(rounds, n, n)
         return wins.reshape(rounds, n, n), draws + draws.transpose(0, 2, 1)
+
+
+@dataclass(frozen=True)
+class SeatCounts:
+    """Deduplicated pairwise outcome counts that keep which side each agent held.
+
+    A side is a team position in the match (team 0, team 1, ...). The side pairs ``(a_k, b_k)``,
+    ``a_k < b_k``, are numbered in ``np.triu_indices(n_sides, 1)`` order (one pair, (0, 1), for
+    two-team games). ``won[k, i, j]`` counts matches where agent i at side a_k beat agent j at side
+    b_k, ``lost[k, i, j]`` those i at side a_k lost to j at side b_k, and ``drawn[k, i, j]`` those
+    they drew; each match is counted once. Float arrays of shape ``(K, n, n)``, K = n_sides
+    (n_sides - 1) / 2, so that weights are allowed.
+    """
+
+    agents: list[str]
+    n_sides: int
+    won: np.ndarray
+    lost: np.ndarray
+    drawn: np.ndarray
+
+    def __post_init__(self) -> None:
+        n_sides = int(self.n_sides)
+        if n_sides < 2:
+            raise ValueError(f"n_sides must be at least 2 (a match has two teams), got {self.n_sides}")
+        n = len(self.agents)
+        shape = (n_sides * (n_sides - 1) // 2, n, n)
+        arrays = {name: np.asarray(getattr(self, name), dtype=np.float64) for name in ("won", "lost", "drawn")}
+        for name, array in arrays.items():
+            if array.shape != shape:
+                raise ValueError(f"{name} must have shape {shape} (side pairs, agents, agents) for {n_sides} "
+                                 f"sides and {n} agents; got {array.shape}")
+            if not np.isfinite(array).all() or (array < 0).any():
+                raise ValueError(f"{name} counts must be finite and non-negative")
+            if np.diagonal(array, axis1=1, axis2=2).any():
+                raise ValueError(f"{name} counts an agent against itself; pairwise ratings leave such "
+                                 "matches out: zero the diagonal of each side pair")
+            object.__setattr__(self, name, array)
+        object.__setattr__(self, "n_sides", n_sides)
+        object.__setattr__(self, "agents", [str(a) for a in self.agents])
+
+    @classmethod
+    def from_results(cls, first: ArrayLike, second: ArrayLike, first_side: ArrayLike, second_side: ArrayLike,
+                     score: ArrayLike, agents: Sequence[str] | int, n_sides: int = 2) -> SeatCounts:
+        """Counts pairwise results: ``first[k]``, at side ``first_side[k]``, scored ``score[k]`` (1, 0.5
+        or 0) against ``second[k]`` at side ``second_side[k]``. ``agents`` is the list of names or
+        their number; sides run from 0 to ``n_sides - 1``."""
+        names = [str(i) for i in range(agents)] if isinstance(agents, int) else list(agents)
+        n = len(names)
+        columns = [np.asarray(c, np.int64).reshape(-1) for c in (first, second, first_side, second_side)]
+        score = np.asarray(score, np.float64).reshape(-1)
+        if len({c.size for c in columns} | {score.size}) != 1:
+            raise ValueError("first, second, first_side, second_side and score need one value per result")
+        first, second, first_side, second_side = columns
+        if not np.isin(score, (0.0, 0.5, 1.0)).all():
+            raise ValueError("scores must be 1 (win), 0.5 (draw) or 0 (loss) for the first agent")
+        if ((first < 0) | (first >= n) | (second < 0) | (second >= n)).any():
+            raise ValueError(f"agent indices must lie in [0, {n}); pass the full list of agent names")
+        if ((first_side < 0) | (first_side >= n_sides) | (second_side < 0) | (second_side >= n_sides)).any():
+            raise ValueError(f"sides must lie in [0, {n_sides}); pass n_sides as the number of teams in a match")
+        if (first_side == second_side).any():
+            raise ValueError("the two agents of a result held the same side; each side is one team of the match")
+        # order each result so that the lower side comes first
+        swap = first_side > second_side
+        low, high = np.where(swap, second, first), np.where(swap, first, second)
+        side_low = np.minimum(first_side, second_side)
+        side_high = np.maximum(first_side, second_side)
+        low_score = np.where(swap, 1.0 - score, score)
+        pair_index = np.full((n_sides, n_sides), -1, dtype=np.int64)
+        a, b = np.triu_indices(n_sides, 1)
+        pair_index[a, b] = np.arange(a.size)
+        cell = (pair_index[side_low, side_high] * n + low) * n + high
+        size = a.size * n * n
+        won, lost, drawn = (np.bincount(cell[low_score == value], minlength=size).reshape(a.size, n, n)
+                            .astype(np.float64) for value in (1.0, 0.0, 0.5))
+        return cls(names, n_sides, won, lost, drawn)
+
+    @property
+    def n_agents(self) -> int:
+        return len(self.agents)
+
+    @property
+    def side_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """The sides ``(a_k, b_k)`` of each side pair k."""
+        return np.triu_indices(self.n_sides, 1)
+
+    @property
+    def n_matches(self) -> float:
+        return float(self.won.sum() + self.lost.sum() + self.drawn.sum())
+
+    def pair_counts(self) -> PairCounts:
+        """The seat-blind counts (see :class:`PairCounts`): the same matches, sides forgotten."""
+        wins = self.won.sum(axis=0) + self.lost.sum(axis=0).T
+        drawn = self.drawn.sum(axis=0)
+        return PairCounts(self.agents, wins, drawn + drawn.T)
+
+    def resample(self, rng: np.random.Generator, rounds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``rounds`` bootstrap replicates of the league, as :meth:`PairCounts.resample`: one
+        multinomial draw over the non-zero outcome cells. Returns stacked ``(won, lost, drawn)`` of
+        shape ``(rounds, K, n, n)``. Counts must be whole numbers."""
+        stacked = np.stack([self.won, self.lost, self.drawn]).reshape(-1)
+        cells = np.flatnonzero(stacked)
+        counts = stacked[cells]
+        total = counts.sum()
+        if total == 0:
+            raise ValueError("there are no matches to resample; play some first")
+        if not np.allclose(counts, np.round(counts)):
+            raise ValueError("bootstrap resampling needs whole match counts, not weights")
+        resampled = np.zeros((rounds, stacked.size))
+        resampled[:, cells] = rng.multinomial(int(round(total)), counts / total, size=rounds)
+        won, lost, drawn = np.moveaxis(resampled.reshape(rounds, 3, *self.won.shape), 1, 0)
+        return won, lost, drawn
