@@ -13,6 +13,12 @@ rating predicts the expected score, which under Davidson-like draws is compresse
 when draws are common, ``"davidson"`` recovers the decisive-match odds. The fit is Newton's method
 on the deduplicated count matrix, batched over leading axes so that all bootstrap rounds are solved
 at once (see :mod:`arena_league.rating.bootstrap`).
+
+Where the seat matters (the first player of GoBang, two-role games), counts that keep the side each
+agent held (:class:`~arena_league.rating.outcomes.SeatCounts`) get an order effect, the home
+advantage of paired comparisons (Agresti (2013), "Categorical Data Analysis", 3rd ed., Wiley, on the
+Bradley-Terry model with an order effect): d = theta_i - theta_j + h_a - h_b for i at side a against
+j at side b, with h_0 = 0 and the other sides' h under the ratings' prior.
 """
 
 from __future__ import annotations

@@ -10,6 +10,8 @@ An :class:`OutcomeTable` holds one row per seat, as the registry stores them:
 ``(match_id, seat, agent, team, score, outcome)``, where ``outcome`` is ``"win"``, ``"loss"`` or
 ``"draw"`` for the seat's team, or an integer finishing place (lower is better, equal places tie)
 when more than two teams finish in order. Agents are integer indices into ``agents`` (their names).
+:class:`PairCounts` forgets which team each agent held; :class:`SeatCounts` keeps it, for games
+where the side matters.
 """
 
 from __future__ import annotations
@@ -468,6 +470,6 @@ class SeatCounts:
         if not np.allclose(counts, np.round(counts)):
             raise ValueError("bootstrap resampling needs whole match counts, not weights")
         resampled = np.zeros((rounds, stacked.size))
-        resampled[:, cells] = rng.multinomial(int(round(total)), counts / total, size=rounds)
+        resampled[:, cells] = rng.multinomial(round(total), counts / total, size=rounds)
         won, lost, drawn = np.moveaxis(resampled.reshape(rounds, 3, *self.won.shape), 1, 0)
         return won, lost, drawn

@@ -9,6 +9,11 @@ Newton's method on each side; the rank and its interval follow from where the ba
 around it (:func:`~arena_league.rating.ranks.competition_ranks` with the base as reference: rank =
 1 + the number of base agents rated above, so 1 .. n + 1).
 
+In games where the seat matters the base fit's seat term (see
+:func:`~arena_league.rating.bradley_terry.fit_bradley_terry`) is held fixed too: a match the
+entrant played at side s against a base agent j at the other side has d = x - base_j + h_s -
+h_other, so results are recorded per entrant side.
+
 The adaptive chooser picks the next opponent with the largest expected Fisher information about x,
 E[p (1 - p)] under the current normal approximation of x (the sequential design of optimal
 experiments, Chernoff 1959), preferring, among the near-best opponents, the one met least often, so
@@ -86,7 +91,7 @@ class _EntrantPosterior:
     entrants; strengths are on the natural-log scale (theta = rating * ln 10 / scale)."""
 
     def __init__(self, base_ratings: ArrayLike, n_entrants: int, level: float, prior_sd: float,
-                 prior_mean: float | None, scale: float):
+                 prior_mean: float | None, scale: float, seat_advantage: ArrayLike | None = None):
         ratings = np.asarray(base_ratings, dtype=np.float64)
         if ratings.ndim != 1 or ratings.size < 1 or not np.isfinite(ratings).all():
             raise ValueError("base_ratings must be a non-empty 1-D array of finite ratings")
@@ -102,7 +107,17 @@ class _EntrantPosterior:
         self.prior_precision = (self.points_per_theta / prior_sd) ** 2
         self.level = level
         self.drop = 0.5 * chi2.ppf(level, 1)
-        shape = (n_entrants, ratings.size)
+        # Results are kept per (entrant side, opponent) cell, side-major; without a seat term there
+        # is one side, and each cell's opponent strength is the base strength less the entrant
+        # side's edge over the other.
+        if seat_advantage is None:
+            self.n_sides = 1
+            self.cell_base = self.base
+        else:
+            edge = _seat_edges(seat_advantage) / self.points_per_theta
+            self.n_sides = 2
+            self.cell_base = (self.base[None, :] - edge[:, None]).reshape(-1)
+        shape = (n_entrants, self.n_sides * ratings.size)
         self.points = np.zeros(shape)
         self.games = np.zeros(shape)
         self.mode = np.full(n_entrants, self.prior_mean)
@@ -110,13 +125,19 @@ class _EntrantPosterior:
         self.upper = np.full(n_entrants, np.nan)
         self.refit(np.arange(n_entrants))
 
-    def record(self, entrants: np.ndarray, opponents: np.ndarray, scores: np.ndarray) -> None:
-        np.add.at(self.points, (entrants, opponents), scores)
-        np.add.at(self.games, (entrants, opponents), 1.0)
+    def record(self, entrants: np.ndarray, opponents: np.ndarray, scores: np.ndarray,
+               sides: np.ndarray | None = None) -> None:
+        cells = opponents if sides is None or self.n_sides == 1 else sides * self.base.size + opponents
+        np.add.at(self.points, (entrants, cells), scores)
+        np.add.at(self.games, (entrants, cells), 1.0)
+
+    def opponent_games(self, rows: np.ndarray) -> np.ndarray:
+        """Matches of each entrant against each base agent, over both sides ``(E, n)``."""
+        return self.games[rows].reshape(rows.size, self.n_sides, self.base.size).sum(axis=1)
 
     def _log_lik(self, x: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Penalised log-likelihood, its first and second derivatives at x[e] for entrants rows."""
-        d = x[:, None] - self.base[None, :]
+        d = x[:, None] - self.cell_base[None, :]
         points, games = self.points[rows], self.games[rows]
         surprise = np.logaddexp(0.0, -d)  # -log P(win)
         p = np.exp(-surprise)
@@ -190,13 +211,14 @@ class _EntrantPosterior:
 
     def most_informative(self, rows: np.ndarray) -> np.ndarray:
         """Per entrant, the opponent with the largest expected Fisher information (ties within
-        ``_NEAR_BEST`` go to the opponent met least often, then to the more informative)."""
+        ``_NEAR_BEST`` go to the opponent met least often, then to the more informative). The seat
+        term is left out: which side the entrant takes is the caller's to choose."""
         sd = (self.upper[rows] - self.lower[rows]) / (2.0 * math.sqrt(2.0 * self.drop))
         x = self.mode[rows, None] + sd[:, None] * _HERMITE_X[None, :]
         p = expit(x[:, None, :] - self.base[None, :, None])
         info = (p * (1.0 - p) * _HERMITE_W).sum(axis=-1)
         near = info >= _NEAR_BEST * info.max(axis=1, keepdims=True)
-        games = np.where(near, self.games[rows], np.inf)
+        games = np.where(near, self.opponent_games(rows), np.inf)
         fewest = games == games.min(axis=1, keepdims=True)
         return np.argmax(np.where(fewest, info, -1.0), axis=1)
 
@@ -211,26 +233,40 @@ def place_entrant(
     prior_sd: float = PLACEMENT_PRIOR_SD,
     prior_mean: float | None = None,
     scale: float = ELO_SCALE,
+    seat_advantage: ArrayLike | None = None,
 ) -> Placement:
     """The entrant's rating, interval, rank interval and percentile interval against a frozen base.
 
     Args:
         base_ratings: the base population's ratings (Elo scale), held fixed.
-        wins, losses, draws: the entrant's results against each base agent (arrays of length n).
+        wins, losses, draws: the entrant's results against each base agent: arrays of length n
+            (sides unknown), or ``(2, n)`` with row s the matches the entrant played at side s (the
+            opponent at the other side of a two-team match).
         level: coverage of the intervals (0.95).
         prior_sd, prior_mean: the weak Gaussian prior on the entrant's rating (default: sd 1000
             around the base mean).
         scale: rating points per factor of 10 in odds (400).
+        seat_advantage: the base fit's advantage of each of the two sides in rating points
+            (:attr:`~arena_league.rating.bradley_terry.BradleyTerryFit.seat_advantage`), held fixed;
+            used with per-side results. None (or results of length n) leaves the seat term out.
     """
     base = np.asarray(base_ratings, dtype=np.float64)
-    counts = [np.asarray(c, dtype=np.float64) for c in (wins, losses, np.zeros_like(base) if draws is None
-                                                          else draws)]
-    if any(c.shape != base.shape for c in counts):
-        raise ValueError(f"wins, losses and draws need one count per base agent ({base.size})")
+    counts = [np.asarray(c, dtype=np.float64) for c in (wins, losses, np.zeros_like(wins, dtype=np.float64)
+                                                          if draws is None else draws)]
+    per_side = counts[0].ndim == 2
+    shape = (2, base.size) if per_side else base.shape
+    if any(c.shape != shape for c in counts):
+        raise ValueError(f"wins, losses and draws need one count per base agent ({base.size}), or one row "
+                         f"of such counts for each of the two sides; got {[c.shape for c in counts]}")
     if any((c < 0).any() for c in counts):
         raise ValueError("result counts must be non-negative")
-    posterior = _EntrantPosterior(base, 1, level, prior_sd, prior_mean, scale)
-    won, lost, drawn = counts
+    if per_side and seat_advantage is None:
+        # no seat term: the sides do not matter
+        counts = [c.sum(axis=0) for c in counts]
+        per_side = False
+    posterior = _EntrantPosterior(base, 1, level, prior_sd, prior_mean, scale,
+                                  seat_advantage if per_side else None)
+    won, lost, drawn = (c.reshape(-1) for c in counts)
     posterior.points[0] = won + 0.5 * drawn
     posterior.games[0] = won + lost + drawn
     rows = np.zeros(1, dtype=np.int64)
@@ -245,6 +281,9 @@ class AdaptivePlacement:
     while not :attr:`done`; :attr:`placement` is the current estimate. Stops when the rank interval's
     half-width is at most ``target_half_width`` places (checked from ``min_matches`` on, since a
     few lucky results can make an early interval look narrow), or after ``budget`` matches.
+
+    With ``seat_advantage`` (the base fit's advantage of each of the two sides, in rating points)
+    the seat term is held fixed and each match is recorded with the side the entrant held.
     """
 
     def __init__(
@@ -258,13 +297,15 @@ class AdaptivePlacement:
         prior_sd: float = PLACEMENT_PRIOR_SD,
         prior_mean: float | None = None,
         scale: float = ELO_SCALE,
+        seat_advantage: ArrayLike | None = None,
     ):
         if budget < 1:
             raise ValueError(f"budget must be at least one match, got {budget}")
         self.target_half_width = target_half_width
         self.budget = budget
         self.min_matches = min_matches
-        self._posterior = _EntrantPosterior(base_ratings, 1, level, prior_sd, prior_mean, scale)
+        self._posterior = _EntrantPosterior(base_ratings, 1, level, prior_sd, prior_mean, scale,
+                                            seat_advantage)
         self._rows = np.zeros(1, dtype=np.int64)
         self.matches = 0
 
@@ -272,14 +313,17 @@ class AdaptivePlacement:
         """Index of the base agent to play next."""
         return int(self._posterior.most_informative(self._rows)[0])
 
-    def record(self, opponent: int, score: float) -> None:
+    def record(self, opponent: int, score: float, side: int = 0) -> None:
         """Records a match: the entrant scored ``score`` (1 win, 0.5 draw, 0 loss) against
-        base agent ``opponent``."""
+        base agent ``opponent``, holding ``side`` (0 or 1; the opponent held the other). The side
+        matters only with a seat term."""
         if not 0 <= opponent < self._posterior.base.size:
             raise ValueError(f"opponent must be a base agent index in [0, {self._posterior.base.size})")
         if not 0.0 <= score <= 1.0:
             raise ValueError("score must be 1 (win), 0.5 (draw) or 0 (loss)")
-        self._posterior.record(self._rows, np.array([opponent]), np.array([float(score)]))
+        if side not in (0, 1):
+            raise ValueError(f"side must be 0 or 1 (the entrant's team in a two-team match), got {side!r}")
+        self._posterior.record(self._rows, np.array([opponent]), np.array([float(score)]), np.array([side]))
         self._posterior.refit(self._rows)
         self.matches += 1
 
@@ -298,6 +342,15 @@ class AdaptivePlacement:
     @property
     def placement(self) -> Placement:
         return self._posterior.placements(self._rows)[0]
+
+
+def _seat_edges(seat_advantage: ArrayLike) -> np.ndarray:
+    """Each side's edge over the other, ``h_s - h_(1-s)`` in rating points, of a two-side advantage."""
+    advantage = np.asarray(seat_advantage, dtype=np.float64)
+    if advantage.shape != (2,) or not np.isfinite(advantage).all():
+        raise ValueError(f"seat_advantage needs one finite value per side of a two-team game (shape (2,)), "
+                         f"got shape {advantage.shape}; pass BradleyTerryFit.seat_advantage of a two-side fit")
+    return advantage - advantage[::-1]
 
 
 @dataclass(frozen=True)
