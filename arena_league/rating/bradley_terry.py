@@ -44,8 +44,6 @@ __all__ = [
     "ELO_BASE",
     "ELO_SCALE",
     "BradleyTerryFit",
-    "SeatStrengthFitter",
-    "StrengthFitter",
     "bradley_terry",
     "fit_bradley_terry",
 ]
