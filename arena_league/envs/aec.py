@@ -97,3 +97,6 @@ class ArenaAECEnv(AECEnv):
 
     def team_result(self) -> np.ndarray:
         return self._par.team_result()
+
+    def pair_points(self) -> np.ndarray:
+        return self._par.pair_points()

@@ -41,6 +41,12 @@ class GameSpec:
     def n_agents(self) -> int:
         return self.n_teams * self.players_per_team
 
+    @property
+    def paired(self) -> bool:
+        """Whether the game's matches are played in pairs with the seats swapped
+        (``GameRules.match_format``)."""
+        return self.rules.match_format == "paired"
+
 
 def format_game_id(name: str, n_teams: int, players_per_team: int, version: int) -> str:
     return f"{name}-{n_teams}T{players_per_team}P-v{version}"
@@ -60,6 +66,7 @@ _REGISTERED: list[type[GameRules]] = []
 
 
 def _ids_of(rules: type[GameRules]) -> list[GameSpec]:
+    rules.check_match_format()
     return [GameSpec(format_game_id(rules.name, n_teams, players, rules.version), rules, n_teams, players)
             for n_teams, players in rules.layouts]
 

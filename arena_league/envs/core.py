@@ -30,7 +30,10 @@ so that adding a game touches no other package:
 * ``human_controls(seat)``: how a person plays a seat at a terminal (:mod:`arena_league.envs.controls`);
 * ``scene_entities(timestamp_ns)``: the match as a 3D replay scene (:mod:`arena_league.envs.scene`);
 * ``batched_matches``: its whole-array engine of many matches, if it has one (the contract is in
-  ``arena_league.matchmaking.batched``).
+  ``arena_league.matchmaking.batched``);
+* ``match_format`` and ``pair_points()``: whether its matches are played one at a time or in pairs
+  (two matches from one seed with the teams' seats swapped), and what each team scored toward its
+  pair in a match.
 """
 
 from __future__ import annotations
@@ -61,6 +64,9 @@ MEASURE_DOCS: dict[str, str] = {
     "resource_gain": "float: amount of the limited resource the seat took this step",
     "outcome": "float: final result of the seat, +1 win, -1 loss, 0 draw; 0 until the game ends",
 }
+
+#: The values of :attr:`GameRules.match_format`.
+MATCH_FORMATS: tuple[str, ...] = ("single", "paired")
 
 _BOOL_MEASURES = frozenset({"active", "alive", "arrived", "fallen"})
 
@@ -153,6 +159,13 @@ class GameRules(ABC):
     #: together, with exactly the moves and results of one match at a time (the engine-adapter
     #: contract of ``arena_league.matchmaking.batched``).
     batched_matches: ClassVar[Callable[..., Any] | None] = None
+    #: How the league plays the game's matches: ``"single"``, each match on its own (its
+    #: :meth:`team_result` is what is rated), or ``"paired"``, in pairs of two matches (halves) from one
+    #: seed with the two teams' seats swapped, for games whose two roles differ (a runner and a
+    #: blocker): the pair is decided by :meth:`pair_points`, summed over the two halves for each agent
+    #: (an agent's team in each half), higher wins, equal totals draw. Paired games have two teams;
+    #: the catalog refuses any other value (:meth:`check_match_format`).
+    match_format: ClassVar[str] = "single"
     #: The game's keyword options (``make(game_id, **options)``), declared once: the error messages,
     #: the manual and the catalogs read them. A game that declares them checks its keyword arguments
     #: with :meth:`checked_options` in ``__init__``; one that declares none checks its own.
@@ -173,6 +186,10 @@ class GameRules(ABC):
     rng: np.random.Generator
     #: True once the rules say the match is over (everyone arrived, a goal, five in a row...).
     game_over: bool = False
+    #: The step at which the match is cut: the env playing these rules sets it to its own
+    #: ``max_cycles``; None for rules played without an env (then ``default_max_cycles``). Only
+    #: :meth:`pair_points` of games that score time reads it.
+    max_cycles: int | None = None
 
     def __init__(self, n_teams: int, players_per_team: int, action_type: str) -> None:
         self.n_teams = n_teams
@@ -199,6 +216,19 @@ class GameRules(ABC):
         game computes from its layout); an unknown name or a bad value raises one ValueError naming
         the game, the option, what it accepts and its default (:func:`~arena_league.envs.options.check_options`)."""
         return check_options(cls.name, given, cls.options)
+
+    @classmethod
+    def check_match_format(cls) -> None:
+        """Refuse a ``match_format`` that is not one of :data:`MATCH_FORMATS`, and ``"paired"`` for a
+        game with a layout of other than two teams (a pair swaps the two teams' seats)."""
+        if cls.match_format not in MATCH_FORMATS:
+            raise ValueError(f"{cls.name} declares match_format {cls.match_format!r}; valid: "
+                             f"{', '.join(map(repr, MATCH_FORMATS))}")
+        if cls.match_format == "paired":
+            others = [f"{t}T{p}P" for t, p in cls.layouts if t != 2]
+            if others:
+                raise ValueError(f"{cls.name} declares match_format 'paired' but offers {', '.join(others)}: a pair "
+                                 "swaps the seats of two teams; declare 'single' or offer two-team layouts only")
 
     # --- the match -------------------------------------------------------------------------
     @abstractmethod
@@ -233,6 +263,13 @@ class GameRules(ABC):
         """``float64[n_teams]`` final score of each team, higher is better (win 1 / draw 0.5 /
         loss 0 in two-team games; the finishing order, as n_teams-1-position, with more teams).
         Valid once the episode ended."""
+
+    def pair_points(self) -> np.ndarray:
+        """``float64[n_teams]``: what each team scored toward its pair in this match (a half of a
+        pair, see :attr:`match_format`); valid once the episode ended. Default: :meth:`team_result`,
+        so a pair of an ordinary two-team game is decided by its points over both seatings, as a
+        colour-swapped pair of games in chess."""
+        return self.team_result()
 
     @classmethod
     @abstractmethod

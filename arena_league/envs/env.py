@@ -66,6 +66,7 @@ class ArenaParallelEnv(ParallelEnv):
         self.rules = rules
         self.tree = tree
         self.max_cycles = max_cycles
+        rules.max_cycles = max_cycles  # the step the env cuts at, which a paired game's points may count
         self.render_mode = render_mode
         self.state_in_obs = bool(state_in_obs)
         self.metadata = {**self.metadata, "name": game_id}
@@ -382,12 +383,18 @@ class ArenaParallelEnv(ParallelEnv):
     def __setstate__(self, state: dict[str, Any]) -> None:
         ctx = state.pop("_ctx")
         self.__dict__.update(state)
+        self.rules.max_cycles = self.max_cycles
         self._ctx = None if ctx is None else RewardContext(self.rules.measures, ctx[0], self.tree.team_of, *ctx[1:])
 
     # --- league helpers ----------------------------------------------------------------------------
     def team_result(self) -> np.ndarray:
         """Each team's final score (higher is better), once the episode has ended."""
         return self.rules.team_result()
+
+    def pair_points(self) -> np.ndarray:
+        """What each team scored toward its pair in this match (``GameRules.pair_points``: the
+        game's own measure in paired games, the team result otherwise), once the episode has ended."""
+        return self.rules.pair_points()
 
     @property
     def step_count(self) -> int:

@@ -403,6 +403,10 @@ class GoBangMatches:
             return np.full(2, 0.5)
         return (np.arange(2) == winner).astype(np.float64)
 
+    def pair_points(self, slot: int) -> np.ndarray:
+        """What each team scored toward its pair: the team result, as ``GoBangRules.pair_points``."""
+        return self.team_result(slot)
+
 
 class GoBangControls(Controls):
     """A person places stones by cell: ``H8`` (column letter, row number) or ``8 8`` (row,

@@ -893,6 +893,10 @@ class SnakeMatches:
     def team_result(self, slot: int) -> np.ndarray:
         return self.boards.team_scores(np.array([slot]))[0]
 
+    def pair_points(self, slot: int) -> np.ndarray:
+        """What each team scored toward its pair: the team result, as ``SnakeRules.pair_points``."""
+        return self.team_result(slot)
+
 
 #: What a person types for each move on the board as drawn (board frame: 0 up, 1 right, 2 down, 3 left).
 HUMAN_KEYS: dict[str, int] = {"w": 0, "up": 0, "u": 0, "d": 1, "right": 1, "r": 1, "s": 2, "down": 2, "a": 3,

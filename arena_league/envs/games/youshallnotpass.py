@@ -52,6 +52,19 @@ Episode end
     blocker plays on (it may get up). ``team_result``: 1 win, 0 loss (no draws). Events:
     ``{"kind": "arrive"|"fall", "seat": 0}``.
 
+Pairs
+    Matches are played in pairs (``match_format = "paired"``): two halves from the same seed with
+    the roles swapped, each agent running once and blocking once. Each half scores the run
+    (``pair_points``: the runner's team scores it, the blocker's team 0). A run that crossed the goal
+    line at step ``s`` scores ``1 + (max_cycles - s) / max_cycles``: more than any run that did not
+    cross, and more the sooner it crossed (at least 1, below 2). A run that did not cross scores how
+    far the runner's torso got from the start line toward the goal line at the end of the half
+    (where it fell, or where it stood when the half was cut at ``max_cycles``), rounded to the
+    centimetre and as a fraction of the field length, in [0, 1) (a torso behind the start line
+    scores 0): runs within a centimetre of each other score the same. The better run wins the pair
+    and equal runs draw: each agent's total is its run plus 0 for its blocking half. A pair's
+    result, not its halves', is what the league rates.
+
 Default social tree
     Root CP ``win_loss`` (scale 100) over the two agent leaves, each IS ``robot_motion`` (scale 1:
     speed toward the seat's target minus falling, control and contact costs; annealed by
@@ -122,6 +135,7 @@ class YouShallNotPassRules(LinedField):
     layouts: ClassVar[tuple[tuple[int, int], ...]] = ((2, 1),)
     measures_provided: ClassVar[frozenset[str]] = BASE_MEASURES | {"arrived"}
     default_max_cycles: ClassVar[int] = 400
+    match_format: ClassVar[str] = "paired"
     summary: ClassVar[str] = "A runner ant must cross the field, a blocker ant must stop it (MuJoCo)"
     game_options: ClassVar[tuple[Option, ...]] = (FIELD_LENGTH, BLOCKER_DISTANCE, start_jitter(0.5))
     heuristic_options: ClassVar[dict[str, tuple[float, float]]] = {"kp": (1.0, 4.0), "period": (0.3, 0.7)}
@@ -164,6 +178,19 @@ class YouShallNotPassRules(LinedField):
         t = self.terms
         readout.add("remaining", t.const([self.half_length]) - t.robot(RUNNER, "pos")[0])
 
+    def allocate_memory(self, n_slots: int) -> dict[str, np.ndarray]:
+        # what pair_points reads of the run: the step it crossed the goal line at (0: it did not)
+        # and how far its torso was from its start line, in m, when the match ended
+        return {"crossed_at": np.zeros(n_slots, dtype=np.int64), "run_length": np.zeros(n_slots)}
+
+    def on_start(self, st: MatchState, slot: int) -> None:
+        st.memory["crossed_at"][slot] = 0
+        st.memory["run_length"][slot] = 0.0
+
+    def _run_length(self, st: MatchState) -> np.ndarray:
+        """How far each match's runner torso is from its start line toward its goal line, in m."""
+        return self.settings["field_length"] - st.lin[:, self._slices["remaining"]][:, 0]
+
     def judge(self, st: MatchState, live: np.ndarray | None) -> None:
         crossed = st.lin[:, self._slices["remaining"]][:, 0] <= 0.0
         fell = st.fallen[:, RUNNER] & ~crossed
@@ -173,6 +200,9 @@ class YouShallNotPassRules(LinedField):
         if not ended.any():
             return
         crossed &= ended
+        first = ended & ~st.done  # the run's end is kept once, when the match ends
+        st.memory["run_length"][first] = self._run_length(st)[first]
+        st.memory["crossed_at"][first & crossed] = st.steps[first & crossed]
         st.arrived[:, RUNNER] |= crossed
         st.active[:, RUNNER] &= ~crossed
         st.any_inactive = True
@@ -182,7 +212,15 @@ class YouShallNotPassRules(LinedField):
 
     def cut(self, st: MatchState, slot: int) -> None:
         # the runner did not get through in time: the blocker wins
+        st.memory["run_length"][slot] = self._run_length(st)[slot]
         self.end_match(st, slot, BLOCKER)
+
+    def match_pair_points(self, st: MatchState, slot: int, max_cycles: int) -> np.ndarray:
+        """The runner's team scores the run, the blocker's team 0 (the manual's "Pairs")."""
+        points = np.zeros(self.n_teams)
+        points[RUNNER] = run_score(int(st.memory["crossed_at"][slot]), float(st.memory["run_length"][slot]),
+                                   self.settings["field_length"], max_cycles)
+        return points
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str, *, kp: float = KP, period: float = GAIT_PERIOD) -> np.ndarray:
@@ -201,6 +239,16 @@ class YouShallNotPassRules(LinedField):
         spot = runner_at + INTERCEPT_LEAD * toward_line
         block = spot / np.maximum(np.linalg.norm(spot, axis=1, keepdims=True), 0.3)
         return trot(obs, np.where(runner[:, None], run, block), kp=kp, period=period)
+
+
+def run_score(crossed_at: int, run_length: float, field_length: float, max_cycles: int) -> float:
+    """A run's score (the manual's "Pairs"): ``1 + (max_cycles - crossed_at) / max_cycles`` for a
+    runner that crossed the goal line at step ``crossed_at`` (> 0); otherwise ``run_length`` (m from
+    the start line) rounded to the centimetre, as a fraction of ``field_length`` in [0, 1)."""
+    if crossed_at > 0:
+        return 1.0 + (max_cycles - crossed_at) / max_cycles
+    centimetres = min(max(round(run_length * 100.0), 0), int(np.ceil(field_length * 100.0)) - 1)
+    return centimetres / (field_length * 100.0)
 
 
 RULES = YouShallNotPassRules

@@ -26,16 +26,17 @@ this module does the rest:
 * **Annealing** of the dense motor reward: ``set_anneal(alpha)``, see ``envs.robots.rewards``.
 
 Copies: the rules pickle and copy (``pickle``, ``copy.deepcopy``) as their game options plus a
-snapshot of the match (MuJoCo's whole ``MjData``, the match arrays, the generator and the annealing
-weight); a copy builds new rules and loads the snapshot into them, so it goes on bit for bit as the
-original does.
+snapshot of the match (MuJoCo's whole ``MjData``, the match arrays, the generator, the annealing
+weight and the step the match is cut at); a copy builds new rules and loads the snapshot into them,
+so it goes on bit for bit as the original does.
 
 Many matches: the game logic is written over arrays of ``B`` matches (:class:`MatchState`); the
 rules play one (``B = 1``), and :class:`RobotMatches` (the match engine's batched path) plays many,
 one ``MjData`` each, stepping them on a pool of threads: ``mj_step`` releases Python's GIL, so
 threads step matches in parallel. Every match is stepped exactly as the rules step it, so results
 are bit-identical to the env path whatever the batch or the thread count. It is every robot game's
-``batched_matches``.
+``batched_matches``. A paired game's ``pair_points`` (``RobotGameRules.match_pair_points``) read only
+the match state, kept in the game's memory, so both paths give the same points too.
 
 A person plays a robot game by walking directions (``envs.robots.controls``); a replay shows the
 scene in 3D (``envs.robots.render.replay_scene``).
@@ -120,7 +121,7 @@ class MatchState:
     def __init__(self, n_slots: int, n_agents: int, n_teams: int, act_dim: int, rows: int) -> None:
         B, n = n_slots, n_agents
         self.n_slots = B
-        #: steps played by each match (kept by RobotMatches; the env counts the rules' own)
+        #: steps played by each match (the rules count theirs too: a game's judgement may read it)
         self.steps = np.zeros(B, dtype=np.int64)
         self.done = np.zeros(B, dtype=bool)
         self.active = np.ones((B, n), dtype=bool)
@@ -525,6 +526,7 @@ class RobotGameRules(GameRules):
         if self._quiet_substeps:
             mujoco.mj_step(self._quiet_model, data, nstep=self._quiet_substeps)
         mujoco.mj_step(self.model, data)
+        st.steps[0] += 1
         if st.events[0]:
             st.events[0] = []
         np.dot(self._readout, self._sensor_vector, out=self._lin)
@@ -552,7 +554,7 @@ class RobotGameRules(GameRules):
     def __getstate__(self) -> dict[str, Any]:
         return {"arguments": ((self.n_teams, self.players_per_team, self.action_type), dict(self.settings)),
                 "data": self.data, "match": self.match, "rng": self.rng, "game_over": self.game_over,
-                "anneal": self.measures.anneal}
+                "anneal": self.measures.anneal, "max_cycles": self.max_cycles}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         args, kwargs = state["arguments"]
@@ -562,6 +564,7 @@ class RobotGameRules(GameRules):
         self.rng = state["rng"]
         self.game_over = state["game_over"]
         self.measures.anneal = state["anneal"]
+        self.max_cycles = state["max_cycles"]
 
     def finish(self) -> None:
         if not self.match.done[0]:
@@ -570,6 +573,16 @@ class RobotGameRules(GameRules):
 
     def team_result(self) -> np.ndarray:
         return self.match.result[0].copy()
+
+    def pair_points(self) -> np.ndarray:
+        cap = self.default_max_cycles if self.max_cycles is None else self.max_cycles
+        return self.match_pair_points(self.match, 0, cap)
+
+    def match_pair_points(self, st: MatchState, slot: int, max_cycles: int) -> np.ndarray:
+        """``pair_points`` of the ended match in ``slot`` of ``st``, cut at ``max_cycles``: what the
+        rules (one match) and :class:`RobotMatches` (many) both answer, from the match state only.
+        Default: the team result; a paired game overrides it."""
+        return st.result[slot].copy()
 
     def events(self) -> list[dict]:
         return list(self.match.events[0])
@@ -634,7 +647,8 @@ class RobotMatches:
     The engine-adapter interface of ``arena_league.matchmaking.batched``: ``start(slot, seed)``,
     ``observe()`` -> ``float32[n_slots, n_agents, obs_dim]``, ``action_mask()`` (None),
     ``acting()``, ``step(actions: float32[n_slots, n_agents, act_dim]) -> bool[n_slots]`` (the
-    matches that ended, by the rules or at ``max_cycles``), ``steps(slot)``, ``team_result(slot)``.
+    matches that ended, by the rules or at ``max_cycles``), ``steps(slot)``, ``team_result(slot)``
+    and ``pair_points(slot)``.
 
     Each slot has its own ``MjData``; a step writes every live match's torques, then ``threads``
     workers (default: the CPUs this process may use, at most 8) each step a contiguous share of the
@@ -736,6 +750,11 @@ class RobotMatches:
 
     def team_result(self, slot: int) -> np.ndarray:
         return self.match.result[slot].copy()
+
+    def pair_points(self, slot: int) -> np.ndarray:
+        """What each team of the ended match in ``slot`` scored toward its pair, as the rules'
+        ``pair_points()`` gives it."""
+        return self.rules.match_pair_points(self.match, slot, self.max_cycles)
 
     def state(self) -> np.ndarray:
         """``float32[n_slots, state_dim]``: every match's global state, each as the rules' ``state()``
