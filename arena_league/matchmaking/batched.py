@@ -17,7 +17,9 @@ An engine adapter offers, for ``n_slots`` matches:
 * ``step(actions: int64[n_slots, n_agents]) -> bool[n_slots]`` (``float32[n_slots, n_agents,
   act_dim]`` for continuous actions): steps every live match, returns the slots whose match ended
   (terminated or cut at ``max_cycles``);
-* ``steps(slot) -> int`` and ``team_result(slot) -> float64[n_teams]`` of an ended match.
+* ``steps(slot) -> int`` and ``team_result(slot) -> float64[n_teams]`` of an ended match, and
+  ``pair_points(slot) -> float64[n_teams]``: what each team scored toward its pair, when the match
+  is a half of a pair (the rules' ``pair_points()``).
 
 A training run steps its envs on the same engines
 (:class:`arena_league.training.engine_batch.EngineBatch`), computing rewards through the env's

@@ -37,6 +37,11 @@ take ``step_seconds``, what it takes beyond that is drawn from the bank, and an 
 is overdrawn forfeits that match. With a ``deadline`` (a job's wall-time bound), the runner stops
 once it has passed: the matches in flight and those not started have no result.
 
+Pairs: a paired spec (:meth:`MatchSpec.halves`) is played as its two matches, queued one after the
+other; each half reports the rules' ``pair_points()``, and the pair's result
+(:meth:`MatchResult.from_halves`) is made, and reported, when both have ended. A pair missing a half
+(skipped, or cut by the deadline) has no result.
+
 Stepping paths: a result needs the rules' outcome, not the social-tree rewards, so unless a replay
 is recorded (or observations carry broadcast boards or the global state) the runner steps each
 match's game rules directly, or, for games whose rules declare a whole-array engine
@@ -236,7 +241,9 @@ class _EnvMatches:
         if forfeits:
             result = MatchResult.forfeited(spec, self.runner.team_of, forfeits, steps)
         else:
-            result = MatchResult.from_team_result(spec, self.runner.team_of, env.rules.team_result(), steps)
+            points = None if spec.half is None else env.rules.pair_points()
+            result = MatchResult.from_team_result(spec, self.runner.team_of, env.rules.team_result(), steps,
+                                                  pair_points=points)
         recorder = self.recorders[position]
         if recorder is not None:  # held until closed: a close that fails is aborted with the others
             result = replace(result, replay_path=str(recorder.close(result)))
@@ -280,8 +287,9 @@ class _EngineMatches:
         if forfeits:
             return MatchResult.forfeited(spec, self.runner.team_of, forfeits,
                                          self.steps_of(position) if steps is None else steps)
+        points = None if spec.half is None else self.engine.pair_points(position)
         return MatchResult.from_team_result(spec, self.runner.team_of, self.engine.team_result(position),
-                                            self.engine.steps(position))
+                                            self.engine.steps(position), pair_points=points)
 
     def abort(self) -> None:
         pass
@@ -430,9 +438,14 @@ class LockstepRunner:
         specs = list(specs)
         for spec in specs:
             self._check_spec(spec)
+        # a pair is played as its two matches, one after the other in the queue; its result is made
+        # when both have ended (a pair missing a half, skipped or cut by the deadline, has none)
+        played = [(order, half) for order, spec in enumerate(specs)
+                  for half in (spec.halves() if spec.paired else (spec,))]
+        halves_done: dict[int, list[MatchResult]] = {}
         forfeit_counts: dict[str, int] = {}
         allowance = forfeit_allowance(forfeit_limit)
-        width = min(self.batch_size, len(specs))
+        width = min(self.batch_size, len(played))
         if width == 0:
             return []
         n, k = self.n_agents, self.uniforms_per_seat
@@ -448,7 +461,7 @@ class LockstepRunner:
         row_key: list[str | None] = [None] * rows
         results: list[MatchResult | None] = [None] * len(specs)
         slots: list[_Slot | None] = [None] * width
-        queue = iter(enumerate(specs))
+        queue = iter(played)
         matches = self._matches(width)
         stopped = {key for key, left in allowance.items() if key and left <= 0}  # past their forfeit allowance
         budget = step_budget if self.guard is not None else None
@@ -469,7 +482,7 @@ class LockstepRunner:
                 banks[position] = {key: float(budget.overage_seconds) for key in spec.seats if key in budget.agents}
             slot = _Slot(order, spec, spec.seat_rng(), [self._initial_state(key) for key in spec.seats])
             matches.start(position, spec)
-            if on_start is not None:
+            if on_start is not None and not spec.half:
                 on_start(order)
             slots[position] = slot
             for seat, key in enumerate(spec.seats):
@@ -480,9 +493,15 @@ class LockstepRunner:
         def finish(position: int, forfeits: Mapping[str, str] | None = None, steps: int | None = None) -> None:
             slot = slots[position]
             result = matches.result(position, slot.spec, forfeits, steps)
-            results[slot.order] = result
-            if on_result is not None:
-                on_result(result)
+            if slot.spec.half is not None:
+                done = halves_done.setdefault(slot.order, [])
+                done.append(result)
+                result = (MatchResult.from_halves(specs[slot.order], sorted(done, key=lambda h: h.half))
+                          if len(done) == 2 else None)
+            if result is not None:
+                results[slot.order] = result
+                if on_result is not None:
+                    on_result(result)
             start(position)
 
         try:
@@ -572,6 +591,9 @@ class LockstepRunner:
         if len(spec.seats) != self.n_agents:
             raise ValueError(f"match {spec.match_id}: {self.game_id} has {self.n_agents} seats, the spec names "
                              f"{len(spec.seats)}")
+        if (spec.paired or spec.half is not None) and len(set(self.team_of)) != 2:
+            raise ValueError(f"match {spec.match_id}: a pair swaps two teams, but {self.game_id} has "
+                             f"{len(set(self.team_of))}; play its matches unpaired")
         missing = [key for key in spec.seats if key not in self.policies]
         if missing:
             raise KeyError(f"match {spec.match_id}: no policy for agent(s) {sorted(set(missing))}; give every "

@@ -11,10 +11,11 @@ ranks a new agent by matches against the base population. Two schedules serve th
   often as team 1 (to within one match when the count is odd). Deterministic: the same agents and
   counts give the same list.
 * :func:`play_adaptive`: an entrant against a base population, one opponent at a time, chosen by
-  an *opponent chooser*, any object with ``next_opponent() -> int``, ``record(opponent, score)``
-  and ``done`` (the rating engine's ``AdaptivePlacement``, which picks the opponent with the
+  an *opponent chooser*, any object with ``next_opponent() -> int``, ``record(opponent, score,
+  side)`` and ``done`` (the rating engine's ``AdaptivePlacement``, which picks the opponent with the
   largest expected information about the entrant's rating, fits; :class:`LeastPlayedChooser` is
-  the uniform one). Each visit plays the opponent on both sides.
+  the uniform one). Each visit plays the opponent on both sides: two matches, or one pair in a game
+  played in pairs (a pair holds both sides already, and counts as one match of the budget).
 """
 
 from __future__ import annotations
@@ -122,7 +123,8 @@ class OpponentChooser(Protocol):
 
     def next_opponent(self) -> int: ...
 
-    def record(self, opponent: int, score: float) -> None: ...
+    def record(self, opponent: int, score: float, side: int = 0) -> None:
+        """The entrant scored ``score`` (1, 0.5, 0) against ``opponent``, holding team ``side``."""
 
     @property
     def done(self) -> bool: ...
@@ -142,7 +144,7 @@ class LeastPlayedChooser:
     def next_opponent(self) -> int:
         return int(np.argmin(self.games))
 
-    def record(self, opponent: int, score: float) -> None:
+    def record(self, opponent: int, score: float, side: int = 0) -> None:
         self.games[opponent] += 1
         self.points[opponent] += score
 
@@ -155,11 +157,14 @@ def play_adaptive(entrant: str, opponents: Sequence[str], chooser: OpponentChoos
                   play: Callable[[list[MatchSpec]], list[MatchResult]], game_id: str, *, league_seed: int = 0,
                   first_match_id: int = 0, max_matches: int = 10_000) -> list[MatchResult]:
     """Places ``entrant`` against ``opponents`` (two-team games): while the chooser is not done,
-    plays its next opponent twice (entrant on team 0, then on team 1) with ``play`` (e.g.
-    ``lambda specs: play_matches(specs, agents)``) and records the entrant's score of each match
-    (1 win, 0.5 draw, 0 loss). Match ids run on from ``first_match_id``. Placement stops early
-    when ``play`` returns no result for a spec (its agents were skipped, e.g. an entrant past its
-    forfeits)."""
+    plays its next opponent twice (entrant on team 0, then on team 1; once in a game played in pairs,
+    whose pair swaps the sides itself) with ``play`` (e.g. ``lambda specs: play_matches(specs,
+    agents)``) and records the entrant's score of each match (1 win, 0.5 draw, 0 loss) and its side.
+    Match ids run on from ``first_match_id``. Placement stops early when ``play`` returns no result
+    for a spec (its agents were skipped, e.g. an entrant past its forfeits)."""
+    from arena_league.envs import game_spec
+
+    paired = game_spec(game_id).paired
     results: list[MatchResult] = []
     match_id = first_match_id
     while not chooser.done and len(results) < max_matches:
@@ -167,7 +172,8 @@ def play_adaptive(entrant: str, opponents: Sequence[str], chooser: OpponentChoos
         if not 0 <= k < len(opponents):
             raise ValueError(f"the chooser picked opponent {k}, outside 0..{len(opponents) - 1}")
         opponent = opponents[k]
-        specs = specs_for_seatings(game_id, [(entrant, opponent), (opponent, entrant)], league_seed, match_id)
+        seatings = [(entrant, opponent)] if paired else [(entrant, opponent), (opponent, entrant)]
+        specs = specs_for_seatings(game_id, seatings, league_seed, match_id)
         match_id += len(specs)
         # one match per call: once the chooser is done, the pair's second match is neither played nor stored
         for spec in specs:
@@ -176,7 +182,7 @@ def play_adaptive(entrant: str, opponents: Sequence[str], chooser: OpponentChoos
                 return results
             for result in played:
                 team = result.teams[result.seats.index(entrant)]
-                chooser.record(k, result.team_scores()[team])
+                chooser.record(k, result.team_scores()[team], team)
                 results.append(result)
             if chooser.done:
                 break

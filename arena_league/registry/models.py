@@ -307,6 +307,8 @@ class Match(Base):
     seed: Mapped[int] = mapped_column(BigInteger)
     job_id: Mapped[int | None] = mapped_column(ForeignKey("jobs.id", ondelete="SET NULL"))
     replay_path: Mapped[str | None] = mapped_column(String(512))
+    # a pair's two matches (seats, scores, pair points, steps, replay), for games played in pairs
+    halves: Mapped[Any | None] = mapped_column(JSON(none_as_null=True))
     created_at: Mapped[datetime] = mapped_column(default=utcnow)
 
     game: Mapped[Game] = relationship()

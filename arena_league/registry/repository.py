@@ -93,6 +93,7 @@ class MatchRecord:
     seed: int
     seats: Sequence[SeatResult]
     replay_path: str | None = None
+    halves: Sequence[Mapping[str, Any]] | None = None  # a pair's two matches (see `Match.halves`)
 
 
 @dataclass(frozen=True)
@@ -606,6 +607,7 @@ def record_matches(
                 "seed": match.seed,
                 "job_id": job_id,
                 "replay_path": match.replay_path,
+                "halves": None if match.halves is None else [dict(half) for half in match.halves],
                 "created_at": now,
             }
             for match in batch
@@ -682,9 +684,12 @@ def get_match_by_id(session: Session, match_id: int) -> Match | None:
     ).one_or_none()
 
 
-def set_replay_path(session: Session, match: Match, path: str) -> Match:
-    """Note the replay recorded for a stored match."""
+def set_replay_path(session: Session, match: Match, path: str,
+                    halves: Sequence[Mapping[str, Any]] | None = None) -> Match:
+    """Note the replay recorded for a stored match (and, for a pair, its halves with theirs)."""
     match.replay_path = path
+    if halves is not None:
+        match.halves = [dict(half) for half in halves]
     session.flush()
     return match
 

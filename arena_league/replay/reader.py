@@ -50,6 +50,10 @@ class ReplaySummary:
     outcomes: tuple[str, ...]
     positions: tuple[int, ...] | None
     env_kwargs: dict[str, Any] = field(default_factory=dict)
+    half: int | None = None
+    """0 or 1 for one match of a pair (see :meth:`arena_league.matchmaking.MatchSpec.halves`)."""
+    points: tuple[float, ...] = ()
+    """A half's ``pair_points`` per seat (empty for an unpaired match)."""
     channels: dict[str, int] = field(default_factory=dict)
     """Message count per topic."""
     schemas: dict[str, str] = field(default_factory=dict)
@@ -61,11 +65,11 @@ class ReplaySummary:
         return MatchResult(match_id=self.match_id, game_id=self.game_id, league_seed=self.league_seed,
                            seed=self.seed, seats=self.seats, teams=self.teams, scores=self.scores,
                            outcomes=self.outcomes, positions=self.positions, steps=self.steps,
-                           replay_path=self.path)
+                           replay_path=self.path, half=self.half, points=self.points)
 
     @property
     def spec(self) -> MatchSpec:
-        return MatchSpec(self.match_id, self.game_id, self.seats, self.league_seed)
+        return MatchSpec(self.match_id, self.game_id, self.seats, self.league_seed, half=self.half)
 
     def to_dict(self) -> dict[str, Any]:
         return {"path": self.path, "game_id": self.game_id, "match_id": self.match_id,
@@ -73,7 +77,9 @@ class ReplaySummary:
                 "teams": list(self.teams), "steps": self.steps, "scores": list(self.scores),
                 "outcomes": list(self.outcomes),
                 "positions": None if self.positions is None else list(self.positions),
-                "env_kwargs": self.env_kwargs, "channels": dict(self.channels), "schemas": dict(self.schemas)}
+                "env_kwargs": self.env_kwargs, "half": self.half, "points": list(self.points),
+                "channels": dict(self.channels),
+                "schemas": dict(self.schemas)}
 
 
 def _open(path: str | Path):
@@ -133,7 +139,8 @@ def read_replay(path: str | Path) -> ReplaySummary:
         teams=tuple(int(t) for t in match["teams"]), steps=int(result["steps"]),
         scores=tuple(float(s) for s in result["scores"]), outcomes=tuple(result["outcomes"]),
         positions=None if positions is None else tuple(int(p) for p in positions),
-        env_kwargs=dict(match.get("env_kwargs", {})), channels=counts, schemas=schemas)
+        env_kwargs=dict(match.get("env_kwargs", {})), half=match.get("half"),
+        points=tuple(float(p) for p in result.get("points", ())), channels=counts, schemas=schemas)
 
 
 def replay_frames(path: str | Path, every: int = 1) -> Iterator[np.ndarray]:

@@ -1,6 +1,7 @@
 """Recording a match as one MCAP file (https://mcap.dev), as the match engine plays it.
 
-One file per match, named ``<game_id>-m<match_id>-s<league_seed>.mcap``, written to a ``.part``
+One file per match (per half of a pair: :func:`replay_file_name`), named
+``<game_id>-m<match_id>-s<league_seed>.mcap``, written to a ``.part``
 file and renamed when the match ends, so a crashed worker never leaves a file that looks whole; a
 match that fails instead (an error while opening the file, in a policy or the env during a step, or
 while finishing the file) leaves no file at all: the engine calls :meth:`MatchRecorder.abort`, and a
@@ -52,8 +53,9 @@ PROFILE = "arena-league"
 
 
 def replay_file_name(spec: MatchSpec) -> str:
-    """The file name of the replay of ``spec``."""
-    return f"{spec.game_id}-m{spec.match_id}-s{spec.league_seed}.mcap"
+    """The file name of the replay of ``spec`` (a pair's halves: ``...-h0.mcap`` and ``...-h1.mcap``)."""
+    half = "" if spec.half is None else f"-h{spec.half}"
+    return f"{spec.game_id}-m{spec.match_id}-s{spec.league_seed}{half}.mcap"
 
 
 def _dumps(message: dict[str, Any]) -> bytes:
@@ -119,6 +121,8 @@ class MatchRecorder:
             "league_seed": spec.league_seed, "seed": spec.seed, "seats": list(spec.seats),
             "teams": [int(t) for t in env.rules.team_of], "env_kwargs": dict(env_kwargs),
         }
+        if spec.half is not None:
+            self._match["half"] = spec.half
         self._write("match", self._match)
         self._writer.add_metadata("arena_league.match", {k: json.dumps(v) for k, v in self._match.items()})
         self._record_state(env.last_obs)
@@ -165,6 +169,8 @@ class MatchRecorder:
         try:
             summary = {"steps": result.steps, "scores": list(result.scores), "outcomes": list(result.outcomes),
                        "positions": None if result.positions is None else list(result.positions)}
+            if result.points:
+                summary["points"] = list(result.points)
             self._write("result", summary)
             self._writer.add_metadata("arena_league.result", {k: json.dumps(v) for k, v in summary.items()})
             self._writer.finish()
