@@ -94,6 +94,7 @@ from arena_league.league.population.recipes import (
 from arena_league.league.population.records import (
     CRITERIA,
     HEADROOM,
+    PAIRED_CRITERIA,
     REFERENCES,
     SCRIPTED_SCHEME,
     TUNED_SCHEME,
@@ -102,6 +103,7 @@ from arena_league.league.population.records import (
     MemberRecord,
     PopulationFigures,
     check_criteria,
+    criteria_for,
     member_name,
 )
 from arena_league.league.population.round_robin import (
@@ -121,6 +123,7 @@ __all__ = [
     "DEFAULT_SCHEMES",
     "FORMAT_VERSION",
     "HEADROOM",
+    "PAIRED_CRITERIA",
     "POPULATION_FORMAT",
     "RECIPES",
     "SCRIPTED_SCHEME",
@@ -138,6 +141,7 @@ __all__ = [
     "best_against_heuristic",
     "build_population",
     "check_criteria",
+    "criteria_for",
     "default_schemes",
     "load_bundles",
     "member_name",
@@ -235,7 +239,7 @@ def build_population(game_id: str, options: BuildOptions | None = None, *, leagu
                                                  options.bootstrap_rounds, options.verify_matches, options.batch_size,
                                                  work, schedule.digest, report)
     report.figures = figures
-    report.criteria = check_criteria(figures)
+    report.criteria = check_criteria(figures, game_id)
     report.passed = all(report.criteria.values())
     say(f"figures: spread {figures.spread:.0f} Elo, best beats worst {figures.best_vs_worst_win_rate:.3f}, "
         f"random rank {figures.random_rank}/{figures.size + 1}, schemes {figures.schemes}; "

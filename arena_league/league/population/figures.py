@@ -30,7 +30,8 @@ class Selection:
     """The rating and selection stage's result."""
 
     counts: Any
-    """The round robin's :class:`~arena_league.rating.PairCounts` over every candidate and reference."""
+    """The round robin's :class:`~arena_league.rating.SeatCounts` over every candidate and reference
+    (each result with the side each agent held, for the seat term of the ratings)."""
     chosen: list[int]
     """Indices of the members among the candidates."""
     margin: float
@@ -39,12 +40,15 @@ class Selection:
 
 def rate_and_select(table: np.ndarray, keys: list[str], n_candidates: int, size: int, margin: float,
                     say: Callable[[str], None]) -> Selection:
-    """Bradley-Terry over the round robin ``table`` (rows: team 0's agent index, team 1's, team 0's
-    score), then ``size`` candidates spanning the ratings from ``margin`` Elo above the random agent."""
-    from arena_league.rating import PSEUDO_COUNT, PairCounts, fit_bradley_terry
+    """Bradley-Terry with a seat term over the round robin ``table`` (rows: team 0's agent index, team
+    1's, team 0's score), then ``size`` candidates spanning the ratings from ``margin`` Elo above the
+    random agent."""
+    from arena_league.rating import PSEUDO_COUNT, SeatCounts, fit_bradley_terry
 
-    counts = PairCounts.from_results(table[:, 0], table[:, 1], table[:, 2], keys)
-    ratings = fit_bradley_terry(counts).ratings
+    first, second = table[:, 0].astype(np.int64), table[:, 1].astype(np.int64)
+    seats = SeatCounts.from_results(first, second, np.zeros_like(first), np.ones_like(second), table[:, 2], keys)
+    ratings = fit_bradley_terry(seats).ratings
+    counts = seats.pair_counts()
     payoff = counts.logit_payoff(pseudo_count=PSEUDO_COUNT)
     payoff[counts.games == 0] = np.nan
     np.fill_diagonal(payoff, np.nan)
@@ -53,19 +57,27 @@ def rate_and_select(table: np.ndarray, keys: list[str], n_candidates: int, size:
                              floor=float(ratings[random_index]) + margin)
     say(f"selected {len(chosen)} of {n_candidates} candidates (random agent rated {ratings[random_index]:.0f}, "
         f"candidates {ratings[:n_candidates].min():.0f} .. {ratings[:n_candidates].max():.0f})")
-    return Selection(counts, list(chosen), margin)
+    return Selection(seats, list(chosen), margin)
 
 
 def population_figures(game_id: str, members: list[Candidate], keys: list[str], counts: Any,
                        policies: Mapping[str, Any], seed: int, rounds: int, verify_matches: int, batch_size: int,
                        work: Path, digest: str, report: BuildReport) -> tuple[PopulationFigures, Any]:
     """The figures of ``members`` (:class:`PopulationFigures`) and their bootstrap rating fit."""
-    from arena_league.rating import PSEUDO_COUNT, PairCounts, bootstrap_ratings, effective_diversity
+    from arena_league.rating import (
+        PSEUDO_COUNT,
+        PairCounts,
+        SeatCounts,
+        bootstrap_ratings,
+        effective_diversity,
+    )
 
     names = [m.key for m in members] + list(REFERENCES)
     index = np.asarray([keys.index(n) for n in names])
-    sub = PairCounts(names, counts.wins[np.ix_(index, index)], counts.draws[np.ix_(index, index)])
-    fit = bootstrap_ratings(sub, rounds=rounds, seed=seed, anchor=[m.key for m in members])
+    seats = SeatCounts(names, counts.n_sides, *(c[:, index][:, :, index] for c in (counts.won, counts.lost,
+                                                                                    counts.drawn)))
+    sub = seats.pair_counts()
+    fit = bootstrap_ratings(seats, rounds=rounds, seed=seed, anchor=[m.key for m in members])
     n = len(members)
     member_ratings = fit.rating[:n]
     best, worst = int(np.argmax(member_ratings)), int(np.argmin(member_ratings))
@@ -84,12 +96,14 @@ def population_figures(game_id: str, members: list[Candidate], keys: list[str], 
         best=members[best].key, worst=members[worst].key, best_vs_worst_matches=played,
         best_vs_worst_win_rate=round(wins / played, 4), best_vs_worst_score=round((wins + 0.5 * draws) / played, 4),
         random_rating=round(random_rating, 1), random_rank=1 + int((member_ratings > random_rating).sum()),
-        random_bottom_share=round((below_random + 1) / (n + 1), 4), heuristic_rating=round(heuristic_rating, 1),
+        random_bottom_share=round((below_random + 1) / (n + 1), 4), members_below_random=below_random,
+        heuristic_rating=round(heuristic_rating, 1),
         heuristic_rank=1 + int((member_ratings > heuristic_rating).sum()), schemes=dict(sorted(schemes.items())),
         n_schemes=len(schemes), effective_diversity=round(effective_diversity(member_payoff), 4),
         round_robin_matches=round(sub.n_matches), best_vs_heuristic_matches=h_played,
         best_vs_heuristic_win_rate=round(h_wins / h_played, 4),
-        best_vs_heuristic_score=round((h_wins + 0.5 * h_draws) / h_played, 4))
+        best_vs_heuristic_score=round((h_wins + 0.5 * h_draws) / h_played, 4),
+        seat_term={**fit.seats.to_dict(), "text": fit.seats.describe()})
     return figures, fit
 
 

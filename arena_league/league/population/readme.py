@@ -10,9 +10,10 @@ from typing import Any
 
 import numpy as np
 
+from arena_league.envs import game_spec
 from arena_league.league.population.candidates import scripted_scheme
 from arena_league.league.population.recipes import DEFAULT_FLOOR_MARGIN, TOP_RUN_SEEDS
-from arena_league.league.population.records import CRITERIA, HEADROOM, SCRIPTED_SCHEME, TUNED_SCHEME
+from arena_league.league.population.records import HEADROOM, SCRIPTED_SCHEME, TUNED_SCHEME, criteria_for
 from arena_league.league.population.runs import imitation_ladder
 
 
@@ -75,8 +76,12 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     criteria_rows = "\n".join(
         f"| {criterion.replace('_', ' ')} | {figure} {comparison} {threshold:g} | {figures.get(figure)} | "
         f"{'yes' if prov['criteria'].get(criterion) else 'NO'} |"
-        for criterion, (figure, comparison, threshold) in CRITERIA.items())
+        for criterion, (figure, comparison, threshold) in criteria_for(game).items())
     ratings = sorted(m["metadata"]["rating"] for m in manifest["members"])
+    # a game played in pairs counts pairs (two matches from one start, roles swapped) where others count matches
+    unit = "pairs" if game_spec(game).paired else "matches"
+    seat = figures.get("seat_term")
+    seat_row = f"| seat term of the ratings | {seat['text']} |" if seat else ""
     by_scheme: dict[str, list[float]] = {}
     for m in manifest["members"]:
         by_scheme.setdefault(m["metadata"]["scheme"], []).append(m["metadata"]["rating"])
@@ -140,13 +145,14 @@ Built by `arena_league.league.population.build.build_population` (code {build['c
 |---|---|
 | members | {figures.get('size')} ({n_warm} from warm-started runs) |
 | Bradley-Terry spread (best - worst) | {figures.get('spread')} Elo |
-| best member vs worst ({figures.get('best_vs_worst_matches')} matches) | wins {figures.get('best_vs_worst_win_rate')}, score {figures.get('best_vs_worst_score')} |
-| best member vs the heuristic ({figures.get('best_vs_heuristic_matches', 0)} matches; headroom: wins >= {HEADROOM[2]:g}) | wins {figures.get('best_vs_heuristic_win_rate', 'not measured')}, score {figures.get('best_vs_heuristic_score', 'not measured')} |
+| best member vs worst ({figures.get('best_vs_worst_matches')} {unit}) | wins {figures.get('best_vs_worst_win_rate')}, score {figures.get('best_vs_worst_score')} |
+| best member vs the heuristic ({figures.get('best_vs_heuristic_matches', 0)} {unit}; headroom: wins >= {HEADROOM[2]:g}) | wins {figures.get('best_vs_heuristic_win_rate', 'not measured')}, score {figures.get('best_vs_heuristic_score', 'not measured')} |
 | random agent | rating {figures.get('random_rating')}, rank {figures.get('random_rank')} of {figures.get('size', 0) + 1} |
 | heuristic agent | rating {figures.get('heuristic_rating')}, rank {figures.get('heuristic_rank')} of {figures.get('size', 0) + 1} |
 | effective diversity | {figures.get('effective_diversity')} |
-| matches behind the ratings | {figures.get('round_robin_matches')} |
+| {unit} behind the ratings | {figures.get('round_robin_matches')} |
 | member ratings (min / median / max) | {ratings[0]:.0f} / {np.median(ratings):.0f} / {ratings[-1]:.0f} |
+{seat_row}
 
 | scheme | members | min rating | median | max |
 |---|---|---|---|---|

@@ -16,6 +16,7 @@ from arena_league.policies.architecture import Architecture
 __all__ = [
     "CRITERIA",
     "HEADROOM",
+    "PAIRED_CRITERIA",
     "REFERENCES",
     "SCRIPTED_SCHEME",
     "TUNED_SCHEME",
@@ -24,6 +25,7 @@ __all__ = [
     "MemberRecord",
     "PopulationFigures",
     "check_criteria",
+    "criteria_for",
     "member_name",
 ]
 
@@ -33,6 +35,14 @@ CRITERIA: dict[str, tuple[str, str, float]] = {
     "bradley_terry_spread": ("spread", ">=", 800.0),
     "random_in_bottom_5_percent": ("random_bottom_share", "<=", 0.05),
     "three_schemes": ("n_schemes", ">=", 3),
+}
+#: The criteria of a game played in pairs (a runner and a blocker), in pair terms: the figures above
+#: come from pairs (ratings fitted on pairs, best over worst in pairs), and besides, the random agent
+#: is last and the scripted heuristic is not on top.
+PAIRED_CRITERIA: dict[str, tuple[str, str, float]] = {
+    **CRITERIA,
+    "random_last": ("members_below_random", "<=", 0),
+    "heuristic_not_on_top": ("heuristic_rank", ">=", 2),
 }
 #: A population with headroom: its best member beats the scripted heuristic in this share of matches
 #: at least (the newest population of every game must; ``base-v1`` of a game that ships a newer one
@@ -110,6 +120,7 @@ class PopulationFigures:
     """Rank of the random agent among the members and itself (1 = strongest)."""
     random_bottom_share: float
     """(members rated below random + 1) / (members + 1): the random agent's place from the bottom."""
+    members_below_random: int
     heuristic_rating: float
     heuristic_rank: int
     schemes: dict[str, int]
@@ -123,6 +134,9 @@ class PopulationFigures:
     best_vs_heuristic_win_rate: float = float("nan")
     """Share of those matches the best member won against the scripted heuristic (:data:`HEADROOM`)."""
     best_vs_heuristic_score: float = float("nan")
+    seat_term: dict[str, Any] | None = None
+    """Bradley-Terry's seat term the ratings were fitted with (:class:`~arena_league.rating.SeatTerm`
+    as a dict, its sentence under ``"text"``); placements against the population use it."""
 
 
 @dataclass
@@ -159,10 +173,18 @@ class BuildReport:
         return asdict(self)
 
 
-def check_criteria(figures: PopulationFigures) -> dict[str, bool]:
-    """Each criterion of :data:`CRITERIA` checked against ``figures``."""
+def criteria_for(game_id: str) -> dict[str, tuple[str, str, float]]:
+    """The shipped-population criteria of ``game_id``: :data:`PAIRED_CRITERIA` for a game played in
+    pairs, else :data:`CRITERIA`."""
+    from arena_league.envs import game_spec
+
+    return PAIRED_CRITERIA if game_spec(game_id).paired else CRITERIA
+
+
+def check_criteria(figures: PopulationFigures, game_id: str) -> dict[str, bool]:
+    """Each criterion of ``game_id`` (:func:`criteria_for`) checked against ``figures``."""
     result = {}
-    for criterion, (figure, comparison, threshold) in CRITERIA.items():
+    for criterion, (figure, comparison, threshold) in criteria_for(game_id).items():
         value = float(getattr(figures, figure))
         result[criterion] = value >= threshold if comparison == ">=" else value <= threshold
     return result

@@ -58,8 +58,13 @@ class Schedule:
         self.keys = keys
         self.index = {k: i for i, k in enumerate(keys)}
         self.seed = seed
+        from arena_league.envs import game_spec
+
         self.seatings = round_robin(keys, matches_per_pair)
-        identity = json.dumps({"game": game_id, "agents": keys, "matches_per_pair": matches_per_pair, "seed": seed})
+        schedule = {"game": game_id, "agents": keys, "matches_per_pair": matches_per_pair, "seed": seed}
+        if game_spec(game_id).paired:  # a chunk of pairs is not a chunk of single matches
+            schedule["paired"] = True
+        identity = json.dumps(schedule)
         self.digest = hashlib.sha256(identity.encode()).hexdigest()[:16]
 
     def play(self, work: Path, policies: Mapping[str, Any], batch_size: int, report: BuildReport,
@@ -122,7 +127,8 @@ def _play_in_worker(game_id: str, seatings: list[Any], seed: int, first_match_id
 def play_seatings(game_id: str, seatings: Sequence[Sequence[str]], policies: Mapping[str, Any], seed: int,
                   first_match_id: int, batch_size: int = 256) -> list[float]:
     """Team 0's score (1 win, 0.5 draw, 0 loss) in each match of ``seatings`` (team 0's agent,
-    team 1's), played in process on the batched engine with match ids from ``first_match_id``."""
+    team 1's), played in process on the batched engine with match ids from ``first_match_id``; in a
+    game played in pairs each seating is a pair, and its score the pair's."""
     from arena_league.matchmaking import play_matches, specs_for_seatings
 
     with torch_threads(1):  # many small batched forwards: one thread beats OpenMP's hand-offs
