@@ -163,6 +163,9 @@ def game_page(row: dict[str, Any], populations: list[tuple[str, Path]]) -> str:
                  ["action types", ", ".join(row["action_types"])],
                  ["observation", f"float32[{row['obs_dim']}] per seat"],
                  ["episode length", f"{row['max_cycles']} steps (default `max_cycles`)"],
+                 ["league matches", "in pairs: two halves from one start, roles swapped "
+                                    "([Games played in pairs](../ratings.md#games-played-in-pairs))"
+                  if spec.paired else "single matches"],
                  ["other layouts", ", ".join(f"[{g}]({g}.md)" for g in _sibling_ids(spec)) or "none"],
              ]),
              "```python", "from arena_league.envs import make", "",

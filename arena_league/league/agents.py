@@ -178,13 +178,15 @@ def recent_matches(league: League, game_id: str, *, agent: str | None = None, li
         agent_id = require_agent(session, agent, game_id).id if agent else None
         matches = reg.list_matches(session, game_id, agent_id=agent_id)[-limit:]
         rows = [{"id": m.id, "page": match_page(m.id, server), "match_key": m.match_key, "seed": m.seed,
-                 "replay": m.replay_path,
+                 "replay": m.replay_path, "paired": bool(m.halves),
+                 "halves": [{"seats": h["seats"], "points": h["points"], "steps": h["steps"],
+                             "replay": h.get("replay_path")} for h in m.halves or []],
                  "created_at": m.created_at.isoformat(timespec="seconds"),
                  "seats": [{"seat": s.seat, "agent": s.agent.name, "team": s.team, "score": s.score,
                             "outcome": s.outcome, "position": s.position} for s in m.seats]}
                 for m in reversed(matches)]
     for row in rows:
-        row["result"] = match_result(row["seats"], game_id)
+        row["result"] = match_result(row["seats"], game_id) + (" (a pair)" if row["paired"] else "")
     return rows
 
 

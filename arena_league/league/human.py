@@ -15,7 +15,10 @@ base agents and are placed among them like any entrant. :func:`play_human` does 
   like any entrant;
 * the person holds one seat (team 0's first seat in odd-numbered matches, team 1's in the
   others); in team layouts the person's teammates are played by the same base agent as the
-  opponents, so the two teams differ only in the seat the person holds.
+  opponents, so the two teams differ only in the seat the person holds;
+* in a game played in pairs (a runner and a blocker: :meth:`~arena_league.matchmaking.MatchSpec.halves`)
+  a match is a pair: the person plays its first half in one role and, from the same start, its
+  second half in the other, and the pair is decided by the game's comparison of the two halves.
 
 What the person sees and types is the game's own: its rules give the controls of the person's
 seat (``GameRules.human_controls``, see :mod:`arena_league.envs.controls`), and each game's
@@ -122,7 +125,9 @@ def play_human(game_id: str, against: str | None = None, league: reg.League | No
           f"{ratings.max():.0f}; you start with the weakest. Type q to resign and stop.", file=out)
     while matches is None or ladder.played < matches:
         match = ladder.next_match(seed)
-        print(f"\n=== Match {ladder.played + 1}: you play team {match.team} against {match.opponent} (rating "
+        pair = (f" in the first half of a pair, then team {1 - match.team} in the second from the same start"
+                if match.half is not None else "")
+        print(f"\n=== Match {ladder.played + 1}: you play team {match.team}{pair} against {match.opponent} (rating "
               f"{match.opponent_rating:.0f}, {ladder.rung + 1} of {len(names)} from the bottom)", file=out)
         resigned = False
         try:
@@ -261,22 +266,27 @@ def _record(league: reg.League, match: LiveMatch, team_scores: np.ndarray, human
 def _place(league: reg.League, game_id: str, agent: str, names: list[str], ratings: np.ndarray,
            report: HumanSession) -> None:
     """The person's placement from all their matches against the base members."""
+    from arena_league.league.service import base_seat_advantage
+
     index = {n: i for i, n in enumerate(names)}
-    wins, losses, draws = (np.zeros(len(names)) for _ in range(3))
+    # per side the person held (team 0 or 1), so that the base's seat term applies
+    wins, losses, draws = (np.zeros((2, len(names))) for _ in range(3))
     with league.reading() as session:
         rows = reg.match_seat_rows(session, game_id, agents=[agent, *names])
-    by_match: dict[int, dict[str, str]] = {}
+    by_match: dict[int, dict[str, tuple[str, int]]] = {}
     for row in rows:
-        by_match.setdefault(row["match_id"], {})[row["agent"]] = row["outcome"]
+        by_match.setdefault(row["match_id"], {})[row["agent"]] = (row["outcome"], int(row["team"]))
     total = 0
     for seats in by_match.values():
         if agent not in seats or len(seats) != 2:
             continue
         (opponent,) = [a for a in seats if a != agent]
-        counter = {"win": wins, "loss": losses, "draw": draws}[seats[agent]]
-        counter[index[opponent]] += 1
+        outcome, side = seats[agent]
+        counter = {"win": wins, "loss": losses, "draw": draws}[outcome]
+        counter[side, index[opponent]] += 1
         total += 1
-    placement = place_entrant(ratings, wins, losses, draws)
+    placement = place_entrant(ratings, wins, losses, draws,
+                              seat_advantage=base_seat_advantage(league, game_id, report.base))
     report.rating, report.lower, report.upper = placement.rating, placement.lower, placement.upper
     report.rank, report.rank_lower, report.rank_upper = placement.rank, placement.rank_lower, placement.rank_upper
     report.percentile = placement.percentile
@@ -306,16 +316,18 @@ class LiveMatch:
                  ) -> None:
         env = make(spec.game_id)
         self.spec, self.policy, self.team, self.key = spec, policy, int(team), key
+        """``team``: the person's team in the match (in a pair: in its first half)."""
         self.opponent, self.opponent_rating = opponent, float(opponent_rating)
-        self.rules = rules = env.rules
-        rules.reset(spec.seed)
-        self.rng = spec.seat_rng()
-        self.n = rules.n_agents
-        self.seat = int(np.flatnonzero(rules.team_of == team)[0])
-        self.states = policy.initial_state(self.n)
-        self.controls = rules.human_controls(self.seat)
+        self.rules = env.rules
+        self.n = self.rules.n_agents
         self.max_cycles = env.max_cycles
         self.steps = 0
+        """Steps played (both halves of a pair)."""
+        self.half: int | None = 0 if spec.paired else None
+        """The half of a pair in play (0, then 1); None for a single match."""
+        self.half_points: list[np.ndarray] = []
+        """Each finished half's ``pair_points`` per team."""
+        self._start(int(team))
         self.events: list[dict[str, Any]] = []
         """Every event the rules reported, with its ``step``."""
         self.scores: np.ndarray | None = None
@@ -323,9 +335,22 @@ class LiveMatch:
         self.match_id: int | None = None
         """The stored match's row id, once recorded."""
 
+    def _start(self, side: int) -> None:
+        """(Re)start the rules from the match seed with the person on team ``side``."""
+        rules = self.rules
+        rules.reset(self.spec.seed)
+        self.rng = self.spec.seat_rng()  # both halves of a pair: the same luck for the same role
+        self.side = side
+        """The person's team in the match (or half) in play."""
+        self.seat = int(np.flatnonzero(rules.team_of == side)[0])
+        self.states = self.policy.initial_state(self.n)
+        self.controls = rules.human_controls(self.seat)
+        self.half_steps = 0
+
     @property
     def over(self) -> bool:
-        return bool(self.rules.game_over) or self.steps >= self.max_cycles
+        ended = bool(self.rules.game_over) or self.half_steps >= self.max_cycles
+        return ended and self.half != 0
 
     def person_acts(self) -> bool:
         """Whether the person's seat acts this step (its turn, or it is still in play)."""
@@ -371,16 +396,34 @@ class LiveMatch:
             actions[self.seat] = self.controls.action(command)
         rules.step(actions)
         events = [{**event, "step": self.steps} for event in rules.events()]
-        self.events += events
         self.steps += 1
+        self.half_steps += 1
+        if self.half == 0 and (rules.game_over or self.half_steps >= self.max_cycles):
+            self.half_points.append(self._half_points())
+            self.half = 1
+            self._start(1 - self.team)
+            events.append({"kind": "half_time", "step": self.steps - 1, "team": self.side})
+        self.events += events
         return events
+
+    def _half_points(self) -> np.ndarray:
+        if not self.rules.game_over:
+            self.rules.finish()
+        return np.asarray(self.rules.pair_points(), dtype=np.float64)
 
     def finish(self) -> np.ndarray:
         """The team scores once the match is over (a match cut by its step limit is finished by
-        the rules: a draw or by the score, as the game says)."""
-        if not self.rules.game_over:
-            self.rules.finish()
-        return np.asarray(self.rules.team_result(), dtype=np.float64)
+        the rules: a draw or by the score, as the game says). A pair's are its teams' (those of its
+        first half): the higher total of ``pair_points`` over both halves wins."""
+        if self.half is None:
+            if not self.rules.game_over:
+                self.rules.finish()
+            return np.asarray(self.rules.team_result(), dtype=np.float64)
+        if len(self.half_points) < 2:
+            self.half_points.append(self._half_points())
+        first, second = self.half_points
+        total = first + second[::-1]  # the first half's team t is the second half's team 1 - t
+        return np.sign(total - total[::-1]) * 0.5 + 0.5
 
     def describe_event(self, event: dict[str, Any], names: list[str]) -> str:
         """An event as a sentence, the seats named by ``names``."""
@@ -392,6 +435,9 @@ class LiveMatch:
         else:
             who = ""
         details = ", ".join(f"{k} {v}" for k, v in event.items() if k not in ("kind", "seat", "team", "step", "cell"))
+        if kind == "half_time":
+            return (f"half time: from the same start, you now play team {int(event['team'])}; the pair goes to "
+                    "the better of the two halves")
         text = f"{who} {_EVENT_VERBS.get(kind, kind.replace('_', ' '))}".strip()
         return f"{text} ({details})" if details else text
 
@@ -399,6 +445,11 @@ class LiveMatch:
         """Why the match ended, in a sentence."""
         if resigned:
             return "you resigned (a loss)"
+        if self.half is not None:
+            first, second = self.half_points if len(self.half_points) == 2 else (self.half_points[0], None)
+            yours = first[self.team] + (0.0 if second is None else second[1 - self.team])
+            theirs = first[1 - self.team] + (0.0 if second is None else second[self.team])
+            return f"the pair ended: your two halves scored {yours:g} against the opponent's {theirs:g}"
         if not self.rules.game_over:
             return f"the step limit ({self.max_cycles} steps) ran out"
         last = [e for e in self.events if e["step"] == self.steps - 1 and e.get("kind") not in ("move", "eat")]
@@ -420,7 +471,9 @@ def _play_match(match: LiveMatch, input_fn: InputFn, out: TextIO, picture_dir: s
                 Image.fromarray(match.rules.render_topdown()).save(Path(picture_dir) / f"step-{match.steps:05d}.png")
             if match.controls.wants_command():
                 command = _ask(match.controls, match.steps, input_fn, out)
-        match.step(command)
+        for event in match.step(command):
+            if event["kind"] == "half_time":
+                print(f"--- {match.describe_event(event, [])}.", file=out)
     print(match.controls.final_view(), file=out)
 
 

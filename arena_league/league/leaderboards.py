@@ -64,6 +64,7 @@ from arena_league.rating import (
     Placement,
     Ranks,
     RatingIntervals,
+    SeatCounts,
     SkillRatings,
     alpha_rank,
     alpha_rank_intervals,
@@ -221,6 +222,10 @@ class Leaderboard:
     """Why this method's order may mislead on these matches, each computed from them (few
     matches behind a high place, online Elo's dependence on match order, pairs that never met,
     many agents sharing a rank); shown beside every view of the board."""
+    seat_term: dict[str, Any] | None = None
+    """Bradley-Terry's term for the side (:class:`~arena_league.rating.SeatTerm` as a dict, with its
+    sentence under ``"text"``): what holding team 0 is worth between equally rated agents; shown
+    beside every view of the board."""
 
     @property
     def rated_rows(self) -> list[LeaderboardRow]:
@@ -250,6 +255,7 @@ class Leaderboard:
             "alpharank": {"pi": _plain(self.alpharank_pi), "alpha": _plain(self.alpharank_alpha)},
             "intransitivity": _plain(self.intransitivity),
             "notes": list(self.notes),
+            "seat_term": self.seat_term,
             "rank_legend": rank_legend(self),
         }
 
@@ -305,8 +311,10 @@ class _League:
     kept: every method's board reads them from here, so that none is computed twice."""
 
     def __init__(self, counts: PairCounts, alpha: float | None, *, rounds: int, level: float,
-                 seed: int) -> None:
+                 seed: int, seats: SeatCounts | None = None) -> None:
         self.counts = counts
+        self.seats = seats
+        """The same results keeping each agent's side, for Bradley-Terry's seat term."""
         self.alpha_given = alpha
         self.rounds, self.level, self.seed = rounds, level, seed
 
@@ -331,8 +339,11 @@ class _League:
 
     @cached_property
     def bt(self) -> RatingIntervals:
-        """Bradley-Terry ratings with bootstrap intervals, ranks and percentiles."""
-        return bootstrap_ratings(self.counts, rounds=self.rounds, level=self.level, seed=self.seed)
+        """Bradley-Terry ratings with bootstrap intervals, ranks and percentiles, fitted with a term
+        for the side (team 0 or 1) beside the ratings, so that a seat's edge is not credited to
+        whoever held it more often."""
+        return bootstrap_ratings(self.seats if self.seats is not None else self.counts, rounds=self.rounds,
+                                 level=self.level, seed=self.seed)
 
     @cached_property
     def intransitivity(self) -> float:
@@ -519,7 +530,10 @@ def compute_leaderboard(
     if results is not None:
         all_counts = PairCounts.from_results(results.first, results.second, results.score, table.agents)
         counts = PairCounts(names, all_counts.wins[np.ix_(rated, rated)], all_counts.draws[np.ix_(rated, rated)])
-        league = _League(counts, alpha, rounds=rounds, level=level, seed=seed)
+        sided = table.seat_counts()
+        seats = SeatCounts(names, sided.n_sides, *(cells[:, rated][:, :, rated]
+                                                  for cells in (sided.won, sided.lost, sided.drawn)))
+        league = _League(counts, alpha, rounds=rounds, level=level, seed=seed, seats=seats)
         params.update(alpha=league.alpha_rank[1], alpha_from_sweep=alpha is None, alpha_rank_m=ALPHA_RANK_M)
 
     scores = spec.score(matches, rated, league)
@@ -569,10 +583,19 @@ def compute_leaderboard(
             alpharank_alpha=league.alpha_rank[1], intransitivity=league.intransitivity)
     notes = _method_notes(method, [short_name(name, game_id) for name in names], ranks, played[rated], matches,
                           rated, league)
+    seat_term = None
+    if league is not None and league.bt.seats is not None:
+        seat_term = {**league.bt.seats.to_dict(), "text": seat_sentence(league.bt.seats)}
     return Leaderboard(
         game_id=game_id, method=method, level=level, rounds=rounds, seed=seed, rows=board_rows,
         rating_label=spec.label, sort_by=spec.sort_by, n_matches=table.n_matches,
-        agents=[names[i] for i in order], params=params, population=population, notes=notes, **figures)
+        agents=[names[i] for i in order], params=params, population=population, notes=notes,
+        seat_term=seat_term, **figures)
+
+
+def seat_sentence(seats: Any) -> str:
+    """What the Bradley-Terry seat term says, in the board's words."""
+    return f"{seats.describe()}; the Bradley-Terry ratings are fitted beside this seat term"
 
 
 FEW_MATCHES = 10
@@ -648,6 +671,7 @@ def population_leaderboard(
     placements: Mapping[str, EntrantPlacement],
     *,
     level: float = 0.95,
+    seat_term: Mapping[str, Any] | None = None,
 ) -> Leaderboard:
     """The board of a game ranked against a frozen base population (see the module docstring).
 
@@ -669,6 +693,8 @@ def population_leaderboard(
         members: its members' frozen ratings.
         placements: the entrants' latest placements against it (members' are ignored).
         level: level of the intervals (the placements' and, as built, the members').
+        seat_term: the seat term the members' ratings were fitted with, as the build recorded it
+            (``provenance.figures.seat_term``), shown with the board; None where it fitted none.
 
     Raises:
         LeaderboardError: a member's or placement's rating that is not a finite number.
@@ -741,7 +767,9 @@ def population_leaderboard(
         sort_by="rating", n_matches=table.n_matches, agents=[names[i] for i in order], win_rate=None, games=None,
         nash_p=None, nash_score=None, alpharank_pi=None, alpharank_alpha=None, intransitivity=None,
         params={"members": len(members), "placed": len(placed), "pending": len(pending)},
-        population=population, basis="population")
+        population=population, basis="population",
+        seat_term=None if seat_term is None else {**seat_term, "text": f"{seat_term['text']}; the members' ratings "
+                                                  "were fitted beside this seat term, and placements use it"})
 
 
 def _matches_and_points(table: OutcomeTable) -> tuple[np.ndarray, np.ndarray]:
@@ -1064,6 +1092,8 @@ class _TerminalBoard:
         if dropped:
             notes.append(f"left out to fit {width} columns: {', '.join(dropped)} (all in --json)")
         notes += view.same
+        if board.seat_term is not None:
+            notes.append(board.seat_term["text"])
         notes += board.notes
         table = Table(title=board_title(board), caption="; ".join(notes))
         for k in sorted(kept):

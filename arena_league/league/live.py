@@ -138,11 +138,17 @@ class LivePlay:
         if self.match is not None:
             raise ValueError("a match is in progress: finish or resign it first")
         self._count_start()
-        match = self.ladder.next_match(self.seed)
-        self.match, self.pending, self.controls = match, None, match.controls.web()
+        self.match, self.pending = self.ladder.next_match(self.seed), None
+        opening, scene = self._opening()
+        return [opening, self._frame([], scene), *self._advance()]
+
+    def _opening(self) -> tuple[dict[str, Any], list]:
+        """The ``match`` message of the match (or half of a pair) in play, and its scene."""
+        match = self._require_match()
+        self.controls = match.controls.web()
         n, seat = match.n, match.seat
         team_of = [int(t) for t in match.rules.team_of]
-        roles = ["you" if s == seat else "teammate" if team_of[s] == match.team else "opponent" for s in range(n)]
+        roles = ["you" if s == seat else "teammate" if team_of[s] == match.side else "opponent" for s in range(n)]
         self.names = ["you" if s == seat else f"{roles[s]} #{s}" for s in range(n)]
         self.labels = ["you" if s == seat else f"#{s}" for s in range(n)]
         scene = self._scene()
@@ -150,11 +156,20 @@ class LivePlay:
         seats = [{"seat": s, "team": team_of[s], "role": roles[s], "label": self.labels[s],
                   "agent": self.ladder.agent_name if s == seat else match.opponent,
                   "color": team_hex(team_of[s])} for s in range(n)]
-        opening = {"type": "match", "number": self.ladder.played + 1, "opponent": match.opponent,
-                   "opponent_rating": match.opponent_rating, "rung": self.ladder.rung + 1, "team": match.team,
-                   "seat": seat, "seats": seats, "controls": self.controls, "bounds": self.bounds,
-                   "max_steps": match.max_cycles}
-        return [opening, self._frame([], scene), *self._advance()]
+        return {"type": "match", "number": self.ladder.played + 1, "opponent": match.opponent,
+                "opponent_rating": match.opponent_rating, "rung": self.ladder.rung + 1, "team": match.side,
+                "seat": seat, "seats": seats, "controls": self.controls, "bounds": self.bounds,
+                "max_steps": match.max_cycles, "half": match.half}, scene
+
+    def _step(self, command: Any) -> list[dict[str, Any]]:
+        """One step's frame; at a pair's half time, then the second half's ``match`` message and frame."""
+        match = self._require_match()
+        events = match.step(command)
+        out = [self._frame(events)]
+        if any(e.get("kind") == "half_time" for e in events):
+            opening, scene = self._opening()
+            out += [opening, self._frame([], scene)]
+        return out
 
     def act(self, message: dict[str, Any]) -> list[dict[str, Any]]:
         """The person's move (``text``, or a click's ``point``): refused with the reason, held for
@@ -168,8 +183,7 @@ class LivePlay:
             return []
         if not match.needs_command():
             return [{"type": "refused", "reason": "it is not your move yet"}]
-        events = match.step(command)
-        return [self._frame(events), *self._advance()]
+        return [*self._step(command), *self._advance()]
 
     def tick(self) -> list[dict[str, Any]]:
         """One step of a paced game, the person's newest answer holding; its frame (and the end)."""
@@ -179,8 +193,7 @@ class LivePlay:
             command, problem = match.controls.parse("")  # Enter: go on as before
             if problem is not None:
                 return [self._frame([])]  # nothing to go on with: wait for an answer
-        events = match.step(command)
-        out = [self._frame(events)]
+        out = self._step(command)
         if match.over:
             out.append(self._end(resigned=False))
         return out
@@ -234,7 +247,7 @@ class LivePlay:
         out: list[dict[str, Any]] = []
         if self.pace is None:
             while not match.over and not match.needs_command():
-                out.append(self._frame(match.step(None)))
+                out += self._step(None)
         if match.over:
             out.append(self._end(resigned=False))
         return out

@@ -69,8 +69,8 @@ def match_replay_file(league: League, match: str | int, *, record: bool = False)
     match without one is played again here and recorded first (as the job of :func:`queue_replay`)."""
     with league.reading() as session:
         found = find_match(session, match)
-        match_id, path = found.id, found.replay_path
-    if path and Path(path).is_file():
+        match_id, path = found.id, _replay_paths(found)[0]
+    if _recorded(path):
         return match_id, Path(path)
     if not record:
         raise NotFoundError(f"match {match_id} has no recorded replay yet; record it with `arena-league replay "
@@ -80,7 +80,7 @@ def match_replay_file(league: League, match: str | int, *, record: bool = False)
     job_id = queue_replay(league, match_id)
     reg.run_job_now(league, job_id, job_handlers())
     with league.reading() as session:
-        return match_id, Path(find_match(session, match_id).replay_path)
+        return match_id, Path(_replay_paths(find_match(session, match_id))[0])
 
 
 def match_view(league: League, match_id: int) -> dict[str, Any]:
@@ -90,29 +90,61 @@ def match_view(league: League, match_id: int) -> dict[str, Any]:
         match = _match(session, match_id)
         seats = [{"seat": s.seat, "agent": s.agent.name, "team": s.team, "score": s.score, "outcome": s.outcome,
                   "position": s.position, "forfeit": s.forfeit} for s in sorted(match.seats, key=lambda s: s.seat)]
+        halves = list(match.halves or [])
         view = {"id": match.id, "key": match.match_key, "game_id": match.game_id, "seed": match.seed,
                 "job": match.job_id, "created_at": match.created_at.isoformat(timespec="seconds"),
-                "seats": seats, "replay": bool(match.replay_path) and Path(match.replay_path).is_file(),
+                "seats": seats, "paired": bool(halves),
+                "replay": all(_recorded(path) for path in _replay_paths(match)),
                 "replayable": _JOB_MATCH_KEY.match(match.match_key) is not None}
-    teams: dict[int, dict[str, Any]] = {}
-    for seat in seats:
-        team = teams.setdefault(seat["team"], {"team": seat["team"], "agents": [], "outcome": seat["outcome"],
-                                               "score": seat["score"]})
-        if seat["agent"] not in team["agents"]:
-            team["agents"].append(seat["agent"])
-    view["teams"] = [teams[t] for t in sorted(teams)]
+    view["teams"] = _teams([{**seat, "points": None} for seat in seats])
+    if halves:
+        # a pair: each team's total is what its agents scored toward the pair in both halves
+        n = len(seats)
+        totals = [halves[0]["points"][i] + halves[1]["points"][(i + n // 2) % n] for i in range(n)]
+        for team in view["teams"]:
+            team["points"] = next(t for t, s in zip(totals, seats) if s["team"] == team["team"])
+        view["halves"] = [{"half": k, "steps": half["steps"], "replay": _recorded(half.get("replay_path")),
+                           "teams": _teams([{"agent": a, "team": t, "score": sc, "outcome": o, "points": pt}
+                                            for a, t, sc, o, pt in zip(half["seats"], half["teams"], half["scores"],
+                                                                       half["outcomes"], half["points"])])}
+                          for k, half in enumerate(halves)]
     return view
 
 
-def match_replay(league: League, match_id: int) -> dict[str, Any]:
-    """The replay document of a match (see :func:`arena_league.league.replays.replay_document`);
-    :class:`NotFoundError` when none is recorded yet."""
+def _teams(seats: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per team: its agents, outcome, score (and pair points) from its seats."""
+    teams: dict[int, dict[str, Any]] = {}
+    for seat in seats:
+        team = teams.setdefault(seat["team"], {"team": seat["team"], "agents": [], "outcome": seat["outcome"],
+                                               "score": seat["score"], "points": seat["points"]})
+        if seat["agent"] not in team["agents"]:
+            team["agents"].append(seat["agent"])
+    return [teams[t] for t in sorted(teams)]
+
+
+def _replay_paths(match: reg.Match) -> list[str | None]:
+    """The replay files of a match: one, or a pair's two halves'."""
+    return [half.get("replay_path") for half in match.halves] if match.halves else [match.replay_path]
+
+
+def _recorded(path: str | None) -> bool:
+    return bool(path) and Path(path).is_file()
+
+
+def match_replay(league: League, match_id: int, half: int | None = None) -> dict[str, Any]:
+    """The replay document of a match (see :func:`arena_league.league.replays.replay_document`), of
+    one ``half`` (0 or 1; default 0) of a pair; :class:`NotFoundError` when none is recorded yet."""
     from arena_league.league.replays import replay_document
 
     with league.reading() as session:
         match = _match(session, match_id)
-        path = match.replay_path
-    if not path or not Path(path).is_file():
+        paths = _replay_paths(match)
+    if half is not None and len(paths) == 1:
+        raise ValueError(f"match {match_id} is not a pair, so it has no halves; leave `half` out")
+    if half is not None and half not in (0, 1):
+        raise ValueError(f"half must be 0 or 1 (a pair's first or second match), not {half}")
+    path = paths[half or 0]
+    if not _recorded(path):
         raise NotFoundError(f"match {match_id} has no recorded replay yet; POST /api/matches/{match_id}/replay "
                             "queues a job that records it")
     return replay_document(path)
@@ -149,7 +181,7 @@ def handle_replay(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
         agents = list({s.agent.name: s.agent for s in seats}.values())
         refs = agent_refs(session, ctx.league, agents)
         spec = MatchSpec(int(key["match"]), match.game_id, tuple(s.agent.name for s in seats),
-                         int((job.payload or {}).get("seed", 0)))
+                         int((job.payload or {}).get("seed", 0)), paired=bool(match.halves))
         stored = [(s.score, s.outcome) for s in seats]
         stored_key, game_id = match.match_key, match.game_id
     if spec.seed != int(match.seed) or match_key(int(key["job"]), spec.match_id) != stored_key:
@@ -163,9 +195,10 @@ def handle_replay(ctx: reg.JobContext, progress: Any = None) -> dict[str, Any]:
                             sandbox_limits=sandbox_limits(ctx.league))
     replayed = list(zip(result.scores, result.outcomes))
     if replayed != stored:
-        Path(result.replay_path).unlink(missing_ok=True)
+        for half in result.halves or (result,):
+            Path(half.replay_path).unlink(missing_ok=True)
         raise ValueError(f"match {match_id} played again ended {replayed}, not {stored} as stored; an agent or "
                          "the game's rules changed since (its replay is not kept)")
     with ctx.league.transaction() as session:
-        reg.set_replay_path(session, _match(session, match_id), str(result.replay_path))
+        reg.set_replay_path(session, _match(session, match_id), str(result.replay_path), result.halves_summary())
     return {"match": match_id, "replay": True, "steps": result.steps}

@@ -338,6 +338,8 @@ def _page(board: Leaderboard, title: str, when: datetime, figures: dict[str, byt
         if board.alpharank_alpha is not None:
             swept = " (automatic sweep)" if board.params.get("alpha_from_sweep") else ""
             details.append(f"alpha-Rank alpha = {board.alpharank_alpha:.3g}{swept}")
+        if board.seat_term is not None:
+            details.append(board.seat_term["text"])
         ranks = f"{rank_legend(board)}." + "".join(f" {note[0].upper()}{note[1:]}." for note in board.notes)
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',

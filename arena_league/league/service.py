@@ -498,7 +498,7 @@ class _Recorder:
             reg.SeatResult(self.ids[agent], team, score, outcome, None if r.positions is None else r.positions[i],
                            r.forfeit_of.get(agent))
             for i, (agent, team, score, outcome) in enumerate(zip(r.seats, r.teams, r.scores, r.outcomes))],
-            r.replay_path) for r in self.pending]
+            r.replay_path, r.halves_summary()) for r in self.pending]
         with self.ctx.league.transaction() as session:
             stored = reg.record_matches(session, self.game_id, records, job_id=self.ctx.job.id)
         self.stored += sum(1 for s in stored if s.created)
@@ -934,10 +934,22 @@ def _resolve_base(ctx: reg.JobContext) -> dict[str, Any]:
     if ratings is None:
         raise ValueError(f"{label} has no frozen ratings to place {p['agent']} against; rank against the game's "
                          "base population, or from the command line with --league-wide")
-    payload = {**p, "base": names, "base_label": label, "base_ratings": [float(r) for r in ratings]}
+    payload = {**p, "base": names, "base_label": label, "base_ratings": [float(r) for r in ratings],
+               "base_seat_advantage": base_seat_advantage(ctx.league, p["game_id"], label)}
     with ctx.league.transaction() as session:
         set_job_payload(session, ctx.job, payload)
     return payload
+
+
+def base_seat_advantage(league: League, game_id: str, label: str) -> list[float] | None:
+    """The seat term (rating points per side) the base population ``label`` (``name:version``) was
+    rated with, when its build fitted one; its members' ratings mean nothing without it."""
+    from arena_league.league.populations import find_population
+
+    with league.reading() as session:
+        found = find_population(session, game_id, label)
+        term = ((found.provenance or {}).get("figures") or {}).get("seat_term") if found is not None else None
+    return None if term is None else [float(v) for v in term["advantage"]]
 
 
 def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[str, Any]:
@@ -962,10 +974,11 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
         refs = agent_refs(session, ctx.league, _active_agents(session, game_id, [agent, *names]))
     cap = int(more) if more is not None else int(p["budget"])
     chooser = AdaptivePlacement(np.asarray(p["base_ratings"]), budget=len(evidence) + cap, target_half_width=target,
-                                min_matches=len(evidence) + (cap if more is not None else MIN_PLACEMENT_MATCHES))
+                                min_matches=len(evidence) + (cap if more is not None else MIN_PLACEMENT_MATCHES),
+                                seat_advantage=p.get("base_seat_advantage"))
     index = {name: k for k, name in enumerate(names)}
-    for _, _, opponent, score in evidence:
-        chooser.record(index[opponent], float(score))
+    for entry in evidence:  # (seed, match id, opponent, score[, the entrant's side])
+        chooser.record(index[entry[2]], float(entry[3]), int(entry[4]) if len(entry) > 4 else 0)
     recorder = _Recorder(ctx, game_id, cap, progress)
     sandboxing = _Sandboxing.of(ctx.league, refs, recorder.ids)
 
@@ -978,8 +991,8 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
     recorder.flush()
     suspended = sandboxing.suspend(ctx.league, recorder.forfeits)
     for r in results:
-        evidence.append([seed, r.match_id, next(s for s in r.seats if s != agent),
-                         float(r.team_scores()[r.teams[r.seats.index(agent)]])])
+        side = r.teams[r.seats.index(agent)]
+        evidence.append([seed, r.match_id, next(s for s in r.seats if s != agent), float(r.team_scores()[side]), side])
     placement = chooser.placement
     stopped, why = _stop_reason(chooser, len(results), cap, more, target, suspended.get(agent),
                                 sandboxing.max_seconds if sandboxing.out_of_time() else None)
@@ -990,7 +1003,7 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
     nash_p, nash_scores = _nash_of(rows, everyone, nash_averaging)
     opponents: dict[str, dict[str, float]] = {}
     seeds: dict[str, int] = {}
-    for used, _, other, score in evidence:
+    for used, _, other, score, *_ in evidence:
         entry = opponents.setdefault(other, {"matches": 0, "score": 0.0})
         entry["matches"] += 1
         entry["score"] += score
@@ -1090,8 +1103,9 @@ def leaderboard(league: League, game_id: str, method: str = "bt", *, population:
         rows = reg.match_seat_rows(session, game_id, agents=list(info))
         placements = _placements(session, game_id, scope, set(info)) if frozen is not None else {}
         population_id = found.id if found is not None else None
+        seat_term = ((found.provenance or {}).get("figures") or {}).get("seat_term") if found is not None else None
     if frozen is not None:
-        board = population_leaderboard(rows, info, game_id, scope, frozen, placements)
+        board = population_leaderboard(rows, info, game_id, scope, frozen, placements, seat_term=seat_term)
     else:
         board = compute_leaderboard(rows, info, game_id, method, rounds=rounds, seed=seed, population=scope)
     if save:

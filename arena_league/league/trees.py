@@ -80,8 +80,19 @@ def tree_catalog(game_id: str) -> dict[str, Any]:
             "schemes": [{"name": name, "doc": doc} for name, doc in SCHEMES.items()],
             "rewards": reward_catalog(game_id), "default": default_tree(game_id),
             "examples": example_trees(game_id), "options": options_catalog(game_options(game_id)),
+            "match_format": _match_format(spec),
             "limits": {"depth": MAX_DEPTH, "nodes": MAX_NODES, "board": MAX_BOARD, "bytes": MAX_SPEC_BYTES,
                        "text": MAX_TEXT}}
+
+
+def _match_format(spec: Any) -> dict[str, Any]:
+    """Whether the game is played in pairs, and what that means for a tree, in a sentence."""
+    if not spec.paired:
+        return {"paired": False, "note": None}
+    return {"paired": True, "note": (
+        f"{spec.game_id} is played in pairs: the league's matches are two halves from the same start with the "
+        "teams' agents swapped, so every agent plays each team's role once per pair. A tree's rewards shape each "
+        "team's role (team 0's seats, then team 1's); the preview plays one half.")}
 
 
 def check_spec(game_id: str, spec: Any) -> dict[str, Any]:

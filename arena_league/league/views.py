@@ -210,6 +210,7 @@ def game_view(league: League, cache: LeaderboardCache, game_id: str, *, method: 
             "population": board.get("population"), "rating_label": board.get("rating_label"),
             "level": board.get("level"), "n_matches": board.get("n_matches"), "n_agents": len(rows),
             "rank_legend": board.get("rank_legend"), "notes": board.get("notes") or [],
+            "seat_term": board.get("seat_term"), "paired": game_spec(game_id).paired,
             "filters": {"kind": kind, "owner": owner, "sort": sort, "kinds": kinds, "owners": listed_owners},
             "scale": scale, "rows": shown, "heatmap": _heatmap(league, game_id, board, rows), "importing": importing,
             "summary": game_spec(game_id).rules.summary, "options": options_catalog(game_options(game_id))}

@@ -240,8 +240,10 @@ def match(request: Request, match_id: RowId) -> dict[str, Any]:
 
 
 @router.get("/matches/{match_id}/replay", summary="the match's recorded replay, as frames of its top-down scene")
-def match_replay(request: Request, match_id: RowId) -> dict[str, Any]:
-    return ops.match_replay(league_of(request), match_id)
+def match_replay(request: Request, match_id: RowId,
+                 half: Annotated[int | None, Query(ge=0, le=1, description="a pair's half: 0 or 1")] = None
+                 ) -> dict[str, Any]:
+    return ops.match_replay(league_of(request), match_id, half)
 
 
 @router.post("/matches/{match_id}/replay", response_model=Queued, status_code=202,

@@ -94,10 +94,13 @@
       sent = null;
       part("result").hidden = true;
       part("resign").hidden = false;
-      part("events").textContent = "";
+      if (message.half !== 1) part("events").textContent = "";
       part("max-steps").textContent = message.max_steps;
-      part("banner").textContent = "Match " + message.number + ": you play team " + message.team + " against " +
-        message.opponent + " (rating " + Math.round(message.opponent_rating) + ", " + message.rung +
+      var half = message.half === null || message.half === undefined ? "" :
+        (message.half === 0 ? " in the first half of a pair (then the other team, from the same start)"
+                            : " in the second half of the pair");
+      part("banner").textContent = "Match " + message.number + ": you play team " + message.team + half +
+        " against " + message.opponent + " (rating " + Math.round(message.opponent_rating) + ", " + message.rung +
         " from the bottom).";
       showSeats(message.seats);
       part("hint").textContent = controls.hint || "";

@@ -233,6 +233,9 @@
     var root = self.root;
     root.textContent = "";
     root.classList.add("tree-editor");
+    if (self.catalog.match_format && self.catalog.match_format.note) {
+      root.appendChild(el("p", { "class": "meta", "data-role": "match-format" }, self.catalog.match_format.note));
+    }
 
     // examples
     var examples = el("div", { "class": "tree-bar", role: "group", "aria-label": "Start from" },
