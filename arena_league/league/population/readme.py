@@ -80,6 +80,8 @@ def population_readme(manifest: Mapping[str, Any]) -> str:
     ratings = sorted(m["metadata"]["rating"] for m in manifest["members"])
     # a game played in pairs counts pairs (two matches from one start, roles swapped) where others count matches
     unit = "pairs" if game_spec(game).paired else "matches"
+    schedule = (f"{build['matches_per_pair']} pair(s) per pair of agents (each two matches from one start, roles "
+                "swapped)" if unit == "pairs" else f"{build['matches_per_pair']} matches per pair (seats balanced)")
     seat = figures.get("seat_term")
     seat_row = f"| seat term of the ratings | {seat['text']} |" if seat else ""
     by_scheme: dict[str, list[float]] = {}
@@ -133,7 +135,7 @@ Built by `arena_league.league.population.build.build_population` (code {build['c
   (early snapshots are weak, late ones strong){early}; actors: MLP, hidden {build['recipe']['hidden']}{wide};
   recipe overrides {json.dumps(build['recipe']['per_scheme'])}; build options {options}.
 {warm_line}* candidates: {_candidates_line(build, game)}, plus the scripted `random` and `heuristic` agents as
-  references, in a round robin of {build['matches_per_pair']} matches per pair (seats balanced).
+  references, in a round robin of {schedule}.
 * selection: {len(manifest['members'])} candidates spanning the rating range from {build.get('floor_margin', DEFAULT_FLOOR_MARGIN):g} Elo above the random agent,
   preferring, among candidates of similar rating, those whose results against the others differ most.
 * ratings: {prov['rating']}. Every member's scheme, env steps, seed, learner, rating and interval are in

@@ -153,7 +153,10 @@ RECIPES: dict[str, Recipe] = {
         top_runs=({"scheme": "sp", "steps": 2_000_000, "warm_start": {"steps": 60_000, "min_log_std": -4.0},
                    "fixed_opponents": ("scripted:heuristic",), "fixed_share": 1.0, "learning_rate": 1e-4,
                    "anneal_lr": False, "ent_coef": 0.0},)),
-    "YouShallNotPass": dataclasses.replace(ANT_GAMES, description="the ant games' ladder"),
+    # Played in pairs, where the clumsiest copies rate about level with the random agent: members start
+    # 100 Elo above it, so that it is last.
+    "YouShallNotPass": dataclasses.replace(
+        ANT_GAMES, floor_margin=100.0, description="the ant games' ladder, rated in pairs, floor 100"),
     # Its top is tuned heuristics (``scripted=``), not trained.
     "PushBox": dataclasses.replace(ANT_GAMES, description="the ant games' ladder (CC joins: a team game)"),
     "Snake": Recipe(
