@@ -205,7 +205,8 @@ def cmd_rank(args: argparse.Namespace) -> int:
         return 0
     level = round(report.level * 100)
     seeds = ", ".join(report.seeds) or str(args.seed)
-    stdout.print(f"[bold]{report.agent}[/] on {report.game_id} against {escape(against)}, {report.matches} matches:")
+    stdout.print(f"[bold]{report.agent}[/] on {report.game_id} against {escape(against)}, {report.matches} "
+                 f"{report.unit}:")
     if report.stored:
         stdout.print(f"  from the stored placement (job {report.job_id}, seed{'s' if len(report.seeds) > 1 else ''} "
                      f"{seeds}); --more N or another --seed to add evidence", highlight=False)

@@ -181,5 +181,5 @@ def test_play_takes_the_population_rank_uses_by_default(tmp_path):
     again = io.StringIO()
     play_human("Snake-2T2P-v1", league=league, player="cy", input_fn=lambda p: "q", output=again)
     assert "imported" not in again.getvalue() and "base-t:1 has 2 agents" in again.getvalue()
-    with pytest.raises(ValueError, match="YouShallNotPass-2T1P-v1 has no base population.*population build"):
-        play_human("YouShallNotPass-2T1P-v1", league=league, input_fn=lambda p: "q", output=io.StringIO())
+    with pytest.raises(ValueError, match="Snake-2T1P-v1 has no base population.*population build"):
+        play_human("Snake-2T1P-v1", league=league, input_fn=lambda p: "q", output=io.StringIO())

@@ -4,10 +4,13 @@ roles."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from web_helpers import running_server
 
+from arena_league.cli import main
 from arena_league.league import (
     ensure_scripted_agents,
     evaluate,
@@ -21,6 +24,8 @@ from arena_league.league import (
 from arena_league.league.human import LiveMatch
 from arena_league.matchmaking import MatchSpec
 from arena_league.policies.scripted import scripted_policy
+
+pytest_plugins = ["cli_helpers"]  # the home fixture
 
 YSNP = "YouShallNotPass-2T1P-v1"
 
@@ -97,3 +102,18 @@ def test_a_person_plays_both_halves_of_a_pair():
     mine, theirs = first[0] + second[1], first[1] + second[0]
     assert scores.tolist() == [float(np.sign(mine - theirs) * 0.5 + 0.5), float(np.sign(theirs - mine) * 0.5 + 0.5)]
     assert match.steps > match.half_steps and "the pair ended" in match.end_reason([])
+
+
+def test_an_entrant_is_placed_against_the_youshallnotpass_population_in_pairs(home, capsys):
+    with open_home(home) as league:
+        heuristic = next(n for n in ensure_scripted_agents(league, YSNP) if n.startswith("heuristic"))
+    assert main(["rank", heuristic, "--budget", "24", "--json"]) == 0
+    placed = json.loads(capsys.readouterr().out)
+    assert placed["unit"] == "pairs" and placed["base"] == "base-v1:1" and 20 <= placed["matches"] <= 24
+    assert placed["lower"] <= placed["rating"] <= placed["upper"]
+    assert 1 <= placed["rank_lower"] <= placed["rank"] <= placed["rank_upper"] <= 101
+    # the scripted heuristic is not on top of the population, and its placement says so
+    assert placed["rank"] > 1
+    assert main(["rank", heuristic]) == 0  # the stored placement, read back in the terminal
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"{placed['matches']} pairs:" in out and f"rank {placed['rank']} of 101" in out

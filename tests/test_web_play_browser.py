@@ -139,3 +139,26 @@ def test_a_guest_turns_a_snake_with_the_arrow_keys(server, browser):
     sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
     sync_api.expect(page.locator('[data-role="reason"]')).to_contain_text("Why it ended: ")
     page.close()
+
+
+def test_a_guest_plays_both_halves_of_a_youshallnotpass_pair(server, browser):
+    """A game played in pairs: the person runs in the first half and, from the same start, blocks in
+    the second; the page says which half is in play and whom the person holds."""
+    page = browser.new_page(viewport={"width": 1280, "height": 1000})
+    page.set_default_timeout(60_000)
+    page.goto(f"{server.url}/play/YouShallNotPass-2T1P-v1")
+    wait_for_the_base(page)
+    page.fill('[data-role="guest"]', "runner")
+    page.click('[data-role="start"]')
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "playing", timeout=120_000)
+    banner = page.locator('[data-role="banner"]')
+    sync_api.expect(banner).to_contain_text("you play team 0 in the first half of a pair")
+    page.keyboard.down("ArrowRight")  # trot toward the goal line until the half ends
+    sync_api.expect(banner).to_contain_text("you play team 1 in the second half of the pair", timeout=90_000)
+    page.keyboard.up("ArrowRight")
+    sync_api.expect(page.locator('[data-role="events"]')).to_contain_text("half time")
+    sync_api.expect(page.locator('[data-role="seats"] li').nth(1)).to_contain_text("you (guest-runner@YouShallNotPass")
+    page.evaluate("document.querySelector('[data-role=\"resign\"]').click()")
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
+    sync_api.expect(page.locator('[data-role="reason"]')).to_contain_text("Why it ended: you resigned")
+    page.close()

@@ -214,7 +214,8 @@ class Ladder:
         opponent, rating = self.opponent
         with self.league.reading() as session:
             number = reg.count_matches(session, self.game_id, agent_id=self.human_id)
-        spec = MatchSpec(number + 1, self.game_id, tuple(opponent for _ in range(self.n_agents)), seed)
+        spec = MatchSpec(number + 1, self.game_id, tuple(opponent for _ in range(self.n_agents)), seed,
+                         paired=game_spec(self.game_id).paired)
         return LiveMatch(spec, self.refs[opponent].load(), self.played % 2, opponent, rating,
                          f"human:{self.human_id}:{number + 1}")
 
@@ -223,7 +224,7 @@ class Ladder:
         again from all their matches against this base, and move along the ladder."""
         team, steps = match.team, match.steps
         match.scores = np.where(np.arange(2) == team, 0.0, 1.0) if resigned else match.finish()
-        result, match.match_id = _record(self.league, match, match.scores, self.human_id)
+        result, match.match_id = _record(self.league, match, match.scores, self.human_id, self.agent_name)
         outcome = result.outcomes[result.teams.index(team)]
         played = HumanMatch(match.opponent, match.opponent_rating, team, outcome, steps, match.key, resigned)
         self.report.matches.append(played)
@@ -251,15 +252,24 @@ def _human_agent(league: reg.League, name: str, game_id: str, owner: str, player
         return int(agent.id)
 
 
-def _record(league: reg.League, match: LiveMatch, team_scores: np.ndarray, human_id: int) -> tuple[MatchResult, int]:
-    """Store ``match`` ended with ``team_scores``: its result and its row id."""
+def _record(league: reg.League, match: LiveMatch, team_scores: np.ndarray, human_id: int, person: str
+            ) -> tuple[MatchResult, int]:
+    """Store ``match`` ended with ``team_scores`` (the person, agent ``person``, holding the first seat
+    of their team): its result and its row id."""
     spec = match.spec
     result = MatchResult.from_team_result(spec, match.rules.team_of, team_scores, match.steps)
+    halves = None
+    if len(match.halves) == 2:  # a pair played out (a resignation leaves it unfinished: no halves)
+        halves = MatchResult.from_halves(spec, match.halves).halves_summary()
+        for k, half in enumerate(halves):  # the person's seat: the first of the team they held in that half
+            side = match.team if k == 0 else 1 - match.team
+            half["seats"][half["teams"].index(side)] = person
     with league.transaction() as session:
         opponent_id = reg.require_agent(session, match.opponent).id
         seats = [reg.SeatResult(human_id if t == match.team else opponent_id, t, score, outcome)
                  for t, score, outcome in zip(result.teams, result.scores, result.outcomes)]
-        [stored] = reg.record_matches(session, spec.game_id, [reg.MatchRecord(match.key, spec.seed, seats)])
+        [stored] = reg.record_matches(session, spec.game_id, [reg.MatchRecord(match.key, spec.seed, seats,
+                                                                              halves=halves)])
     return result, stored.match_id
 
 
@@ -325,8 +335,8 @@ class LiveMatch:
         """Steps played (both halves of a pair)."""
         self.half: int | None = 0 if spec.paired else None
         """The half of a pair in play (0, then 1); None for a single match."""
-        self.half_points: list[np.ndarray] = []
-        """Each finished half's ``pair_points`` per team."""
+        self.halves: list[MatchResult] = []
+        """Each finished half of a pair, as the match engine reports one (its seats are keys)."""
         self._start(int(team))
         self.events: list[dict[str, Any]] = []
         """Every event the rules reported, with its ``step``."""
@@ -399,17 +409,26 @@ class LiveMatch:
         self.steps += 1
         self.half_steps += 1
         if self.half == 0 and (rules.game_over or self.half_steps >= self.max_cycles):
-            self.half_points.append(self._half_points())
+            self._end_half()
             self.half = 1
             self._start(1 - self.team)
             events.append({"kind": "half_time", "step": self.steps - 1, "team": self.side})
         self.events += events
         return events
 
-    def _half_points(self) -> np.ndarray:
-        if not self.rules.game_over:
-            self.rules.finish()
-        return np.asarray(self.rules.pair_points(), dtype=np.float64)
+    def _end_half(self) -> None:
+        """Keep the half in play as a finished match of the pair."""
+        rules = self.rules
+        if not rules.game_over:
+            rules.finish()
+        half = self.spec.halves()[self.half]
+        self.halves.append(MatchResult.from_team_result(half, rules.team_of, rules.team_result(), self.half_steps,
+                                                        pair_points=rules.pair_points()))
+
+    @property
+    def half_points(self) -> list[np.ndarray]:
+        """Each finished half's ``pair_points`` per team."""
+        return [np.asarray([h.points[h.teams.index(t)] for t in (0, 1)]) for h in self.halves]
 
     def finish(self) -> np.ndarray:
         """The team scores once the match is over (a match cut by its step limit is finished by
@@ -419,8 +438,8 @@ class LiveMatch:
             if not self.rules.game_over:
                 self.rules.finish()
             return np.asarray(self.rules.team_result(), dtype=np.float64)
-        if len(self.half_points) < 2:
-            self.half_points.append(self._half_points())
+        if len(self.halves) < 2:
+            self._end_half()
         first, second = self.half_points
         total = first + second[::-1]  # the first half's team t is the second half's team 1 - t
         return np.sign(total - total[::-1]) * 0.5 + 0.5
@@ -446,7 +465,8 @@ class LiveMatch:
         if resigned:
             return "you resigned (a loss)"
         if self.half is not None:
-            first, second = self.half_points if len(self.half_points) == 2 else (self.half_points[0], None)
+            points = self.half_points
+            first, second = points if len(points) == 2 else (points[0], None)
             yours = first[self.team] + (0.0 if second is None else second[1 - self.team])
             theirs = first[1 - self.team] + (0.0 if second is None else second[self.team])
             return f"the pair ended: your two halves scored {yours:g} against the opponent's {theirs:g}"

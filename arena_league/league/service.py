@@ -700,6 +700,9 @@ class RankReport:
     #: ``stop_reason`` says it in words.
     stopped: str = ""
     stop_reason: str = ""
+    #: What ``matches`` counts: ``"pairs"`` in a game played in pairs (two matches each, roles swapped),
+    #: else ``"matches"``.
+    unit: str = "matches"
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -1016,7 +1019,8 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
             "nash_score": float(nash_scores[-1]), "nash_mass": float(nash_p[-1]), "level": placement.level,
             "job_id": ctx.job.id, "seconds": round(time.perf_counter() - start, 3), "opponents": opponents,
             "forfeits": recorder.forfeits.get(agent, 0), "suspended": suspended.get(agent), "played": len(results),
-            "seeds": seeds, "stored": False, "stopped": stopped, "stop_reason": why, "evidence": evidence}
+            "seeds": seeds, "stored": False, "stopped": stopped, "stop_reason": why, "evidence": evidence,
+            "unit": "pairs" if game_spec(game_id).paired else "matches"}
 
 
 def _stop_reason(chooser: Any, played: int, cap: int, more: int | None, target: float, suspended: str | None,

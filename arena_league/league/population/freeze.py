@@ -127,8 +127,8 @@ def freeze(out: Path, report: BuildReport, members: list[Candidate], build_id: s
                           "top_runs": origin["top_runs"]} if origin else {}),
                       "code": _code_version()},
             "figures": figures, "criteria": report.criteria, "passed": report.passed,
-            "rating": "Bradley-Terry (Elo scale, members' mean 1000) over the round robin among members and the "
-                      "scripted random and heuristic agents; 95% bootstrap intervals",
+            "rating": "Bradley-Terry (Elo scale, members' mean 1000) with a seat term, over the round robin among "
+                      "members and the scripted random and heuristic agents; 95% bootstrap intervals",
             "references": {"random": figures.get("random_rating"), "heuristic": figures.get("heuristic_rating")}},
         "bundles": bundles,
         "members": entries,
