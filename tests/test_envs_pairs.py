@@ -21,7 +21,11 @@ YSNP = "YouShallNotPass-2T1P-v1"
 
 def ysnp_actions(rules: YouShallNotPassRules, runner: str, blocker: str, rng: np.random.Generator) -> np.ndarray:
     """Both seats' torques: each side ``"heuristic"``, ``"stand"`` (holds the standing pose) or ``"random"``."""
-    obs = rules.observe()
+    return seat_actions(rules.observe(), runner, blocker, rng)
+
+
+def seat_actions(obs: np.ndarray, runner: str, blocker: str, rng: np.random.Generator) -> np.ndarray:
+    """:func:`ysnp_actions` from the seats' observations."""
     actions = YouShallNotPassRules.heuristic(obs, "continuous").astype(np.float32)
     for seat, how in ((RUNNER, runner), (BLOCKER, blocker)):
         if how == "stand":
@@ -100,15 +104,7 @@ def _policy(game_id: str, seed: int):
         runner, blocker = [("heuristic", "stand"), ("heuristic", "random"), ("random", "heuristic"),
                            ("stand", "random")][seed % 4]
 
-        def act(obs, rng):
-            actions = YouShallNotPassRules.heuristic(obs, "continuous").astype(np.float32)
-            for seat, how in ((RUNNER, runner), (BLOCKER, blocker)):
-                if how == "stand":
-                    actions[seat] = stand(obs[seat: seat + 1])[0]
-                elif how == "random":
-                    actions[seat] = rng.uniform(-1.0, 1.0, 8)
-            return actions
-        return act
+        return lambda obs, rng: seat_actions(obs, runner, blocker, rng)
     rules_cls, n_actions = game_spec(game_id).rules, make(game_id).rules.n_actions
 
     def act(obs, rng):  # the heuristic, now and then any move (an illegal one loses at once)
