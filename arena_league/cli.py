@@ -340,7 +340,8 @@ def cmd_worker(args: argparse.Namespace) -> int:
         try:
             summary = run_worker(league, worker_id=args.worker_id, lease_seconds=args.lease,
                                  poll_seconds=args.poll, max_jobs=args.max_jobs, until_idle=args.until_idle,
-                                 parent_pid=args.parent)
+                                 parent_pid=args.parent, backend=args.backend, address=args.address,
+                                 workers=args.processes)
         except KeyboardInterrupt:
             stderr.print("worker stopped; a job it was running, if any, went back to the queue")
             return 130
@@ -1044,6 +1045,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--until-idle", action="store_true", help="stop when the queue is empty")
     p.add_argument("--parent", type=_positive_int, default=None, metavar="PID",
                    help="stop, handing the running job back, when process PID ends (serve starts its workers so)")
+    p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess",
+                   help="where the jobs' matches are played: here (default: as each job asks), a process pool, "
+                        "or the tasks of a Ray cluster")
+    p.add_argument("--address", default=None, metavar="ADDR",
+                   help="--backend ray: the cluster to join (default RAY_ADDRESS, else a local Ray instance)")
+    p.add_argument("--processes", type=_positive_int, default=None, metavar="N",
+                   help="--backend process: worker processes (default: every core); ray: CPUs of a local instance")
     _league_options(p)
     p.set_defaults(func=cmd_worker)
 

@@ -86,18 +86,26 @@ class WorkerSummary:
 
 def run_worker(league: League, *, worker_id: str | None = None, lease_seconds: float = 60.0,
                poll_seconds: float = 1.0, max_jobs: int | None = None, until_idle: bool = False,
-               stop_event: threading.Event | None = None, parent_pid: int | None = None) -> WorkerSummary:
+               stop_event: threading.Event | None = None, parent_pid: int | None = None,
+               backend: str = "inprocess", address: str | None = None, workers: int | None = None
+               ) -> WorkerSummary:
     """Claim and run queued jobs (evaluations, rankings) with the league's handlers until stopped,
     ``max_jobs`` ran, with ``until_idle``, the queue is empty or, given ``parent_pid``, the process
-    that started the worker has ended (the job it ran goes back to the queue)."""
-    from arena_league.league.service import job_handlers  # the match engine: loaded only to run jobs
+    that started the worker has ended (the job it ran goes back to the queue). ``backend``,
+    ``address`` and ``workers`` say where the jobs' matches are played
+    (:class:`~arena_league.league.service.MatchBackend`: ``"ray"`` fans each job's matches out over a
+    Ray cluster); several workers, on one PostgreSQL league, share its queue whatever their backend."""
+    # the match engine: loaded only to run jobs
+    from arena_league.league.service import MatchBackend, job_handlers
+
+    play = MatchBackend(backend, address, workers)  # a wrong backend is refused before a job is claimed
 
     # load what a job runs (onnxruntime, torch, the sandbox) before claiming one: a stop signal that
     # lands in a native module's import becomes an ImportError the job fails with, not a hand-back
     importlib.import_module("arena_league.policies.onnx_policy")
     importlib.import_module("arena_league.policies.validation")
 
-    report = reg.run_worker(league, job_handlers(), worker_id=worker_id, lease_seconds=lease_seconds,
+    report = reg.run_worker(league, job_handlers(play=play), worker_id=worker_id, lease_seconds=lease_seconds,
                             poll_seconds=poll_seconds, max_jobs=max_jobs, stop_event=stop_event,
                             until_idle=until_idle, parent_pid=parent_pid)
     return WorkerSummary(report.completed, report.failed, report.lost, list(report.job_ids))

@@ -21,6 +21,7 @@ reason its owner sees, and the job goes on without it (its remaining matches are
 
 from __future__ import annotations
 
+import functools
 import tempfile
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -601,7 +602,8 @@ def _recording(league: League, payload: Mapping[str, Any]) -> ReplayRecording | 
     return ReplayRecording(path)
 
 
-def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> dict[str, Any]:
+def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None,
+                    play: MatchBackend | None = None) -> dict[str, Any]:
     """Job handler: play the round robin of the job's payload and store its matches.
 
     Overlapping evaluations agree: the first run of a job plans its seatings under the game's lock
@@ -627,8 +629,8 @@ def handle_evaluate(ctx: reg.JobContext, progress: Progress | None = None) -> di
     specs = [s for s in specs if match_key(ctx.job.id, s.match_id) not in done_keys]
     recorder = _Recorder(ctx, game_id, len(specs), progress)
     sandboxing = _Sandboxing.of(ctx.league, refs, recorder.ids)
-    results = sandboxing.play(specs, refs, ctx, recorder, backend=payload.get("backend", "inprocess"),
-                              workers=payload.get("workers"), recording=_recording(ctx.league, payload))
+    results = sandboxing.play(specs, refs, ctx, recorder, recording=_recording(ctx.league, payload),
+                              **(play or MatchBackend()).options(payload))
     recorder.flush()
     suspended = sandboxing.suspend(ctx.league, recorder.forfeits)
     not_played, why = sandboxing.not_played(specs, results, recorder)
@@ -955,7 +957,8 @@ def base_seat_advantage(league: League, game_id: str, label: str) -> list[float]
     return None if term is None else [float(v) for v in term["advantage"]]
 
 
-def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[str, Any]:
+def handle_rank(ctx: reg.JobContext, progress: Progress | None = None,
+                play: MatchBackend | None = None) -> dict[str, Any]:
     """Job handler: adaptive placement of an entrant, continuing its stored placement against the
     same base (see :func:`rank`); re-played from the start on a retry, which the engine's
     determinism makes exact and the match keys make idempotent. The result keeps the placement's
@@ -986,7 +989,7 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None) -> dict[s
     sandboxing = _Sandboxing.of(ctx.league, refs, recorder.ids)
 
     def play(specs):
-        return sandboxing.play(specs, refs, ctx, recorder, backend=p.get("backend", "inprocess"))
+        return sandboxing.play(specs, refs, ctx, recorder, **(play or MatchBackend()).options(p))
 
     first = sum(1 for e in evidence if e[0] == seed)  # this seed's matches so far: its next index
     results = play_adaptive(agent, names, chooser, play, game_id, league_seed=seed, first_match_id=first,
@@ -1189,9 +1192,39 @@ class _JobProgress:
                 raise
 
 
-def job_handlers(progress: Progress | None = None) -> dict[str, Callable[[reg.JobContext], Any]]:
+@dataclass(frozen=True)
+class MatchBackend:
+    """Where a worker plays its jobs' matches: ``"inprocess"`` (the default: as each job asks),
+    ``"process"`` (a process pool of ``workers``) or ``"ray"`` (the tasks of a Ray cluster at
+    ``address``, default ``RAY_ADDRESS`` or a local instance). A job stores its matches exactly once
+    whatever plays them (match keys), and a submitted agent plays in the inference sandbox on
+    whichever process or node plays its matches."""
+
+    backend: str = "inprocess"
+    address: str | None = None
+    workers: int | None = None
+
+    def __post_init__(self) -> None:
+        from arena_league.matchmaking import BACKENDS
+
+        if self.backend not in BACKENDS:
+            raise ValueError(f"unknown match backend {self.backend!r}; valid: {', '.join(BACKENDS)}")
+        if self.address is not None and self.backend != "ray":
+            raise ValueError("a Ray address is for --backend ray; add it, or leave --address out")
+
+    def options(self, payload: Mapping[str, Any]) -> dict[str, Any]:
+        """``play_matches`` options for a job: the worker's backend when it names one beyond the
+        default, else the job's own (``payload["backend"]``)."""
+        if self.backend == "inprocess":
+            return {"backend": payload.get("backend", "inprocess"), "workers": payload.get("workers")}
+        return {"backend": self.backend, "workers": self.workers, "ray_address": self.address}
+
+
+def job_handlers(progress: Progress | None = None, play: MatchBackend | None = None
+                 ) -> dict[str, Callable[[reg.JobContext], Any]]:
     """The job kinds a league worker runs: evaluations, placements, uploads to validate, replays
-    to record, shipped populations to import, social trees to verify and to preview."""
+    to record, shipped populations to import, social trees to verify and to preview; ``play`` says
+    where evaluations and placements play their matches (default: as each job asks)."""
     from arena_league.league.matches import handle_replay
     from arena_league.league.populations import handle_import
     from arena_league.league.trees import handle_preview, handle_verify
@@ -1205,7 +1238,9 @@ def job_handlers(progress: Progress | None = None) -> dict[str, Callable[[reg.Jo
                 return handler(ctx, _JobProgress(ctx, progress))
         return run
 
-    return {"evaluate": on_one_thread(handle_evaluate), "rank": on_one_thread(handle_rank),
+    where = play or MatchBackend()
+    return {"evaluate": on_one_thread(functools.partial(handle_evaluate, play=where)),
+            "rank": on_one_thread(functools.partial(handle_rank, play=where)),
             "validate": on_one_thread(handle_validate), "replay": on_one_thread(handle_replay),
             "import": on_one_thread(handle_import), "verify": on_one_thread(handle_verify),
             "preview": on_one_thread(handle_preview)}
