@@ -23,7 +23,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -105,8 +105,7 @@ def ray_cluster(log_dir: Path) -> Iterator[RayCluster]:
         _wait_for_nodes(ray, cluster, node_env, nodes, log_dir)
         yield cluster
     finally:
-        for node in reversed(nodes):
-            _end(node)
+        _end(nodes)
         shutil.rmtree(temp_dir, ignore_errors=True)
 
 
@@ -128,23 +127,22 @@ def _wait_for_nodes(ray: str, cluster: RayCluster, env: dict[str, str], nodes: l
     raise RuntimeError(f"the Ray cluster did not show 2 nodes within {START_SECONDS:.0f} s")
 
 
-def _end(node: subprocess.Popen) -> None:
-    """End a node's process group by its leader's pid: SIGTERM, then SIGKILL if it lingers."""
-    for sig, wait in ((signal.SIGTERM, STOP_SECONDS), (signal.SIGKILL, STOP_SECONDS)):
-        try:
-            os.killpg(node.pid, sig)
-        except ProcessLookupError:
-            break
-        try:
-            node.wait(wait)
-        except subprocess.TimeoutExpired:
-            continue
-        # the leader is gone; the rest of its group may still be ending
-        deadline = time.monotonic() + wait
-        while time.monotonic() < deadline and _group_alive(node.pid):
+def _end(nodes: list[subprocess.Popen]) -> None:
+    """End the nodes' process groups by their leaders' pids, all at once: SIGTERM, then SIGKILL to
+    the groups still alive after :data:`STOP_SECONDS`."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        for node in nodes:
+            with suppress(ProcessLookupError):
+                os.killpg(node.pid, sig)
+        deadline = time.monotonic() + STOP_SECONDS
+        while time.monotonic() < deadline:
+            for node in nodes:
+                node.poll()  # reap the leader, so that its group counts as ended once the rest is
+            if not any(_group_alive(node.pid) for node in nodes):
+                return
             time.sleep(0.2)
-        if not _group_alive(node.pid):
-            break
+    for node in nodes:
+        node.wait(STOP_SECONDS)
 
 
 def _group_alive(pgid: int) -> bool:

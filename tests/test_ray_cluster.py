@@ -7,12 +7,15 @@ from __future__ import annotations
 import json
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 from cli_helpers import run
 from ray_cluster import NodeRecording, count_setup, fail, ray_cluster, ray_executable, where_and_setups
 
+from arena_league.league.population import round_robin as round_robin_module
 from arena_league.league.population.processes import run_tasks
+from arena_league.league.population.records import REFERENCES
 from arena_league.matchmaking import AgentRef, play_matches, round_robin, specs_for_seatings
 
 pytest_plugins = ["cli_helpers"]  # the home fixture
@@ -75,6 +78,31 @@ def test_a_failing_ray_task_fails_the_call_and_the_others_are_cancelled(joined):
     while ray.available_resources().get("CPU", 0) < 2 and time.monotonic() < deadline:
         time.sleep(0.5)
     assert ray.available_resources().get("CPU", 0) == 2
+
+
+def test_a_round_robin_interrupted_on_ray_resumes_here_with_the_same_scores(joined, tmp_path, monkeypatch):
+    """Chunks played as Ray tasks are saved here as they come back: interrupted after the first,
+    the round robin resumes from its work folder in this process and scores as one process does."""
+    monkeypatch.setattr(round_robin_module, "CHUNK_MATCHES", 4)
+    game = "GoBang-2T1P-v1"
+    schedule = round_robin_module.Schedule(game, list(REFERENCES), 12, seed=3)
+    policies = round_robin_module.round_robin_policies(game, [])
+
+    def interrupt(stage, done, total):
+        raise KeyboardInterrupt
+
+    def play(work, progress=None, **where):
+        report = SimpleNamespace(matches_played=0, matches_reused=0)
+        table = schedule.play(work, policies, 4, report, progress, lambda line: None, **where)
+        return table, report
+
+    with pytest.raises(KeyboardInterrupt):
+        play(tmp_path / "work", interrupt, backend="ray", address=joined.address)
+    assert len(list((tmp_path / "work" / "matches").glob("*/chunk-*.json"))) == 1
+    resumed, report = play(tmp_path / "work")
+    assert (report.matches_reused, report.matches_played) == (4, 8)
+    alone, _ = play(tmp_path / "alone")
+    assert resumed.tolist() == alone.tolist()
 
 
 @pytest.mark.slow
