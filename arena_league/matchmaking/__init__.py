@@ -1,5 +1,5 @@
 """The match engine: match specs and seeds, the batched lockstep runner, its backends (in-process,
-process pool, Ray) and opponent selection. Replays are recorded by a :class:`MatchRecording` the
+process pool, Ray; :func:`join_ray` joins a Ray cluster) and opponent selection. Replays are recorded by a :class:`MatchRecording` the
 caller passes in (``arena_league.replay.ReplayRecording``), so the engine writes no file format itself.
 
     from arena_league.matchmaking import AgentRef, play_matches, round_robin, specs_for_seatings
@@ -12,6 +12,7 @@ caller passes in (``arena_league.replay.ReplayRecording``), so the engine writes
 
 from arena_league.matchmaking.agents import AGENT_KINDS, AgentRef, load_agents
 from arena_league.matchmaking.backends import BACKENDS, play_chunk, play_matches
+from arena_league.matchmaking.cluster import NODE_IP_VARIABLE, join_ray
 from arena_league.matchmaking.runner import (
     LockstepRunner,
     MatchRecording,
@@ -40,6 +41,7 @@ from arena_league.matchmaking.specs import (
 __all__ = [
     "AGENT_KINDS",
     "BACKENDS",
+    "NODE_IP_VARIABLE",
     "OUTCOMES",
     "AgentRef",
     "LeastPlayedChooser",
@@ -52,6 +54,7 @@ __all__ = [
     "PolicyUnit",
     "action_spec_of",
     "berger_round",
+    "join_ray",
     "load_agents",
     "match_seed",
     "pair_counts",

@@ -9,10 +9,11 @@ match specs and return the same results: a match's outcome depends only on its s
   (``forkserver`` start method) that imported the league's modules once, so no state of this
   process is inherited and later pools start at once; each worker loads the agents from their
   :class:`AgentRef` records once and plays chunks of specs.
-* ``"ray"``: the same chunks as Ray tasks; ``ray.init(address=...)`` joins a cluster when an
-  address is given (or ``RAY_ADDRESS`` is set), else starts a local instance with ``num_cpus``
-  workers. Every node needs ``arena_league`` importable and the agents' artifacts at the same paths
-  (a shared league home).
+* ``"ray"``: the same chunks as Ray tasks; :func:`arena_league.matchmaking.cluster.join_ray` joins
+  a cluster when an address is given (or ``RAY_ADDRESS`` is set), else starts a local instance with
+  ``workers`` CPUs (its module docstring names the variables that pin the node address and carry
+  the token). Every node needs ``arena_league`` importable and the agents' artifacts at the same
+  paths (a shared league home).
 
 Results come back in the order of the specs. Sandboxed agent references (submitted agents) load
 into each worker process's own inference sandbox (:mod:`arena_league.policies.sandbox`): one child
@@ -27,10 +28,10 @@ import os
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from pathlib import Path
 from typing import Any
 
 from arena_league.matchmaking.agents import AgentRef, load_agents
+from arena_league.matchmaking.cluster import join_ray
 from arena_league.matchmaking.runner import LockstepRunner, MatchRecording
 from arena_league.matchmaking.sandboxed import play_in_sandbox
 from arena_league.matchmaking.specs import MatchResult, MatchSpec
@@ -242,18 +243,5 @@ def _keys_of(specs: Sequence[MatchSpec], indices: Sequence[int]) -> list[str]:
 
 
 def _ray_remote(address: str | None, num_cpus: int | None):
-    try:
-        import ray
-    except ImportError as error:
-        raise RuntimeError("the ray backend needs Ray: pip install 'arena-league[ray]'") from error
-    if not ray.is_initialized():
-        address = address or os.environ.get("RAY_ADDRESS")
-        if address:
-            ray.init(address=address, log_to_driver=False)
-        else:
-            # a local instance: its workers import arena_league from the same place as this process
-            package_root = str(Path(__file__).resolve().parents[2])
-            path = os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH", "")) if p)
-            ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False, log_to_driver=False,
-                     runtime_env={"env_vars": {"PYTHONPATH": path, "OMP_NUM_THREADS": "1"}})
-    return ray.remote(play_chunk)
+    """:func:`play_chunk` as a Ray remote function, Ray joined (:func:`join_ray`) first."""
+    return join_ray(address, num_cpus).remote(play_chunk)

@@ -37,6 +37,13 @@ played in chunks of ``CHUNK_MATCHES`` matches, each saved once played, under a f
 the candidates and the schedule. A build interrupted at any stage and started again with the same
 arguments redoes only what was not saved; its report says what was reused.
 
+Where the work runs (``backend``): training runs and round-robin chunks side by side in
+``processes`` worker processes here, or each as a Ray task on a cluster (``backend="ray"``,
+``ray_address``; see :mod:`.processes`). Either way the chunks are saved by this process into
+``work_dir`` (the training runs save theirs where they run: on Ray, ``work_dir`` must be on storage
+every node reads and writes), a build resumes from its work folder on either backend, and the same
+seed gives the same population: every run and every match depends only on its seed.
+
 Layout of a frozen population::
 
     population.json        name, version, game_id, provenance (build, figures, criteria), bundles, members
@@ -202,7 +209,8 @@ def build_population(game_id: str, options: BuildOptions | None = None, *, leagu
 
     # 1. train every run (a finished run is read back)
     clock = time.perf_counter()
-    snapshots = train(game_id, plan, options.seed, work, options.processes, report, progress, say)
+    snapshots = train(game_id, plan, options.seed, work, options.processes, report, progress, say, options.backend,
+                      options.ray_address)
     if _stage_done(report, "train", clock, options):
         return report
 
@@ -222,7 +230,7 @@ def build_population(game_id: str, options: BuildOptions | None = None, *, leagu
     schedule = Schedule(game_id, keys, options.matches_per_pair, options.seed)
     policies = round_robin_policies(game_id, candidates)
     table = schedule.play(work, policies, options.batch_size, report, progress, say, processes=options.processes,
-                          candidates=candidates)
+                          candidates=candidates, backend=options.backend, address=options.ray_address)
     if _stage_done(report, "round_robin", clock, options):
         return report
 

@@ -15,10 +15,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["STAGES", "BuildOptions", "BuildProgress", "CommandLineOption", "command_line_options"]
+__all__ = ["BACKENDS", "STAGES", "BuildOptions", "BuildProgress", "CommandLineOption", "command_line_options"]
 
 #: The stages of a build, in order; ``stop_after`` names one.
 STAGES: tuple[str, ...] = ("train", "round_robin", "select", "freeze", "register")
+
+#: Where a build's training runs and round-robin chunks run (:attr:`BuildOptions.backend`).
+BACKENDS: tuple[str, ...] = ("local", "ray")
 
 #: A build's progress callback: ``progress(stage, done, total)``.
 BuildProgress = Callable[[str, int, int], None]
@@ -97,6 +100,13 @@ class BuildOptions:
     processes: int = field(default=1, metadata=_doc(
         "processes that train runs and play round-robin chunks side by side (the population is the same for "
         "any number)", flag="--processes", kind="positive"))
+    backend: str = field(default="local", metadata=_doc(
+        "where training runs and round-robin chunks run: local (here, or in --processes worker processes) or ray "
+        "(each a Ray task; the work folder must be on storage every node reads and writes; the population is the "
+        "same)", flag="--backend", metavar="{local,ray}"))
+    ray_address: str | None = field(default=None, metadata=_doc(
+        "the Ray cluster to join with --backend ray (ray start's head address, HOST:PORT)", flag="--address",
+        default_text="$RAY_ADDRESS, else a local instance of --processes CPUs"))
 
     def replaced(self, fields: Mapping[str, Any]) -> BuildOptions:
         """These options with ``fields`` changed; a name that is no field is refused with the known ones."""
@@ -116,6 +126,10 @@ class BuildOptions:
             raise ValueError("matches_per_pair and verify_matches must be at least 1")
         if isinstance(self.processes, bool) or not isinstance(self.processes, int) or self.processes < 1:
             raise ValueError(f"processes must be a whole number, at least 1, not {self.processes!r}")
+        if self.backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {', '.join(BACKENDS)}, not {self.backend!r}")
+        if self.ray_address is not None and self.backend != "ray":
+            raise ValueError(f"a Ray address ({self.ray_address}) is for the ray backend; add --backend ray")
 
 
 @dataclass(frozen=True)

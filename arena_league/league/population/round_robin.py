@@ -1,5 +1,5 @@
 """The round robin of a population build: its schedule, played and saved chunk by chunk (in worker
-processes or here), and the matches any stage plays on the batched engine."""
+processes, as Ray tasks, or here), and the matches any stage plays on the batched engine."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 
 from arena_league.league.population.loading import member_policy
 from arena_league.league.population.options import BuildProgress
-from arena_league.league.population.processes import in_processes
+from arena_league.league.population.processes import run_tasks
 from arena_league.league.population.records import REFERENCES, BuildReport, Candidate, write_json
 from arena_league.policies.families import TorchPolicy
 from arena_league.policies.threads import torch_threads
@@ -69,10 +69,11 @@ class Schedule:
 
     def play(self, work: Path, policies: Mapping[str, Any], batch_size: int, report: BuildReport,
              progress: BuildProgress | None, say: Callable[[str], None], processes: int = 1,
-             candidates: Sequence[Candidate] = ()) -> np.ndarray:
+             candidates: Sequence[Candidate] = (), backend: str = "local", address: str | None = None) -> np.ndarray:
         """``float64[matches, 3]``: team 0's agent index, team 1's, team 0's score. With
-        ``processes`` above 1, the unplayed chunks are played in that many worker processes, each
-        holding ``candidates``."""
+        ``processes`` above 1, the unplayed chunks are played in that many worker processes, with
+        ``backend`` ``"ray"`` each as a Ray task of one CPU (on the cluster at ``address``); each
+        worker holds ``candidates``. Every chunk is saved here, as it comes back."""
         folder = work / "matches" / self.digest
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "schedule.json").write_text(json.dumps({"game_id": self.game_id, "agents": self.keys,
@@ -93,11 +94,15 @@ class Schedule:
             if progress:
                 progress("round_robin", done, len(self.seatings))
 
-        if processes > 1 and len(todo) > 1:
-            say(f"playing {len(todo)} chunks in {min(processes, len(todo))} processes")
-            in_processes(processes, {(path, first): (_play_in_worker, (self.game_id, self.seatings[
-                first: first + CHUNK_MATCHES], self.seed, first, batch_size)) for path, first in todo},
-                lambda key, scores: save(*key, scores), _hold_policies, (self.game_id, list(candidates)))
+        on_ray = backend == "ray"
+        if todo and (on_ray or (processes > 1 and len(todo) > 1)):
+            say(f"playing {len(todo)} chunks " + ("as Ray tasks" if on_ray else
+                                                  f"in {min(processes, len(todo))} processes"))
+            run_tasks({(path, first): (_play_in_worker, (self.game_id, self.seatings[first: first + CHUNK_MATCHES],
+                                                         self.seed, first, batch_size)) for path, first in todo},
+                      lambda key, scores: save(*key, scores), backend="ray" if on_ray else "process",
+                      processes=processes, address=address, initializer=_hold_policies,
+                      initargs=(self.game_id, list(candidates)))
         else:
             for path, first in todo:
                 save(path, first, play_seatings(self.game_id, self.seatings[first: first + CHUNK_MATCHES], policies,

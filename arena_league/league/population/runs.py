@@ -1,5 +1,6 @@
 """The training stage of a population build: the runs each scheme makes, trained (side by side in
-worker processes, or here) or read back when finished, and their snapshots as candidates."""
+worker processes or as Ray tasks, or here) or read back when finished, and their snapshots as
+candidates."""
 
 from __future__ import annotations
 
@@ -12,9 +13,12 @@ import numpy as np
 import torch
 
 from arena_league.league.population.options import BuildOptions, BuildProgress
-from arena_league.league.population.processes import in_processes
+from arena_league.league.population.processes import run_tasks
 from arena_league.league.population.recipes import TOP_RUN_SEEDS, Recipe
 from arena_league.league.population.records import BuildReport, Candidate
+
+#: The CPUs a training run asks of Ray: a run trains on one thread (``torch_threads(1)``).
+RUN_CPUS = 1
 
 
 @dataclass
@@ -112,11 +116,13 @@ def plan_training(game_id: str, options: BuildOptions, recipe: Recipe, schemes: 
 
 
 def train(game_id: str, plan: TrainingPlan, seed: int, work: Path, processes: int, report: BuildReport,
-          progress: BuildProgress | None, say: Callable[[str], None]) -> list[Candidate]:
-    """Every run of ``plan`` trained (side by side with ``processes`` above 1) or read back, and
-    their snapshots in scheme order; ``report`` says which runs were trained and which reused."""
+          progress: BuildProgress | None, say: Callable[[str], None], backend: str = "local",
+          address: str | None = None) -> list[Candidate]:
+    """Every run of ``plan`` trained (side by side with ``processes`` above 1, or each as a Ray task
+    with ``backend`` ``"ray"``) or read back, and their snapshots in scheme order; ``report`` says
+    which runs were trained and which reused."""
     snapshots_by_scheme: dict[str, list[Candidate]] = {}
-    side_by_side = train_side_by_side(game_id, plan.runs, work, processes, say)
+    side_by_side = train_side_by_side(game_id, plan.runs, work, processes, say, backend, address)
     for k, run in enumerate(plan.runs):
         finished = k not in side_by_side and run.finished(work)
         say(f"train {run.scheme} (seed {run.seed}{', warm start' if run.warm else ''}): {run.steps} env steps, "
@@ -183,24 +189,28 @@ def run_one(scheme: str, game_id: str, steps: int, seed: int, every: int, work: 
 
 
 def train_side_by_side(game_id: str, plan: list[PlannedRun], work: Path, processes: int,
-                       say: Callable[[str], None]) -> set[int]:
-    """Train the unfinished runs of ``plan`` in ``processes`` worker processes, the longest first;
-    the indices of the runs trained (the caller then reads every run back); an empty set when
-    ``processes`` is 1 or at most one run is left."""
+                       say: Callable[[str], None], backend: str = "local", address: str | None = None) -> set[int]:
+    """Train the unfinished runs of ``plan`` in ``processes`` worker processes, or each as a Ray
+    task of :data:`RUN_CPUS` CPUs with ``backend`` ``"ray"``, the longest first; the indices of the
+    runs trained (the caller then reads every run back); an empty set when ``processes`` is 1 or at
+    most one run is left (locally) or when none is left."""
     todo = [k for k, run in enumerate(plan) if not run.finished(work)]
-    if processes < 2 or len(todo) < 2:
+    on_ray = backend == "ray"
+    if not todo or (not on_ray and (processes < 2 or len(todo) < 2)):
         return set()
     todo.sort(key=lambda k: -plan[k].steps)
-    say(f"training {len(todo)} runs in {min(processes, len(todo))} processes, the longest first")
+    where = "worker process" if not on_ray else "Ray task"
+    say(f"training {len(todo)} runs " + (f"as Ray tasks of {RUN_CPUS} CPU each" if on_ray else
+                                         f"in {min(processes, len(todo))} processes") + ", the longest first")
     trained: list[int] = []
 
     def done(k: int, _: None) -> None:
         trained.append(k)
-        say(f"trained {plan[k].scheme} (seed {plan[k].seed}) in a worker process ({len(trained)} of {len(todo)})")
+        say(f"trained {plan[k].scheme} (seed {plan[k].seed}) in a {where} ({len(trained)} of {len(todo)})")
 
-    in_processes(processes, {k: (_train_in_worker, (plan[k].scheme, game_id, plan[k].steps, plan[k].seed,
-                                                    plan[k].every, str(work), plan[k].overrides)) for k in todo},
-                 done)
+    run_tasks({k: (_train_in_worker, (plan[k].scheme, game_id, plan[k].steps, plan[k].seed, plan[k].every,
+                                      str(work), plan[k].overrides)) for k in todo},
+              done, backend="ray" if on_ray else "process", processes=processes, address=address, num_cpus=RUN_CPUS)
     return set(todo)
 
 
