@@ -23,15 +23,31 @@ What it reads from the environment:
 
 Every node of a cluster needs ``arena_league`` importable and the files the tasks read and write
 (agents' artifacts, a build's work folder) at the same paths.
+
+:func:`local_cluster` starts a real cluster of several nodes on this machine (``ray start --block``
+per node, each in a session of its own, pinned to a loopback address and sharing one token), for
+trying the Ray backends and for the tests and benchmarks that join one. Ray turns ``127.0.0.1``
+and ``localhost`` given as a node's address into the machine's outward address; another address
+of the loopback network (``127.0.0.2``) is kept as given, so the nodes and the driver use that one.
 """
 
 from __future__ import annotations
 
 import os
+import secrets
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager, suppress
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["NODE_IP_VARIABLE", "join_ray"]
+__all__ = ["NODE_IP", "NODE_IP_VARIABLE", "LocalCluster", "join_ray", "local_cluster"]
 
 #: The variable naming this machine's node address (see the module docstring).
 NODE_IP_VARIABLE = "ARENA_LEAGUE_RAY_NODE_IP"
@@ -78,3 +94,139 @@ def _token_mode_for_a_given_token() -> None:
         os.environ["RAY_AUTH_MODE"] = "token"
     Config.initialize("")
     AuthenticationTokenLoader.instance().reset_cache()
+
+
+# --- a cluster on this machine -----------------------------------------------------------------
+
+#: The loopback address every node and the driver are pinned to (see the module docstring).
+NODE_IP = "127.0.0.2"
+#: Seconds a node may take to join before the cluster counts as failed to start.
+START_SECONDS = 180.0
+#: Seconds a node's processes get to end on SIGTERM before they are killed.
+STOP_SECONDS = 5.0
+
+#: The folder holding the ``arena_league`` package, for the nodes' workers to import it from.
+PACKAGE_ROOT = Path(__file__).resolve().parents[2]
+
+
+@dataclass
+class LocalCluster:
+    """A running cluster on this machine: where to join it and with what."""
+
+    address: str
+    env: dict[str, str]
+    """The variables a driver joining it sets: the token, its mode and the node address."""
+    sessions: list[int] = field(default_factory=list)
+    """The session ids (the ``ray start`` processes' pids) of the nodes."""
+
+    def left(self) -> list[str]:
+        """``pid command`` of every process still alive in the nodes' sessions."""
+        found = []
+        for entry in Path("/proc").iterdir():
+            if not entry.name.isdigit():
+                continue
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+                if int(fields[3]) in self.sessions and fields[0] != "Z":  # field 6 of stat: the session id
+                    command = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+                    found.append(f"{entry.name} {command}")
+            except (OSError, IndexError, ValueError):
+                continue  # ended while being read
+        return found
+
+
+def ray_executable() -> str | None:
+    """The ``ray`` command beside this Python, if Ray is installed."""
+    candidate = Path(sys.executable).parent / "ray"
+    return str(candidate) if candidate.exists() else shutil.which("ray")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind((NODE_IP, 0))
+        return int(s.getsockname()[1])
+
+
+@contextmanager
+def local_cluster(log_dir: Path, nodes: int = 2, cpus_per_node: int = 1,
+                  python_path: Sequence[str | Path] = ()) -> Iterator[LocalCluster]:
+    """A head and ``nodes - 1`` worker nodes of ``cpus_per_node`` CPUs each on this machine,
+    pinned to :data:`NODE_IP` and sharing a fresh token; their output goes to ``log_dir``, their
+    session files to a short folder of their own under /tmp (Unix socket paths are limited to about
+    107 characters). ``python_path``: more folders the nodes' workers import from. On leaving, the
+    nodes are ended by their own process ids, never by name."""
+    if nodes < 1 or cpus_per_node < 1:
+        raise ValueError("a local cluster needs at least one node of at least one CPU")
+    ray = ray_executable()
+    if ray is None:
+        raise RuntimeError("Ray's `ray` command is not installed: pip install 'arena-league[ray]'")
+    port = free_port()
+    env = {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(16), NODE_IP_VARIABLE: NODE_IP}
+    # the nodes' workers import arena_league (and anything else asked) from here
+    path = os.pathsep.join([str(PACKAGE_ROOT), *map(str, python_path),
+                            os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    node_env = {**os.environ, **env, "PYTHONPATH": path, "OMP_NUM_THREADS": "1", "RAY_USAGE_STATS_ENABLED": "0"}
+    node_env.pop("RAY_ADDRESS", None)
+    temp_dir = Path(f"/tmp/ray-{secrets.token_hex(3)}")
+    cluster = LocalCluster(f"{NODE_IP}:{port}", env)
+    common = ["--block", "--num-cpus", str(cpus_per_node), "--node-ip-address", NODE_IP, "--disable-usage-stats"]
+    commands = [[ray, "start", "--head", "--port", str(port), "--include-dashboard=false", "--temp-dir",
+                 str(temp_dir), *common],
+                *([ray, "start", "--address", cluster.address, *common] for _ in range(nodes - 1))]
+    nodes: list[subprocess.Popen] = []
+    log_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        for k, command in enumerate(commands):
+            with (log_dir / f"node-{k}.log").open("w") as log:
+                nodes.append(subprocess.Popen(command, env=node_env, stdout=log, stderr=subprocess.STDOUT,
+                                              stdin=subprocess.DEVNULL, start_new_session=True))
+            cluster.sessions.append(nodes[-1].pid)
+        _wait_for_nodes(ray, cluster, node_env, nodes, log_dir)
+        yield cluster
+    finally:
+        _end(nodes)
+        shutil.rmtree(temp_dir, ignore_errors=True)
+
+
+def _wait_for_nodes(ray: str, cluster: LocalCluster, env: dict[str, str], nodes: list[subprocess.Popen],
+                    log_dir: Path) -> None:
+    """Return once ``ray status`` shows every node alive; fail with the nodes' logs otherwise."""
+    deadline = time.monotonic() + START_SECONDS
+    while time.monotonic() < deadline:
+        ended = [k for k, node in enumerate(nodes) if node.poll() is not None]
+        if ended:
+            raise RuntimeError(f"node {ended[0]} of the Ray cluster ended at start:\n"
+                               + (log_dir / f"node-{ended[0]}.log").read_text()[-3000:])
+        status = subprocess.run([ray, "status", "--address", cluster.address], env=env, capture_output=True, check=False,
+                                text=True, timeout=60)
+        active = status.stdout.split("Active:", 1)[-1].split("Pending:", 1)[0]
+        if status.returncode == 0 and active.count(" node_") >= len(nodes):
+            return
+        time.sleep(1.0)
+    raise RuntimeError(f"the Ray cluster did not show {len(nodes)} nodes within {START_SECONDS:.0f} s")
+
+
+def _end(nodes: list[subprocess.Popen]) -> None:
+    """End the nodes' process groups by their leaders' pids, all at once: SIGTERM, then SIGKILL to
+    the groups still alive after :data:`STOP_SECONDS`."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        for node in nodes:
+            with suppress(ProcessLookupError):
+                os.killpg(node.pid, sig)
+        deadline = time.monotonic() + STOP_SECONDS
+        while time.monotonic() < deadline:
+            for node in nodes:
+                node.poll()  # reap the leader, so that its group counts as ended once the rest is
+            if not any(_group_alive(node.pid) for node in nodes):
+                return
+            time.sleep(0.2)
+    for node in nodes:
+        node.wait(STOP_SECONDS)
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
