@@ -793,12 +793,17 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         if not args.json:
             stderr.print(line, highlight=False)
 
+    if args.address is not None and args.backend != "ray":
+        raise CommandError("a Ray address is for --backend ray; add it, or leave --address out")
+    spread = None if args.backend == "inprocess" else \
+        experiments.Spread(args.backend, args.processes or 1, args.address)
     if args.which == "crossroads-social":
         if args.game is not None:
             raise CommandError("crossroads-social runs on Crossroads-2T2P-v1 and takes no GAME; leave it out")
         out = args.out or "experiments/crossroads-social"
         report = experiments.crossroads_social(out, seeds=args.seeds, steps=args.steps or 300_000,
-                                               episodes=args.episodes, max_cycles=args.max_cycles, log=log)
+                                               episodes=args.episodes, max_cycles=args.max_cycles, log=log,
+                                               spread=spread)
     else:
         if args.game is None:
             raise CommandError(f"name the game: `arena-league experiment baselines GAME`, one of "
@@ -806,7 +811,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         out = args.out or f"experiments/baselines-{args.game.split('-')[0].lower()}"
         report = experiments.baselines(args.game, out, methods=args.methods, seeds=args.seeds,
                                        steps=args.steps or 150_000, checkpoints=args.checkpoints,
-                                       budget=args.budget, max_cycles=args.max_cycles, log=log)
+                                       budget=args.budget, max_cycles=args.max_cycles, log=log, spread=spread)
     if args.json:
         emit_json(report)
         return 0
@@ -1194,6 +1199,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="baselines: placement matches per checkpoint (default 40)")
     p.add_argument("--max-cycles", type=_positive_int, default=None, help="training episodes' length cap")
     p.add_argument("--out", default=None, help="the report folder (default experiments/<experiment>)")
+    p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess",
+                   help="where the runs train (and are placed) before the report: here one after the other "
+                        "(default), side by side in --processes processes, or as the tasks of a Ray cluster")
+    p.add_argument("--processes", type=_positive_int, default=None, metavar="N",
+                   help="--backend process: worker processes; ray: CPUs of a local instance (default 1)")
+    p.add_argument("--address", default=None, metavar="ADDR",
+                   help="--backend ray: the cluster to join (default RAY_ADDRESS, else a local Ray instance)")
     _json_option(p)
     p.set_defaults(func=cmd_experiment)
 

@@ -184,3 +184,35 @@ def test_a_base_population_with_built_in_members_is_loaded_whole():
     assert len(names) == len(ratings) == len(policies) == 100
     tuned = [name for name, policy in policies.items() if isinstance(policy, HeuristicPolicy)]
     assert len(tuned) == 5 and "base-v1.heuristic-kp1.75-lane0.6-period0.4-side0.3@PushBox-2T2P-v1" in tuned
+
+
+def _without_timings(report: dict) -> dict:
+    """A report without what depends on the machine: its seconds."""
+    def strip(value):
+        if isinstance(value, dict):
+            return {k: strip(v) for k, v in value.items() if not k.endswith("seconds")}
+        if isinstance(value, list):
+            return [strip(v) for v in value]
+        return value
+    return strip(report)
+
+
+def test_runs_spread_over_processes_give_the_report_of_runs_here(capsys, tmp_path):
+    """The runs trained and placed side by side in a process pool (as on a Ray cluster's tasks) are
+    the runs trained here: the same report, read back from the same files."""
+    argv = ["experiment", "baselines", "Crossroads-2T2P-v1", "--methods", "dppo", "sp", "--seeds", "0", "1",
+            "--steps", "1024", "--checkpoints", "2", "--budget", "2", "--max-cycles", "40", "--json"]
+    code, here, err = run(capsys, *argv, "--out", tmp_path / "here")
+    assert code == 0, err
+    code, spread, err = run(capsys, *argv, "--out", tmp_path / "pool", "--backend", "process", "--processes", "2")
+    assert code == 0, err
+    assert _without_timings(spread) == _without_timings(here)
+    social = ["experiment", "crossroads-social", "--seeds", "0", "--steps", "1024", "--episodes", "2",
+              "--max-cycles", "40", "--json"]
+    _, alone, _ = run(capsys, *social, "--out", tmp_path / "social-here")
+    code, pooled, err = run(capsys, *social, "--out", tmp_path / "social-pool", "--backend", "process",
+                            "--processes", "2")
+    assert code == 0, err
+    assert pooled["per_seed"] == alone["per_seed"] and pooled["trees"] == alone["trees"]
+    code, _, err = run(capsys, *argv, "--out", tmp_path / "x", "--address", "127.0.0.2:6379")
+    assert code == 2 and "a Ray address is for --backend ray" in err

@@ -55,6 +55,7 @@ import json
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -72,6 +73,7 @@ __all__ = [
     "BASELINE_GAMES",
     "CROSSROADS",
     "SOCIAL_MEASURES",
+    "Spread",
     "baselines",
     "crossroads_behaviour",
     "crossroads_social",
@@ -226,10 +228,12 @@ def _episode_measures(state: np.ndarray, teams: np.ndarray, direction: np.ndarra
 
 def crossroads_social(out: str | Path, *, seeds: Sequence[int] = (0, 1, 2), steps: int = 300_000,
                       episodes: int = 50, trees: Sequence[str] | None = None, max_cycles: int | None = None,
-                      reps: int = 2000, log: Callable[[str], None] | None = None) -> dict[str, Any]:
+                      reps: int = 2000, log: Callable[[str], None] | None = None,
+                      spread: Spread | None = None) -> dict[str, Any]:
     """Trains the paper's three Crossroads trees (D-PPO, one learner per seat) for ``steps`` env
     steps per seed, measures the trained agents' behaviour over ``episodes`` episodes, and writes
-    ``report.json``, ``measures.png`` and ``README.md`` into ``out``; returns the report."""
+    ``report.json``, ``measures.png`` and ``README.md`` into ``out``; returns the report. With
+    ``spread``, the runs are trained first, side by side (:class:`Spread`)."""
     from arena_league.envs import example_trees
     from arena_league.policies.families import TorchPolicy
     from arena_league.training.schemes import run_scheme
@@ -243,6 +247,9 @@ def crossroads_social(out: str | Path, *, seeds: Sequence[int] = (0, 1, 2), step
         raise ValueError(f"unknown tree(s) {', '.join(unknown)}; the case study's: {', '.join(case_trees)}")
     out = _report_folder(out)
     started = time.perf_counter()
+    if spread is not None:
+        spread.run({(name, seed): (_social_run, (name, seed, steps, case_trees[name], max_cycles, out))
+                    for name in names for seed in seeds}, say)
     per_seed: dict[str, dict[str, list[float]]] = {}
     for name in names:
         per_seed[name] = {m: [] for m in SOCIAL_MEASURES}
@@ -420,6 +427,68 @@ def ordering_flips(curves: Mapping[str, Sequence[float]]) -> float:
     return flips / total
 
 
+@dataclass(frozen=True)
+class Spread:
+    """Where an experiment's training runs (and placements) go before the report is made from them:
+    a process pool of ``processes`` on this machine (``backend="process"``) or the tasks of a Ray
+    cluster at ``address`` (``"ray"``; default ``RAY_ADDRESS``, else a local instance of
+    ``processes`` CPUs), each run one task of one CPU
+    (:func:`arena_league.league.population.processes.run_tasks`). Every run writes its files under
+    the report folder as it would here, and the report then reads them back, so a report is the
+    same whatever trained it, and an experiment stopped anywhere resumes from its runs folder, on a
+    cluster or here. The report folder must be on storage every node reads and writes."""
+
+    backend: str = "process"
+    processes: int = 1
+    address: str | None = None
+
+    def __post_init__(self) -> None:
+        from arena_league.league.population.processes import EXECUTORS
+
+        if self.backend not in EXECUTORS:
+            raise ValueError(f"unknown backend {self.backend!r} for an experiment's runs; valid: "
+                             f"{', '.join(EXECUTORS)}")
+        if self.address is not None and self.backend != "ray":
+            raise ValueError("a Ray address is for --backend ray; add it, or leave --address out")
+
+    def run(self, tasks: Mapping[Any, tuple[Callable[..., Any], tuple[Any, ...]]],
+            say: Callable[[str], None]) -> None:
+        from arena_league.league.population.processes import run_tasks
+
+        say(f"{len(tasks)} runs side by side ({self.backend}, {self.processes} processes)" if self.backend == "process"
+            else f"{len(tasks)} runs as Ray tasks (cluster {self.address or 'RAY_ADDRESS or a local instance'})")
+        run_tasks(tasks, lambda key, _: say(f"{', '.join(map(str, key))}: done"), backend=self.backend,
+                  processes=self.processes, address=self.address)
+
+
+def _social_run(name: str, seed: int, steps: int, tree: Any, max_cycles: int | None, out: Path) -> None:
+    """One run of the social study, trained into (or found in) ``out/runs/name``."""
+    from arena_league.policies.threads import torch_threads
+    from arena_league.training.schemes import run_scheme
+
+    with torch_threads(1):
+        run_scheme("dppo", CROSSROADS, steps=steps, seed=seed, snapshot_every=None, out_dir=out / "runs" / name,
+                   tree=tree, per="agent", max_cycles=max_cycles)
+
+
+def _baselines_run(method: str, game_id: str, seed: int, steps: int, marks: list[int], tree: Any,
+                   max_cycles: int | None, folder: Path, names: list[str], ratings: np.ndarray,
+                   base: Mapping[str, Any], budget: int, population: str) -> None:
+    """One run of the baselines experiment, trained and its checkpoints placed, into ``folder``."""
+    from arena_league.policies.threads import torch_threads
+
+    with torch_threads(1):
+        snapshots, *_ = _train_run(method, game_id, seed, steps, marks, tree, max_cycles, folder)
+        _placements(game_id, _placed_learner(snapshots), names, ratings, base, budget, seed, population,
+                    folder / f"placements-seed{seed}.json")
+
+
+def _placed_learner(snapshots: list[Any]) -> list[Any]:
+    """The snapshots of a run's first learner after step 0, by step: the ones placed."""
+    first_learner = min(s.learner for s in snapshots)
+    return sorted((s for s in snapshots if s.learner == first_learner and s.steps > 0), key=lambda s: s.steps)
+
+
 def _train_run(method: str, game_id: str, seed: int, steps: int, marks: list[int], tree: Any,
                max_cycles: int | None, folder: Path) -> tuple[list[Any], list[dict[str, Any]], float | None, bool]:
     """Trains one run (or reads it back from ``folder``): its snapshots, its episode return per
@@ -477,11 +546,12 @@ def _methods_left_out(game_id: str, methods: Sequence[str]) -> dict[str, str]:
 def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELINES, seeds: Sequence[int] = (0, 1, 2),
               steps: int = 200_000, checkpoints: int = 6, budget: int = 40, population: str = "base-v1",
               max_cycles: int | None = None, reps: int = 2000,
-              log: Callable[[str], None] | None = None) -> dict[str, Any]:
+              log: Callable[[str], None] | None = None, spread: Spread | None = None) -> dict[str, Any]:
     """Trains every method of ``methods`` on ``game_id`` (the paper's tree for it) for ``steps``
     env steps per seed, places the run's first learner against the game's frozen base population
     at log-spaced checkpoints, and writes ``report.json``, ``curves.png`` and ``README.md`` into
-    ``out``; returns the report."""
+    ``out``; returns the report. With ``spread``, the runs are trained and placed first, side by
+    side (:class:`Spread`)."""
     from arena_league.envs import example_trees
 
     say = _say(log)
@@ -504,6 +574,10 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
     names, ratings, base = _base_population(game_id, population)
     out = _report_folder(out)
     marks = checkpoint_steps(steps, checkpoints, 1024)
+    if spread is not None:
+        spread.run({(method, seed): (_baselines_run, (method, game_id, seed, steps, marks, tree, max_cycles,
+                                                      out / "runs" / method, names, ratings, base, budget, population))
+                    for method in methods for seed in seeds}, say)
     runs: dict[str, list[dict[str, Any]]] = {}
     for method in methods:
         runs[method] = []
@@ -516,7 +590,7 @@ def baselines(game_id: str, out: str | Path, *, methods: Sequence[str] = BASELIN
             say(f"{method}, seed {seed}: " + (f"trained in {train_seconds:.0f} s" if trained else
                                               f"read back from {folder}"))
             first_learner = min(s.learner for s in snapshots)
-            ours = sorted((s for s in snapshots if s.learner == first_learner and s.steps > 0), key=lambda s: s.steps)
+            ours = _placed_learner(snapshots)
             placements = _placements(game_id, ours, names, ratings, base, budget, seed, population,
                                      folder / f"placements-seed{seed}.json")
             points = []
