@@ -39,7 +39,9 @@ def where_and_setups(label: str, seconds: float) -> tuple[str, int, int]:
     return ray.get_runtime_context().get_node_id(), os.getpid(), SETUPS.get(label, 0)
 
 
-def fail(message: str) -> None:
+def fail(message: str, seconds: float = 0.0) -> None:
+    """An executor's task that fails after ``seconds``."""
+    time.sleep(seconds)
     raise ValueError(message)
 
 

@@ -257,6 +257,13 @@ def test_side_by_side_processes_train_the_same_runs_and_play_the_same_matches(tr
     assert len(scores[1]) > 2 and scores[2] == scores[1]
 
 
+def test_the_backend_is_local_or_ray_and_an_address_is_for_ray(tmp_path):
+    with pytest.raises(ValueError, match="backend must be one of local, ray, not 'spark'"):
+        build(tmp_path / "w", tmp_path / "o", backend="spark")
+    with pytest.raises(ValueError, match="add --backend ray"):
+        build(tmp_path / "w", tmp_path / "o", ray_address="127.0.0.1:6379")
+
+
 def test_processes_must_be_a_positive_whole_number(tmp_path):
     for processes in (0, -1, 1.5, True):
         with pytest.raises(ValueError, match="processes must be a whole number"):

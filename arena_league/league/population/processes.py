@@ -15,7 +15,9 @@ as each finishes, in the order they finish, whichever the backend:
 
 A task that fails fails the call, as it would in this process; then, or when ``done`` raises (an
 interrupt, a deadline), the remaining tasks are ended at once: nothing ``done`` already saved is
-lost, the rest is not played out.
+lost, the rest is not played out. On Ray a cancel that reaches a task between its dispatch to a
+worker and its start can be lost (Ray 2.60); such a task runs to its end, and what it writes
+(a training run's folder) is what a resumed build reads back.
 """
 
 from __future__ import annotations
@@ -95,10 +97,10 @@ def _on_ray(tasks: Tasks, done: Callable[[Any, Any], None], processes: int, addr
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
             for ref in ready:
-                result = ray.get(ref)
-                done(pending.pop(ref), result)
+                key = pending.pop(ref)
+                done(key, ray.get(ref))
     except BaseException:
-        for ref in pending:
+        for ref in pending:  # once each: Ray 2.60 aborts a driver that cancels a finishing task again
             ray.cancel(ref, force=True)
         raise
 
