@@ -36,6 +36,18 @@ def wait_for_the_base(page) -> None:
     sync_api.expect(page.locator("#importing")).to_have_count(0, timeout=180_000)
 
 
+def start_as_guest(server, browser, game_id: str, guest: str):
+    """A new page playing ``game_id`` as the guest ``guest``, once its first match is in play."""
+    page = browser.new_page(viewport={"width": 1280, "height": 1000})
+    page.set_default_timeout(60_000)
+    page.goto(f"{server.url}/play/{game_id}")
+    wait_for_the_base(page)
+    page.fill('[data-role="guest"]', guest)
+    page.click('[data-role="start"]')
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "playing", timeout=120_000)
+    return page
+
+
 def gobang_cells(size: int = 15) -> list[tuple[int, int]]:
     """Cells to try, in order: a row of five across the middle first, then the board outward."""
     middle = size // 2
@@ -97,13 +109,7 @@ def test_a_person_plays_gobang_to_the_end_by_clicking_and_lands_on_the_leaderboa
 
 
 def test_a_guest_turns_a_snake_with_the_arrow_keys(server, browser):
-    page = browser.new_page(viewport={"width": 1280, "height": 1000})
-    page.set_default_timeout(60_000)
-    page.goto(f"{server.url}/play/Snake-2T2P-v1")
-    wait_for_the_base(page)
-    page.fill('[data-role="guest"]', "snaky")
-    page.click('[data-role="start"]')
-    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "playing", timeout=120_000)
+    page = start_as_guest(server, browser, "Snake-2T2P-v1", "snaky")
     sync_api.expect(page.locator('[data-role="seats"] li')).to_have_count(4)
     sync_api.expect(page.locator('[data-role="seats"] li[data-seat-role="teammate"]')).to_have_count(1)
 
@@ -144,13 +150,7 @@ def test_a_guest_turns_a_snake_with_the_arrow_keys(server, browser):
 def test_a_guest_plays_both_halves_of_a_youshallnotpass_pair(server, browser):
     """A game played in pairs: the person runs in the first half and, from the same start, blocks in
     the second; the page says which half is in play and whom the person holds."""
-    page = browser.new_page(viewport={"width": 1280, "height": 1000})
-    page.set_default_timeout(60_000)
-    page.goto(f"{server.url}/play/YouShallNotPass-2T1P-v1")
-    wait_for_the_base(page)
-    page.fill('[data-role="guest"]', "runner")
-    page.click('[data-role="start"]')
-    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "playing", timeout=120_000)
+    page = start_as_guest(server, browser, "YouShallNotPass-2T1P-v1", "runner")
     banner = page.locator('[data-role="banner"]')
     sync_api.expect(banner).to_contain_text("you play team 0 in the first half of a pair")
     page.keyboard.down("ArrowRight")  # trot toward the goal line until the half ends
