@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import socket
+
 import pytest
 
 from arena_league.matchmaking import AgentRef, play_matches, round_robin, specs_for_seatings
@@ -66,3 +68,16 @@ def test_ray_matches_in_process(league):
     finally:
         ray.shutdown()
     assert results == expected
+
+
+def test_a_cluster_address_where_nothing_answers_is_refused_at_once():
+    pytest.importorskip("ray", reason="joining a cluster needs Ray (pip install 'arena-league[ray]')")
+    from arena_league.matchmaking.cluster import join_ray
+
+    with socket.socket() as probe:  # a port just freed: nothing listens there
+        probe.bind(("127.0.0.2", 0))
+        port = probe.getsockname()[1]
+    with pytest.raises(ValueError, match=f"nothing answers at the Ray address 127.0.0.2:{port}"):
+        join_ray(f"127.0.0.2:{port}")
+    with pytest.raises(ValueError, match="the Ray address 'head-node' is not HOST:PORT"):
+        join_ray("head-node")

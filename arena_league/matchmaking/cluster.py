@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-__all__ = ["NODE_IP", "NODE_IP_VARIABLE", "LocalCluster", "join_ray", "local_cluster"]
+__all__ = ["NODE_IP", "NODE_IP_VARIABLE", "LocalCluster", "UnreachableClusterError", "join_ray", "local_cluster"]
 
 #: The variable naming this machine's node address (see the module docstring).
 NODE_IP_VARIABLE = "ARENA_LEAGUE_RAY_NODE_IP"
@@ -66,11 +66,12 @@ def join_ray(address: str | None = None, num_cpus: int | None = None) -> Any:
     address = address or os.environ.get("RAY_ADDRESS") or None
     node_ip = os.environ.get(NODE_IP_VARIABLE) or None
     if address:
+        _check_reachable(address)
         _token_mode_for_a_given_token()
         try:
             ray.init(address=address, _node_ip_address=node_ip, log_to_driver=False)
         except ConnectionError as error:
-            raise ConnectionError(
+            raise UnreachableClusterError(
                 f"cannot join the Ray cluster at {address}: check that the address is the head's, that RAY_AUTH_TOKEN "
                 f"(or RAY_AUTH_TOKEN_PATH) gives the head's token and that {NODE_IP_VARIABLE} is the address "
                 f"this machine's node was started with ({error})") from error
@@ -81,6 +82,33 @@ def join_ray(address: str | None = None, num_cpus: int | None = None) -> Any:
     ray.init(num_cpus=num_cpus or os.cpu_count() or 1, include_dashboard=False, log_to_driver=False,
              _node_ip_address=node_ip, runtime_env={"env_vars": {"PYTHONPATH": path, "OMP_NUM_THREADS": "1"}})
     return ray
+
+
+class UnreachableClusterError(ConnectionError, ValueError):
+    """The Ray cluster named cannot be joined: a bad address given by the user, so also a ValueError,
+    which the front ends turn into one line."""
+
+
+#: Seconds a cluster's address gets to answer before joining it is given up.
+REACH_SECONDS = 5.0
+
+
+def _check_reachable(address: str) -> None:
+    """Refuse at once an address where nothing answers, rather than let Ray retry it for minutes."""
+    if address in ("auto", "local"):
+        return
+    target = address.split("://", 1)[-1].rstrip("/")
+    host, sep, port = target.rpartition(":")
+    if not sep or not port.isdigit():
+        raise UnreachableClusterError(f"the Ray address {address!r} is not HOST:PORT (the head's address, e.g. "
+                                      "10.0.0.10:6379) or ray://HOST:PORT")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=REACH_SECONDS):
+            pass
+    except OSError as error:
+        raise UnreachableClusterError(
+            f"nothing answers at the Ray address {address} ({error.strerror or error}); start the cluster's head "
+            f"there (`ray start --head`), or give its address with --address or RAY_ADDRESS") from None
 
 
 def _token_mode_for_a_given_token() -> None:
