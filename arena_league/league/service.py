@@ -988,11 +988,13 @@ def handle_rank(ctx: reg.JobContext, progress: Progress | None = None,
     recorder = _Recorder(ctx, game_id, cap, progress)
     sandboxing = _Sandboxing.of(ctx.league, refs, recorder.ids)
 
-    def play(specs):
-        return sandboxing.play(specs, refs, ctx, recorder, **(play or MatchBackend()).options(p))
+    where = (play or MatchBackend()).options(p)
+
+    def play_specs(specs):
+        return sandboxing.play(specs, refs, ctx, recorder, **where)
 
     first = sum(1 for e in evidence if e[0] == seed)  # this seed's matches so far: its next index
-    results = play_adaptive(agent, names, chooser, play, game_id, league_seed=seed, first_match_id=first,
+    results = play_adaptive(agent, names, chooser, play_specs, game_id, league_seed=seed, first_match_id=first,
                             max_matches=cap + 1)
     recorder.flush()
     suspended = sandboxing.suspend(ctx.league, recorder.forfeits)
