@@ -3,7 +3,7 @@ authentication, the league's database URL from a secret, one shared folder for t
 build's work, Ray's object store in memory, and an `arena-league population build --backend ray`
 entrypoint the command line accepts. Nothing here starts Kubernetes or a cluster; the `ray up` file is
 checked against the installed Ray's own cluster schema and its start commands are run in bash with
-`ray` stubbed."""
+`ray` replaced by a shell function that records its arguments."""
 
 from __future__ import annotations
 
@@ -231,15 +231,15 @@ def test_ray_up_installs_one_pinned_arena_league_with_ray_and_cpu_torch():
 
 def _run_start_command(command: str, home: Path, head_ip: str | None) -> dict[str, str]:
     """Runs a start command as `ray up` does (bash, RAY_HEAD_IP exported for workers) with `ray` and `ip`
-    stubbed; returns what `ray start` got: its arguments and the variables it inherits."""
-    stubs = (
+    replaced by shell functions; returns what `ray start` got: its arguments and the variables it inherits."""
+    recorders = (
         'ray() { [ "$1" = start ] && printf "%s\\n" "ARGS=$*" "RAY_AUTH_MODE=$RAY_AUTH_MODE" '
         '"RAY_AUTH_TOKEN_PATH=$RAY_AUTH_TOKEN_PATH" "ARENA_LEAGUE_HOME=$ARENA_LEAGUE_HOME" '
         '"ARENA_LEAGUE_DB=$ARENA_LEAGUE_DB"; }\n'
         'ip() { echo "$4 via 192.0.2.1 dev eth0 src 198.51.100.7 uid 1000"; }\n'
     )
     prefix = f"export RAY_HEAD_IP={head_ip}; " if head_ip else ""
-    result = subprocess.run(["bash", "-c", stubs + prefix + command], capture_output=True, text=True, timeout=30,
+    result = subprocess.run(["bash", "-c", recorders + prefix + command], capture_output=True, text=True, timeout=30,
                             env={"HOME": str(home), "PATH": "/usr/bin:/bin"}, check=False)
     assert result.returncode == 0, f"{command!r} failed in bash: {result.stderr}"
     return dict(line.split("=", 1) for line in result.stdout.splitlines())
