@@ -440,9 +440,9 @@ class LiveMatch:
             return np.asarray(self.rules.team_result(), dtype=np.float64)
         if len(self.halves) < 2:
             self._end_half()
-        first, second = self.half_points
-        total = first + second[::-1]  # the first half's team t is the second half's team 1 - t
-        return np.sign(total - total[::-1]) * 0.5 + 0.5
+        # decided as the match engine decides a pair, by its one rule
+        scores = MatchResult.from_halves(self.spec, self.halves).team_scores()
+        return np.asarray([scores[team] for team in sorted(scores)], dtype=np.float64)
 
     def describe_event(self, event: dict[str, Any], names: list[str]) -> str:
         """An event as a sentence, the seats named by ``names``."""
