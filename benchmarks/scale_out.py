@@ -8,8 +8,8 @@ Prints one JSON document with two parts, measured in the same run:
   a local cluster of one node and of two (one CPU each, started and ended by this script). Each row
   gives the seconds, matches per second, the speed-up over one process, and whether its results equal
   the in-process ones (they must: a match's result depends on its spec and agents only).
-* **population build**: the same ``--build-size`` build (16 members by default; the recipe's runs at
-  ``--build-steps`` env steps each) in one process and on the two-node cluster; each stage's seconds,
+* **population build**: the same ``--build-size`` build (16 members by default; four training runs,
+  SP and D-PPO with two seeds each, at ``--build-steps`` env steps each) in one process and on the two-node cluster; each stage's seconds,
   the training phase's speed-up, and whether the frozen populations are identical.
 
 From the per-match and per-run costs it also projects, naming the assumptions in ``projection``,
@@ -17,7 +17,7 @@ what a 100-agent build, the full round robin and the paper's experiments at 10 m
 run would take on 16, 64 and 256 CPUs.
 
     PYTHONPATH=. python benchmarks/scale_out.py [--agents 100] [--matches-per-pair 10]
-                                                [--build-size 16] [--build-steps 8192] [--skip-build]
+                                                [--build-size 16] [--build-steps 131072] [--skip-build]
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from arena_league.matchmaking import AgentRef, play_matches, round_robin, specs_for_seatings
+from arena_league.policies.threads import torch_threads
 
 GAME = "Crossroads-2T2P-v1"
 POPULATION = Path(__file__).resolve().parents[1] / "checkpoints" / GAME / "base-v1"
@@ -78,7 +79,10 @@ def round_robin_part(agents: int, matches_per_pair: int, log_dir: Path) -> dict:
     seatings = round_robin(list(refs), matches_per_pair)
     specs = specs_for_seatings(GAME, seatings, league_seed=0)
     rows = {}
-    seconds, reference = time_round_robin(specs, refs, backend="inprocess")
+    # one torch thread, as the league's worker and every pool or Ray worker play: the batched
+    # forwards are small, and a second thread's hand-offs cost more than it computes
+    with torch_threads(1):
+        seconds, reference = time_round_robin(specs, refs, backend="inprocess")
     rows["in process (1 CPU)"] = seconds
     seconds, pooled = time_round_robin(specs, refs, backend="process", workers=2)
     rows["process pool (2 workers)"] = seconds
@@ -103,12 +107,17 @@ def round_robin_part(agents: int, matches_per_pair: int, log_dir: Path) -> dict:
     }
 
 
+#: The build's training runs: two schemes, two seeds each, so that two nodes can share them evenly.
+BUILD_SCHEMES, BUILD_RUNS_PER_SCHEME = ("sp", "dppo"), 2
+
+
 def build_part(size: int, steps: int, log_dir: Path) -> dict:
     from arena_league.league.population.build import build_population
 
     def build(work: Path, out: Path, **backend) -> tuple[dict, dict]:
-        report = build_population(GAME, size=size, name="bench", schemes=["sp", "pbt", "dppo"],
-                                  steps_per_scheme=steps, warm_runs_per_scheme=0, top_runs=[], snapshots=8, seed=0,
+        report = build_population(GAME, size=size, name="bench", schemes=list(BUILD_SCHEMES),
+                                  runs_per_scheme=BUILD_RUNS_PER_SCHEME, steps_per_scheme=steps, warm_runs_per_scheme=0,
+                                  top_runs=[], snapshots=8, seed=0,
                                   work_dir=work, out_dir=out, matches_per_pair=1, **backend)
         manifest = json.loads((out / "population.json").read_text())
         manifest["provenance"]["build"].pop("code", None)
@@ -119,7 +128,7 @@ def build_part(size: int, steps: int, log_dir: Path) -> dict:
         ray_seconds, on_ray = build(log_dir / "work-ray", log_dir / "out-ray", processes=2, backend="ray",
                                     ray_address=address)
     return {
-        "size": size, "steps_per_run": steps, "runs": len(["sp", "pbt", "dppo"]),
+        "size": size, "steps_per_run": steps, "runs": len(BUILD_SCHEMES) * BUILD_RUNS_PER_SCHEME,
         "one_process_seconds": local_seconds, "ray_two_nodes_seconds": ray_seconds,
         "training_speedup": round(local_seconds["train"] / max(ray_seconds["train"], 1e-9), 2),
         "round_robin_speedup": round(local_seconds["round_robin"] / max(ray_seconds["round_robin"], 1e-9), 2),
@@ -158,7 +167,7 @@ def main() -> None:
     parser.add_argument("--agents", type=int, default=100, help="population members in the round robin")
     parser.add_argument("--matches-per-pair", type=int, default=10)
     parser.add_argument("--build-size", type=int, default=16)
-    parser.add_argument("--build-steps", type=int, default=8192, help="env steps of each build run")
+    parser.add_argument("--build-steps", type=int, default=131_072, help="env steps of each build run")
     parser.add_argument("--skip-build", action="store_true", help="the round robin only")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="scale-") as root:
