@@ -84,6 +84,23 @@ def test_hostile_agents_forfeit_their_own_matches_and_the_others_play_as_in_proc
     assert process_sandbox(FAST).starts >= 2  # the hang and the allocation killed a child
 
 
+def test_forfeits_on_a_whole_array_engine_leave_the_other_boards_playing(tmp_path):
+    """GoBang's engine steps every board, a forfeited one too: a board left by a forfeit that then
+    ends has no match to finish, and the matches still queued are played to their end."""
+    path = hostile.save(hostile.failing(GOBANG), tmp_path / "bad.onnx")
+    refs = {"bad": AgentRef("onnx", str(path), GOBANG, sandboxed=True),
+            "random": AgentRef("scripted", "random", GOBANG), "heuristic": AgentRef("scripted", "heuristic", GOBANG)}
+    specs = specs_for_seatings(GOBANG, round_robin(list(refs), 4), league_seed=3)
+    results = play_matches(specs, refs, sandbox_limits=FAST, forfeit_limit=3)
+    forfeited = [r for r in results if r.forfeits]
+    assert forfeited and all(r.forfeits[0][0] == "bad" and "onnxruntime failed" in r.forfeits[0][1]
+                             for r in forfeited)
+    clean = [s for s in specs if "bad" not in s.seats]
+    played = {r.spec: r for r in results}
+    assert [played[s] for s in clean] == play_matches(clean, refs)  # the others' matches, as without `bad`
+    assert len(results) + sum(1 for s in specs if "bad" in s.seats and s not in played) == len(specs)
+
+
 def test_a_call_larger_than_the_largest_batch_is_split_to_it(tmp_path):
     limit = largest_batch(CROSSROADS)
     assert limit == 64 * 4

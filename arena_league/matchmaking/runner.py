@@ -541,7 +541,9 @@ class LockstepRunner:
                 if heartbeat is not None:  # the step is played (before the ended slots take new specs)
                     heartbeat()
                 for position in ended:
-                    if position not in forfeited:
+                    # a whole-array engine steps every slot: a board left by a forfeit (its slot
+                    # forfeited now, or empty since) may end too, and has no match to finish
+                    if position in stepping:
                         finish(position)
                 for position, forfeits in forfeited.items():
                     finish(position, forfeits, steps_before[position])
