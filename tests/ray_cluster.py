@@ -11,13 +11,20 @@ from pathlib import Path
 
 from arena_league.matchmaking.cluster import LocalCluster, local_cluster, ray_executable
 
-__all__ = ["LocalCluster", "NodeRecording", "count_setup", "fail", "ray_cluster", "ray_executable", "where_and_setups"]
+__all__ = ["JOB_EXCLUDES", "LocalCluster", "NodeRecording", "count_setup", "fail", "ray_cluster", "ray_executable", "where_and_setups"]
+
+
+#: What a Ray job sent from the checkout leaves behind: the shipped populations and experiments' files
+#: (Ray refuses a working folder over 100 MiB) and git's own.
+JOB_EXCLUDES = ["/checkpoints/", "/experiments/", "/.git"]
 
 
 @contextmanager
-def ray_cluster(log_dir: Path) -> Iterator[LocalCluster]:
-    """A head and a worker node of one CPU each, whose workers import these helpers too."""
-    with local_cluster(log_dir, nodes=2, python_path=[Path(__file__).resolve().parent]) as cluster:
+def ray_cluster(log_dir: Path, dashboard: bool = False) -> Iterator[LocalCluster]:
+    """A head and a worker node of one CPU each, whose workers import these helpers too (and the
+    head's dashboard, for ``ray job submit``, with ``dashboard``)."""
+    with local_cluster(log_dir, nodes=2, python_path=[Path(__file__).resolve().parent],
+                       dashboard=dashboard) as cluster:
         yield cluster
 
 

@@ -144,6 +144,9 @@ class LocalCluster:
     address: str
     env: dict[str, str]
     """The variables a driver joining it sets: the token, its mode and the node address."""
+    dashboard: str | None = None
+    """The head's dashboard, where ``ray job submit --address`` sends jobs (``http://HOST:PORT``);
+    None when the cluster was started without one."""
     sessions: list[int] = field(default_factory=list)
     """The session ids (the ``ray start`` processes' pids) of the nodes."""
 
@@ -177,12 +180,13 @@ def free_port() -> int:
 
 @contextmanager
 def local_cluster(log_dir: Path, nodes: int = 2, cpus_per_node: int = 1,
-                  python_path: Sequence[str | Path] = ()) -> Iterator[LocalCluster]:
+                  python_path: Sequence[str | Path] = (), dashboard: bool = False) -> Iterator[LocalCluster]:
     """A head and ``nodes - 1`` worker nodes of ``cpus_per_node`` CPUs each on this machine,
     pinned to :data:`NODE_IP` and sharing a fresh token; their output goes to ``log_dir``, their
     session files to a short folder of their own under /tmp (Unix socket paths are limited to about
-    107 characters). ``python_path``: more folders the nodes' workers import from. On leaving, the
-    nodes are ended by their own process ids, never by name."""
+    107 characters). ``python_path``: more folders the nodes' workers import from. ``dashboard``:
+    start the head's dashboard too (it needs ``ray[default]``), for ``ray job submit``. On leaving,
+    the nodes are ended by their own process ids, never by name."""
     if nodes < 1 or cpus_per_node < 1:
         raise ValueError("a local cluster needs at least one node of at least one CPU")
     ray = ray_executable()
@@ -195,12 +199,19 @@ def local_cluster(log_dir: Path, nodes: int = 2, cpus_per_node: int = 1,
                             os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     node_env = {**os.environ, **env, "PYTHONPATH": path, "OMP_NUM_THREADS": "1", "RAY_USAGE_STATS_ENABLED": "0"}
     node_env.pop("RAY_ADDRESS", None)
-    temp_dir = Path(f"/tmp/ray-{secrets.token_hex(3)}")
+    # a folder per node, as separate machines have: a node cleans its own runtime resources (a job's
+    # working folder) when its tasks end, which must not pull them from under another node
+    temp_dirs = [Path(f"/tmp/ray-{secrets.token_hex(3)}-{k}") for k in range(nodes)]
     cluster = LocalCluster(f"{NODE_IP}:{port}", env)
     common = ["--block", "--num-cpus", str(cpus_per_node), "--node-ip-address", NODE_IP, "--disable-usage-stats"]
-    commands = [[ray, "start", "--head", "--port", str(port), "--include-dashboard=false", "--temp-dir",
-                 str(temp_dir), *common],
-                *([ray, "start", "--address", cluster.address, *common] for _ in range(nodes - 1))]
+    head = ["--include-dashboard=false"]
+    if dashboard:
+        dashboard_port = free_port()
+        cluster.dashboard = f"http://{NODE_IP}:{dashboard_port}"
+        head = ["--include-dashboard=true", "--dashboard-host", NODE_IP, "--dashboard-port", str(dashboard_port)]
+    commands = [[ray, "start", "--head", "--port", str(port), *head, "--temp-dir", str(temp_dirs[0]), *common],
+                *([ray, "start", "--address", cluster.address, "--temp-dir", str(folder), *common]
+                  for folder in temp_dirs[1:])]
     nodes: list[subprocess.Popen] = []
     log_dir.mkdir(parents=True, exist_ok=True)
     try:
@@ -210,10 +221,13 @@ def local_cluster(log_dir: Path, nodes: int = 2, cpus_per_node: int = 1,
                                               stdin=subprocess.DEVNULL, start_new_session=True))
             cluster.sessions.append(nodes[-1].pid)
         _wait_for_nodes(ray, cluster, node_env, nodes, log_dir)
+        if cluster.dashboard is not None:
+            _wait_for_dashboard(cluster.dashboard, nodes[0], log_dir)
         yield cluster
     finally:
         _end(nodes)
-        shutil.rmtree(temp_dir, ignore_errors=True)
+        for folder in temp_dirs:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def _wait_for_nodes(ray: str, cluster: LocalCluster, env: dict[str, str], nodes: list[subprocess.Popen],
@@ -232,6 +246,25 @@ def _wait_for_nodes(ray: str, cluster: LocalCluster, env: dict[str, str], nodes:
             return
         time.sleep(1.0)
     raise RuntimeError(f"the Ray cluster did not show {len(nodes)} nodes within {START_SECONDS:.0f} s")
+
+
+def _wait_for_dashboard(url: str, head: subprocess.Popen, log_dir: Path) -> None:
+    """Return once the head's dashboard answers HTTP, which it starts after the nodes join."""
+    import urllib.error
+    import urllib.request
+
+    deadline = time.monotonic() + START_SECONDS
+    while time.monotonic() < deadline:
+        if head.poll() is not None:
+            raise RuntimeError("the Ray cluster's head ended at start:\n" + (log_dir / "node-0.log").read_text()[-3000:])
+        try:
+            with urllib.request.urlopen(f"{url}/api/version", timeout=5):
+                return
+        except urllib.error.HTTPError:
+            return  # it answers (refusing a request without the token is an answer)
+        except OSError:
+            time.sleep(1.0)
+    raise RuntimeError(f"the Ray dashboard at {url} did not answer within {START_SECONDS:.0f} s")
 
 
 def _end(nodes: list[subprocess.Popen]) -> None:
