@@ -62,7 +62,7 @@ class CaptureFlagBoards:
     """
 
     def __init__(self, n_boards: int, players_per_team: int = 1, rows: int = 11, cols: int = 20,
-                 wall_segments: int = 6, respawn_delay: int = 5, captures_to_win: int = 3,
+                 wall_segments: int = 8, respawn_delay: int = 5, captures_to_win: int = 3,
                  autoreset: bool = False, max_steps: int | None = None, seed: int = 0) -> None:
         if n_boards < 1 or not 1 <= players_per_team <= 4:
             raise ValueError(f"CaptureFlagBoards needs n_boards >= 1 and 1..4 players a team, not {n_boards}, "
@@ -304,14 +304,12 @@ class CaptureFlagBoards:
         target = self.pos + self._delta[np.arange(n), actions]
         blocked = np.take_along_axis(self.walls, target, axis=1)
         pos = np.where(moving & ~blocked, target, self.pos)
-        # 2. tags: a seat in the opponents' half next to (or on) an active opponent in its own half
-        half = self._half_of[pos]
-        home = half == self.team_of
+        # 2. tags: an exposed seat (in the opponents' half, or carrying) next to or on an active opponent
+        exposed = (self._half_of[pos] != self.team_of) | self._carrying(boards)
         row, col = self._row_of[pos], self._col_of[pos]
         rivals = self._rivals
         near = (np.abs(row[:, :, None] - row[:, rivals]) + np.abs(col[:, :, None] - col[:, rivals])) <= 1
-        guard = (moving & home)[:, rivals]
-        tagged = moving & ~home & (near & guard).any(axis=2)
+        tagged = moving & exposed & (near & moving[:, rivals]).any(axis=2)
         if tagged.any():
             drop = tagged[:, :, None] & (self.carrier[:, None, :] == np.arange(n)[None, :, None])
             self.carrier[drop.any(axis=1)] = -1
@@ -415,15 +413,14 @@ class CaptureFlagBoards:
         to_own = self.dist[boards[:, :, None], team[None, :, None], dest]
         obs[:, :, AT["to_enemy_stand"]:AT["to_enemy_stand"] + N_ACTIONS] = np.minimum(to_enemy * scale, 1.0)
         obs[:, :, AT["to_own_stand"]:AT["to_own_stand"] + N_ACTIONS] = np.minimum(to_own * scale, 1.0)
-        # danger: the cell lies in the opponents' half within 2 steps of an active opponent in its own half
+        # danger: the seat would be exposed on the cell, within 2 steps of an active opponent
         dr, dc = self._row_of[dest], self._col_of[dest]
         rivals = self._rivals
         rival_pos = pos[:, rivals]  # [B, N, R]
-        guard = (self.active & (self._half_of[pos] == team))[:, rivals]
         gap = (np.abs(dr[..., None] - self._row_of[rival_pos][:, :, None, :])
                + np.abs(dc[..., None] - self._col_of[rival_pos][:, :, None, :]))
-        gap = np.where(guard[:, :, None, :], gap, _FAR).min(axis=3)
-        exposed = self._half_of[dest] != team[None, :, None]
+        gap = np.where(self.active[:, rivals][:, :, None, :], gap, _FAR).min(axis=3)
+        exposed = (self._half_of[dest] != team[None, :, None]) | carrying[:, :, None]
         obs[:, :, AT["danger"]:AT["danger"] + N_ACTIONS] = exposed * np.where(gap <= 1, 1.0, np.where(gap == 2, 0.5, 0.0))
         # the flags, where they are now (a carried flag is where its carrier is), relative
         for name, flag in (("enemy_flag", 1 - team), ("own_flag", team)):
@@ -444,7 +441,7 @@ class CaptureFlagBoards:
             others[..., 2] = self.active[:, o]
             held = self.carrier[:, :, None, None] == o[None, None]  # [B, 2, N, N-1]
             others[..., 3] = held.any(axis=1)
-            others[..., 4] = self._half_of[opos] != team[o]
+            others[..., 4] = (self._half_of[opos] != team[o]) | others[..., 3].astype(bool)
         return obs
 
     def state(self) -> np.ndarray:
@@ -506,14 +503,14 @@ class CaptureFlagMatches:
         return self.boards.active & ~self.boards.done[:, None]
 
     def step(self, actions: np.ndarray) -> np.ndarray:
-        boards = self.boards
-        live = ~boards.done
-        boards.step(actions.astype(np.int64, copy=False))
-        self._steps += live
-        cut = live & ~boards.done & (self._steps >= self.max_cycles)  # the env's max_cycles
-        boards.done[cut] = True
-        ended = live & boards.done
-        write_measures(self.measures, boards, np.flatnonzero(live), np.flatnonzero(ended))
+        playing = np.flatnonzero(~self.boards.done)
+        self.boards.step(np.asarray(actions, dtype=np.int64))
+        self._steps[playing] += 1
+        # a match the rules did not end is cut at the env's max_cycles
+        self.boards.done[playing] |= self._steps[playing] >= self.max_cycles
+        ended = np.zeros(self.n_slots, dtype=bool)
+        ended[playing] = self.boards.done[playing]
+        write_measures(self.measures, self.boards, playing, np.flatnonzero(ended))
         return ended
 
     def state(self) -> np.ndarray:

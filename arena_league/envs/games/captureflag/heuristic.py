@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from arena_league.envs.games.captureflag.engine import ACTION_COL, ACTION_ROW, AT, N_ACTIONS, N_HEADER, PER_OTHER
+from arena_league.envs.games.captureflag.engine import (
+    ACTION_COL,
+    ACTION_ROW,
+    AT,
+    N_ACTIONS,
+    N_HEADER,
+    PER_OTHER,
+)
 
 _BLOCKED, _DANGER, _NEAR_DANGER = 100.0, 30.0, 8.0
 
@@ -21,7 +28,7 @@ def heuristic_actions(obs: np.ndarray, players_per_team: int) -> np.ndarray:
     in_enemy_half = obs[:, AT["in_enemy_half"]] > 0.5
     others = obs[:, N_HEADER:].reshape(n, -1, PER_OTHER)
     opponents = others[:, players_per_team - 1:]
-    # a chase: the nearest active opponent in my half (the one carrying my flag first)
+    # a chase: the nearest exposed active opponent (the one carrying my flag first)
     intruder = (opponents[..., 2] > 0.5) & (opponents[..., 4] > 0.5)
     span = np.abs(opponents[..., 0]) + np.abs(opponents[..., 1]) - 10.0 * (opponents[..., 3] > 0.5)
     span = np.where(intruder, span, np.inf)
@@ -29,10 +36,16 @@ def heuristic_actions(obs: np.ndarray, players_per_team: int) -> np.ndarray:
     chasing = np.isfinite(span.min(axis=1)) if opponents.shape[1] else np.zeros(n, dtype=bool)
     rel = opponents[np.arange(n), chased, :2] if opponents.shape[1] else np.zeros((n, 2))
     closer = ACTION_ROW[None, :] * np.sign(rel[:, :1]) + ACTION_COL[None, :] * np.sign(rel[:, 1:2])
-    # my own flag taken: chase its carrier when at home; a teammate carries theirs: defend
-    mate_carries = (others[:, :players_per_team - 1, 3] > 0.5).any(axis=1) & ~carrying
-    defend = ~carrying & ~in_enemy_half & chasing & (~own_home | mate_carries)
-    goal = np.where(carrying[:, None], -to_own, -to_enemy) * 40.0
+    # my own flag taken: chase its carrier; a teammate carries theirs: defend at home
+    mates = others[:, :players_per_team - 1]
+    mate_carries = (mates[..., 3] > 0.5).any(axis=1) & ~carrying
+    defend = ~carrying & chasing & (~own_home | mate_carries & ~in_enemy_half)
+    # with a teammate, the one further back (the lower on a tie) guards the stand
+    ahead = (mates[..., 2] > 0.5) & ((mates[..., 1] > 1e-6) | ((np.abs(mates[..., 1]) <= 1e-6) & (mates[..., 0] > 1e-6)))
+    guard = ahead.any(axis=1) & ~carrying & ~in_enemy_half
+    defend |= guard & chasing
+    heading = np.where(carrying[:, None] | guard[:, None], -to_own, -to_enemy) * 40.0
+    goal = heading
     goal = np.where(defend[:, None], closer.astype(np.float64), goal)
     score = goal - _BLOCKED * blocked - np.where(carrying[:, None] | ~defend[:, None],
                                                  _DANGER * (danger >= 1.0) + _NEAR_DANGER * (danger > 0.25), 0.0)
