@@ -166,7 +166,7 @@ The match is plain arrays: rules pickle and copy as they are.
 
 Replay scene
 ------------
-The field (``field``: floor and walls), every seat (``seat/<seat>``: a cube in its team's colour,
+The field (``field``: floor and walls), every seat (``agent/<seat>``: a cube in its team's colour,
 flat while it waits) and each flag (``flag/<team>``: a sphere on a pole).
 """
 
@@ -329,7 +329,7 @@ class CaptureFlagRules(GameRules):
         cells = engine.cell(engine.pos[0])
         for seat in range(self.n_agents):
             height = 0.7 if engine.active[0, seat] else 0.1
-            out.append(scene.entity(f"seat/{seat}", ts, cubes=[scene.cube(
+            out.append(scene.entity(f"agent/{seat}", ts, cubes=[scene.cube(
                 *_xy(int(cells[seat]), r, c), height / 2, (0.7, 0.7, height),
                 scene.team_colour(int(self.team_of[seat])))]))
         for team, cell in enumerate(engine.flag_cells(0)):
