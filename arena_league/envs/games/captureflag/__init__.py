@@ -302,7 +302,7 @@ class CaptureFlagRules(GameRules):
         for cell in stands:
             codes.reshape(-1)[cell] = 3
         cells = engine.cell(engine.pos[0])
-        carrying = engine._carrying(engine._boards)[0]
+        carrying = engine.carrying[0]
         for seat in range(self.n_agents):
             team = int(self.team_of[seat])
             code = 4 + 3 * team + (1 if carrying[seat] else 0) + (2 if not engine.active[0, seat] else 0)

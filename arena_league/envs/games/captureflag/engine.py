@@ -104,6 +104,14 @@ class CaptureFlagBoards:
         self.target_distance = np.zeros((b, n), dtype=np.int64)
         self.toward_target = np.zeros((b, n), dtype=np.int64)
         self.flag_progress = np.zeros((b, 2), dtype=np.int64)
+        # flat offsets of each board's rows in the arrays above, for one-call gathers
+        self._wall_offset = (self._boards * self._padded)[:, None]
+        self._seat_offset = (self._boards * n)[:, None]
+        self._field_offset = (self._boards[:, None] * 2 + np.arange(2)[None, :]) * self._padded  # [B, team]
+        self._enemy_field = self._field_offset[:, 1 - self.team_of]  # [B, N]: the stand each seat raids
+        self._own_field = self._field_offset[:, self.team_of]
+        self.carrying = np.zeros((b, n), dtype=bool)  # seat carries the opponents' flag
+        self.flag_at = np.zeros((b, 2), dtype=np.int64)  # padded cell of each team's flag
         self.reset()
 
     # --- fixed tables ----------------------------------------------------------------------------
@@ -245,6 +253,7 @@ class CaptureFlagBoards:
         self.scored[sel] = False
         self.toward_target[sel] = 0
         self.flag_progress[sel] = 0
+        self._update_flags()
         self.target_distance[sel] = self._target_distance(sel)
 
     def set_board(self, board: int, walls: np.ndarray, positions: Sequence[int] | None = None) -> None:
@@ -262,27 +271,27 @@ class CaptureFlagBoards:
             if cells.shape != (self.n_agents,) or self.walls[b, cells].any():
                 raise ValueError(f"set_board needs one open board cell for each of the {self.n_agents} seats")
             self.pos[b] = cells
+            self._update_flags()
             self.target_distance[b] = self._target_distance(np.array([b]))[0]
 
     def random_actions(self) -> np.ndarray:
         """Uniform random actions from the engine's generator (every action is legal)."""
         return self.rng.integers(N_ACTIONS, size=(self.n_boards, self.n_agents))
 
-    def _target_field(self, sel: Any) -> np.ndarray:
-        """``int64[K, N]``: the stand each seat heads for, 0 or 1 (its own while it carries a flag)."""
-        carrying = self._carrying(sel)
-        return np.where(carrying, self.team_of, 1 - self.team_of)
+    def _update_flags(self) -> None:
+        """``carrying`` and ``flag_at`` from ``carrier`` and ``pos`` (a tool may have set those)."""
+        self.carrying = self.carrier[:, 1 - self.team_of] == np.arange(self.n_agents)
+        carried = self.carrier >= 0
+        self.flag_at = np.where(carried, np.take(self.pos, self._seat_offset + np.maximum(self.carrier, 0)),
+                                self.stands)
 
-    def _carrying(self, sel: Any) -> np.ndarray:
-        seats = np.arange(self.n_agents)
-        enemy_flag = 1 - self.team_of
-        return self.carrier[sel][:, enemy_flag] == seats
+    def _target_offsets(self) -> np.ndarray:
+        """``int64[B, N]``: the flat offset of the distance field each seat heads by (its own stand's
+        while it carries a flag, else the opponents')."""
+        return np.where(self.carrying, self._own_field, self._enemy_field)
 
-    def _target_distance(self, sel: Any, field: np.ndarray | None = None, pos: np.ndarray | None = None) -> np.ndarray:
-        field = self._target_field(sel) if field is None else field
-        pos = self.pos[sel] if pos is None else pos
-        rows = np.arange(len(pos))[:, None]
-        return self.dist[sel][rows, field, pos]
+    def _target_distance(self, sel: Any) -> np.ndarray:
+        return np.take(self.dist, self._target_offsets()[sel] + self.pos[sel])
 
     def step(self, actions: np.ndarray) -> None:
         """One step of every unfinished board; ``actions[b, i]`` is in seat ``i``'s own frame."""
@@ -298,14 +307,15 @@ class CaptureFlagBoards:
         live = ~self.done
         n, boards = self.n_agents, self._boards
         moving = self.active & live[:, None]
-        field = self._target_field(boards)
+        self._update_flags()
+        field = self._target_offsets()
         progress_before = self._flag_gain()
         # 1. moves: a wall keeps the seat where it stands
         target = self.pos + self._delta[np.arange(n), actions]
-        blocked = np.take_along_axis(self.walls, target, axis=1)
+        blocked = np.take(self.walls, self._wall_offset + target)
         pos = np.where(moving & ~blocked, target, self.pos)
         # 2. tags: an exposed seat (in the opponents' half, or carrying) next to or on an active opponent
-        exposed = (self._half_of[pos] != self.team_of) | self._carrying(boards)
+        exposed = (self._half_of[pos] != self.team_of) | self.carrying
         row, col = self._row_of[pos], self._col_of[pos]
         rivals = self._rivals
         near = (np.abs(row[:, :, None] - row[:, rivals]) + np.abs(col[:, :, None] - col[:, rivals])) <= 1
@@ -329,7 +339,7 @@ class CaptureFlagBoards:
         for team in range(2):
             seat = self.carrier[:, 1 - team]
             safe = seat >= 0
-            at_stand = np.take_along_axis(pos, np.maximum(seat, 0)[:, None], axis=1)[:, 0] == self.stands[team]
+            at_stand = np.take(pos, self._seat_offset[:, 0] + np.maximum(seat, 0)) == self.stands[team]
             scores = safe & at_stand & (self.carrier[:, team] < 0) & live
             if scores.any():
                 scored[:, team] = scores
@@ -343,8 +353,9 @@ class CaptureFlagBoards:
         self.pos = pos
         self.t = self.t + live
         self.tagged, self.picked, self.scored = tagged, picked, scored
+        self._update_flags()
         # measures: the step toward the target the seat had, the distance to the one it has now
-        after = self._target_distance(boards, field)
+        after = np.take(self.dist, field + pos)
         self.toward_target = np.where(playing, self.target_distance - after, 0)
         self.target_distance = np.where(live[:, None], self._target_distance(boards), self.target_distance)
         gain = self._flag_gain() + scored * self.stand_distance[:, None]
@@ -364,14 +375,9 @@ class CaptureFlagBoards:
 
     def _flag_gain(self) -> np.ndarray:
         """``int64[B, 2]``: how far each team has brought the flag it carries from the opponents'
-        stand toward its own (0 while it carries none)."""
-        gain = np.zeros((self.n_boards, 2), dtype=np.int64)
-        for team in range(2):
-            seat = self.carrier[:, 1 - team]
-            at = np.take_along_axis(self.pos, np.maximum(seat, 0)[:, None], axis=1)[:, 0]
-            left = self.dist[self._boards, team, at]
-            gain[:, team] = np.where(seat >= 0, self.stand_distance - left, 0)
-        return gain
+        stand toward its own (0 while it carries none); ``flag_at`` must be current."""
+        left = np.take(self.dist, self._field_offset + self.flag_at[:, ::-1])  # team t carries flag 1 - t
+        return np.where(self.carrier[:, ::-1] >= 0, self.stand_distance[:, None] - left, 0)
 
     def team_scores(self, boards: Any = None) -> np.ndarray:
         """``float64[K, 2]``: 1 for more captures, 0.5 each for as many, 0 for fewer."""
@@ -384,7 +390,6 @@ class CaptureFlagBoards:
     def observe(self) -> np.ndarray:
         """``float32[B, N, obs_dim]``: every seat's observation in its own frame (manual)."""
         b, n, r, c = self.n_boards, self.n_agents, self.rows, self.cols
-        boards = self._boards[:, None]
         obs = np.zeros((b, n, self.obs_dim), dtype=np.float32)
         pos = self.pos
         row = self._row_of[pos]
@@ -392,7 +397,7 @@ class CaptureFlagBoards:
         team = self.team_of
         own_flag_home = self.carrier[:, team] < 0
         enemy_flag_home = self.carrier[:, 1 - team] < 0
-        carrying = self._carrying(self._boards)
+        carrying = self.carrying
         obs[:, :, AT["active"]] = self.active
         obs[:, :, AT["position"]] = row * (2.0 / (r - 1)) - 1.0
         obs[:, :, AT["position"] + 1] = fcol * (2.0 / (c - 1)) - 1.0
@@ -405,12 +410,12 @@ class CaptureFlagBoards:
         obs[:, :, AT["captures"] + 1] = self.captures[:, 1 - team] * (1.0 / self.captures_to_win)
         # per action: the cell it leads to
         dest = pos[:, :, None] + self._delta[None]  # [B, N, A]
-        wall = self.walls[boards[:, :, None], dest]
+        wall = np.take(self.walls, self._wall_offset[:, :, None] + dest)
         dest = np.where(wall, pos[:, :, None], dest)
         obs[:, :, AT["blocked"]:AT["blocked"] + N_ACTIONS] = wall
         scale = 1.0 / (2 * (r + c))
-        to_enemy = self.dist[boards[:, :, None], (1 - team)[None, :, None], dest]
-        to_own = self.dist[boards[:, :, None], team[None, :, None], dest]
+        to_enemy = np.take(self.dist, self._enemy_field[:, :, None] + dest)
+        to_own = np.take(self.dist, self._own_field[:, :, None] + dest)
         obs[:, :, AT["to_enemy_stand"]:AT["to_enemy_stand"] + N_ACTIONS] = np.minimum(to_enemy * scale, 1.0)
         obs[:, :, AT["to_own_stand"]:AT["to_own_stand"] + N_ACTIONS] = np.minimum(to_own * scale, 1.0)
         # danger: the seat would be exposed on the cell, within 2 steps of an active opponent
@@ -424,11 +429,11 @@ class CaptureFlagBoards:
         obs[:, :, AT["danger"]:AT["danger"] + N_ACTIONS] = exposed * np.where(gap <= 1, 1.0, np.where(gap == 2, 0.5, 0.0))
         # the flags, where they are now (a carried flag is where its carrier is), relative
         for name, flag in (("enemy_flag", 1 - team), ("own_flag", team)):
-            seat = self.carrier[:, flag]  # [B, N]
-            at = np.where(seat >= 0, np.take_along_axis(pos, np.maximum(seat, 0), axis=1), self.stands[flag])
+            at = self.flag_at[:, flag]  # [B, N]
             obs[:, :, AT[name]] = (self._row_of[at] - row) * (1.0 / (r - 1))
             obs[:, :, AT[name] + 1] = (self.frame_col(at) - fcol) * (1.0 / (c - 1))
-        obs[:, :, AT["walls"]:AT["walls"] + WINDOW * WINDOW] = self.walls[boards[:, :, None], pos[:, :, None] + self._window]
+        obs[:, :, AT["walls"]:AT["walls"] + WINDOW * WINDOW] = np.take(self.walls, self._wall_offset[:, :, None]
+                                                                        + pos[:, :, None] + self._window)
         # the others: teammates first, then opponents
         if n > 1:
             o = self._others
@@ -453,22 +458,20 @@ class CaptureFlagBoards:
         seats[..., 0] = self._row_of[self.pos] * (2.0 / (r - 1)) - 1.0
         seats[..., 1] = self._col_of[self.pos] * (2.0 / (c - 1)) - 1.0
         seats[..., 2] = self.active
-        seats[..., 3] = self._carrying(self._boards)
+        seats[..., 3] = self.carrying
         seats[..., 4] = np.where(self.active, 0, self.respawn) * (1.0 / self.respawn_delay)
         flags = state[:, self.n_cells + 5 * n:self.n_cells + 5 * n + 6].reshape(b, 2, 3)
-        seat = self.carrier
-        at = np.where(seat >= 0, np.take_along_axis(self.pos, np.maximum(seat, 0), axis=1), self.stands[None, :])
+        at = self.flag_at
         flags[..., 0] = self._row_of[at] * (2.0 / (r - 1)) - 1.0
         flags[..., 1] = self._col_of[at] * (2.0 / (c - 1)) - 1.0
-        flags[..., 2] = seat >= 0
+        flags[..., 2] = self.carrier >= 0
         state[:, -2:] = self.captures * (1.0 / self.captures_to_win)
         return state
 
     def flag_cells(self, board: int = 0) -> np.ndarray:
         """``int64[2]``: the board cell of each team's flag now."""
-        seat = self.carrier[board]
-        at = np.where(seat >= 0, self.pos[board, np.maximum(seat, 0)], self.stands)
-        return self.cell(at)
+        self._update_flags()
+        return self.cell(self.flag_at[board])
 
 
 class CaptureFlagMatches:
