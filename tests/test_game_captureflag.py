@@ -105,6 +105,21 @@ def test_a_capture_needs_the_own_flag_at_home_and_wins_at_captures_to_win():
     assert rules.measures.outcome.tolist() == [1.0, -1.0]
 
 
+def test_a_whole_carry_pays_the_team_the_distance_between_the_stands():
+    rules = duel([cell(5, 17), cell(0, 15)], captures_to_win=1)
+    progress, toward = 0.0, []
+    play(rules, RIGHT, STAY)  # onto the opponents' stand: the pick-up
+    toward.append(rules.measures.velocity_to_target[0])
+    while not rules.game_over:
+        play(rules, LEFT, STAY)
+        progress += rules.measures.object_progress[0]
+        toward.append(rules.measures.velocity_to_target[0])
+    assert rules.events() == [{"kind": "capture", "team": 0}]
+    assert progress == 17.0 == rules.engine.stand_distance[0]  # the last step, the capture, included
+    assert toward == [1.0] * 18  # every step brought the raider, then the carrier, one step nearer
+    assert rules.measures.outcome.tolist() == [1.0, -1.0]
+
+
 def test_a_match_cut_at_max_cycles_is_decided_by_captures():
     env = make("CaptureFlag-2T1P-v1", max_cycles=4)
     env.reset(seed=2)
