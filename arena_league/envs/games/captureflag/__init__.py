@@ -113,7 +113,10 @@ per team (scale 1: the team shares every step its carried flag comes home, a cap
 and every loss a tag costs), each over an IS ``velocity_to_target`` leaf per seat (scale 0.05: a
 seat's own way to the flag and back). CL rather than CC at the team level: within a team
 everything is shared, and the competition between the teams is the root's; CC would fold both
-into one node and lose the shaping of the carry.
+into one node and lose the shaping of the carry. ``example_trees`` offers that alternative as
+``flag_race``: a CC ``team_progress_race`` node over every seat (a team's carry gain minus the
+mean of both teams'), each seat with the same IS leaf; in 2T2P it verifies as CC over 32 paired
+samples.
 
 Heuristic
 ---------
@@ -156,7 +159,7 @@ browser the arrow keys or W A S D.
 Rendering
 ---------
 A top-down picture (``max(8, 400 // cols)`` pixels a cell): each half's floor tinted in its
-team's colour, walls dark, each stand outlined, seats in their team's colour (darker while they
+team's colour, walls dark, each stand white, seats in their team's colour (darker while they
 carry, pale while they wait), each flag as a small square in its team's colour.
 ``render_mode="rgb_array"`` returns it; ``"human"`` shows it in a window.
 
@@ -351,6 +354,12 @@ class CaptureFlagRules(GameRules):
                   "children": [leaf(t * players_per_team + p) for p in range(players_per_team)]}
                  for t in range(n_teams)]
         return {"scheme": "CP", "reward": "win_loss", "scale": 10, "children": teams}
+
+    @classmethod
+    def example_trees(cls, n_teams: int, players_per_team: int) -> dict[str, dict]:
+        seats = [{"agent": f"player_{s}", "scheme": "IS", "reward": "velocity_to_target", "scale": 0.05}
+                 for s in range(n_teams * players_per_team)]
+        return {"flag_race": {"scheme": "CC", "reward": "team_progress_race", "scale": 1, "children": seats}}
 
     @staticmethod
     def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
