@@ -4,7 +4,10 @@ After the capture-the-flag game of Jaderberg et al., "Human-level performance in
 games with population-based reinforcement learning" (Science 2019), as adopted by Song et al.,
 "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent Intelligence" (AAAI
 2020), here on a grid and built as a batched numpy engine. Ids: ``CaptureFlag-2T1P-v1`` and
-``CaptureFlag-2T2P-v1``.
+``CaptureFlag-2T2P-v1``. Melting Pot's grid substrate ``paintball__capture_the_flag`` (four a side,
+tagging with a zapping beam that also paints the floor) has the same scoring rule, a capture only
+while the own flag is home, and pays the whole team; here a tag is a touch, as in the playground
+game, and there is no paint.
 
 Field
 -----
