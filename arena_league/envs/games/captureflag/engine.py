@@ -124,12 +124,15 @@ class CaptureFlagBoards:
         pr, pc = np.divmod(np.arange(self._padded), side)
         self._row_of, self._col_of = pr - p, pc - p  # board row and column of every padded cell
         self._half_of = (self._col_of >= c // 2).astype(np.int64)  # 0: team 0's half
+        # every padded cell's column in team 0's frame, then in team 1's (mirrored)
+        self._frame_cols = np.concatenate([self._col_of, c - 1 - self._col_of])
         mid = r // 2
         self.stands = np.array([(mid + p) * side + 1 + p, (mid + p) * side + c - 2 + p], dtype=np.int64)
         spawn_rows = np.array([mid - 1, mid + 1, mid - 2, mid + 2])[:self.players_per_team]
         spawn = np.concatenate([(spawn_rows + p) * side + p, (spawn_rows + p) * side + c - 1 + p])
         self.spawns = spawn.astype(np.int64)
         mirror = np.where(self.team_of == 1, -1, 1)  # team 1's seat frame flips columns
+        self._frame_offset = self.team_of * self._padded  # each seat's half of _frame_cols
         self._mirror = mirror
         self._delta = ACTION_ROW[None, :] * side + ACTION_COL[None, :] * mirror[:, None]  # [N, A]
         dr, dc = np.divmod(np.arange(WINDOW * WINDOW), WINDOW)
@@ -142,6 +145,7 @@ class CaptureFlagBoards:
             rivals = [j for j in range(n) if self.team_of[j] != self.team_of[i]]
             others.append(mates + rivals)
         self._others = np.array(others, dtype=np.int64).reshape(n, n - 1)
+        self._team_seats = (np.flatnonzero(self.team_of == 0), np.flatnonzero(self.team_of == 1))
         self._rivals = np.array([[j for j in range(n) if self.team_of[j] != self.team_of[i]] for i in range(n)])
         # cells never walled: each base's stand, spawns and the cells around them (rows mid +- 2, 3 columns)
         keep = np.zeros((r, c // 2), dtype=bool)
@@ -154,8 +158,7 @@ class CaptureFlagBoards:
 
     def frame_col(self, padded: np.ndarray) -> np.ndarray:
         """Columns of padded cells in each seat's frame (team 1's mirrored); ``padded`` is ``[..., N]``."""
-        col = self._col_of[padded]
-        return np.where(self.team_of == 1, self.cols - 1 - col, col)
+        return np.take(self._frame_cols, self._frame_offset + padded)
 
     # --- maps ------------------------------------------------------------------------------------
     def draw_walls(self, keys: np.ndarray) -> np.ndarray:
@@ -328,22 +331,19 @@ class CaptureFlagBoards:
         playing = moving & ~tagged
         # 3. pick-ups: a seat on the opponents' stand while their flag is there takes it (lowest seat first)
         picked = np.zeros_like(moving)
-        for i in range(n):
-            flag = 1 - self.team_of[i]
-            takes = playing[:, i] & (pos[:, i] == self.stands[flag]) & (self.carrier[:, flag] < 0)
-            if takes.any():
-                self.carrier[takes, flag] = i
-                picked[:, i] = takes
+        on_stand = playing & (pos == self.stands[1 - self.team_of]) & (self.carrier[:, 1 - self.team_of] < 0)
+        if on_stand.any():
+            for flag, raiders in ((0, self._team_seats[1]), (1, self._team_seats[0])):
+                takers = on_stand[:, raiders]
+                takes = np.flatnonzero(takers.any(axis=1))
+                first = raiders[takers[takes].argmax(axis=1)]
+                self.carrier[takes, flag] = first
+                picked[takes, first] = True
         # 4. captures: a carrier on its own stand while its own flag is there scores
-        scored = np.zeros((self.n_boards, 2), dtype=bool)
-        for team in range(2):
-            seat = self.carrier[:, 1 - team]
-            safe = seat >= 0
-            at_stand = np.take(pos, self._seat_offset[:, 0] + np.maximum(seat, 0)) == self.stands[team]
-            scores = safe & at_stand & (self.carrier[:, team] < 0) & live
-            if scores.any():
-                scored[:, team] = scores
-                self.carrier[scores, 1 - team] = -1
+        held = self.carrier[:, ::-1]  # the seat holding the flag each team would score with
+        home = np.take(pos, self._seat_offset + np.maximum(held, 0)) == self.stands
+        scored = (held >= 0) & home & (self.carrier < 0) & live[:, None]
+        self.carrier[scored[:, ::-1]] = -1  # the captured flag goes back to its stand
         self.captures += scored
         # 5. respawns: a tagged seat misses respawn_delay steps, then stands on its spawn again
         waiting = ~self.active & live[:, None]
@@ -440,8 +440,7 @@ class CaptureFlagBoards:
             others = obs[:, :, N_HEADER:].reshape(b, n, n - 1, PER_OTHER)
             opos = pos[:, o]
             others[..., 0] = (self._row_of[opos] - row[:, :, None]) * (1.0 / (r - 1))
-            ocol = self._col_of[opos]
-            ocol = np.where((team == 1)[None, :, None], c - 1 - ocol, ocol)
+            ocol = np.take(self._frame_cols, self._frame_offset[:, None] + opos)  # in the viewer's frame
             others[..., 1] = (ocol - fcol[:, :, None]) * (1.0 / (c - 1))
             others[..., 2] = self.active[:, o]
             held = self.carrier[:, :, None, None] == o[None, None]  # [B, 2, N, N-1]
