@@ -135,6 +135,22 @@ def batched_grid(seconds: float) -> list[dict]:
         steps, elapsed = board_steps(boards, seconds)
         results.append({"engine": name, "boards": n_boards, "board_steps_per_s": round(steps / elapsed),
                         "seconds": round(elapsed, 3)})
+    results += batched_captureflag(seconds)
+    return results
+
+
+def batched_captureflag(seconds: float, n_boards: int = 1024) -> list[dict]:
+    """Board steps/s of CaptureFlag's engine at ``n_boards`` (matches cut at the default 300 steps),
+    stepping only and with every seat's observation built every step."""
+    from arena_league.envs.games.captureflag import CaptureFlagBoards
+
+    results = []
+    for players in (1, 2):
+        for observe in (False, True):
+            boards = CaptureFlagBoards(n_boards, players, autoreset=True, max_steps=300, seed=0)
+            steps, elapsed = board_steps(boards, seconds, observe=observe)
+            results.append({"engine": f"CaptureFlag-2T{players}P", "boards": n_boards, "observe": observe,
+                            "board_steps_per_s": round(steps / elapsed), "seconds": round(elapsed, 3)})
     return results
 
 

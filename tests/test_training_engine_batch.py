@@ -54,6 +54,10 @@ CASES = [
     pytest.param("RunToGoal-2T1P-v1", {"tree": RUN_RACE, "max_cycles": 40}, 3, 120, id="runtogoal-race"),
     pytest.param("PushBox-2T2P-v1", {"max_cycles": 25}, 3, 80, id="pushbox-default"),
     pytest.param("YouShallNotPass-2T1P-v1", {"max_cycles": 30}, 3, 100, id="youshallnotpass-default"),
+    pytest.param("CaptureFlag-2T2P-v1", {"max_cycles": 60, "rows": 7, "cols": 10, "captures_to_win": 1}, 4, 200,
+                 id="captureflag-small"),
+    pytest.param("CaptureFlag-2T1P-v1", {"tree": team_tree(2, 1, "win_loss", leaf="target"), "max_cycles": 40}, 3,
+                 120, id="captureflag-target"),
 ]
 
 

@@ -162,3 +162,35 @@ def test_a_guest_plays_both_halves_of_a_youshallnotpass_pair(server, browser):
     sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
     sync_api.expect(page.locator('[data-role="reason"]')).to_contain_text("Why it ended: you resigned")
     page.close()
+
+
+def test_a_guest_moves_up_in_capture_the_flag_with_the_arrow_keys(server, browser):
+    from arena_league.league import ensure_scripted_agents, open_home
+    from arena_league.registry import add_population_member, create_population, freeze_population, get_agent
+
+    game_id = "CaptureFlag-2T1P-v1"
+    with open_home(server.home, server.db) as league:  # no base is shipped: the game's scripted agents are one
+        names = ensure_scripted_agents(league, game_id)
+        with league.transaction() as session:
+            population = create_population(session, "scripted", game_id, provenance={"made_by": "test"})
+            for name in names:
+                add_population_member(session, population, get_agent(session, name), {"rating": 1000.0})
+            freeze_population(session, population)
+    page = start_as_guest(server, browser, game_id, "raider")
+    sync_api.expect(page.locator('[data-role="seats"] li')).to_have_count(2)
+
+    def position() -> tuple[float, float]:
+        """Where the person is drawn after the next step."""
+        step = page.get_attribute("#play", "data-step")
+        page.wait_for_function("([step]) => document.getElementById('play').dataset.step !== step", arg=[step])
+        return tuple(float(v) for v in page.get_attribute("#play", "data-you").split(","))
+
+    start = position()
+    page.keyboard.down("ArrowUp")  # from the start cell the way up is open on every map (the base stays clear)
+    moved = [position() for _ in range(3)]
+    page.keyboard.up("ArrowUp")
+    assert any(y > start[1] + 0.5 and abs(x - start[0]) < 0.01 for x, y in moved), (start, moved)
+    page.evaluate("document.querySelector('[data-role=\"resign\"]').click()")
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
+    sync_api.expect(page.locator('[data-role="reason"]')).to_contain_text("Why it ended: you resigned")
+    page.close()
