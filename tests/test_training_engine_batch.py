@@ -54,6 +54,9 @@ CASES = [
     pytest.param("RunToGoal-2T1P-v1", {"tree": RUN_RACE, "max_cycles": 40}, 3, 120, id="runtogoal-race"),
     pytest.param("PushBox-2T2P-v1", {"max_cycles": 25}, 3, 80, id="pushbox-default"),
     pytest.param("YouShallNotPass-2T1P-v1", {"max_cycles": 30}, 3, 100, id="youshallnotpass-default"),
+    pytest.param("Boomer-2T2P-v1", {}, 4, 150, id="boomer-default"),
+    pytest.param("Boomer-4T1P-v1", {"max_cycles": 15, "size": 9, "n_rigid": 16, "n_wood": 24, "n_items": 8}, 3, 100,
+                 id="boomer-4p-cut-small"),
 ]
 
 

@@ -131,7 +131,8 @@ lead to a cell no known blast will reach on a path that never stands in a flame 
 ahead); it lays a bomb where it stands when the blast would reach a wooden wall or an opponent and
 such a way out exists with that bomb counted; otherwise it walks (stop on a tie) toward the nearest
 cell next to a wooden wall or an opponent, or onto a power-up; with no safe move it at least avoids
-a cell that burns on the next step. It outlives uniformly random play in about 49 of 50 duels.
+a cell that burns on the next step. It outlives uniformly random play in 397 of 400 duels
+(seeded, seats swapped halfway; 1 draw, 2 losses).
 
 Game kwargs
 -----------

@@ -9,6 +9,7 @@ that explode, not over the boards.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -285,6 +286,53 @@ class BoomerBoards:
         self.done[sel] = False
         self.truncated[sel] = False
         self.final_scores[sel] = np.nan
+
+    def set_board(self, board: int, picture: Sequence[str], hidden: dict[int, int] | None = None) -> None:
+        """Put a position on one board (puzzles, tests) from a picture of ``size`` rows of ``size``
+        characters: ``.`` passage, ``#`` rigid, ``+`` wood, ``e`` ``r`` ``k`` power-ups (extra bomb,
+        range, kick), a digit the seat standing there (a seat not drawn is dead). ``hidden`` maps
+        board cells of wooden walls to the power-up under them. No bombs or flames; every seat has
+        ammo 1, the starting blast strength and no kick; the step counter restarts at 0."""
+        b, n = int(board), self.size
+        if not 0 <= b < self.n_boards:
+            raise ValueError(f"board {board!r} is not one of 0..{self.n_boards - 1}")
+        if len(picture) != n or any(len(row) != n for row in picture):
+            raise ValueError(f"a Boomer picture has {n} rows of {n} characters")
+        codes = {".": PASSAGE, "#": RIGID, "+": WOOD, "e": EXTRA_BOMB, "r": RANGE, "k": KICK}
+        terrain = np.zeros(self.n_cells, dtype=np.int8)
+        self.alive[b] = False
+        for cell, char in enumerate("".join(picture)):
+            if char.isdigit() and int(char) < self.n_seats:
+                self.position[b, int(char)] = self._inner[cell]
+                self.alive[b, int(char)] = True
+            elif char in codes:
+                terrain[cell] = codes[char]
+            else:
+                raise ValueError(f"{char!r} is not a Boomer picture character (. # + e r k or a seat digit "
+                                 f"0..{self.n_seats - 1})")
+        self.terrain[b] = RIGID
+        self.terrain[b, self._inner] = terrain
+        self.hidden[b] = 0
+        for cell, kind in (hidden or {}).items():
+            self.hidden[b, self._inner[cell]] = kind
+        for name in ("flame", "bomb_timer", "bomb_strength"):
+            getattr(self, name)[b] = 0
+        self.bomb_owner[b] = -1
+        self.bomb_direction[b] = -1
+        self.ammo[b] = 1
+        self.strength[b] = self.blast_strength
+        self.can_kick[b] = False
+        self.death_step[b] = np.where(self.alive[b], -1, 0)
+        self.t[b] = 0
+        self.done[b] = self.truncated[b] = False
+
+    def lay_bomb(self, board: int, cell: int, owner: int, timer: int = BOMB_LIFE, strength: int | None = None) -> None:
+        """Put a bomb of ``owner`` on board cell ``cell`` (puzzles, tests); it takes none of the owner's ammo."""
+        padded = self._inner[int(cell)]
+        self.bomb_timer[board, padded] = timer
+        self.bomb_strength[board, padded] = self.strength[board, owner] if strength is None else strength
+        self.bomb_owner[board, padded] = owner
+        self.bomb_direction[board, padded] = -1
 
     def random_actions(self) -> np.ndarray:
         """Uniform random actions (every action is legal), from the engine's generator."""
