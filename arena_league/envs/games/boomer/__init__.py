@@ -162,7 +162,8 @@ The board is drawn in text: ``#`` rigid, ``+`` wood, ``e`` ``r`` ``k`` power-ups
 range, kick), a digit a bomb's steps left (9 for 9 or more), ``*`` flame, you ``@``, teammates
 ``A``.., opponents ``X``... A move is ``w``, ``a``, ``s``, ``d`` (or ``up``, ``left``, ``down``,
 ``right``) on the board *as drawn*, turned into the seat's frame for you; ``b`` lays a bomb; Enter
-or ``x`` stops. In a browser: the arrow keys or W A S D move, space or B lays a bomb.
+or ``x`` stops. In a browser (4 steps a second): each press of an arrow key or W A S D moves one cell,
+space or B lays a bomb; without a press the player stops.
 
 Rendering
 ---------
@@ -484,8 +485,9 @@ class BoomerControls(Controls):
 
     def web(self) -> dict[str, Any]:
         keys = arrow_keys("w", "a", "s", "d") | {" ": "b", "b": "b", "B": "b"}
-        return key_controls(keys, 4.0, "Arrow keys or W A S D move on the board as drawn, space or B lays a bomb; "
-                            "let go to stop.", release="x")
+        # a press is one step's answer (the player stops after it): a tap of the bomb key is never lost
+        return key_controls(keys, 4.0, "Each press of an arrow key or W A S D moves one cell on the board as drawn; "
+                            "space or B lays a bomb.")
 
 
 RULES = BoomerRules
