@@ -12,7 +12,15 @@ import pytest
 
 from arena_league.envs import make
 from arena_league.envs.games.boomer import BoomerRules
-from arena_league.envs.games.boomer.boards import BOMB_LIFE, EXTRA_BOMB, KICK, PASSAGE, RANGE, WOOD, BoomerBoards
+from arena_league.envs.games.boomer.boards import (
+    BOMB_LIFE,
+    EXTRA_BOMB,
+    KICK,
+    PASSAGE,
+    RANGE,
+    WOOD,
+    BoomerBoards,
+)
 from arena_league.envs.games.boomer.heuristic import heuristic_actions
 
 STOP, UP, DOWN, LEFT, RIGHT, BOMB = range(6)
@@ -267,7 +275,7 @@ def test_options_are_checked_and_rules_pickle_mid_match():
     assert env.rules.engine.laid.any() or (env.rules.engine.bomb_timer > 0).any()
     copy = pickle.loads(pickle.dumps(env))
     assert np.array_equal(copy.state(), env.state())
-    actions = {a: RIGHT for a in env.agents}
+    actions = dict.fromkeys(env.agents, RIGHT)
     assert np.array_equal(copy.step(actions)[0]["player_0"], env.step(actions)[0]["player_0"])
 
 

@@ -192,7 +192,17 @@ from arena_league.envs import scene
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.games.boomer.boards import (
-    ACTIONS, BOMB, EXTRA_BOMB, KICK, N_BOARD_PLANES, RANGE, RIGID, STATE_PER_AGENT, WOOD, BoomerBoards)
+    ACTIONS,
+    BOMB,
+    EXTRA_BOMB,
+    KICK,
+    N_BOARD_PLANES,
+    RANGE,
+    RIGID,
+    STATE_PER_AGENT,
+    WOOD,
+    BoomerBoards,
+)
 from arena_league.envs.games.boomer.heuristic import heuristic_actions
 from arena_league.envs.options import Option
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
@@ -207,6 +217,15 @@ _MOVE_OF_DIRECTION = (1, 4, 2, 3)
 PALETTE: dict[int, tuple[int, int, int]] = {0: (236, 232, 214), 1: (80, 80, 88), 2: (150, 105, 60),
                                             EXTRA_BOMB: (60, 120, 230), RANGE: (240, 150, 30), KICK: (60, 180, 90),
                                             6: (250, 90, 30), 7: (20, 20, 20)}
+
+
+#: Each measure and the engine's array it copies, every step.
+MEASURE_SOURCES: tuple[tuple[str, str], ...] = (("alive", "alive"), ("active", "alive"), ("resource_gain", "picked"))
+
+
+def final_outcome(team_scores: np.ndarray, team_of: np.ndarray, n_teams: int) -> np.ndarray:
+    """``float64[k, seats]``: every seat's ``outcome`` from its team's score (``[k, teams]``)."""
+    return 2.0 * team_scores[:, team_of] / (n_teams - 1) - 1.0
 
 
 def start_measures(m: Measures, slot: Any = slice(None)) -> None:
@@ -231,49 +250,41 @@ class BoomerMatches:
         self.n_teams = rules.n_teams
         self.boards = BoomerBoards(n_slots, one.n_seats, size=one.size, n_rigid=one.n_rigid, n_wood=one.n_wood,
                                    n_items=one.n_items, blast_strength=one.blast_strength, team_of=one.team_of,
-                                   quarter_turns=one.quarter_turns)
+                                   quarter_turns=one.quarter_turns, max_steps=max_cycles)
         self.boards.done[:] = True  # idle slots: the engine leaves finished boards alone
-        self._steps = np.zeros(n_slots, dtype=np.int64)
         self.measures = Measures.allocate(rules.n_agents, rules.measures_provided, n_slots)
 
     def start(self, slot: int, seed: int) -> None:
         key = np.random.default_rng(seed).integers(0, 2**64, size=1, dtype=np.uint64)
         self.boards.reset(np.array([slot]), keys=key)
-        self._steps[slot] = 0
         start_measures(self.measures, slot)
-
-    def observe(self) -> np.ndarray:
-        return self.boards.observe()
-
-    def action_mask(self) -> None:
-        return None
 
     def acting(self) -> np.ndarray:
         return self.boards.alive & ~self.boards.done[:, None]
 
+    def observe(self) -> np.ndarray:
+        return self.boards.observe()
+
     def step(self, actions: np.ndarray) -> np.ndarray:
         boards = self.boards
         live = ~boards.done
-        boards.step(actions.astype(np.int64, copy=False))
-        self._steps += live
-        cut = live & ~boards.done & (self._steps >= self.max_cycles)  # the env's max_cycles
-        boards.done[cut] = True
+        boards.step(actions.astype(np.int64, copy=False))  # the engine cuts a match at max_cycles itself
         ended = live & boards.done
-        m, rows = self.measures, live[:, None]
-        np.copyto(m.alive, boards.alive, where=rows)
-        np.copyto(m.active, boards.alive, where=rows)
-        np.copyto(m.resource_gain, boards.picked, where=rows)
+        for measure, source in MEASURE_SOURCES:
+            np.copyto(getattr(self.measures, measure), getattr(boards, source), where=live[:, None])
         if ended.any():
             finished = np.flatnonzero(ended)
-            scores = boards.team_scores(finished)
-            m.outcome[finished] = 2.0 * scores[:, self.team_of] / (self.n_teams - 1) - 1.0
+            self.measures.outcome[finished] = final_outcome(boards.team_scores(finished), self.team_of, self.n_teams)
         return ended
+
+    def action_mask(self) -> None:
+        return None  # every action is always legal
 
     def state(self) -> np.ndarray:
         return self.boards.state()
 
     def steps(self, slot: int) -> int:
-        return int(self._steps[slot])
+        return int(self.boards.t[slot])
 
     def team_result(self, slot: int) -> np.ndarray:
         return self.boards.team_scores(np.array([slot]))[0]
@@ -333,42 +344,36 @@ class BoomerRules(GameRules):
             raise RuntimeError("Boomer: the match is over; call reset() before step()")
         engine = self.engine
         engine.step(np.asarray(actions, dtype=np.int64).reshape(1, -1))
-        m = self.measures
-        m.alive[:] = engine.alive[0]
-        m.active[:] = engine.alive[0]
-        m.resource_gain[:] = engine.picked[0]
+        for measure, source in MEASURE_SOURCES:
+            getattr(self.measures, measure)[:] = getattr(engine, source)[0]
         self._events = [{"kind": kind, "seat": int(i)} for kind, flags in (
             ("bomb", engine.laid), ("kick", engine.kicked), ("power_up", engine.picked), ("death", engine.died))
             for i in np.flatnonzero(flags[0])]
         if engine.done[0]:
             self.game_over = True
-            self._set_outcome()
-
-    def _set_outcome(self) -> None:
-        scores = self.team_result()
-        self.measures.outcome[:] = 2.0 * scores[self.team_of] / (self.n_teams - 1) - 1.0
-
-    def finish(self) -> None:
-        self._set_outcome()
-
-    def team_result(self) -> np.ndarray:
-        return self.engine.team_scores()[0]
+            self.finish()
 
     def events(self) -> list[dict]:
         return list(self._events)
 
-    # --- what seats see ----------------------------------------------------------------------
-    def observe(self) -> np.ndarray:
-        return self.engine.observe()[0]
+    def finish(self) -> None:
+        self.measures.outcome[:] = final_outcome(self.team_result()[None, :], self.team_of, self.n_teams)[0]
 
-    def state(self) -> np.ndarray:
-        return self.engine.state()[0]
+    def team_result(self) -> np.ndarray:
+        return self.engine.team_scores()[0]
 
+    # --- what seats see: every cell in [0, 1] ----------------------------------------------------
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return cell_bounds((0, 1, self.obs_dim))
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return cell_bounds((0, 1, N_BOARD_PLANES * self.size ** 2 + STATE_PER_AGENT * self.n_agents))
+
+    def observe(self) -> np.ndarray:
+        return self.engine.observe()[0]
+
+    def state(self) -> np.ndarray:
+        return self.engine.state()[0]
 
     def picture_codes(self) -> np.ndarray:
         """``int64[size, size]`` of what the picture paints on each cell (:data:`PALETTE`'s keys)."""

@@ -6,7 +6,16 @@ from __future__ import annotations
 import numpy as np
 
 from arena_league.envs.games.boomer.boards import (
-    BOMB, BOMB_LIFE, DCOL, DROW, FLAME_STEPS, MAX_STRENGTH, PER_AGENT, PLANES, STOP)
+    BOMB,
+    BOMB_LIFE,
+    DCOL,
+    DROW,
+    FLAME_STEPS,
+    MAX_STRENGTH,
+    PER_AGENT,
+    PLANES,
+    STOP,
+)
 
 #: The moves the heuristic weighs, in its order of preference on a tie: stop, up, down, left, right.
 MOVES = np.array([STOP, 1, 2, 3, 4], dtype=np.int64)
@@ -22,7 +31,7 @@ def split_observation(obs: np.ndarray) -> tuple[int, int]:
     width = obs.shape[1]
     for seats in (2, 4):
         cells = (width - PER_AGENT * seats) / len(PLANES)
-        size = int(round(cells ** 0.5)) if cells > 0 else 0
+        size = round(cells ** 0.5) if cells > 0 else 0
         if size >= 5 and size * size == cells:
             return seats, size
     raise ValueError(f"Boomer heuristic: observations of {width} floats are not Boomer's "
