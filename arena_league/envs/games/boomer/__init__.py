@@ -66,6 +66,10 @@ Where Boomer differs from Pommerman, and why:
   past the bomb clear at the start of the step, and a bomb train stops at its first bomb.
 * A blast on a flame that still burns over a destroyed wooden wall keeps that wall's power-up
   hidden until the last flame goes out (Pommerman loses it).
+* The duel (2T1P) is played on the same 11-board, from opposite corners (Pommerman's OneVsOne uses an
+  8-board with 16 rigid and 16 wooden walls and 10 power-ups: ``size=8, n_rigid=16, n_wood=16,
+  n_items=8`` comes close). There is no fog and no radio (Pommerman's TeamRadio): every seat sees
+  the whole board, as in Pommerman's free-for-all and team games.
 * A timed-out match is a tie among the teams left (Pommerman: everyone loses), and the result
   ranks teams by when they were eliminated (Pommerman: the last one standing wins, all others
   lose alike): elimination order, Arena's convention for last-standing games.

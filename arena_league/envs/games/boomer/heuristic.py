@@ -83,6 +83,8 @@ def _escapes(start_row: np.ndarray, start_col: np.ndarray, passable: np.ndarray,
     first = inside & passable[rows, r, c]
     first[:, 0] = True  # staying is always possible
     calm = (blast_step >= _FAR) & (flame_left <= 1)
+    if calm.all():
+        return first  # no bomb or flame on any board: every open cell is safe
     reach = np.zeros((n, 5, size, size), dtype=bool)
     reach[rows, np.arange(5)[None, :], r, c] = first
     safe = np.zeros((n, 5), dtype=bool)
@@ -93,6 +95,8 @@ def _escapes(start_row: np.ndarray, start_col: np.ndarray, passable: np.ndarray,
         deadly = (flame_left - k >= 1) | ((blast_step <= k) & (k < blast_step + FLAME_STEPS))
         reach &= ~deadly[:, None]
         safe |= (reach & calm[:, None]).any(axis=(2, 3))
+        if (safe | ~reach.any(axis=(2, 3))).all():
+            break  # every move is decided: safe, or with nowhere left to stand
     return safe & first
 
 
@@ -129,10 +133,13 @@ def heuristic_actions(obs: np.ndarray) -> np.ndarray:
     # a bomb here: worth it when its blast reaches wood or an opponent, and only with a way out
     cross = _cross(rigid, wood, row, col, strength)
     worth = (cross & (wood | opponents)).any(axis=(1, 2)) & (ammo > 0) & ~bombs[rows, row, col]
-    with_bomb = np.where(cross, np.minimum(blast_step, BOMB_LIFE), blast_step)
-    passable_after = passable.copy()
-    passable_after[rows, row, col] = False
-    bomb_safe = worth & _escapes(row, col, passable_after, with_bomb, flame_left)[:, 1:].any(axis=1)
+    bomb_safe = np.zeros(m, dtype=bool)
+    if worth.any():  # the way out with the bomb counted, for the rows that would lay one
+        w = np.flatnonzero(worth)
+        with_bomb = np.where(cross[w], np.minimum(blast_step[w], BOMB_LIFE), blast_step[w])
+        passable_after = passable[w].copy()
+        passable_after[np.arange(len(w)), row[w], col[w]] = False
+        bomb_safe[w] = _escapes(row[w], col[w], passable_after, with_bomb, flame_left[w])[:, 1:].any(axis=1)
     # walk toward the nearest cell next to wood or an opponent, or onto a power-up
     goal = (_grow(wood | opponents) & ~wood & ~opponents & passable) | (power_up & passable)
     distance = np.full((m, size, size), _FAR, dtype=np.int64)
