@@ -350,7 +350,8 @@ class BoomerRules(GameRules):
         engine.step(np.asarray(actions, dtype=np.int64).reshape(1, -1))
         for measure, source in MEASURE_SOURCES:
             getattr(self.measures, measure)[:] = getattr(engine, source)[0]
-        self._events = [{"kind": kind, "seat": int(i)} for kind, flags in (
+        happened = engine.laid[0] | engine.kicked[0] | engine.picked[0] | engine.died[0]
+        self._events = [] if not happened.any() else [{"kind": kind, "seat": int(i)} for kind, flags in (
             ("bomb", engine.laid), ("kick", engine.kicked), ("power_up", engine.picked), ("death", engine.died))
             for i in np.flatnonzero(flags[0])]
         if engine.done[0]:

@@ -486,22 +486,23 @@ class BoomerBoards:
         """The cells the blasts of bombs at ``(b, cell)`` with ``strength`` reach: ``(index into the
         bombs, padded cell)`` pairs, the bombs' own cells first; an arm runs ``strength - 1`` cells,
         stops before a rigid wall and at a wooden one."""
-        which = [np.arange(len(b))]
-        cells = [cell]
+        index = np.arange(len(b))
+        which, cells = [index], [cell]
         longest = int(strength.max(initial=0))
-        for d in range(4):
-            open_ = np.ones(len(b), dtype=bool)
-            reach = cell.copy()
-            for k in range(1, longest):
-                reach = np.where(open_, reach + self._delta[d], reach)  # a stopped arm stays inside the ring
-                terrain = self.terrain[b, reach]
-                open_ &= (terrain != RIGID) & (k < strength)
-                if not open_.any():
-                    break
-                hit = np.flatnonzero(open_)
-                which.append(hit)
-                cells.append(reach[hit])
-                open_ &= terrain != WOOD
+        # the four arms side by side: [bombs, 4] arrays, one pass per cell of reach
+        arm_of = np.broadcast_to(index[:, None], (len(b), 4))
+        rows, longer = b[:, None], strength[:, None]
+        reach = np.broadcast_to(cell[:, None], (len(b), 4))
+        open_ = np.ones((len(b), 4), dtype=bool)
+        for k in range(1, longest):
+            reach = np.where(open_, reach + self._delta, reach)  # a stopped arm stays inside the ring
+            terrain = self.terrain[rows, reach]
+            open_ &= (terrain != RIGID) & (k < longer)
+            if not open_.any():
+                break
+            which.append(arm_of[open_])
+            cells.append(reach[open_])
+            open_ &= terrain != WOOD
         return np.concatenate(which), np.concatenate(cells)
 
     def _explode(self, live: np.ndarray) -> None:
@@ -646,7 +647,9 @@ class BoomerBoards:
         cell = self.board_cell(self.position)  # [B, S]
         b, viewer, seen = np.nonzero(self.alive[:, :, None] & self.alive[:, None, :])
         body[b, viewer, self._position_plane[viewer, seen], self._frame_of[viewer, cell[b, seen]]] = 1.0
-        obs[~self.alive] = 0.0
+        dead = ~self.alive
+        if dead.any():
+            obs[dead] = 0.0
         return obs
 
     def state(self) -> np.ndarray:
