@@ -113,7 +113,8 @@ Measures
 --------
 ``active`` and ``alive`` (the player lives), ``resource_gain`` (1 on a step it takes a power-up),
 ``outcome`` (at the end, ``2 * team_result / (teams - 1) - 1``: +1 win, 0 draw, -1 loss with two
-teams).
+teams). Events of each step, each with its ``seat``: ``laid_a_bomb``, ``kicked_a_bomb``,
+``took_a_power_up``, ``death``.
 
 Episode end
 -----------
@@ -352,7 +353,8 @@ class BoomerRules(GameRules):
             getattr(self.measures, measure)[:] = getattr(engine, source)[0]
         happened = engine.laid[0] | engine.kicked[0] | engine.picked[0] | engine.died[0]
         self._events = [] if not happened.any() else [{"kind": kind, "seat": int(i)} for kind, flags in (
-            ("bomb", engine.laid), ("kick", engine.kicked), ("power_up", engine.picked), ("death", engine.died))
+            ("laid_a_bomb", engine.laid), ("kicked_a_bomb", engine.kicked), ("took_a_power_up", engine.picked),
+            ("death", engine.died))
             for i in np.flatnonzero(flags[0])]
         if engine.done[0]:
             self.game_over = True
@@ -476,8 +478,10 @@ class BoomerControls(Controls):
                 chars[cells[seat]] = name
         size = rules.size
         lines = ["".join(chars[r * size:(r + 1) * size]) for r in range(size)]
+        under = int(engine.bomb_timer[0, engine.position[0, self.seat]]) if engine.alive[0, self.seat] else 0
         me = f"You are @: ammo {int(engine.ammo[0, self.seat])}, blast strength {int(engine.strength[0, self.seat])}" \
-             f"{', can kick' if engine.can_kick[0, self.seat] else ''}{'' if engine.alive[0, self.seat] else ' (dead)'}."
+             f"{', can kick' if engine.can_kick[0, self.seat] else ''}" \
+             f"{f', on a bomb ({under} steps left)' if under else ''}{'' if engine.alive[0, self.seat] else ' (dead)'}."
         return "\n".join(lines) + "\n" + me
 
     def prompt(self, step: int) -> str:
