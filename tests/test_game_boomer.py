@@ -286,3 +286,18 @@ def test_power_up_kinds_appear_in_the_picture_and_the_scene(kind):
     rules.engine.terrain[0, rules.engine._inner[_cell(0, 5)]] = kind
     assert (rules.picture_codes() == kind).any()
     assert len(next(e for e in rules.scene_entities(0) if e["id"] == "power_ups")["spheres"]) >= 1
+
+
+def test_a_board_plays_the_same_alone_or_among_others():
+    alone = BoomerBoards(1, 4)
+    batch = BoomerBoards(3, 4)
+    alone.reset(keys=np.array([21], dtype=np.uint64))
+    batch.reset(keys=np.array([5, 21, 9], dtype=np.uint64))
+    rng = np.random.default_rng(4)
+    for _ in range(60):
+        actions = rng.integers(6, size=(3, 4))
+        alone.step(actions[1:2])
+        batch.step(actions)
+        assert np.array_equal(alone.observe()[0], batch.observe()[1])
+        assert np.array_equal(alone.state()[0], batch.state()[1])
+    assert alone.done[0] == batch.done[1] and np.array_equal(alone.team_scores(), batch.team_scores([1]))
