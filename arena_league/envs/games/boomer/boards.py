@@ -36,6 +36,7 @@ PLANES: tuple[str, ...] = ("rigid wall", "wooden wall", "extra-bomb power-up", "
                            "bomb: 1 / steps to its explosion", "blast: 1 / steps until a blast reaches the cell",
                            "flame: steps it still burns / 3", "own position", "teammates", "opponents")
 N_BOARD_PLANES = 8  # the planes every seat shares (turned into its frame)
+_TERRAIN_PLANES = np.array([RIGID, WOOD, EXTRA_BOMB, RANGE, KICK], dtype=np.int8)  # the first five planes
 PER_AGENT = 4  # alive, ammo / 10, blast strength / 10, can kick
 STATE_PER_AGENT = 6  # the same, then row and column / (size - 1)
 
@@ -131,6 +132,7 @@ class BoomerBoards:
                   for i in range(s)]
         self._others = np.array(others, dtype=np.int64).reshape(s, s - 1)
         # which position plane (own 8, teammates 9, opponents 10) seat j fills in seat i's view
+        self._team_onehot = self.team_of[:, None] == np.arange(self.n_teams)[None, :]  # [S, teams]
         self._position_plane = np.where(np.eye(s, dtype=bool), 8, np.where(same_team, 9, 10))
         self.header = PER_AGENT * s
         self.obs_dim = self.header + len(PLANES) * self.n_cells
@@ -544,9 +546,7 @@ class BoomerBoards:
 
     def _judge(self, live: np.ndarray) -> None:
         """End the boards where at most one team has a player left (or at ``max_steps``)."""
-        teams_left = np.zeros((self.n_boards, self.n_teams), dtype=bool)
-        for team in range(self.n_teams):
-            teams_left[:, team] = self.alive[:, self.team_of == team].any(axis=1)
+        teams_left = (self.alive[:, :, None] & self._team_onehot).any(axis=1)  # [B, teams]
         ended = live & (teams_left.sum(axis=1) <= 1)
         if self.max_steps is not None:
             cut = live & ~ended & (self.t >= self.max_steps)
@@ -605,18 +605,17 @@ class BoomerBoards:
             if (sooner == steps).all():
                 break
             steps = sooner
-        reached_board, reached_inner = np.divmod(flat_reached, side * side)
-        row, col = np.divmod(reached_inner, side)
-        inner_cell = (row - 1) * self.size + (col - 1)
-        np.maximum.at(blast, (reached_board, inner_cell), 1.0 / steps[which])
+        # settled: ``earliest`` holds, per cell, the step the first blast reaches it
+        earliest = earliest.reshape(self.n_boards, side * side)[:, self._inner]
+        reached = earliest <= BOMB_LIFE
+        blast[reached] = 1.0 / earliest[reached]
         return bomb, blast
 
     def board_planes(self) -> np.ndarray:
         """``float32[B, 8, size * size]``: the planes every seat sees, in the board's frame."""
         planes = np.zeros((self.n_boards, N_BOARD_PLANES, self.n_cells), dtype=np.float32)
         terrain = self.terrain[:, self._inner]
-        for k, code in enumerate((RIGID, WOOD, EXTRA_BOMB, RANGE, KICK)):
-            planes[:, k] = terrain == code
+        planes[:, :5] = terrain[:, None, :] == _TERRAIN_PLANES[None, :, None]
         planes[:, 5], planes[:, 6] = self._bomb_times()
         planes[:, 7] = self.flame[:, self._inner] * np.float32(1.0 / FLAME_STEPS)
         return planes
@@ -642,8 +641,7 @@ class BoomerBoards:
         obs[:, :, PER_AGENT:self.header] = scalars[:, self._others].reshape(b_count, s_count, -1)
         planes = self.board_planes()
         body = obs[:, :, self.header:].reshape(b_count, s_count, len(PLANES), n_cells)
-        for s in range(s_count):
-            body[:, s, :N_BOARD_PLANES] = planes[:, :, self._frame_cells[s]]
+        body[:, :, :N_BOARD_PLANES] = planes[:, :, self._frame_cells].transpose(0, 2, 1, 3)  # [B, S, 8, cells]
         cell = self.board_cell(self.position)  # [B, S]
         b, viewer, seen = np.nonzero(self.alive[:, :, None] & self.alive[:, None, :])
         body[b, viewer, self._position_plane[viewer, seen], self._frame_of[viewer, cell[b, seen]]] = 1.0
