@@ -13,8 +13,8 @@ passage, rigid wall (indestructible), wooden wall (a blast destroys it), or a po
 open. The map is drawn from the match seed and is the same turned by a quarter (clockwise) about
 the centre, so every corner, hence every seat, starts alike:
 
-* each seat starts one cell in from its corner, at (1, 1) turned; its own cell and the two cells
-  on either side of it along the board's edges, (1, 2), (1, 3), (2, 1), (3, 1) turned, start clear;
+* each seat starts one cell in from its corner, at (1, 1) turned; its own cell and the next two
+  cells toward each neighbouring corner, (1, 2), (1, 3), (2, 1), (3, 1) turned, start clear;
 * wooden lanes join the corners: (1, i) for ``4 <= i <= size - 5``, turned (12 walls at size 11);
 * ``n_rigid`` rigid walls (default 36) and the rest of ``n_wood`` wooden walls (default 36 in
   all) fill whole quarter-turn orbits of four cells, drawn uniformly among the cells left (never
@@ -25,8 +25,9 @@ the centre, so every corner, hence every seat, starts alike:
 Bodies and rules
 ----------------
 A player has ``ammo`` (bombs it may have on the board, starts 1, at most 10), a ``blast_strength``
-(default 2, at most 10) and may ``kick`` (starts false). Bombs have a timer of 10 steps; a flame
-burns for 3 board states (the step of its explosion and the 2 after).
+(default 2, at most 10) and may ``kick`` (starts false). A bomb explodes on the 10th step counting the
+one it is laid on (Pommerman's bomb life); a flame burns for 3 board states (the step of its
+explosion and the 2 after).
 
 One step, exactly:
 
@@ -63,7 +64,8 @@ Where Boomer differs from Pommerman, and why:
   changes it for the whole match (2..10).
 * Simultaneous moves are settled by the rule of step 3, simpler than Pommerman's sequence of
   reverts: bombs slide before players move (Pommerman moves both at once), a kick needs the cell
-  past the bomb clear at the start of the step, and a bomb train stops at its first bomb.
+  past the bomb clear when the players act, and a sliding bomb stops behind another bomb even
+  when that one slides on.
 * A blast on a flame that still burns over a destroyed wooden wall keeps that wall's power-up
   hidden until the last flame goes out (Pommerman loses it).
 * The duel (2T1P) is played on the same 11-board, from opposite corners (Pommerman's OneVsOne uses an
@@ -98,9 +100,9 @@ index                                    content
 then 11 planes of ``size^2`` cells,      rigid wall; wooden wall; power-ups: extra bomb, range,
 row-major (row 0 is the seat's "up")     kick; bomb: 1 / steps to its explosion; blast: 1 / steps
                                          until a known blast reaches the cell (the earliest, chains
-                                         included, sliding ignored); flame: steps it still burns
-                                         / 3; own position; teammates' positions; opponents'
-                                         positions
+                                         included, sliding ignored); flame: board states it still
+                                         burns, this one included, / 3; own position; teammates'
+                                         positions; opponents' positions
 =======================================  ==========================================================
 
 Size ``4 seats + 11 size^2``: 1339 for two seats, 1347 for four (size 11). A dead seat's row is 0.
@@ -142,7 +144,8 @@ a cell that burns on the next step. It outlives uniformly random play in 397 of 
 Game kwargs
 -----------
 ``size`` (default 11, 7..15), ``n_rigid`` (default 36), ``n_wood`` (default 36), ``n_items``
-(default 20; at most ``n_wood``), all three multiples of 4; ``blast_strength`` (default 2, 2..10).
+(default 20; at most ``n_wood``), all three multiples of 4 (the default counts need a board of at
+least 10; a smaller one takes fewer walls); ``blast_strength`` (default 2, 2..10).
 Declared in ``BoomerRules.options`` (listed by ``arena-league games``).
 
 Batched engine

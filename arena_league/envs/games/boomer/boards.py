@@ -400,7 +400,7 @@ class BoomerBoards:
             self._move_bombs(b[go], cell[go], target[go])
 
     def _move_bombs(self, b: np.ndarray, source: np.ndarray, target: np.ndarray) -> None:
-        """Bombs from ``source`` to ``target`` cells (all sources first, so trains move together)."""
+        """Bombs from ``source`` to ``target`` cells (every source is cleared before any target is written)."""
         arrays = (self.bomb_timer, self.bomb_strength, self.bomb_owner, self.bomb_direction)
         values = [a[b, source].copy() for a in arrays]
         for a, empty in zip(arrays, (0, 0, -1, -1), strict=True):
