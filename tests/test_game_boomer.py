@@ -301,3 +301,30 @@ def test_a_board_plays_the_same_alone_or_among_others():
         assert np.array_equal(alone.observe()[0], batch.observe()[1])
         assert np.array_equal(alone.state()[0], batch.state()[1])
     assert alone.done[0] == batch.done[1] and np.array_equal(alone.team_scores(), batch.team_scores([1]))
+
+
+def test_a_player_leaves_its_own_bomb_but_no_one_walks_onto_it_and_a_bomb_sliding_into_flames_explodes():
+    boards = _boards([".......",
+                      ".......",
+                      ".01....",
+                      ".......",
+                      ".......",
+                      ".......",
+                      "......."])
+    _step(boards, BOMB, STOP)
+    _step(boards, LEFT, LEFT)  # seat 0 steps off its bomb; seat 1, without kick, cannot step onto it
+    assert boards.board_cell(boards.position)[0].tolist() == [_cell(2, 0), _cell(2, 2)]
+    boards = _boards(["0......",
+                      ".......",
+                      ".......",
+                      ".......",
+                      ".......",
+                      ".......",
+                      "......1"])
+    boards.lay_bomb(0, _cell(4, 1), owner=1, timer=9)  # sliding right, toward a burning cell
+    boards.bomb_direction[0, boards._inner[_cell(4, 1)]] = 1
+    boards.flame[0, boards._inner[_cell(4, 3)]] = 3
+    _step(boards, STOP, STOP)  # slides to (4, 2)
+    assert boards.bomb_timer[0, boards._inner[_cell(4, 2)]] == 8
+    _step(boards, STOP, STOP)  # slides into the flame and goes off at once
+    assert boards.bomb_timer[0].max() == 0 and {(3, 3), (5, 3), (4, 4)} <= _flames(boards)
