@@ -103,15 +103,16 @@ def pettingzoo_peer(name: str, seconds: float) -> dict:
     return result
 
 
-def board_steps(boards, seconds: float, observe: bool = False) -> tuple[int, float]:
-    """Step a grid engine's auto-resetting ``boards`` (``GoBangBoards`` or ``SnakeBoards``) with
-    uniformly random legal actions from the engine's own generator (sampling included) for about
-    ``seconds``; returns (board steps, elapsed seconds). With ``observe``, every seat's observation
-    is built every step too."""
+def board_steps(boards, seconds: float, observe: bool = False) -> tuple[int, float, float]:
+    """Step a grid engine's auto-resetting ``boards`` (``GoBangBoards``, ``SnakeBoards``, ``BoomerBoards``)
+    with uniformly random legal actions from the engine's own generator (sampling included) for about
+    ``seconds``; returns (board steps, elapsed seconds, CPU seconds). With ``observe``, every seat's
+    observation is built every step too."""
     for _ in range(10):  # warm up: fill the boards a little
         boards.step(boards.random_actions())
     steps = 0
     start = time.perf_counter()
+    start_cpu = time.process_time()
     while True:
         for _ in range(16):
             boards.step(boards.random_actions())
@@ -120,38 +121,70 @@ def board_steps(boards, seconds: float, observe: bool = False) -> tuple[int, flo
         steps += 16
         elapsed = time.perf_counter() - start
         if elapsed >= seconds:
-            return steps * boards.n_boards, elapsed
+            return steps * boards.n_boards, elapsed, time.process_time() - start_cpu
 
 
-def batched_grid(seconds: float) -> list[dict]:
-    """Board steps/s of the batched grid engines (random legal actions)."""
+def batched_grid(seconds: float, games: list[str] | None = None) -> list[dict] | str:
+    """Board steps/s of the batched grid engines (random legal actions); with ``games``, only the
+    engines of the games those ids name."""
+    from arena_league.envs.games.boomer.boards import BoomerBoards
+    from arena_league.envs.games.captureflag import CaptureFlagBoards
     from arena_league.envs.games.gobang import GoBangBoards
     from arena_league.envs.games.snake import SnakeBoards
 
-    n_boards = 4096
+    engines = {"GoBang": lambda: GoBangBoards(4096, autoreset=True, seed=0),
+               "Snake-4T1P": lambda: SnakeBoards(4096, n_snakes=4, autoreset=True, seed=0),
+               # the board count Boomer's goal is stated at (100,000 board steps/s on one core)
+               "Boomer-4T1P": lambda: BoomerBoards(1024, n_seats=4, autoreset=True, seed=0),
+               # CaptureFlag's too; these two also with every seat's observation built every step
+               **{f"CaptureFlag-2T{p}P": (lambda p=p: CaptureFlagBoards(1024, p, autoreset=True, max_steps=300, seed=0))
+                  for p in (1, 2)}}
+    if games is not None:
+        named = {game_id.split("-")[0] for game_id in games}
+        engines = {name: build for name, build in engines.items() if name.split("-")[0] in named}
+        if not engines:
+            return "skipped: --games names no game with a batched grid engine"
     results = []
-    for name, boards in (("GoBang", GoBangBoards(n_boards, autoreset=True, seed=0)),
-                         ("Snake-4T1P", SnakeBoards(n_boards, n_snakes=4, autoreset=True, seed=0))):
-        steps, elapsed = board_steps(boards, seconds)
-        results.append({"engine": name, "boards": n_boards, "board_steps_per_s": round(steps / elapsed),
-                        "seconds": round(elapsed, 3)})
-    results += batched_captureflag(seconds)
+    for name, build in engines.items():
+        for observe in (False, True) if name.startswith(("CaptureFlag", "Boomer")) else (False,):
+            boards = build()
+            steps, elapsed, cpu = board_steps(boards, seconds, observe=observe)
+            # per CPU second too: on a shared machine the wall clock also counts other processes' turns
+            results.append({"engine": name, "boards": boards.n_boards, "observe": observe,
+                            "board_steps_per_s": round(steps / elapsed), "board_steps_per_cpu_s": round(steps / cpu),
+                            "seconds": round(elapsed, 3)})
     return results
 
 
-def batched_captureflag(seconds: float, n_boards: int = 1024) -> list[dict]:
-    """Board steps/s of CaptureFlag's engine at ``n_boards`` (matches cut at the default 300 steps),
-    stepping only and with every seat's observation built every step."""
-    from arena_league.envs.games.captureflag import CaptureFlagBoards
+#: Why the Pommerman reference step is not timed where the package cannot be imported.
+POMMERMAN_MISSING = ("not installable from the registry: PyPI has no 'pommerman' distribution (pypi.org/simple/"
+                     "pommerman/ answers 404); it ships only as the GitHub repository MultiAgentLearning/playground")
 
-    results = []
-    for players in (1, 2):
-        for observe in (False, True):
-            boards = CaptureFlagBoards(n_boards, players, autoreset=True, max_steps=300, seed=0)
-            steps, elapsed = board_steps(boards, seconds, observe=observe)
-            results.append({"engine": f"CaptureFlag-2T{players}P", "boards": n_boards, "observe": observe,
-                            "board_steps_per_s": round(steps / elapsed), "seconds": round(elapsed, 3)})
-    return results
+
+def pommerman_peer(seconds: float) -> dict:
+    """Env steps/s of Pommerman's own free-for-all (``PommeFFACompetition-v0``, four seats, uniformly
+    random actions from a pool drawn beforehand), the reference Boomer's rules follow, where it can
+    be imported; otherwise why not."""
+    try:
+        import pommerman
+        from pommerman import agents
+    except ImportError:
+        return {"env": "PommeFFACompetition-v0", "skipped": POMMERMAN_MISSING}
+    env = pommerman.make("PommeFFACompetition-v0", [agents.RandomAgent() for _ in range(4)])
+    rng = np.random.default_rng(0)
+    pool = rng.integers(6, size=(256, 4)).tolist()
+    env.reset()
+    steps = episodes = 0
+    start = time.perf_counter()
+    while time.perf_counter() - start < seconds:
+        _, _, done, _ = env.step(pool[steps % len(pool)])
+        steps += 1
+        if done:
+            episodes += 1
+            env.reset()
+    elapsed = time.perf_counter() - start
+    return {"env": "PommeFFACompetition-v0", "steps_per_s": round(steps / elapsed), "steps": steps,
+            "episodes": episodes, "seconds": round(elapsed, 3)}
 
 
 def robots(seconds: float) -> dict:
@@ -317,7 +350,8 @@ def main(argv: list[str] | None = None) -> int:
         "arena_league": rows,
         "pettingzoo": peers,
         # the engines' own sections time every game of their kind: with --games, only the ids named
-        "grid_batched": batched_grid(args.seconds) if args.games is None else "skipped: --games names the ids",
+        "grid_batched": batched_grid(args.seconds, args.games),
+        "pommerman": pommerman_peer(args.seconds),
         "robots": robots(args.seconds) if args.games is None else "skipped: --games names the ids",
         "summary": {
             "slowest_2d_physics_steps_per_s": min((r["steps_per_s"] for r in physics), default=None),

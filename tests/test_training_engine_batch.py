@@ -58,6 +58,9 @@ CASES = [
                  id="captureflag-small"),
     pytest.param("CaptureFlag-2T1P-v1", {"tree": team_tree(2, 1, "win_loss", leaf="target"), "max_cycles": 40}, 3,
                  120, id="captureflag-target"),
+    pytest.param("Boomer-2T2P-v1", {}, 4, 150, id="boomer-default"),
+    pytest.param("Boomer-4T1P-v1", {"max_cycles": 15, "size": 9, "n_rigid": 16, "n_wood": 24, "n_items": 8}, 3, 100,
+                 id="boomer-4p-cut-small"),
 ]
 
 

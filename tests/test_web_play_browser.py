@@ -190,6 +190,35 @@ def test_a_guest_moves_up_in_capture_the_flag_with_the_arrow_keys(server, browse
     moved = [position() for _ in range(3)]
     page.keyboard.up("ArrowUp")
     assert any(y > start[1] + 0.5 and abs(x - start[0]) < 0.01 for x, y in moved), (start, moved)
+def test_a_guest_walks_out_of_a_boomer_corner_with_the_arrow_keys(server, browser):
+    # no base population ships for Boomer yet: the league's scripted agents stand in as its base
+    from arena_league.league import ensure_scripted_agents, open_home
+    from arena_league.registry import add_population_member, create_population, freeze_population, get_agent
+
+    with open_home(server.home) as league:
+        names = ensure_scripted_agents(league, "Boomer-2T1P-v1")
+        with league.transaction() as session:
+            population = create_population(session, "scripted", "Boomer-2T1P-v1", provenance={"made_by": "test"})
+            for name, rating in zip(names, (900.0, 1100.0), strict=True):
+                add_population_member(session, population, get_agent(session, name), {"rating": rating})
+            freeze_population(session, population)
+    page = start_as_guest(server, browser, "Boomer-2T1P-v1", "bomber")
+
+    def you_after_the_next_step() -> tuple[float, float]:
+        step = page.get_attribute("#play", "data-step")
+        page.wait_for_function("([step]) => document.getElementById('play').dataset.step !== step", arg=[step])
+        x, y = (float(v) for v in page.get_attribute("#play", "data-you").split(","))
+        return x, y
+
+    start = you_after_the_next_step()
+    bounds = json.loads(page.get_attribute("#play", "data-bounds"))
+    # a corner's two cells along the board's edge start clear: walk along it, away from the corner
+    key, wanted = ("ArrowRight", 1) if start[0] < (bounds[0] + bounds[2]) / 2 else ("ArrowLeft", -1)
+    page.keyboard.press(key)
+    seen = [you_after_the_next_step() for _ in range(3)]
+    moves = [round(x - start[0]) for x, _ in seen]
+    assert wanted in moves and all(y == start[1] for _, y in seen), (start, key, seen)
+    assert seen[-1] == seen[-2], "one press moves one cell, then the player stops"
     page.evaluate("document.querySelector('[data-role=\"resign\"]').click()")
     sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
     sync_api.expect(page.locator('[data-role="reason"]')).to_contain_text("Why it ended: you resigned")
