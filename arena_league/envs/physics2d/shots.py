@@ -1,0 +1,225 @@
+"""Shots fired by seats across a tiled map: the tiles (some of which shots break) as static pymunk
+boxes, and the shells themselves, moved exactly along their straight paths outside pymunk.
+
+A game that shoots declares a :class:`TileMap` (a grid of square tiles, each of a kind the game
+names: empty, or solid, and among the solid kinds those a shell breaks) and a :class:`Shells` (at
+most one shell in flight per seat). :meth:`TileMap.build` adds one static box per solid tile to a
+match's fresh space, row by row from the bottom, after the field's declared parts (so the order is
+part of the game's rules); :meth:`TileMap.clear` removes a broken tile's box. Shells are points that
+move at a constant speed: each env step, :meth:`Shells.advance` sweeps every shell in flight, in
+seat order, along its segment for the step, and stops it at the first thing it meets: a solid tile
+(found by walking the tiles the segment crosses, in order), a body it may hit (the segment's first
+crossing of the body's circle) or the map's edge. A tile a shell breaks is cleared before the next
+shell moves. Nothing here draws a random number, and nothing is kept in pymunk but the tiles, so
+shells cost nothing in the physics step and replay exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+
+from arena_league.envs.physics2d.world import Material
+
+__all__ = ["EMPTY", "Hit", "Shells", "TileMap"]
+
+#: The kind of a tile with nothing on it.
+EMPTY = 0
+
+
+@dataclass(frozen=True)
+class Hit:
+    """What a shell of seat ``shooter`` met this step, at ``(x, y)``: a body (``seat`` >= 0), a
+    tile (``row``, ``col`` and its ``kind``, ``broken`` if the shell broke it) or the map's edge
+    (neither)."""
+
+    shooter: int
+    x: float
+    y: float
+    seat: int = -1
+    row: int = -1
+    col: int = -1
+    kind: int = EMPTY
+    broken: bool = False
+
+
+class TileMap:
+    """``n_rows`` x ``n_cols`` square tiles of side ``tile``, the lower-left corner of tile ``(0, 0)``
+    at ``origin``; ``kinds[row, col]`` (row 0 at the bottom) is :data:`EMPTY` or a solid kind, and
+    the kinds in ``breakable`` are broken (cleared) by the shell that hits them."""
+
+    def __init__(self, n_rows: int, n_cols: int, tile: float, origin: tuple[float, float],
+                 breakable: Sequence[int], material: Material | None = None) -> None:
+        self.n_rows, self.n_cols, self.tile = n_rows, n_cols, float(tile)
+        self.origin = (float(origin[0]), float(origin[1]))
+        self.breakable = frozenset(int(kind) for kind in breakable)
+        self.material = material or Material()
+        self.kinds = np.zeros((n_rows, n_cols), dtype=np.int8)
+        # (rows of Python ints: the shells' walk reads single tiles, where a list beats numpy)
+        self._rows: list[list[int]] = [[EMPTY] * n_cols for _ in range(n_rows)]
+        self._shapes: dict[tuple[int, int], pymunk.Shape] = {}
+        self._space: pymunk.Space | None = None
+
+    def centre(self, row: int, col: int) -> tuple[float, float]:
+        """The world point at the centre of tile ``(row, col)``."""
+        return self.origin[0] + (col + 0.5) * self.tile, self.origin[1] + (row + 0.5) * self.tile
+
+    def cell(self, x: float, y: float) -> tuple[int, int]:
+        """``(row, col)`` of the tile under the world point ``(x, y)`` (outside the map when out of range)."""
+        return math.floor((y - self.origin[1]) / self.tile), math.floor((x - self.origin[0]) / self.tile)
+
+    def build(self, space: pymunk.Space, kinds: np.ndarray) -> None:
+        """Lay ``kinds`` out in ``space``: a static box per solid tile, row by row (the boxes of an
+        earlier layout in the same space leave it first)."""
+        if self._space is space and self._shapes:
+            space.remove(*self._shapes.values())
+        self.kinds[:] = kinds
+        self._rows = self.kinds.tolist()
+        self._shapes = {}
+        self._space = space
+        shapes = []
+        for row, col in zip(*np.nonzero(self.kinds)):
+            x0, y0 = self.origin[0] + col * self.tile, self.origin[1] + row * self.tile
+            x1, y1 = x0 + self.tile, y0 + self.tile
+            box = pymunk.Poly(space.static_body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+            self.material.apply(box)
+            self._shapes[int(row), int(col)] = box
+            shapes.append(box)
+        if shapes:
+            space.add(*shapes)
+
+    def clear(self, row: int, col: int) -> None:
+        """Empty tile ``(row, col)``: its box leaves the space."""
+        shape = self._shapes.pop((row, col), None)
+        if shape is not None and self._space is not None:
+            self._space.remove(shape)
+        self.kinds[row, col] = EMPTY
+        self._rows[row][col] = EMPTY
+
+    def first_solid(self, x0: float, y0: float, x1: float, y1: float) -> tuple[float, int, int]:
+        """Walk the tiles the segment from ``(x0, y0)`` to ``(x1, y1)`` crosses, in order, and give
+        ``(t, row, col)`` of the first solid one it enters (``t`` in [0, 1] along the segment; the
+        tile of the start counts when it is solid), ``(t, -1, -1)`` where it leaves the map, or
+        ``(inf, -1, -1)`` when it meets neither."""
+        tile, (ox, oy) = self.tile, self.origin
+        gx, gy = (x0 - ox) / tile, (y0 - oy) / tile
+        dx, dy = (x1 - ox) / tile - gx, (y1 - oy) / tile - gy
+        col, row = math.floor(gx), math.floor(gy)
+        inf = math.inf
+        if dx > 0:
+            step_col, next_x, delta_x = 1, (col + 1 - gx) / dx, 1 / dx
+        elif dx < 0:
+            step_col, next_x, delta_x = -1, (gx - col) / -dx, -1 / dx
+        else:
+            step_col, next_x, delta_x = 0, inf, inf
+        if dy > 0:
+            step_row, next_y, delta_y = 1, (row + 1 - gy) / dy, 1 / dy
+        elif dy < 0:
+            step_row, next_y, delta_y = -1, (gy - row) / -dy, -1 / dy
+        else:
+            step_row, next_y, delta_y = 0, inf, inf
+        rows, n_rows, n_cols = self._rows, self.n_rows, self.n_cols
+        t = 0.0
+        while t <= 1.0:
+            if not (0 <= row < n_rows and 0 <= col < n_cols):
+                return t, -1, -1
+            if rows[row][col] != EMPTY:
+                return t, row, col
+            if next_x < next_y:
+                t, next_x, col = next_x, next_x + delta_x, col + step_col
+            else:
+                t, next_y, row = next_y, next_y + delta_y, row + step_row
+        return inf, -1, -1
+
+
+class Shells:
+    """At most one shell in flight per seat, flying at ``speed`` (world units per second).
+
+    ``can_hit[i, j]`` says whether seat ``i``'s shell hits seat ``j``'s body (a seat's own shell
+    never does; a game whose shells pass through teammates says so here); a body is a circle of
+    ``body_radius``.
+    """
+
+    def __init__(self, can_hit: np.ndarray, speed: float, body_radius: float) -> None:
+        self.n = len(can_hit)
+        self.can_hit = np.asarray(can_hit, dtype=bool) & ~np.eye(self.n, dtype=bool)
+        self._targets = [np.flatnonzero(row).tolist() for row in self.can_hit]
+        self.speed, self.body_radius = float(speed), float(body_radius)
+        self.xy = np.zeros((self.n, 2))
+        self.direction = np.zeros((self.n, 2))
+        self.flying = np.zeros(self.n, dtype=bool)
+
+    def reset(self) -> None:
+        """No shell in flight."""
+        self.xy[:] = 0.0
+        self.direction[:] = 0.0
+        self.flying[:] = False
+
+    def fire(self, seat: int, xy: Sequence[float], direction: Sequence[float]) -> None:
+        """Seat ``seat``'s shell leaves ``xy`` along the unit vector ``direction`` (it moves on the
+        next :meth:`advance`)."""
+        self.xy[seat] = xy
+        self.direction[seat] = direction
+        self.flying[seat] = True
+
+    def advance(self, dt: float, tiles: TileMap, body_xy: np.ndarray, targetable: np.ndarray) -> list[Hit]:
+        """Move every shell in flight by ``speed * dt``, seat by seat, and stop each at the first
+        thing it meets: a body of a seat it may hit that is ``targetable``, a solid tile (broken if
+        breakable) or the map's edge. Returns what was hit, in seat order."""
+        hits: list[Hit] = []
+        if not self.flying.any():
+            return hits
+        reach = self.speed * dt
+        radius_sq = self.body_radius ** 2
+        bodies = body_xy.tolist()
+        open_to_hit = targetable.tolist()
+        for seat in np.flatnonzero(self.flying).tolist():
+            x0, y0 = self.xy[seat].tolist()
+            ux, uy = self.direction[seat].tolist()
+            dx, dy = ux * reach, uy * reach
+            t_tile, row, col = tiles.first_solid(x0, y0, x0 + dx, y0 + dy)
+            t_body, struck = math.inf, -1
+            for j in self._targets[seat]:
+                if not open_to_hit[j]:
+                    continue
+                t = _segment_enters_circle(x0 - bodies[j][0], y0 - bodies[j][1], dx, dy, radius_sq)
+                if t < t_body:
+                    t_body, struck = t, j
+            if t_body <= t_tile and struck >= 0:
+                self.flying[seat] = False
+                hits.append(Hit(seat, x0 + t_body * dx, y0 + t_body * dy, seat=struck))
+            elif t_tile <= 1.0:
+                self.flying[seat] = False
+                x, y = x0 + t_tile * dx, y0 + t_tile * dy
+                if row < 0:
+                    hits.append(Hit(seat, x, y))
+                    continue
+                kind = int(tiles.kinds[row, col])
+                broken = kind in tiles.breakable
+                if broken:
+                    tiles.clear(row, col)
+                hits.append(Hit(seat, x, y, row=row, col=col, kind=kind, broken=broken))
+            else:
+                self.xy[seat] = x0 + dx, y0 + dy
+        return hits
+
+
+def _segment_enters_circle(px: float, py: float, dx: float, dy: float, radius_sq: float) -> float:
+    """The least ``t`` in [0, 1] at which ``p + t d`` lies on or in the circle of squared radius
+    ``radius_sq`` about the origin (0 when ``p`` already does), or infinity."""
+    c = px * px + py * py - radius_sq
+    if c <= 0.0:
+        return 0.0
+    b = px * dx + py * dy
+    if b >= 0.0:
+        return math.inf  # moving away
+    a = dx * dx + dy * dy
+    disc = b * b - a * c
+    if disc < 0.0:
+        return math.inf
+    t = (-b - math.sqrt(disc)) / a
+    return t if t <= 1.0 else math.inf
