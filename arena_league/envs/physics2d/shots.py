@@ -171,16 +171,19 @@ class Shells:
         thing it meets: a body of a seat it may hit that is ``targetable``, a solid tile (broken if
         breakable) or the map's edge. Returns what was hit, in seat order."""
         hits: list[Hit] = []
-        if not self.flying.any():
+        flying = self.flying.tolist()
+        if True not in flying:
             return hits
         reach = self.speed * dt
         radius_sq = self.body_radius ** 2
         bodies = body_xy.tolist()
         open_to_hit = targetable.tolist()
-        for seat in np.flatnonzero(self.flying).tolist():
-            x0, y0 = self.xy[seat].tolist()
-            ux, uy = self.direction[seat].tolist()
-            dx, dy = ux * reach, uy * reach
+        xy, direction = self.xy.tolist(), self.direction.tolist()
+        for seat, up in enumerate(flying):
+            if not up:
+                continue
+            x0, y0 = xy[seat]
+            dx, dy = direction[seat][0] * reach, direction[seat][1] * reach
             t_tile, row, col = tiles.first_solid(x0, y0, x0 + dx, y0 + dy)
             t_body, struck = math.inf, -1
             for j in self._targets[seat]:

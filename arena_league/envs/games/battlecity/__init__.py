@@ -26,8 +26,9 @@ Bodies and physics
     steel and base tile (a static box of side 1) stop them. One pymunk step of 0.1 s per env step;
     space damping 0.5 (a coasting tank keeps half its velocity after a second); a tank's thrust of
     at most 9 is opposed by a drag of ``3 * velocity``: top speed about 2.45 tiles/s. Contacts
-    have restitution 0.01 and no friction, so a tank slides along walls. The pymunk space is built
-    fresh for every match: the outer wall, the tanks in seat order, then the tiles row by row.
+    have no friction (a tank slides along walls) and a restitution of 0.01 between tanks, 0
+    against walls and tiles. The pymunk space is built fresh for every match: the outer wall, the
+    tanks in seat order, then the tiles row by row.
 
 Start
     Team 0's tanks stand at the centres of the tiles ``(0, 3)`` (1P) or ``(0, 3)`` and ``(0, 9)``
@@ -165,6 +166,7 @@ from arena_league.envs.controls import TurnedCompassControls, arrow_keys, key_co
 from arena_league.envs.games.battlecity.maze import (
     BASE,
     BRICK,
+    DT,
     GRID,
     HALF,
     RELOAD_STEPS,
@@ -259,9 +261,12 @@ class BattleCityRules(Physics2DRules):
         self._standing = world.view("base_standing")
         bases = np.array([tile_centre(*tile) for tile in base_tiles()])
         world.view("base")[:] = bases.reshape(-1)
-        self._enemy_base = bases[1 - self.team_of]
-        self._turn_gate = np.zeros(n)
-        self._length = np.zeros(n)
+        self.discrete = action_type == "discrete"
+        self._tank_c = world.table[:n].view(np.complex128)[:, 0]
+        self._enemy_base_c = bases[1 - self.team_of].view(np.complex128).reshape(-1).copy()
+        self._to_base_c = np.zeros(n, dtype=np.complex128)
+        self._length, self._scaled_length = np.zeros(n), np.zeros(n)
+        self._fire, self._no_fire, self._turning = (np.zeros(n, dtype=bool) for _ in range(3))
         self._moves = np.zeros(n, dtype=np.int64)
         self._loaded_in = np.zeros(n, dtype=np.int64)  # steps until each gun is loaded
         self._hits_left = np.zeros(n, dtype=np.int64)
@@ -270,7 +275,7 @@ class BattleCityRules(Physics2DRules):
     def reset(self, seed: int) -> None:
         self._record_reset(seed)
         self.rng = np.random.default_rng(seed)
-        n, p = self.n_agents, self.players_per_team
+        p = self.players_per_team
         self.kinds = draw_maze(self.rng, p, self.brick_density, self.steel_density)
         starts = np.array([tile_centre(*tile) for tile in start_tiles(p)])
         space = self.world.build({"tank": starts})
@@ -291,15 +296,19 @@ class BattleCityRules(Physics2DRules):
         self._sync_shells()
         m = self.measures
         m.active[:], m.alive[:], m.energy[:], m.outcome[:] = True, True, 0.0, 0.0
-        self._measure_distances(np.ones(n, dtype=bool))
+        self._all_active, self._reloading, self._decided = True, 0, False
+        self._measure_distances()
         self.team_out = np.zeros(2, dtype=bool)
         self.game_over = False
         self._events = []
 
-    def _measure_distances(self, seats: np.ndarray) -> None:
-        d = self._tank_xy - self._enemy_base
-        distance = np.hypot(d[:, 0], d[:, 1])
-        np.copyto(self.measures.target_distance, distance, where=seats)
+    def _measure_distances(self) -> None:
+        """Every tank's distance to the enemy base, frozen for tanks out of play."""
+        np.subtract(self._tank_c, self._enemy_base_c, out=self._to_base_c)
+        if self._all_active:
+            np.abs(self._to_base_c, out=self.measures.target_distance)
+        else:
+            np.copyto(self.measures.target_distance, np.abs(self._to_base_c), where=self.measures.active)
 
     def _sync_shells(self) -> None:
         shells = self.shells
@@ -308,45 +317,70 @@ class BattleCityRules(Physics2DRules):
         self._flying[:] = shells.flying
 
     def step(self, actions: np.ndarray) -> None:
+        # (few numpy calls, each guarded by a count where the common step needs none: the hot path
+        # is Python-bound)
         self._record("step", actions.copy())
         m = self.measures
-        if self.action_type == "discrete":
-            fire = actions == FIRE_ACTION
-            np.multiply(actions, ~fire, out=self._moves)
-            self._seat_thrust.set(self._moves, m.energy)
+        if self.discrete:
+            fire = np.equal(actions, FIRE_ACTION, out=self._fire)
+            firing = np.count_nonzero(fire)
+            if firing:
+                np.multiply(actions, self._not_fire(fire), out=self._moves)
+                actions = self._moves
+            self._seat_thrust.set(actions, m.energy)
         else:
-            fire = actions[:, 2] > 0.0
+            fire = np.greater(actions[:, 2], 0.0, out=self._fire)
+            firing = np.count_nonzero(fire)
             self._seat_thrust.set(actions[:, :2], m.energy)
         thrust = self._thrust_c
-        active = self._active
-        np.multiply(thrust, active, out=thrust)
-        np.multiply(m.energy, active, out=m.energy)
+        if not self._all_active:
+            np.multiply(thrust, self._active, out=thrust)
+            np.multiply(m.energy, self._active, out=m.energy)
         length = np.abs(thrust, out=self._length)
-        turning = length > TURN_THRESHOLD
-        if turning.any():
+        turning = np.greater(length, TURN_THRESHOLD, out=self._turning)
+        turns = np.count_nonzero(turning)
+        if turns == self.n_agents:
             # the tank faces the way it is pushed, in the world: the seat's thrust turned by its frame
+            np.divide(thrust, self._frame_length(length), out=self._heading_c)
+        elif turns:
             self._heading_c[turning] = thrust[turning] / length[turning] * self.frame[turning]
         if self._events:
             self._events = []
-        fire &= m.active & (self._loaded_in == 0) & ~self.shells.flying
-        if fire.any():
-            for seat in np.flatnonzero(fire).tolist():
-                self.shells.fire(seat, self._tank_xy[seat], self._heading[seat])
-                self._loaded_in[seat] = RELOAD_STEPS
-                self._events.append({"kind": "fire", "seat": seat})
+        if firing:
+            self._fire_shells(fire)
 
         self.world.step()
 
-        hits = self.shells.advance(0.1, self.tiles, self._tank_xy, m.active)
-        for hit in hits:
-            self._resolve(hit)
-        self._sync_shells()
-        np.subtract(self._loaded_in, self._loaded_in > 0, out=self._loaded_in)
-        np.multiply(self._loaded_in, 1.0 / RELOAD_STEPS, out=self._reload)
-        self._measure_distances(m.active)
-        if self.team_out.any() and not self.game_over:
+        shells = self.shells
+        if np.count_nonzero(shells.flying):
+            for hit in shells.advance(DT, self.tiles, self._tank_xy, m.active):
+                self._resolve(hit)
+            self._sync_shells()
+        if self._reloading:
+            loaded_in = self._loaded_in
+            np.subtract(loaded_in, loaded_in > 0, out=loaded_in)
+            np.multiply(loaded_in, 1.0 / RELOAD_STEPS, out=self._reload)
+            self._reloading = np.count_nonzero(loaded_in)
+        self._measure_distances()
+        if self._decided and not self.game_over:
             self.game_over = True
             self._set_outcome()
+
+    def _not_fire(self, fire: np.ndarray) -> np.ndarray:
+        return np.logical_not(fire, out=self._no_fire)
+
+    def _frame_length(self, length: np.ndarray) -> np.ndarray:
+        return np.multiply(length, self.frame, out=self._scaled_length)
+
+    def _fire_shells(self, fire: np.ndarray) -> None:
+        """Every seat that fires, is in play, has its gun loaded and no shell in flight shoots."""
+        for seat in np.flatnonzero(fire).tolist():
+            if self.measures.active[seat] and not self._loaded_in[seat] and not self.shells.flying[seat]:
+                self.shells.fire(seat, self._tank_xy[seat], self._heading[seat])
+                self._loaded_in[seat] = RELOAD_STEPS
+                self._reloading = True
+                self._events.append({"kind": "fire", "seat": seat})
+        self._sync_shells()
 
     def _resolve(self, hit: Any) -> None:
         if hit.seat >= 0:
@@ -362,14 +396,14 @@ class BattleCityRules(Physics2DRules):
                 self._events.append({"kind": "destroyed", "seat": target, "by": hit.shooter})
                 team = int(self.team_of[target])
                 if not self.measures.active[self.team_of == team].any():
-                    self.team_out[team] = True
+                    self.team_out[team] = self._decided = True
         elif hit.kind == BRICK:
             self._planes[hit.row * GRID + hit.col] = 0.0
             self._events.append({"kind": "brick", "seat": hit.shooter, "row": hit.row, "col": hit.col})
         elif hit.kind == BASE:
             team = base_tiles().index((hit.row, hit.col))
             self._standing[team] = 0.0
-            self.team_out[team] = True
+            self.team_out[team] = self._decided = True
             self._events.append({"kind": "base", "team": team, "by": hit.shooter})
             for seat in np.flatnonzero(self.team_of == team).tolist():
                 self._take_out(seat)
@@ -380,6 +414,7 @@ class BattleCityRules(Physics2DRules):
         if not m.active[seat]:
             return
         m.active[seat] = m.alive[seat] = False
+        self._all_active = False
         self._active[seat] = 0.0
         self._hits_left[seat] = 0
         self._hit_points[seat] = 0.0
@@ -451,7 +486,7 @@ class BattleCityRules(Physics2DRules):
             self._planes[: GRID * GRID] = (self.kinds == BRICK).reshape(-1)
             self._planes[GRID * GRID:] = (self.kinds == STEEL).reshape(-1)
         self.world.read()
-        self._measure_distances(self.measures.active)
+        self._measure_distances()
         self._events = []
 
     # --- what the layers above see -------------------------------------------------------------

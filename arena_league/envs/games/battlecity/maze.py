@@ -8,7 +8,6 @@ means.
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import Any
 
 import numpy as np
@@ -37,7 +36,9 @@ SHELL_SPEED, RELOAD_STEPS = 8.0, 5
 #: A thrust (continuous) shorter than this fraction of full strength leaves the heading as it was.
 TURN_THRESHOLD = 0.3
 COLLISION_SLOP = 0.01
-ELASTICITY, FRICTION = 0.1, 0.0
+#: A tank's elasticity; walls and tiles keep pymunk's 0 (restitution is the product of the two),
+#: and nothing has friction, so a tank slides along a wall.
+ELASTICITY = 0.1
 #: Velocities in observations are divided by this, and clipped to +-VELOCITY_BOUND of it.
 VELOCITY_UNIT, VELOCITY_BOUND = 3.0, 2.0
 #: Team 0's base tile (row, col) and its ring of bricks; team 1's are their half-turned images.
@@ -105,18 +106,21 @@ def draw_maze(rng: np.random.Generator, players: int, brick: float, steel: float
 
 
 def _open(kinds: np.ndarray, start: tuple[int, int]) -> bool:
-    """Whether every tile but steel and the bases is reachable from ``start`` through such tiles."""
+    """Whether every tile but steel and the bases is reachable from ``start`` through such tiles
+    (grown a step in the four directions at a time until it stops growing)."""
     passable = (kinds == EMPTY) | (kinds == BRICK)
     seen = np.zeros_like(passable)
     seen[start] = True
-    queue = deque([start])
-    while queue:
-        row, col = queue.popleft()
-        for r, c in ((row + 1, col), (row - 1, col), (row, col + 1), (row, col - 1)):
-            if 0 <= r < GRID and 0 <= c < GRID and passable[r, c] and not seen[r, c]:
-                seen[r, c] = True
-                queue.append((r, c))
-    return bool((seen == passable).all())
+    while True:
+        grown = seen.copy()
+        grown[1:] |= seen[:-1]
+        grown[:-1] |= seen[1:]
+        grown[:, 1:] |= seen[:, :-1]
+        grown[:, :-1] |= seen[:, 1:]
+        grown &= passable
+        if np.array_equal(grown, seen):
+            return bool((seen == passable).all())
+        seen = grown
 
 
 def maze_field(n_agents: int) -> Field:
@@ -124,14 +128,13 @@ def maze_field(n_agents: int) -> Field:
     spin), added in that order; the tiles follow (:func:`maze_tiles`)."""
     edge = HALF + WALL_RADIUS
     corners = [(-edge, -edge), (edge, -edge), (edge, edge), (-edge, edge)]
-    material = Material(ELASTICITY, FRICTION)
     return Field(dt=DT, damping=DAMPING, collision_slop=COLLISION_SLOP, parts=(
-        Walls(tuple((corners[k], corners[(k + 1) % 4]) for k in range(4)), WALL_RADIUS, material),
-        Bodies("tank", n_agents, TANK_RADIUS, TANK_MASS, material)))
+        Walls(tuple((corners[k], corners[(k + 1) % 4]) for k in range(4)), WALL_RADIUS),
+        Bodies("tank", n_agents, TANK_RADIUS, TANK_MASS, Material(ELASTICITY))))
 
 
 def maze_tiles() -> TileMap:
-    return TileMap(GRID, GRID, TILE, (-HALF, -HALF), breakable=(BRICK, BASE), material=Material(ELASTICITY, FRICTION))
+    return TileMap(GRID, GRID, TILE, (-HALF, -HALF), breakable=(BRICK, BASE))
 
 
 def maze_world(n_agents: int) -> World:
