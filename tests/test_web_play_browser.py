@@ -162,3 +162,47 @@ def test_a_guest_plays_both_halves_of_a_youshallnotpass_pair(server, browser):
     sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
     sync_api.expect(page.locator('[data-role="reason"]')).to_contain_text("Why it ended: you resigned")
     page.close()
+
+
+def test_a_guest_drives_a_battlecity_tank_with_the_arrow_keys_and_fires_with_space(server, browser, tmp_path):
+    """A game with no shipped base population: a small frozen one is imported first. The person's
+    tank starts with open tiles on both sides, so holding ArrowRight drives it right on the maze as
+    drawn whichever team they play; Space fires along the heading."""
+    from arena_league.league import import_population, open_home
+    from arena_league.policies import init_parameters, save_arena_policy
+    from arena_league.policies.architecture import Architecture
+    from arena_league.policies.families import with_spaces
+    from arena_league.policies.spaces import game_action_spec
+
+    game_id = "BattleCity-2T1P-v1"
+    arch = with_spaces(Architecture("mlp", 1, "discrete", n_actions=1, hidden=(8,)), game_action_spec(game_id))
+    folder = tmp_path / "population"
+    members = []
+    for i, rating in enumerate((900.0, 1100.0)):
+        name = f"base-t.m{i}@{game_id}"
+        save_arena_policy(folder / "agents" / f"m{i}", arch, init_parameters(arch, seed=i), game_id, name=name)
+        members.append({"name": name, "kind": "base", "artifact": f"agents/m{i}", "format": "arena-policy",
+                        "metadata": {"rating": rating}, "agent_metadata": {}})
+    (folder / "population.json").write_text(json.dumps({"name": "base-t", "version": 1, "game_id": game_id,
+                                                        "provenance": {}, "members": members}))
+    with open_home(server.home, server.db) as league:
+        import_population(league, folder)
+    page = start_as_guest(server, browser, game_id, "tanker")
+
+    def you() -> tuple[float, float]:
+        step = page.get_attribute("#play", "data-step")
+        page.wait_for_function("([step]) => document.getElementById('play').dataset.step !== step", arg=[step])
+        return tuple(float(v) for v in page.get_attribute("#play", "data-you").split(","))
+
+    start = you()
+    page.keyboard.down("ArrowRight")
+    for _ in range(6):
+        moved = you()
+    page.keyboard.up("ArrowRight")
+    assert moved[0] > start[0] + 0.3, (start, moved)
+    page.keyboard.down(" ")
+    sync_api.expect(page.locator('[data-role="events"]')).to_contain_text("you fire")
+    page.keyboard.up(" ")
+    page.evaluate("document.querySelector('[data-role=\"resign\"]').click()")
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
+    page.close()

@@ -152,7 +152,7 @@ Copies
 
 Replay scene
     ``maze`` (floor and outer wall), ``tiles`` (bricks and steel), ``base/<team>``,
-    ``tank/<seat>`` and ``shells``.
+    ``agent/<seat>`` (a tank) and ``shells``.
 """
 
 from __future__ import annotations

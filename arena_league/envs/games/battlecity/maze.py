@@ -315,7 +315,7 @@ def maze_picture(kinds: np.ndarray, tank_xy: np.ndarray, heading: np.ndarray, ac
 def maze_scene(ts: int, kinds: np.ndarray, tank_xy: np.ndarray, heading: np.ndarray, active: np.ndarray,
                team_of: np.ndarray, shells: np.ndarray, flying: np.ndarray, standing: np.ndarray) -> list[dict[str, Any]]:
     """The replay scene's entities: ``maze`` (floor and outer wall), ``tiles`` (bricks and steel),
-    ``base/<team>``, ``tank/<seat>``, ``shells``."""
+    ``base/<team>``, ``agent/<seat>``, ``shells``."""
     thick = 2 * WALL_RADIUS
     wall = (0.35, 0.35, 0.35, 1.0)
     out = [scene.entity("maze", ts, cubes=[
@@ -341,7 +341,7 @@ def maze_scene(ts: int, kinds: np.ndarray, tank_xy: np.ndarray, heading: np.ndar
         x, y = (float(c) for c in tank_xy[seat])
         yaw = math.atan2(float(heading[seat, 1]), float(heading[seat, 0]))
         colour = scene.team_colour(int(team), 1.0 if active[seat] else 0.35)
-        out.append(scene.entity(f"tank/{seat}", ts, cylinders=[scene.disc(x, y, 2 * TANK_RADIUS, colour, height=0.4)],
+        out.append(scene.entity(f"agent/{seat}", ts, cylinders=[scene.disc(x, y, 2 * TANK_RADIUS, colour, height=0.4)],
                                 arrows=[scene.arrow(x, y, 0.4, yaw, 0.7, colour)]))
     d = 0.2
     out.append(scene.entity("shells", ts, spheres=[
