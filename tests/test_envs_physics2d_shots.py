@@ -105,3 +105,18 @@ def test_shells_move_in_seat_order_so_the_second_passes_where_the_first_broke_a_
     shells.fire(1, (1.5, 2.5), (1.0, 0.0))
     hits = shells.advance(0.3, tiles, np.full((2, 2), 9.0), np.ones(2, dtype=bool))
     assert [(hit.shooter, hit.col) for hit in hits] == [(0, 2), (1, 4)]
+
+
+def test_a_gun_fires_when_loaded_with_no_shell_in_flight_and_reloads_for_its_steps():
+    tiles, _ = tile_map((2, 4, STEEL))
+    shells = Shells(np.zeros((2, 2), dtype=bool), speed=10.0, body_radius=0.4, reload_steps=3)
+    xy, heading = np.array([(0.5, 2.5), (0.5, 0.5)]), np.array([(1.0, 0.0), (1.0, 0.0)])
+    both, able = np.ones(2, dtype=bool), np.array([True, False])
+    assert shells.pull_triggers(both, xy, heading, able) == [0]  # seat 1 may not fire
+    fired = []
+    for step in range(8):
+        shells.advance(0.1, tiles, np.full((2, 2), 9.0), np.ones(2, dtype=bool))
+        shells.reload()
+        fired += [step] * len(shells.pull_triggers(both, xy, heading, able))
+    # the shell reaches the steel 3.5 on, on the fourth step: in flight until then, then loaded
+    assert fired == [3, 7] and shells.loaded_in.tolist() == [3, 0]

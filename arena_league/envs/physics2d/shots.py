@@ -144,20 +144,48 @@ class Shells:
     ``body_radius``.
     """
 
-    def __init__(self, can_hit: np.ndarray, speed: float, body_radius: float) -> None:
+    def __init__(self, can_hit: np.ndarray, speed: float, body_radius: float, reload_steps: int = 0) -> None:
         self.n = len(can_hit)
         self.can_hit = np.asarray(can_hit, dtype=bool) & ~np.eye(self.n, dtype=bool)
         self._targets = [np.flatnonzero(row).tolist() for row in self.can_hit]
-        self.speed, self.body_radius = float(speed), float(body_radius)
+        self.speed, self.body_radius, self.reload_steps = float(speed), float(body_radius), int(reload_steps)
         self.xy = np.zeros((self.n, 2))
         self.direction = np.zeros((self.n, 2))
         self.flying = np.zeros(self.n, dtype=bool)
+        #: Steps until each seat's gun is loaded again (0: loaded).
+        self.loaded_in = np.zeros(self.n, dtype=np.int64)
+        self._reloading = 0
 
     def reset(self) -> None:
-        """No shell in flight."""
+        """No shell in flight, every gun loaded."""
         self.xy[:] = 0.0
         self.direction[:] = 0.0
         self.flying[:] = False
+        self.loaded_in[:] = 0
+        self._reloading = 0
+
+    def pull_triggers(self, fire: np.ndarray, xy: np.ndarray, direction: np.ndarray, able: np.ndarray) -> list[int]:
+        """Every seat in ``fire`` that is ``able``, whose gun is loaded and whose shell is not in
+        flight fires from ``xy[seat]`` along ``direction[seat]``, and its gun reloads for
+        ``reload_steps`` steps (see :meth:`reload`). Returns the seats that fired, in order."""
+        fired = []
+        for seat in np.flatnonzero(fire).tolist():
+            if able[seat] and not self.loaded_in[seat] and not self.flying[seat]:
+                self.fire(seat, xy[seat], direction[seat])
+                self.loaded_in[seat] = self.reload_steps
+                fired.append(seat)
+        self._reloading += len(fired)
+        return fired
+
+    def reload(self) -> bool:
+        """One step nearer a loaded gun for every seat reloading; whether any was (a game's
+        observation of the reload then changed)."""
+        if not self._reloading:
+            return False
+        loaded_in = self.loaded_in
+        np.subtract(loaded_in, loaded_in > 0, out=loaded_in)
+        self._reloading = np.count_nonzero(loaded_in)
+        return True
 
     def fire(self, seat: int, xy: Sequence[float], direction: Sequence[float]) -> None:
         """Seat ``seat``'s shell leaves ``xy`` along the unit vector ``direction`` (it moves on the

@@ -233,7 +233,7 @@ class BattleCityRules(Physics2DRules):
         world.force_matrix = force_matrix(world, self.frame)
         self._tank_kind = world.field.bodies[0]
         self.tiles = maze_tiles()
-        self.shells = Shells(self.team_of[:, None] != self.team_of[None, :], SHELL_SPEED, TANK_RADIUS)
+        self.shells = Shells(self.team_of[:, None] != self.team_of[None, :], SHELL_SPEED, TANK_RADIUS, RELOAD_STEPS)
         order = [self.other_seats(seat) for seat in range(n)]
         self._moving = moving_cells(n)
         self._obs_matrix, self._obs_mask = observation_matrix(world, self.layout, self.team_of, self.frame, order)
@@ -268,7 +268,6 @@ class BattleCityRules(Physics2DRules):
         self._length, self._scaled_length = np.zeros(n), np.zeros(n)
         self._fire, self._no_fire, self._turning = (np.zeros(n, dtype=bool) for _ in range(3))
         self._moves = np.zeros(n, dtype=np.int64)
-        self._loaded_in = np.zeros(n, dtype=np.int64)  # steps until each gun is loaded
         self._hits_left = np.zeros(n, dtype=np.int64)
 
     # --- the match ---------------------------------------------------------------------------
@@ -289,14 +288,13 @@ class BattleCityRules(Physics2DRules):
         self._thrust_c[:] = 0.0
         self._hits_left[:] = self.max_hit_points
         self._hit_points[:] = 1.0
-        self._loaded_in[:] = 0
         self._reload[:] = 0.0
         self._active[:] = 1.0
         self._standing[:] = 1.0
         self._sync_shells()
         m = self.measures
         m.active[:], m.alive[:], m.energy[:], m.outcome[:] = True, True, 0.0, 0.0
-        self._all_active, self._reloading, self._decided = True, 0, False
+        self._all_active, self._decided = True, False
         self._measure_distances()
         self.team_out = np.zeros(2, dtype=bool)
         self.game_over = False
@@ -356,11 +354,8 @@ class BattleCityRules(Physics2DRules):
             for hit in shells.advance(DT, self.tiles, self._tank_xy, m.active):
                 self._resolve(hit)
             self._sync_shells()
-        if self._reloading:
-            loaded_in = self._loaded_in
-            np.subtract(loaded_in, loaded_in > 0, out=loaded_in)
-            np.multiply(loaded_in, 1.0 / RELOAD_STEPS, out=self._reload)
-            self._reloading = np.count_nonzero(loaded_in)
+        if shells.reload():
+            np.multiply(shells.loaded_in, 1.0 / RELOAD_STEPS, out=self._reload)
         self._measure_distances()
         if self._decided and not self.game_over:
             self.game_over = True
@@ -374,12 +369,8 @@ class BattleCityRules(Physics2DRules):
 
     def _fire_shells(self, fire: np.ndarray) -> None:
         """Every seat that fires, is in play, has its gun loaded and no shell in flight shoots."""
-        for seat in np.flatnonzero(fire).tolist():
-            if self.measures.active[seat] and not self._loaded_in[seat] and not self.shells.flying[seat]:
-                self.shells.fire(seat, self._tank_xy[seat], self._heading[seat])
-                self._loaded_in[seat] = RELOAD_STEPS
-                self._reloading = True
-                self._events.append({"kind": "fire", "seat": seat})
+        for seat in self.shells.pull_triggers(fire, self._tank_xy, self._heading, self.measures.active):
+            self._events.append({"kind": "fire", "seat": seat})
         self._sync_shells()
 
     def _resolve(self, hit: Any) -> None:
