@@ -25,7 +25,7 @@ import pymunk
 
 from arena_league.envs.physics2d.world import Material
 
-__all__ = ["EMPTY", "Hit", "Shells", "TileMap"]
+__all__ = ["EMPTY", "Hit", "Shells", "TileMap", "face_thrust"]
 
 #: The kind of a tile with nothing on it.
 EMPTY = 0
@@ -237,6 +237,21 @@ class Shells:
             else:
                 self.xy[seat] = x0 + dx, y0 + dy
         return hits
+
+
+def face_thrust(thrust: np.ndarray, length: np.ndarray, frame: np.ndarray, heading: np.ndarray,
+                threshold: float) -> None:
+    """Turn every seat pushed harder than ``threshold`` to face the way it is pushed: ``heading``
+    (``(n, 2)``, world) becomes its ``thrust`` (``(n, 2)``, in its own frame, of ``length``) over
+    that length, times ``frame`` (``(n, 2)``: the sign each axis of the seat's frame has in the
+    world); the others keep their heading (a gun points the way its shooter last moved)."""
+    turning = length > threshold
+    count = np.count_nonzero(turning)
+    if count == len(length):
+        np.divide(thrust, length[:, None], out=heading)
+        np.multiply(heading, frame, out=heading)
+    elif count:
+        heading[turning] = thrust[turning] / length[turning, None] * frame[turning]
 
 
 def _segment_enters_circle(px: float, py: float, dx: float, dy: float, radius_sq: float) -> float:

@@ -192,7 +192,7 @@ from arena_league.envs.games.battlecity.maze import (
 )
 from arena_league.envs.options import Option
 from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, Physics2DRules, SeatThrust
-from arena_league.envs.physics2d.shots import EMPTY, Shells
+from arena_league.envs.physics2d.shots import EMPTY, Shells, face_thrust
 
 OPTIONS = (Option("hit_points", int, 3, "hits a tank takes before it is destroyed", 1, 5),
            Option("brick_density", float, 0.35, "chance that a drawn tile is brick (when not steel)", 0.0, 0.6),
@@ -250,7 +250,6 @@ class BattleCityRules(Physics2DRules):
         self._tank_xy = world.table[:n, 0:2]
         self._seat_thrust = SeatThrust(world.complex_view("thrust"), action_type)
         self._thrust_c = world.complex_view("thrust")
-        self._heading_c = world.complex_view("heading")
         self._heading = world.view("heading").reshape(n, 2)
         self._hit_points = world.view("hit_points")
         self._reload = world.view("reload")
@@ -265,8 +264,10 @@ class BattleCityRules(Physics2DRules):
         self._tank_c = world.table[:n].view(np.complex128)[:, 0]
         self._enemy_base_c = bases[1 - self.team_of].view(np.complex128).reshape(-1).copy()
         self._to_base_c = np.zeros(n, dtype=np.complex128)
-        self._length, self._scaled_length = np.zeros(n), np.zeros(n)
-        self._fire, self._no_fire, self._turning = (np.zeros(n, dtype=bool) for _ in range(3))
+        self._length = np.zeros(n)
+        self._thrust_pairs = world.view("thrust").reshape(n, 2)
+        self._frame_pairs = np.repeat(self.frame[:, None], 2, axis=1)
+        self._fire, self._no_fire = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
         self._moves = np.zeros(n, dtype=np.int64)
         self._hits_left = np.zeros(n, dtype=np.int64)
 
@@ -334,14 +335,8 @@ class BattleCityRules(Physics2DRules):
         if not self._all_active:
             np.multiply(thrust, self._active, out=thrust)
             np.multiply(m.energy, self._active, out=m.energy)
-        length = np.abs(thrust, out=self._length)
-        turning = np.greater(length, TURN_THRESHOLD, out=self._turning)
-        turns = np.count_nonzero(turning)
-        if turns == self.n_agents:
-            # the tank faces the way it is pushed, in the world: the seat's thrust turned by its frame
-            np.divide(thrust, self._frame_length(length), out=self._heading_c)
-        elif turns:
-            self._heading_c[turning] = thrust[turning] / length[turning] * self.frame[turning]
+        face_thrust(self._thrust_pairs, np.abs(thrust, out=self._length), self._frame_pairs, self._heading,
+                    TURN_THRESHOLD)
         if self._events:
             self._events = []
         if firing:
@@ -363,9 +358,6 @@ class BattleCityRules(Physics2DRules):
 
     def _not_fire(self, fire: np.ndarray) -> np.ndarray:
         return np.logical_not(fire, out=self._no_fire)
-
-    def _frame_length(self, length: np.ndarray) -> np.ndarray:
-        return np.multiply(length, self.frame, out=self._scaled_length)
 
     def _fire_shells(self, fire: np.ndarray) -> None:
         """Every seat that fires, is in play, has its gun loaded and no shell in flight shoots."""
