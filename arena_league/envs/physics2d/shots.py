@@ -19,16 +19,22 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pymunk
 
+from arena_league.envs.controls import key_controls
+from arena_league.envs.physics2d.rules import COMPASS_MOVE_NAMES
 from arena_league.envs.physics2d.world import Material
 
-__all__ = ["EMPTY", "Hit", "Shells", "TileMap", "face_thrust"]
+__all__ = ["EMPTY", "FIRE_ACTION", "SHOOTER_ACTIONS", "FireKey", "Hit", "Shells", "TileMap", "face_thrust"]
 
 #: The kind of a tile with nothing on it.
 EMPTY = 0
+#: A shooter's discrete actions: the compass moves, then fire (no thrust; a shell along the heading).
+FIRE_ACTION = len(COMPASS_MOVE_NAMES)
+SHOOTER_ACTIONS = (*COMPASS_MOVE_NAMES, "fire")
 
 
 @dataclass(frozen=True)
@@ -269,3 +275,27 @@ def _segment_enters_circle(px: float, py: float, dx: float, dy: float, radius_sq
         return math.inf
     t = (-b - math.sqrt(disc)) / a
     return t if t <= 1.0 else math.inf
+
+
+class FireKey:
+    """A person's compass controls (mixed in before a :class:`~arena_league.envs.controls.CompassControls`
+    class) with ``f`` (or ``fire``) for :data:`FIRE_ACTION`; in a browser, Space or F."""
+
+    #: The browser's hint for the keys.
+    key_hint = ("Arrow keys or W A S D move on the view as drawn (two at once: diagonally); Space (or F) fires "
+                "along your heading; let go to stop pushing.")
+
+    def parse(self, text: str) -> tuple[int | None, str | None]:
+        if text in ("f", "fire"):
+            return FIRE_ACTION, None
+        action, problem = super().parse(text)  # type: ignore[misc]
+        return action, None if problem is None else problem + "; f fires along your heading"
+
+    def prompt(self, step: int) -> str:
+        return (f"step {step}: {self.move} (e, ne, n, nw, w, sw, s, se or noop), or f to fire along your heading "  # type: ignore[attr-defined]
+                f"(an action number 0-{FIRE_ACTION}; Enter repeats) > ")
+
+    def web(self) -> dict[str, Any]:
+        web = super().web()  # type: ignore[misc]
+        return key_controls({**web["keys"], " ": "f", "f": "f", "F": "f"}, web["pace"], self.key_hint,
+                            release=web["release"], combine=web["combine"], accepts=tuple(web["accepts"]))

@@ -162,7 +162,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pymunk
 
-from arena_league.envs.controls import TurnedCompassControls, arrow_keys, key_controls
+from arena_league.envs.controls import TurnedCompassControls
 from arena_league.envs.games.battlecity.maze import (
     BASE,
     BRICK,
@@ -191,16 +191,21 @@ from arena_league.envs.games.battlecity.maze import (
     tile_order,
 )
 from arena_league.envs.options import Option
-from arena_league.envs.physics2d import COMPASS_MOVE_NAMES, Physics2DRules, SeatThrust
-from arena_league.envs.physics2d.shots import EMPTY, Shells, face_thrust
+from arena_league.envs.physics2d import Physics2DRules, SeatThrust
+from arena_league.envs.physics2d.shots import (
+    EMPTY,
+    FIRE_ACTION,
+    SHOOTER_ACTIONS,
+    FireKey,
+    Shells,
+    face_thrust,
+)
 
 OPTIONS = (Option("hit_points", int, 3, "hits a tank takes before it is destroyed", 1, 5),
            Option("brick_density", float, 0.35, "chance that a drawn tile is brick (when not steel)", 0.0, 0.6),
            Option("steel_density", float, 0.08, "chance that a drawn tile is steel", 0.0, 0.2))
 
-#: The discrete action that fires; the ones before it are the compass moves.
-FIRE_ACTION = len(COMPASS_MOVE_NAMES)
-ACTION_MEANINGS = (*COMPASS_MOVE_NAMES, "fire")
+ACTION_MEANINGS = SHOOTER_ACTIONS
 _OUT_OF_PLAY = pymunk.ShapeFilter(categories=0, mask=0)
 
 
@@ -507,26 +512,12 @@ class BattleCityRules(Physics2DRules):
         return heuristic(obs, action_type)
 
 
-class BattleCityControls(TurnedCompassControls):
+class BattleCityControls(FireKey, TurnedCompassControls):
     """Compass moves on the maze as drawn (E = right), turned into the seat's frame, and ``f`` to fire."""
 
     move = "drive on the maze as drawn"
     key_hint = ("Arrow keys or W A S D drive on the maze as drawn (two at once: diagonally); Space (or F) fires "
                 "along your heading; let go to stop pushing.")
-
-    def parse(self, text: str) -> tuple[int | None, str | None]:
-        if text in ("f", "fire"):
-            return FIRE_ACTION, None
-        action, problem = super().parse(text)
-        return action, None if problem is None else problem + "; f fires along your heading"
-
-    def prompt(self, step: int) -> str:
-        return (f"step {step}: {self.move} (e, ne, n, nw, w, sw, s, se or noop), or f to fire along your heading "
-                f"(an action number 0-{FIRE_ACTION}; Enter repeats) > ")
-
-    def web(self) -> dict[str, Any]:
-        return key_controls({**arrow_keys("n", "w", "s", "e"), " ": "f", "f": "f", "F": "f"}, self.PACE,
-                            self.key_hint, release="noop", combine="nsew", accepts=("ne", "nw", "se", "sw"))
 
 
 RULES = BattleCityRules
