@@ -37,7 +37,7 @@ import numpy as np
 
 from arena_league.envs import game_spec, list_games, make
 
-PHYSICS_2D = ("Crossroads", "Soccer", "AirHockey", "FightForFood", "BlowBlow", "Tennis", "BattleCity")
+PHYSICS_2D = ("Crossroads", "Soccer", "AirHockey", "FightForFood", "BlowBlow", "Tennis", "BattleCity", "Fighter")
 
 
 def pin_to_one_core() -> str:
