@@ -314,3 +314,11 @@ def test_controls_fire_with_f_and_turn_moves_for_the_second_team():
     assert "f fires" in first.parse("x")[1]
     keys = first.web()["keys"]
     assert keys[" "] == "f" and keys["ArrowUp"] == "n"
+
+
+def test_heuristic_takes_any_batch_of_observations_and_refuses_another_games():
+    obs = rules(players=2).observe()
+    assert BattleCityRules.heuristic(obs, "discrete").shape == (4,)
+    assert BattleCityRules.heuristic(obs[:1], "continuous").shape == (1, 3)
+    with pytest.raises(ValueError, match="not BattleCity's"):
+        BattleCityRules.heuristic(np.zeros((2, 10)), "discrete")

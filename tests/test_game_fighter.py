@@ -211,3 +211,11 @@ def test_controls_mirror_moves_for_the_second_team_and_fire_with_f():
     assert first.parse("e") == (E, None) and second.parse("e") == (W, None) and second.parse("n") == (N, None)
     assert second.parse("f") == (FIRE, None) and first.web()["keys"][" "] == "f"
     assert r.observe().shape[1] == r.obs_dim and HALF_X == 8.0
+
+
+def test_heuristic_takes_any_batch_of_observations_and_refuses_another_games():
+    obs = rules(players=2).observe()
+    assert FighterRules.heuristic(obs, "discrete").shape == (4,)
+    assert FighterRules.heuristic(obs[1:2], "continuous").shape == (1, 3)
+    with pytest.raises(ValueError, match="not Fighter's"):
+        FighterRules.heuristic(np.zeros((2, 369)), "discrete")

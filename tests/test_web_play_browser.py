@@ -164,17 +164,14 @@ def test_a_guest_plays_both_halves_of_a_youshallnotpass_pair(server, browser):
     page.close()
 
 
-def test_a_guest_drives_a_battlecity_tank_with_the_arrow_keys_and_fires_with_space(server, browser, tmp_path):
-    """A game with no shipped base population: a small frozen one is imported first. The person's
-    tank starts with open tiles on both sides, so holding ArrowRight drives it right on the maze as
-    drawn whichever team they play; Space fires along the heading."""
+def import_small_base(server, tmp_path, game_id: str) -> None:
+    """A game with no shipped base population gets a small frozen one (two fresh MLPs, rated)."""
     from arena_league.league import import_population, open_home
     from arena_league.policies import init_parameters, save_arena_policy
     from arena_league.policies.architecture import Architecture
     from arena_league.policies.families import with_spaces
     from arena_league.policies.spaces import game_action_spec
 
-    game_id = "BattleCity-2T1P-v1"
     arch = with_spaces(Architecture("mlp", 1, "discrete", n_actions=1, hidden=(8,)), game_action_spec(game_id))
     folder = tmp_path / "population"
     members = []
@@ -187,7 +184,11 @@ def test_a_guest_drives_a_battlecity_tank_with_the_arrow_keys_and_fires_with_spa
                                                         "provenance": {}, "members": members}))
     with open_home(server.home, server.db) as league:
         import_population(league, folder)
-    page = start_as_guest(server, browser, game_id, "tanker")
+
+
+def drive_right_and_fire(page) -> None:
+    """Hold ArrowRight (the person's start has open ground on both sides, whichever team they
+    play) and see their seat move right on the view as drawn; Space fires."""
 
     def you() -> tuple[float, float]:
         step = page.get_attribute("#play", "data-step")
@@ -205,4 +206,17 @@ def test_a_guest_drives_a_battlecity_tank_with_the_arrow_keys_and_fires_with_spa
     page.keyboard.up(" ")
     page.evaluate("document.querySelector('[data-role=\"resign\"]').click()")
     sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
+
+
+def test_a_guest_drives_a_battlecity_tank_with_the_arrow_keys_and_fires_with_space(server, browser, tmp_path):
+    import_small_base(server, tmp_path, "BattleCity-2T1P-v1")
+    page = start_as_guest(server, browser, "BattleCity-2T1P-v1", "tanker")
+    drive_right_and_fire(page)
+    page.close()
+
+
+def test_a_guest_moves_a_fighter_with_the_arrow_keys_and_fires_with_space(server, browser, tmp_path):
+    import_small_base(server, tmp_path, "Fighter-2T1P-v1")
+    page = start_as_guest(server, browser, "Fighter-2T1P-v1", "flyer")
+    drive_right_and_fire(page)
     page.close()

@@ -83,6 +83,9 @@ def _line_clear(solid: np.ndarray, row: int, col: int, d_row: int, d_col: int, t
 
 def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
     obs = np.asarray(obs, dtype=np.float64)
+    if obs.ndim != 2 or obs.shape[1] not in (343 + 13 * 2, 343 + 13 * 4):
+        raise ValueError(f"BattleCity heuristic: observations of shape {obs.shape} are not BattleCity's (N, 343 + 13 n) "
+                         "for n = 2 or 4 seats")
     n_agents = (obs.shape[1] - 343) // 13
     layout = _layout(n_agents)
     mates = n_agents // 2 - 1

@@ -73,6 +73,10 @@ def _clear(open_tiles: np.ndarray, x: float, y: float, ux: float, uy: float, len
 
 def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
     obs = np.asarray(obs, dtype=np.float64)
+    widths = {_PLANE + _OWN_CELLS - _OTHER_CELLS + (_OTHER_CELLS + _SHELL_CELLS) * n: n for n in (2, 4)}
+    if obs.ndim != 2 or obs.shape[1] not in widths:
+        raise ValueError(f"Fighter heuristic: observations of shape {obs.shape} are not Fighter's (N, "
+                         f"{' or '.join(map(str, widths))})")
     count = len(obs)
     n_agents = (obs.shape[1] - _PLANE - _OWN_CELLS + _OTHER_CELLS) // (_OTHER_CELLS + _SHELL_CELLS)
     first_rival = n_agents // 2 - 1
