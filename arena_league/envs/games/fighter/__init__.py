@@ -231,6 +231,10 @@ class FighterRules(Physics2DRules):
         self._flying = world.view("flying")
         self._frame = np.stack([self.x_sign, np.ones(n)], axis=1)
         self._rivals = self.team_of[:, None] != self.team_of[None, :]
+        self._out_of_reach = np.where(self._rivals, 0.0, np.inf)
+        self._way, self._facing_c = np.zeros((n, n), dtype=np.complex128), np.zeros(n, dtype=np.complex128)
+        self._apart, self._distance = np.zeros((n, n)), np.zeros(n)
+        self._row_start, self._nearest = np.arange(n) * n, np.zeros(n, dtype=np.intp)
         self._length = np.zeros(n)
         self._firing = np.zeros(n, dtype=bool)
         self._moves = np.zeros(n, dtype=np.int64)
@@ -257,6 +261,7 @@ class FighterRules(Physics2DRules):
         m = self.measures
         m.active[:], m.alive[:], m.energy[:], m.outcome[:] = True, True, 0.0, 0.0
         self._everyone_in = True
+        self._out_of_reach[:] = np.where(self._rivals, 0.0, np.inf)
         self._aim()
         self.game_over, self._events = False, []
 
@@ -268,18 +273,22 @@ class FighterRules(Physics2DRules):
         self._flying[:] = shells.flying
 
     def _aim(self) -> None:
-        """Each fighter's nearest opponent in play: its distance and how squarely it is faced."""
+        """Each fighter's nearest opponent in play: its distance and how squarely it is faced (kept
+        when none is left)."""
         m = self.measures
-        way = self._xy_c[None, :] - self._xy_c[:, None]
-        apart = np.abs(way)
-        apart[~(self._rivals & m.active[None, :])] = np.inf
-        nearest = apart.argmin(axis=1)
-        seats = np.arange(self.n_agents)
-        found = np.isfinite(apart[seats, nearest])
-        distance = apart[seats, nearest]
-        facing = (np.conj(self._heading_c) * way[seats, nearest]).real / np.where(found, distance, 1.0)
-        np.copyto(m.target_distance, distance, where=found)
-        np.copyto(m.facing_target, facing, where=found)
+        way = np.subtract(self._xy_c[None, :], self._xy_c[:, None], out=self._way)
+        apart = np.abs(way, out=self._apart)
+        np.add(apart, self._out_of_reach, out=apart)  # +inf on teammates and fighters out of play
+        nearest = np.add(apart.argmin(axis=1), self._row_start, out=self._nearest)
+        distance = apart.take(nearest, out=self._distance)
+        facing = np.multiply(np.conj(self._heading_c), way.take(nearest), out=self._facing_c).real
+        if self._everyone_in:
+            np.copyto(m.target_distance, distance)
+            np.divide(facing, distance, out=m.facing_target)
+        else:
+            found = np.isfinite(distance)
+            np.copyto(m.target_distance, distance, where=found)
+            np.copyto(m.facing_target, facing / np.where(found, distance, 1.0), where=found)
 
     def step(self, actions: np.ndarray) -> None:
         self._record("step", actions.copy())
@@ -295,12 +304,12 @@ class FighterRules(Physics2DRules):
             m.energy *= self._in_play
         face_thrust(self._thrust, np.abs(self._thrust_c, out=self._length), self._frame, self._heading, TURN_THRESHOLD)
         self._events = []
-        if firing.any():
+        if np.count_nonzero(firing):
             for seat in self.shells.pull_triggers(firing, self._xy, self._heading, m.active):
                 self._events.append({"kind": "fire", "seat": seat})
             self._show_shells()
         self.world.step()
-        if self.shells.flying.any():
+        if np.count_nonzero(self.shells.flying):
             for hit in self.shells.advance(DT, self.tiles, self._xy, m.active):
                 if hit.seat >= 0:
                     self._damage(hit.shooter, hit.seat)
@@ -308,8 +317,7 @@ class FighterRules(Physics2DRules):
         if self.shells.reload():
             self._reload[:] = self.shells.loaded_in / RELOAD_STEPS
         self._aim()
-        teams_in = np.bincount(self.team_of, weights=m.active, minlength=2) > 0
-        if not teams_in.all():
+        if not self._everyone_in and not (np.bincount(self.team_of, weights=m.active, minlength=2) > 0).all():
             self.game_over = True
             self._set_outcome()
 
@@ -327,6 +335,7 @@ class FighterRules(Physics2DRules):
             m.active[target] = m.alive[target] = False
             self._in_play[target] = 0.0
             self._everyone_in = False
+            self._out_of_reach[:, target] = np.inf
             body = self.world.bodies["fighter"][target]
             for shape in body.shapes:
                 shape.filter = _NOWHERE
