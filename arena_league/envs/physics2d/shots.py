@@ -28,7 +28,7 @@ from arena_league.envs.controls import key_controls
 from arena_league.envs.physics2d.rules import COMPASS_MOVE_NAMES
 from arena_league.envs.physics2d.world import Material
 
-__all__ = ["EMPTY", "FIRE_ACTION", "SHOOTER_ACTIONS", "FireKey", "Hit", "Shells", "TileMap", "face_thrust"]
+__all__ = ["EMPTY", "FIRE_ACTION", "SHOOTER_ACTIONS", "FireKey", "Hit", "Shells", "ThrustFacing", "TileMap"]
 
 #: The kind of a tile with nothing on it.
 EMPTY = 0
@@ -245,19 +245,26 @@ class Shells:
         return hits
 
 
-def face_thrust(thrust: np.ndarray, length: np.ndarray, frame: np.ndarray, heading: np.ndarray,
-                threshold: float) -> None:
-    """Turn every seat pushed harder than ``threshold`` to face the way it is pushed: ``heading``
-    (``(n, 2)``, world) becomes its ``thrust`` (``(n, 2)``, in its own frame, of ``length``) over
-    that length, times ``frame`` (``(n, 2)``: the sign each axis of the seat's frame has in the
-    world); the others keep their heading (a gun points the way its shooter last moved)."""
-    turning = length > threshold
-    count = np.count_nonzero(turning)
-    if count == len(length):
-        np.divide(thrust, length[:, None], out=heading)
-        np.multiply(heading, frame, out=heading)
-    elif count:
-        heading[turning] = thrust[turning] / length[turning, None] * frame[turning]
+class ThrustFacing:
+    """Turns every seat pushed harder than ``threshold`` to face the way it is pushed, in the world:
+    its heading becomes its thrust (in its own frame) over the thrust's length, times ``frame``
+    (``(n, 2)``: the sign each axis of the seat's frame has in the world); the others keep their
+    heading (a gun points the way its shooter last moved)."""
+
+    def __init__(self, frame: np.ndarray, threshold: float) -> None:
+        self.frame = np.asarray(frame, dtype=np.float64)
+        self.threshold = float(threshold)
+        n = len(self.frame)
+        self._turning = np.zeros((n, 1), dtype=bool)
+        self._length = np.zeros((n, 1))
+        self._facing = np.zeros((n, 2))
+
+    def face(self, thrust: np.ndarray, length: np.ndarray, heading: np.ndarray) -> None:
+        """``heading`` (``(n, 2)``, world) from ``thrust`` (``(n, 2)``, seat frames) of ``length``."""
+        turning = np.greater(length[:, None], self.threshold, out=self._turning)
+        facing = np.divide(thrust, np.maximum(length[:, None], self.threshold, out=self._length), out=self._facing)
+        np.multiply(facing, self.frame, out=facing)
+        np.copyto(heading, facing, where=turning)
 
 
 def _segment_enters_circle(px: float, py: float, dx: float, dy: float, radius_sq: float) -> float:

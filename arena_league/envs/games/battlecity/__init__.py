@@ -198,8 +198,8 @@ from arena_league.envs.physics2d.shots import (
     SHOOTER_ACTIONS,
     FireKey,
     Shells,
-    face_thrust,
-)
+    ThrustFacing,
+    )
 
 OPTIONS = (Option("hit_points", int, 3, "hits a tank takes before it is destroyed", 1, 5),
            Option("brick_density", float, 0.35, "chance that a drawn tile is brick (when not steel)", 0.0, 0.6),
@@ -271,7 +271,7 @@ class BattleCityRules(Physics2DRules):
         self._to_base_c = np.zeros(n, dtype=np.complex128)
         self._length = np.zeros(n)
         self._thrust_pairs = world.view("thrust").reshape(n, 2)
-        self._frame_pairs = np.repeat(self.frame[:, None], 2, axis=1)
+        self._facing = ThrustFacing(np.repeat(self.frame[:, None], 2, axis=1), TURN_THRESHOLD)
         self._fire, self._no_fire = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
         self._moves = np.zeros(n, dtype=np.int64)
         self._hits_left = np.zeros(n, dtype=np.int64)
@@ -340,8 +340,7 @@ class BattleCityRules(Physics2DRules):
         if not self._all_active:
             np.multiply(thrust, self._active, out=thrust)
             np.multiply(m.energy, self._active, out=m.energy)
-        face_thrust(self._thrust_pairs, np.abs(thrust, out=self._length), self._frame_pairs, self._heading,
-                    TURN_THRESHOLD)
+        self._facing.face(self._thrust_pairs, np.abs(thrust, out=self._length), self._heading)
         if self._events:
             self._events = []
         if firing:

@@ -171,7 +171,7 @@ from arena_league.envs.games.fighter.arena import (
 )
 from arena_league.envs.options import Option
 from arena_league.envs.physics2d import Physics2DRules, SeatThrust, mirror_signs
-from arena_league.envs.physics2d.shots import FIRE_ACTION, SHOOTER_ACTIONS, FireKey, Shells, face_thrust
+from arena_league.envs.physics2d.shots import FIRE_ACTION, SHOOTER_ACTIONS, FireKey, Shells, ThrustFacing
 
 OPTIONS = (Option("hit_points", int, 5, "hits a fighter takes before it is destroyed", 1, 10),
            Option("bunker_pairs", int, 4, "bunkers in each half (mirrored in the other)", 1, 6))
@@ -230,6 +230,7 @@ class FighterRules(Physics2DRules):
         self._shell_way = world.view("shell_direction").reshape(n, 2)
         self._flying = world.view("flying")
         self._frame = np.stack([self.x_sign, np.ones(n)], axis=1)
+        self._facing = ThrustFacing(self._frame, TURN_THRESHOLD)
         self._rivals = self.team_of[:, None] != self.team_of[None, :]
         self._out_of_reach = np.where(self._rivals, 0.0, np.inf)
         self._way, self._facing_c = np.zeros((n, n), dtype=np.complex128), np.zeros(n, dtype=np.complex128)
@@ -302,7 +303,7 @@ class FighterRules(Physics2DRules):
         if not self._everyone_in:
             self._thrust_c *= self._in_play
             m.energy *= self._in_play
-        face_thrust(self._thrust, np.abs(self._thrust_c, out=self._length), self._frame, self._heading, TURN_THRESHOLD)
+        self._facing.face(self._thrust, np.abs(self._thrust_c, out=self._length), self._heading)
         self._events = []
         if np.count_nonzero(firing):
             for seat in self.shells.pull_triggers(firing, self._xy, self._heading, m.active):
