@@ -44,13 +44,22 @@ def test_leaving_the_map_reports_the_edge():
     assert (row, col) == (-1, -1) and t == pytest.approx(0.25)
 
 
-def test_build_adds_one_static_box_per_solid_tile_and_clear_removes_it():
-    tiles, space = tile_map((0, 0, BRICK), (4, 4, STEEL))
-    assert len(space.shapes) == 2
-    assert space.point_query_nearest((0.5, 0.5), 0.0, pymunk.ShapeFilter()) is not None
+def test_build_adds_one_static_box_per_run_of_solid_tiles_and_clear_splits_a_run():
+    tiles, space = tile_map((0, 0, BRICK), (2, 1, BRICK), (2, 2, STEEL), (2, 3, BRICK), (4, 4, STEEL))
+    assert len(space.shapes) == 3
+    boxes = sorted(tuple(round(v) for v in (s.bb.left, s.bb.bottom, s.bb.right, s.bb.top)) for s in space.shapes)
+    assert boxes == [(0, 0, 1, 1), (1, 2, 4, 3), (4, 4, 5, 5)]
+
+    def solid_at(x: float, y: float) -> bool:
+        return space.point_query_nearest((x, y), 0.0, pymunk.ShapeFilter()) is not None
+
+    tiles.clear(2, 2)  # the middle of the run: a box on either side
+    assert len(space.shapes) == 4 and tiles.kinds[2, 2] == EMPTY
+    assert solid_at(1.5, 2.5) and not solid_at(2.5, 2.5) and solid_at(3.5, 2.5)
+    tiles.clear(2, 1)
     tiles.clear(0, 0)
-    assert len(space.shapes) == 1 and tiles.kinds[0, 0] == EMPTY
-    assert space.point_query_nearest((0.5, 0.5), 0.0, pymunk.ShapeFilter()) is None
+    assert len(space.shapes) == 2 and not solid_at(1.5, 2.5) and not solid_at(0.5, 0.5)
+    tiles.clear(0, 0)  # already empty: nothing changes
     tiles.build(space, np.zeros((5, 5), dtype=np.int8))  # a new layout replaces the old boxes
     assert len(space.shapes) == 0
 

@@ -3,9 +3,10 @@ boxes, and the shells themselves, moved exactly along their straight paths outsi
 
 A game that shoots declares a :class:`TileMap` (a grid of square tiles, each of a kind the game
 names: empty, or solid, and among the solid kinds those a shell breaks) and a :class:`Shells` (at
-most one shell in flight per seat). :meth:`TileMap.build` adds one static box per solid tile to a
-match's fresh space, row by row from the bottom, after the field's declared parts (so the order is
-part of the game's rules); :meth:`TileMap.clear` removes a broken tile's box. Shells are points that
+most one shell in flight per seat). :meth:`TileMap.build` adds one static box per run of solid
+tiles along a row to a match's fresh space, row by row from the bottom, after the field's declared
+parts (so the order is part of the game's rules); :meth:`TileMap.clear` empties a broken tile,
+putting the boxes of what is left of its run in place of the run's box. Shells are points that
 move at a constant speed: each env step, :meth:`Shells.advance` sweeps every shell in flight, in
 seat order, along its segment for the step, and stops it at the first thing it meets: a solid tile
 (found by walking the tiles the segment crosses, in order), a body it may hit (the segment's first
@@ -67,7 +68,9 @@ class TileMap:
         self.kinds = np.zeros((n_rows, n_cols), dtype=np.int8)
         # (rows of Python ints: the shells' walk reads single tiles, where a list beats numpy)
         self._rows: list[list[int]] = [[EMPTY] * n_cols for _ in range(n_rows)]
+        # each run's box and last column, under the run's first tile (row, col)
         self._shapes: dict[tuple[int, int], pymunk.Shape] = {}
+        self._last: dict[tuple[int, int], int] = {}
         self._space: pymunk.Space | None = None
 
     def centre(self, row: int, col: int) -> tuple[float, float]:
@@ -79,32 +82,58 @@ class TileMap:
         return math.floor((y - self.origin[1]) / self.tile), math.floor((x - self.origin[0]) / self.tile)
 
     def build(self, space: pymunk.Space, kinds: np.ndarray) -> None:
-        """Lay ``kinds`` out in ``space``: a static box per solid tile, row by row (the boxes of an
-        earlier layout in the same space leave it first)."""
+        """Lay ``kinds`` out in ``space``: one static box per run of solid tiles along a row (fewer
+        shapes to make each match, and no seams for a body sliding along a wall), runs added row by
+        row from the bottom, left to right (the boxes of an earlier layout in the same space leave
+        it first)."""
         if self._space is space and self._shapes:
             space.remove(*self._shapes.values())
         self.kinds[:] = kinds
-        self._rows = self.kinds.tolist()
-        self._shapes = {}
+        self._rows = rows = self.kinds.tolist()
+        self._shapes, self._last = {}, {}
         self._space = space
         shapes = []
-        for row, col in zip(*np.nonzero(self.kinds)):
-            x0, y0 = self.origin[0] + col * self.tile, self.origin[1] + row * self.tile
-            x1, y1 = x0 + self.tile, y0 + self.tile
-            box = pymunk.Poly(space.static_body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-            self.material.apply(box)
-            self._shapes[int(row), int(col)] = box
-            shapes.append(box)
+        for row, tiles in enumerate(rows):
+            col = 0
+            while col < self.n_cols:
+                if tiles[col] == EMPTY:
+                    col += 1
+                    continue
+                last = col
+                while last + 1 < self.n_cols and tiles[last + 1] != EMPTY:
+                    last += 1
+                shapes.append(self._run(row, col, last))
+                col = last + 1
         if shapes:
             space.add(*shapes)
 
+    def _run(self, row: int, first: int, last: int) -> pymunk.Shape:
+        """The box over tiles ``first`` to ``last`` of ``row``, noted under its first tile."""
+        x0, y0 = self.origin[0] + first * self.tile, self.origin[1] + row * self.tile
+        x1, y1 = self.origin[0] + (last + 1) * self.tile, y0 + self.tile
+        box = pymunk.Poly(self._space.static_body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+        self.material.apply(box)
+        self._shapes[row, first] = box
+        self._last[row, first] = last
+        return box
+
     def clear(self, row: int, col: int) -> None:
-        """Empty tile ``(row, col)``: its box leaves the space."""
-        shape = self._shapes.pop((row, col), None)
-        if shape is not None and self._space is not None:
-            self._space.remove(shape)
+        """Empty tile ``(row, col)``: the box of its run leaves the space, and the boxes of what is
+        left of the run on either side of it come in."""
+        tiles = self._rows[row]
+        if tiles[col] == EMPTY:
+            return
+        first = col
+        while first > 0 and tiles[first - 1] != EMPTY:
+            first -= 1
+        last = self._last.pop((row, first))
+        self._space.remove(self._shapes.pop((row, first)))
         self.kinds[row, col] = EMPTY
-        self._rows[row][col] = EMPTY
+        tiles[col] = EMPTY
+        parts = ([self._run(row, first, col - 1)] if col > first else []) + (
+            [self._run(row, col + 1, last)] if col < last else [])
+        if parts:
+            self._space.add(*parts)
 
     def first_solid(self, x0: float, y0: float, x1: float, y1: float) -> tuple[float, int, int]:
         """Walk the tiles the segment from ``(x0, y0)`` to ``(x1, y1)`` crosses, in order, and give

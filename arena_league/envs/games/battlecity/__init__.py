@@ -23,12 +23,13 @@ The maze, from the seed
 
 Bodies and physics
     Tanks are discs of radius 0.4 and mass 1 that do not spin; the outer wall and every brick,
-    steel and base tile (a static box of side 1) stop them. One pymunk step of 0.1 s per env step;
+    steel and base tile stop them (each run of such tiles along a row is one static box). One pymunk step of 0.1 s per env step;
     space damping 0.5 (a coasting tank keeps half its velocity after a second); a tank's thrust of
     at most 9 is opposed by a drag of ``3 * velocity``: top speed about 2.45 tiles/s. Contacts
     have no friction (a tank slides along walls) and a restitution of 0.01 between tanks, 0
     against walls and tiles. The pymunk space is built fresh for every match: the outer wall, the
-    tanks in seat order, then the tiles row by row.
+    tanks in seat order, then the runs of tiles row by row from the bottom, left to right; a broken
+    brick's run is replaced by the runs left on either side of it.
 
 Start
     Team 0's tanks stand at the centres of the tiles ``(0, 3)`` (1P) or ``(0, 3)`` and ``(0, 9)``

@@ -83,23 +83,16 @@ def draw_maze(rng: np.random.Generator, players: int, brick: float, steel: float
         draw = rng.random((GRID // 2 + 1, GRID))
         steel_now = steel if attempt < _MAZE_TRIES else 0.0
         kinds = np.zeros((GRID, GRID), dtype=np.int8)
-        half = np.where(draw < steel_now, STEEL, np.where(draw < steel_now + brick, BRICK, EMPTY))
-        for row in range(GRID // 2 + 1):
-            for col in range(GRID):
-                if row == GRID // 2 and col >= GRID // 2:
-                    continue  # the middle row's right half is the image of its left half
-                kinds[row, col] = half[row, col]
-        kinds[GRID // 2, GRID // 2] = EMPTY
+        kinds[: GRID // 2 + 1] = np.where(draw < steel_now, STEEL, np.where(draw < steel_now + brick, BRICK, EMPTY))
+        kinds[GRID // 2, GRID // 2:] = EMPTY  # the middle row's right half is the image of its left half
         for tile in BASE_RING:
             kinds[tile] = BRICK
         kinds[BASE_TILE] = BASE
         for tile in keep_clear:
             if 0 <= tile[0] < GRID // 2 and 0 <= tile[1] < GRID:
                 kinds[tile] = EMPTY
-        for row in range(GRID // 2 + 1):
-            for col in range(GRID):
-                if row < GRID // 2 or col < GRID // 2:
-                    kinds[turned(row, col)] = kinds[row, col]
+        kinds[GRID // 2 + 1:] = kinds[: GRID // 2][::-1, ::-1]
+        kinds[GRID // 2, GRID // 2 + 1:] = kinds[GRID // 2, : GRID // 2][::-1]
         if _open(kinds, start_tiles(players)[0]):
             return kinds
     raise AssertionError("unreachable: a maze without steel is always open")  # pragma: no cover

@@ -24,7 +24,8 @@ Bodies and physics
     env step; space damping 0.5; a fighter's thrust of at most 12 is opposed by a drag of ``4 *
     velocity``: top speed about 2.57 units/s. Restitution 0.04 between fighters, 0 against walls
     and bunkers, no friction. The pymunk space is built fresh for every match: the outer wall, the
-    fighters in seat order, then the bunkers' tiles row by row.
+    fighters in seat order, then the bunkers' runs of tiles along each row (one static box each),
+    row by row from the bottom.
 
 Start
     Team 0 at ``(-7, 0)`` (1P) or ``(-7, 2)`` and ``(-7, -2)`` (2P), heading ``+x``; team 1 at
