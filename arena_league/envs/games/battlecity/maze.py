@@ -100,20 +100,12 @@ def draw_maze(rng: np.random.Generator, players: int, brick: float, steel: float
 
 def _open(kinds: np.ndarray, start: tuple[int, int]) -> bool:
     """Whether every tile but steel and the bases is reachable from ``start`` through such tiles
-    (grown a step in the four directions at a time until it stops growing)."""
+    (one component of the four-neighbour grid)."""
+    from scipy import ndimage  # (imported on the first draw: the catalog's import stays light)
+
     passable = (kinds == EMPTY) | (kinds == BRICK)
-    seen = np.zeros_like(passable)
-    seen[start] = True
-    while True:
-        grown = seen.copy()
-        grown[1:] |= seen[:-1]
-        grown[:-1] |= seen[1:]
-        grown[:, 1:] |= seen[:, :-1]
-        grown[:, :-1] |= seen[:, 1:]
-        grown &= passable
-        if np.array_equal(grown, seen):
-            return bool((seen == passable).all())
-        seen = grown
+    labels, _ = ndimage.label(passable)
+    return bool((labels[passable] == labels[start]).all())
 
 
 def maze_field(n_agents: int) -> Field:
