@@ -367,8 +367,7 @@ class BattleCityRules(Physics2DRules):
     def _fire_shells(self, fire: np.ndarray) -> None:
         """Every seat that fires, is in play, has its gun loaded and no shell in flight shoots."""
         for seat in self.shells.pull_triggers(fire, self._tank_xy, self._heading, self.measures.active):
-            self._events.append({"kind": "fire", "seat": seat})
-        self._sync_shells()
+            self._events.append({"kind": "fire", "seat": seat})  # (its shell is shown once it has moved)
 
     def _resolve(self, hit: Any) -> None:
         if hit.seat >= 0:

@@ -308,8 +308,7 @@ class FighterRules(Physics2DRules):
         self._events = []
         if np.count_nonzero(firing):
             for seat in self.shells.pull_triggers(firing, self._xy, self._heading, m.active):
-                self._events.append({"kind": "fire", "seat": seat})
-            self._show_shells()
+                self._events.append({"kind": "fire", "seat": seat})  # (its shell is shown once it has moved)
         self.world.step()
         if np.count_nonzero(self.shells.flying):
             for hit in self.shells.advance(DT, self.tiles, self._xy, m.active):
