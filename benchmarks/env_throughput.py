@@ -8,7 +8,7 @@ are also timed as batched numpy engines (many boards stepped at once).
     python benchmarks/env_throughput.py [--seconds 2] [--games Crossroads-2T2P-v1 ...]
 
 With ``--against PATH`` (a checkout of another commit) it compares instead: each game id and action
-type (by default every id of the six 2D physics games) is timed with this tree's ``arena_league`` and
+type (by default every id of the 2D physics games) is timed with this tree's ``arena_league`` and
 with PATH's, in two worker processes that run this same timing loop and differ only in the
 ``arena_league`` they import (``PYTHONPATH``). Rounds alternate A B, B A, ... on the same pinned core,
 so load from elsewhere on the machine falls on both alike; each side's figure is the median over
@@ -37,7 +37,7 @@ import numpy as np
 
 from arena_league.envs import game_spec, list_games, make
 
-PHYSICS_2D = ("Crossroads", "Soccer", "AirHockey", "FightForFood", "BlowBlow", "Tennis")
+PHYSICS_2D = ("Crossroads", "Soccer", "AirHockey", "FightForFood", "BlowBlow", "Tennis", "BattleCity", "Fighter")
 
 
 def pin_to_one_core() -> str:

@@ -164,18 +164,24 @@ def test_a_guest_plays_both_halves_of_a_youshallnotpass_pair(server, browser):
     page.close()
 
 
-def test_a_guest_moves_up_in_capture_the_flag_with_the_arrow_keys(server, browser):
+def scripted_base(server, game_id: str) -> None:
+    """A game that ships no base population yet gets its scripted agents (random, heuristic) as a
+    frozen one, so that its play page opens."""
     from arena_league.league import ensure_scripted_agents, open_home
     from arena_league.registry import add_population_member, create_population, freeze_population, get_agent
 
-    game_id = "CaptureFlag-2T1P-v1"
-    with open_home(server.home, server.db) as league:  # no base is shipped: the game's scripted agents are one
+    with open_home(server.home, server.db) as league:
         names = ensure_scripted_agents(league, game_id)
         with league.transaction() as session:
             population = create_population(session, "scripted", game_id, provenance={"made_by": "test"})
-            for name in names:
-                add_population_member(session, population, get_agent(session, name), {"rating": 1000.0})
+            for name, rating in zip(names, (900.0, 1100.0), strict=True):
+                add_population_member(session, population, get_agent(session, name), {"rating": rating})
             freeze_population(session, population)
+
+
+def test_a_guest_moves_up_in_capture_the_flag_with_the_arrow_keys(server, browser):
+    game_id = "CaptureFlag-2T1P-v1"
+    scripted_base(server, game_id)
     page = start_as_guest(server, browser, game_id, "raider")
     sync_api.expect(page.locator('[data-role="seats"] li')).to_have_count(2)
 
@@ -191,17 +197,7 @@ def test_a_guest_moves_up_in_capture_the_flag_with_the_arrow_keys(server, browse
     page.keyboard.up("ArrowUp")
     assert any(y > start[1] + 0.5 and abs(x - start[0]) < 0.01 for x, y in moved), (start, moved)
 def test_a_guest_walks_out_of_a_boomer_corner_with_the_arrow_keys(server, browser):
-    # no base population ships for Boomer yet: the league's scripted agents stand in as its base
-    from arena_league.league import ensure_scripted_agents, open_home
-    from arena_league.registry import add_population_member, create_population, freeze_population, get_agent
-
-    with open_home(server.home) as league:
-        names = ensure_scripted_agents(league, "Boomer-2T1P-v1")
-        with league.transaction() as session:
-            population = create_population(session, "scripted", "Boomer-2T1P-v1", provenance={"made_by": "test"})
-            for name, rating in zip(names, (900.0, 1100.0), strict=True):
-                add_population_member(session, population, get_agent(session, name), {"rating": rating})
-            freeze_population(session, population)
+    scripted_base(server, "Boomer-2T1P-v1")
     page = start_as_guest(server, browser, "Boomer-2T1P-v1", "bomber")
 
     def you_after_the_next_step() -> tuple[float, float]:
@@ -222,4 +218,40 @@ def test_a_guest_walks_out_of_a_boomer_corner_with_the_arrow_keys(server, browse
     page.evaluate("document.querySelector('[data-role=\"resign\"]').click()")
     sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
     sync_api.expect(page.locator('[data-role="reason"]')).to_contain_text("Why it ended: you resigned")
+    page.close()
+
+
+def drive_right_and_fire(page) -> None:
+    """Hold ArrowRight (the person's start has open ground on both sides, whichever team they
+    play) and see their seat move right on the view as drawn; Space fires."""
+
+    def you() -> tuple[float, float]:
+        step = page.get_attribute("#play", "data-step")
+        page.wait_for_function("([step]) => document.getElementById('play').dataset.step !== step", arg=[step])
+        return tuple(float(v) for v in page.get_attribute("#play", "data-you").split(","))
+
+    start = you()
+    page.keyboard.down("ArrowRight")
+    for _ in range(6):
+        moved = you()
+    page.keyboard.up("ArrowRight")
+    assert moved[0] > start[0] + 0.3, (start, moved)
+    page.keyboard.down(" ")
+    sync_api.expect(page.locator('[data-role="events"]')).to_contain_text("you fire")
+    page.keyboard.up(" ")
+    page.evaluate("document.querySelector('[data-role=\"resign\"]').click()")
+    sync_api.expect(page.locator("#play")).to_have_attribute("data-state", "ended")
+
+
+def test_a_guest_drives_a_battlecity_tank_with_the_arrow_keys_and_fires_with_space(server, browser):
+    scripted_base(server, "BattleCity-2T1P-v1")
+    page = start_as_guest(server, browser, "BattleCity-2T1P-v1", "tanker")
+    drive_right_and_fire(page)
+    page.close()
+
+
+def test_a_guest_moves_a_fighter_with_the_arrow_keys_and_fires_with_space(server, browser):
+    scripted_base(server, "Fighter-2T1P-v1")
+    page = start_as_guest(server, browser, "Fighter-2T1P-v1", "flyer")
+    drive_right_and_fire(page)
     page.close()

@@ -23,7 +23,8 @@ from arena_league.envs.core import GameRules
 
 #: Game modules under ``arena_league.envs.games``, one per game.
 GAME_MODULES: tuple[str, ...] = ("crossroads", "soccer", "gobang", "snake", "sumo", "runtogoal", "youshallnotpass", "pushbox", "airhockey",
-                                 "fightforfood", "blowblow", "tennis", "captureflag", "boomer")
+                                 "fightforfood", "blowblow", "tennis", "captureflag", "boomer", "battlecity",
+                                 "fighter")
 
 _ID_RE = re.compile(r"^(?P<name>[A-Za-z][A-Za-z0-9]*)-(?P<teams>\d+)T(?P<players>\d+)P-v(?P<version>\d+)$")
 

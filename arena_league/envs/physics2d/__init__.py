@@ -1,5 +1,5 @@
 """The one 2D engine under the pymunk games (Crossroads, Soccer, AirHockey, FightForFood, Tennis,
-BlowBlow): a game is a declaration over it, not a copy of it.
+BlowBlow, BattleCity, Fighter): a game is a declaration over it, not a copy of it.
 
 - :mod:`~arena_league.envs.physics2d.world`: the field as data (:class:`Field` of :class:`Walls`
   and :class:`Bodies` with their :class:`Material`), and the :class:`World` that builds each match's
@@ -18,6 +18,9 @@ BlowBlow): a game is a declaration over it, not a copy of it.
   top-down picture and the replay scene;
 - :mod:`~arena_league.envs.physics2d.geometry`: outlines and walls (a field with chamfered corners
   and goal boxes, walls whose inner faces follow an outline);
+- :mod:`~arena_league.envs.physics2d.shots`: shells fired by seats across a tiled map of static
+  boxes, some of which shells break (BattleCity, Fighter): the tiles, the shells' exact straight
+  paths, reloading, a shooter's heading, actions and fire key;
 - :mod:`~arena_league.envs.physics2d.ballgames`: what the two-team ball games on a goal field
   (Soccer, AirHockey) share: their rules' common part, observation, measures, state, default tree,
   scripted approach, picture and replay scene.
