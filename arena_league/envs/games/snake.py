@@ -180,6 +180,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from arena_league.envs import scene
+from arena_league.envs.boards import BoardSlots, OneBoard
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.options import Option
@@ -815,7 +816,7 @@ class SnakeBoards:
         return grid.reshape(self.size, self.size)
 
 
-class SnakeMatches:
+class SnakeMatches(BoardSlots):
     """Snake matches stepped together on a ``SnakeBoards`` engine built like ``SnakeRules``' own
     one-board engine (same size, food, start length, view, teams and quarter turns); each match's
     board key is drawn from its seed exactly as ``SnakeRules.reset`` draws it.
@@ -883,19 +884,8 @@ class SnakeMatches:
             scores = boards.team_scores(finished)
             m.outcome[finished] = 2.0 * scores[:, self.team_of] / (self.n_teams - 1) - 1.0
 
-    def state(self) -> np.ndarray:
-        """``float32[n_slots, state_dim]``: every match's global state (``SnakeRules.state``)."""
-        return self.boards.state()
-
     def steps(self, slot: int) -> int:
         return int(self._steps[slot])
-
-    def team_result(self, slot: int) -> np.ndarray:
-        return self.boards.team_scores(np.array([slot]))[0]
-
-    def pair_points(self, slot: int) -> np.ndarray:
-        """What each team scored toward its pair: the team result, as ``SnakeRules.pair_points``."""
-        return self.team_result(slot)
 
 
 #: What a person types for each move on the board as drawn (board frame: 0 up, 1 right, 2 down, 3 left).
@@ -1079,7 +1069,7 @@ def _threatened(obs: np.ndarray, heads: np.ndarray, others: np.ndarray, target_r
     return threatened
 
 
-class SnakeRules(GameRules):
+class SnakeRules(OneBoard, GameRules):
     """One Snake match (the batched engine with one board); the module docstring is its manual."""
 
     name: ClassVar[str] = "Snake"
@@ -1163,19 +1153,7 @@ class SnakeRules(GameRules):
     def finish(self) -> None:
         self._set_outcome()
 
-    def team_result(self) -> np.ndarray:
-        return self.engine.team_scores()[0]
-
-    def events(self) -> list[dict]:
-        return list(self._events)
-
     # --- what seats see ----------------------------------------------------------------------
-    def observe(self) -> np.ndarray:
-        return self.engine.observe()[0]
-
-    def state(self) -> np.ndarray:
-        return self.engine.state()[0]
-
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         size, window = self.size, self.engine.window
         return cell_bounds((0, 1, 1), (-1, 1, 2), (0, 1, 4), (0, size, 1), (-1, 1, 2), (0, 1, 13),

@@ -197,6 +197,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from arena_league.envs import scene
+from arena_league.envs.boards import BoardSlots, OneBoard
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.games.boomer.boards import (
@@ -244,7 +245,7 @@ def start_measures(m: Measures, slot: Any = slice(None)) -> None:
     m.outcome[slot] = 0.0
 
 
-class BoomerMatches:
+class BoomerMatches(BoardSlots):
     """Boomer matches stepped together on a ``BoomerBoards`` engine built like ``BoomerRules``' own
     one-board engine; each match's key is drawn from its seed as ``BoomerRules.reset`` draws it.
     ``measures`` holds every match's measures as the rules set them; ``state()`` every match's
@@ -288,21 +289,12 @@ class BoomerMatches:
     def action_mask(self) -> None:
         return None  # every action is always legal
 
-    def state(self) -> np.ndarray:
-        return self.boards.state()
-
     def steps(self, slot: int) -> int:
         return int(self.boards.t[slot])
 
-    def team_result(self, slot: int) -> np.ndarray:
-        return self.boards.team_scores(np.array([slot]))[0]
-
-    def pair_points(self, slot: int) -> np.ndarray:
-        return self.team_result(slot)
 
 
-
-class BoomerRules(GameRules):
+class BoomerRules(OneBoard, GameRules):
     """One Boomer match (the batched engine with one board); the package docstring is its manual."""
 
     name: ClassVar[str] = "Boomer"
@@ -363,14 +355,8 @@ class BoomerRules(GameRules):
             self.game_over = True
             self.finish()
 
-    def events(self) -> list[dict]:
-        return list(self._events)
-
     def finish(self) -> None:
         self.measures.outcome[:] = final_outcome(self.team_result()[None, :], self.team_of, self.n_teams)[0]
-
-    def team_result(self) -> np.ndarray:
-        return self.engine.team_scores()[0]
 
     # --- what seats see: every cell in [0, 1] ----------------------------------------------------
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -378,12 +364,6 @@ class BoomerRules(GameRules):
 
     def state_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return cell_bounds((0, 1, N_BOARD_PLANES * self.size ** 2 + STATE_PER_AGENT * self.n_agents))
-
-    def observe(self) -> np.ndarray:
-        return self.engine.observe()[0]
-
-    def state(self) -> np.ndarray:
-        return self.engine.state()[0]
 
     def picture_codes(self) -> np.ndarray:
         """``int64[size, size]`` of what the picture paints on each cell (:data:`PALETTE`'s keys)."""

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from arena_league.envs.boards import grow
+
 #: Terrain codes of a cell.
 PASSAGE, RIGID, WOOD, EXTRA_BOMB, RANGE, KICK = 0, 1, 2, 3, 4, 5
 POWER_UPS: tuple[int, ...] = (EXTRA_BOMB, RANGE, KICK)
@@ -246,12 +248,7 @@ class BoomerBoards:
         reach = np.zeros(open_.shape, dtype=bool)
         reach.reshape(len(reach), -1)[:, self._start_cells[0]] = True
         while True:
-            grown = reach.copy()
-            grown[:, 1:] |= reach[:, :-1]
-            grown[:, :-1] |= reach[:, 1:]
-            grown[:, :, 1:] |= reach[:, :, :-1]
-            grown[:, :, :-1] |= reach[:, :, 1:]
-            grown &= open_
+            grown = grow(reach, open_)
             if (grown == reach).all():
                 return (reach == open_).all(axis=(1, 2))
             reach = grown

@@ -183,6 +183,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from arena_league.envs import scene
+from arena_league.envs.boards import OneBoard
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.games.captureflag.engine import (
@@ -203,7 +204,7 @@ from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 __all__ = ["RULES", "CaptureFlagBoards", "CaptureFlagMatches", "CaptureFlagRules"]
 
 
-class CaptureFlagRules(GameRules):
+class CaptureFlagRules(OneBoard, GameRules):
     """One CaptureFlag match (the batched engine with one board); the package docstring is its manual."""
 
     name: ClassVar[str] = "CaptureFlag"
@@ -268,19 +269,7 @@ class CaptureFlagRules(GameRules):
     def finish(self) -> None:
         self.measures.outcome[:] = 2.0 * self.team_result()[self.team_of] - 1.0
 
-    def team_result(self) -> np.ndarray:
-        return self.engine.team_scores()[0]
-
-    def events(self) -> list[dict]:
-        return list(self._events)
-
     # --- what seats see ----------------------------------------------------------------------
-    def observe(self) -> np.ndarray:
-        return self.engine.observe()[0]
-
-    def state(self) -> np.ndarray:
-        return self.engine.state()[0]
-
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         low, high = cell_bounds((0, 1, self.obs_dim))
         for name, cells in (("position", 2), ("enemy_flag", 2), ("own_flag", 2)):

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from arena_league.envs.boards import BoardSlots, grow
 from arena_league.envs.core import Measures
 
 #: Actions in the seat's own frame (its base on the left): "right" leads toward the opponents' base.
@@ -192,12 +193,7 @@ class CaptureFlagBoards:
         open_ = ~walls
         wave = 0
         while True:
-            grown = reached.copy()
-            grown[:, 1:] |= reached[:, :-1]
-            grown[:, :-1] |= reached[:, 1:]
-            grown[:, :, 1:] |= reached[:, :, :-1]
-            grown[:, :, :-1] |= reached[:, :, 1:]
-            grown &= open_
+            grown = grow(reached, open_)
             new = grown & ~reached
             if not new.any():
                 return dist
@@ -473,7 +469,7 @@ class CaptureFlagBoards:
         return self.cell(self.flag_at[board])
 
 
-class CaptureFlagMatches:
+class CaptureFlagMatches(BoardSlots):
     """CaptureFlag matches stepped together on a :class:`CaptureFlagBoards` built like the rules'
     own one-board engine; each match's map key is drawn from its seed exactly as the rules' ``reset``
     draws it. ``measures`` holds every match's measures as the rules set them, ``state()`` every
@@ -515,17 +511,8 @@ class CaptureFlagMatches:
         write_measures(self.measures, self.boards, playing, np.flatnonzero(ended))
         return ended
 
-    def state(self) -> np.ndarray:
-        return self.boards.state()
-
     def steps(self, slot: int) -> int:
         return int(self._steps[slot])
-
-    def team_result(self, slot: int) -> np.ndarray:
-        return self.boards.team_scores(np.array([slot]))[0]
-
-    def pair_points(self, slot: int) -> np.ndarray:
-        return self.team_result(slot)
 
 
 def match_key(seed: int) -> np.ndarray:
