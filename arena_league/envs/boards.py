@@ -3,8 +3,8 @@
 Such a game keeps its rules once, in a whole-array engine of many boards, and reaches it two ways:
 its :class:`~arena_league.envs.core.GameRules` plays board 0 of a one-board engine
 (:class:`OneBoard`), and its ``batched_matches`` plays one match per board of a wide one
-(:class:`BoardSlots`). :func:`grow` is the 4-neighbour step of the flood fills their map makers and
-distance fields use.
+(:class:`BoardSlots`). :func:`reset_keys` checks the boards and keys a ``reset`` is given, and
+:func:`grow` is the 4-neighbour step of the flood fills their map makers and distance fields use.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BoardSlots", "OneBoard", "grow"]
+__all__ = ["BoardSlots", "OneBoard", "grow", "reset_keys"]
 
 
 class OneBoard:
@@ -36,11 +36,30 @@ class OneBoard:
         return self.engine.state()[0]
 
 
+def reset_keys(every: np.ndarray, rng: np.random.Generator, boards: Any = None, keys: Any = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """``(boards, keys)`` of an engine's ``reset(boards, keys)``: the boards indexed (``every`` board
+    by default) and one ``uint64`` key each, drawn from ``rng`` unless given."""
+    sel = every if boards is None else np.asarray(boards, dtype=np.int64).reshape(-1)
+    if keys is None:
+        keys = rng.integers(0, 2**64, size=sel.size, dtype=np.uint64)
+    keys = np.asarray(keys, dtype=np.uint64).reshape(-1)
+    if keys.shape != sel.shape:
+        raise ValueError(f"reset got {keys.size} keys for {sel.size} boards; give one uint64 key per board")
+    return sel, keys
+
+
 class BoardSlots:
     """A ``batched_matches`` mixin for a match engine whose slot ``k`` is board ``k`` of
-    ``self.boards``."""
+    ``self.boards``, whose observation is the boards' own and whose every action is legal."""
 
     boards: Any
+
+    def observe(self) -> np.ndarray:
+        return self.boards.observe()
+
+    def action_mask(self) -> None:
+        return None  # every action is always legal
 
     def state(self) -> np.ndarray:
         """``float32[n_slots, state_dim]``: every match's global state, as the rules give it."""

@@ -180,7 +180,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from arena_league.envs import scene
-from arena_league.envs.boards import BoardSlots, OneBoard
+from arena_league.envs.boards import BoardSlots, OneBoard, reset_keys
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.options import Option
@@ -396,12 +396,7 @@ class SnakeBoards:
     # --- matches -----------------------------------------------------------------------------
     def reset(self, boards: Any = None, keys: Any = None) -> None:
         """Start new matches on every board, or on the boards indexed by ``boards``."""
-        sel = self._boards if boards is None else np.asarray(boards, dtype=np.int64).reshape(-1)
-        if keys is None:
-            keys = self.rng.integers(0, 2**64, size=sel.size, dtype=np.uint64)
-        keys = np.asarray(keys, dtype=np.uint64).reshape(-1)
-        if keys.shape != sel.shape:
-            raise ValueError(f"reset got {keys.size} keys for {sel.size} boards; give one uint64 key per board")
+        sel, keys = reset_keys(self._boards, self.rng, boards, keys)
         length = self.start_length
         self.owner[sel] = self._owner_template
         self.stamp[sel] = 0
@@ -850,12 +845,6 @@ class SnakeMatches(BoardSlots):
         m.velocity_to_target[slot] = 0.0
         m.target_distance[slot] = self.boards.food_distance[slot]
         m.outcome[slot] = 0.0
-
-    def observe(self) -> np.ndarray:
-        return self.boards.observe()
-
-    def action_mask(self) -> None:
-        return None
 
     def acting(self) -> np.ndarray:
         return self.boards.alive & ~self.boards.done[:, None]

@@ -271,9 +271,6 @@ class BoomerMatches(BoardSlots):
     def acting(self) -> np.ndarray:
         return self.boards.alive & ~self.boards.done[:, None]
 
-    def observe(self) -> np.ndarray:
-        return self.boards.observe()
-
     def step(self, actions: np.ndarray) -> np.ndarray:
         boards = self.boards
         live = ~boards.done
@@ -286,12 +283,8 @@ class BoomerMatches(BoardSlots):
             self.measures.outcome[finished] = final_outcome(boards.team_scores(finished), self.team_of, self.n_teams)
         return ended
 
-    def action_mask(self) -> None:
-        return None  # every action is always legal
-
     def steps(self, slot: int) -> int:
         return int(self.boards.t[slot])
-
 
 
 class BoomerRules(OneBoard, GameRules):

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from arena_league.envs.boards import grow
+from arena_league.envs.boards import grow, reset_keys
 
 #: Terrain codes of a cell.
 PASSAGE, RIGID, WOOD, EXTRA_BOMB, RANGE, KICK = 0, 1, 2, 3, 4, 5
@@ -257,12 +257,7 @@ class BoomerBoards:
     def reset(self, boards: Any = None, keys: Any = None) -> None:
         """New matches on every board or on those indexed; each board's map comes from its key
         (drawn from the engine's generator unless ``keys``, ``uint64``, are given)."""
-        sel = self._boards if boards is None else np.asarray(boards, dtype=np.int64).reshape(-1)
-        if keys is None:
-            keys = self.rng.integers(0, 2**64, size=sel.size, dtype=np.uint64)
-        keys = np.asarray(keys, dtype=np.uint64).reshape(-1)
-        if keys.shape != sel.shape:
-            raise ValueError(f"reset got {keys.size} keys for {sel.size} boards; give one uint64 key per board")
+        sel, keys = reset_keys(self._boards, self.rng, boards, keys)
         terrain, hidden = self.generate(keys)
         self.terrain[sel] = RIGID
         self.terrain[sel[:, None], self._inner] = terrain

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from arena_league.envs.boards import BoardSlots, grow
+from arena_league.envs.boards import BoardSlots, grow, reset_keys
 from arena_league.envs.core import Measures
 
 #: Actions in the seat's own frame (its base on the left): "right" leads toward the opponents' base.
@@ -227,12 +227,7 @@ class CaptureFlagBoards:
     # --- matches ---------------------------------------------------------------------------------
     def reset(self, boards: Any = None, keys: Any = None) -> None:
         """New matches on every board (or on the boards indexed), each map from its board's key."""
-        sel = self._boards if boards is None else np.asarray(boards, dtype=np.int64).reshape(-1)
-        if keys is None:
-            keys = self.rng.integers(0, 2**64, size=sel.size, dtype=np.uint64)
-        keys = np.asarray(keys, dtype=np.uint64).reshape(-1)
-        if keys.shape != sel.shape:
-            raise ValueError(f"reset got {keys.size} keys for {sel.size} boards; give one uint64 key per board")
+        sel, keys = reset_keys(self._boards, self.rng, boards, keys)
         self.keys[sel] = keys
         self._set_maps(sel, self.draw_walls(keys))
         self._start(sel)
@@ -490,12 +485,6 @@ class CaptureFlagMatches(BoardSlots):
         self.boards.reset(np.array([slot]), keys=match_key(seed))
         self._steps[slot] = 0
         write_measures(self.measures, self.boards, np.array([slot]), np.zeros(0, dtype=np.int64))
-
-    def observe(self) -> np.ndarray:
-        return self.boards.observe()
-
-    def action_mask(self) -> None:
-        return None
 
     def acting(self) -> np.ndarray:
         return self.boards.active & ~self.boards.done[:, None]
