@@ -95,10 +95,15 @@ def test_a_resume_with_other_arguments_is_refused(tmp_path):
     assert "\n" not in str(error.value)
 
 
-def test_arena_league_train_resumes_its_curves(tmp_path):
+@pytest.mark.parametrize("background", [False, True], ids=["inline", "background"])
+def test_arena_league_train_resumes_its_curves(tmp_path, monkeypatch, background):
+    from arena_league.training import curves
     from arena_league.training.curves import train
 
-    options = {"steps": 6 * 32, "seed": 1, "eval_every": 2, "eval_matches": 1, "eval_background": False,
+    # background: an evaluation process beside training, so a checkpoint may hold evaluations asked
+    # for and not played yet, which the resumed run asks for again
+    monkeypatch.setattr(curves, "_cores", lambda: 2)
+    options = {"steps": 6 * 32, "seed": 1, "eval_every": 2, "eval_matches": 1, "eval_background": background,
                "checkpoint_seconds": 0, **TINY}
     straight = train(GAME, "dppo", out_dir=tmp_path / "straight", **options)
 
@@ -115,3 +120,15 @@ def test_arena_league_train_resumes_its_curves(tmp_path):
     assert [e["env_steps"] for e in resumed.evaluations] == [32, 64, 128, 192]
     assert ([{k: v for k, v in e.items() if k not in timed} for e in resumed.evaluations]
             == [{k: v for k, v in e.items() if k not in timed} for e in straight.evaluations])
+
+
+def test_a_run_that_cannot_be_checkpointed_warns_and_finishes(tmp_path):
+    def callback(trainer, record):
+        pass
+
+    callback.checkpoint = lambda: (lambda: None)  # what it keeps cannot be pickled
+    with pytest.warns(RuntimeWarning, match="cannot be checkpointed.*start it again from zero"):
+        snapshots = _run("dppo", tmp_path, callback=callback)
+    assert [s.steps for s in snapshots][-1] == STEPS
+    assert not (tmp_path / "dppo-seed3" / CHECKPOINT_FILE).exists()
+    assert not list((tmp_path / "dppo-seed3").glob(".*.tmp"))
