@@ -501,6 +501,10 @@ def _train_run(method: str, game_id: str, seed: int, steps: int, marks: list[int
     def record(trainer: Any, row: Mapping[str, Any]) -> None:
         history.append({"env_steps": int(row["env_steps"]), "episode_return": _finite(row.get("episode_return"))})
 
+    # a run resumed from its checkpoint carries on with the curve it had
+    record.checkpoint = lambda: list(history)  # type: ignore[attr-defined]
+    record.resume = history.extend  # type: ignore[attr-defined]
+
     snapshots = run_scheme(method, game_id, steps=steps, seed=seed, snapshot_every=None, out_dir=folder,
                            callback=record, tree=tree, max_cycles=max_cycles, snapshot_at=marks)
     curve_file = folder / f"curve-seed{seed}.json"

@@ -177,6 +177,20 @@ def train(game_id: str, scheme: str = "sp", steps: int = 100_000, seed: int = 0,
             evaluations.submit(trainer.learners, env_steps=int(trainer.env_steps), iteration=int(trainer.iteration))
         evaluations.collect(wait=False)
 
+    # a run resumed from its checkpoint continues the curves it had (see run_scheme's callback)
+    def checkpoint() -> dict[str, Any]:
+        return {"history": list(report.history), "evaluations": list(report.evaluations),
+                "warm_start": report.warm_start, "pending": evaluations.state()}
+
+    def resume(state: Mapping[str, Any]) -> None:
+        report.history[:] = state["history"]
+        report.evaluations[:] = state["evaluations"]
+        report.warm_start = state["warm_start"]
+        evaluations.resume(state["pending"])
+
+    on_iteration.checkpoint = checkpoint  # type: ignore[attr-defined]
+    on_iteration.resume = resume  # type: ignore[attr-defined]
+
     try:
         report.snapshots = run_scheme(scheme, game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
                                       out_dir=out_dir, callback=on_iteration, log=log, **overrides)
@@ -286,6 +300,7 @@ class _Evaluations:
         self.record = record
         self.evaluator = _Evaluator(game_id, references, env_kwargs)
         self.pending: list[dict[str, Any]] = []  # asked for, not recorded yet: env_steps, iteration
+        self.asked: dict[int, list[Any]] = {}  # index -> the policies of an evaluation not recorded yet
         self.finished: dict[int, tuple[dict[str, Any], float, float]] = {}  # index -> evaluation, seconds, CPU
         self.submitted = 0
         self.play_seconds = 0.0
@@ -316,17 +331,34 @@ class _Evaluations:
 
     def submit(self, learners: Sequence[Any], *, env_steps: int, iteration: int) -> None:
         """Evaluate ``learners`` as they are now, at ``env_steps`` (iteration ``iteration``)."""
+        self._submit(_learner_policies(learners), {"env_steps": env_steps, "iteration": iteration})
+
+    def _submit(self, policies: list[Any], asked: dict[str, Any]) -> None:
         started = time.perf_counter()
-        policies = _learner_policies(learners)
         index = self.submitted
         self.submitted += 1
-        self.pending.append({"env_steps": env_steps, "iteration": iteration})
+        self.pending.append(asked)
+        self.asked[index] = policies
         task = (index, policies, self.matches, self.seed, index * 1_000_000)
         if self.workers:
             self.tasks.put(task)
         else:
             self._play_here(task)
         self.wait_seconds += time.perf_counter() - started
+
+    def state(self) -> dict[str, Any]:
+        """What continues these evaluations after a stop: how many were recorded, and the frozen
+        policies of those asked for but not recorded yet (:meth:`resume` asks for them again)."""
+        recorded = self.submitted - len(self.pending)
+        return {"recorded": recorded, "pending": [(self.asked[recorded + k], dict(asked))
+                                                  for k, asked in enumerate(self.pending)]}
+
+    def resume(self, state: Mapping[str, Any]) -> None:
+        """Continue the evaluations of :meth:`state` (on evaluations that have asked for none yet):
+        each evaluation keeps its index, so its matches are those it would have played."""
+        self.submitted = int(state["recorded"])
+        for policies, asked in state["pending"]:
+            self._submit(policies, asked)
 
     def _play_here(self, task: tuple) -> None:
         """Play an evaluation task in this process."""
@@ -371,7 +403,9 @@ class _Evaluations:
     def _record_in_order(self) -> None:
         """Record the finished evaluations that every earlier one precedes."""
         while self.pending and (self.submitted - len(self.pending)) in self.finished:
-            evaluation, seconds, cpu = self.finished.pop(self.submitted - len(self.pending))
+            index = self.submitted - len(self.pending)
+            evaluation, seconds, cpu = self.finished.pop(index)
+            del self.asked[index]
             self.play_seconds += seconds
             self.cpu_seconds += cpu
             evaluation.update(self.pending.pop(0), eval_seconds=round(seconds, 4), eval_cpu_seconds=round(cpu, 4))

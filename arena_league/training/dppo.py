@@ -61,8 +61,11 @@ class DPPO(TrainerBase):
         self.learners = [Learner(self.architecture, self.config, learner_seed(seed, i), name=f"{label}{i}")
                          for i in range(n_learners)]
         self.per = per
-        self.collector = RolloutCollector(env_fn, self.config.num_envs, seed,
-                                          seating=lambda env_index, episode: self.learner_of_seat)
+        self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating)
+
+    def _seating(self, env_index: int, episode: int) -> np.ndarray:
+        """Seats stay fixed: the same learner per seat in every episode (a method, so a run pickles)."""
+        return self.learner_of_seat
 
     def _iterate(self) -> dict[str, Any]:
         """One iteration: a shared rollout, then each learner's GAE and update on its own seats."""

@@ -17,7 +17,8 @@ ends by the rules or at ``max_cycles``), ``state()`` (``float32[n_slots, state_d
 turn-based games, ``current_player()`` (``int64[n_slots]``); its ``observe()`` rows of a match
 that ended are the rules' observation after the end.
 
-From the same seeds and actions, an :class:`EngineBatch` gives bit for bit the arrays of
+An :class:`EngineBatch` pickles mid-episode (a training run's checkpoint holds one) and goes on
+from where it stood. From the same seeds and actions, an :class:`EngineBatch` gives bit for bit the arrays of
 :class:`~arena_league.training.vector.EnvList` over K envs made by the same ``env_fn`` (tests check
 this for every game with an engine, with default and other social trees).
 """
@@ -70,9 +71,7 @@ class EngineBatch(EnvBatch):
         self._trees = [copy.deepcopy(tree) for _ in range(self.n_envs)]
         for t in self._trees:
             t.reset()
-        self._contexts = [RewardContext(measures.row(k), {name: self._previous[name][k] for name in
-                                                          self._previous_names}, tree.team_of, 0, False)
-                          for k in range(self.n_envs)]
+        self._bind_contexts()
         self._steps = np.zeros(self.n_envs, dtype=np.int64)
         self._live = np.zeros(self.n_envs, dtype=bool)
         self._rewards = np.zeros((self.n_envs, self.n_agents), dtype=np.float32)
@@ -81,6 +80,24 @@ class EngineBatch(EnvBatch):
         self._acting = np.zeros((self.n_envs, self.n_agents), dtype=bool)
         self._masks = np.ones((self.n_envs, self.n_agents, self.n_actions), dtype=bool) if self.masked else None
         self._rows = np.arange(self.n_envs)
+
+    def _bind_contexts(self) -> None:
+        """Each slot's reward context: views of its row of the engine's measures and of the previous
+        step's, so that the trees read them as the engine updates them in place."""
+        measures = self.engine.measures
+        self._contexts = [RewardContext(measures.row(k), {name: self._previous[name][k] for name in
+                                                          self._previous_names}, self.probe.tree.team_of, 0, False)
+                          for k in range(self.n_envs)]
+
+    def __getstate__(self) -> dict[str, Any]:
+        # pickling would turn the contexts' views into copies that no longer follow the measures
+        state = self.__dict__.copy()
+        del state["_contexts"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind_contexts()
 
     def reset(self, k: int, seed: int) -> None:
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:

@@ -5,8 +5,8 @@ Intelligence", AAAI 2020) builds each game's base population from the snapshots 
 training schemes produce. This module is the one door the population build goes through:
 
 * :data:`SCHEMES` maps a scheme name to a *runner*, a function
-  ``runner(game_id, *, steps, seed, snapshot_every, out_dir, callback=None, log=None, **overrides)
-  -> list[Snapshot]``. Registered here: ``"ppo"`` (one learner shared by every seat,
+  ``runner(game_id, *, steps, seed, snapshot_every, out_dir, callback=None, log=None,
+  checkpoint_seconds=120.0, **overrides) -> list[Snapshot]``. Registered here: ``"ppo"`` (one learner shared by every seat,
   :class:`~arena_league.training.trainer.PPO`), ``"dppo"`` (independent learners,
   :class:`~arena_league.training.dppo.DPPO`), ``"sp"`` (self-play,
   :class:`~arena_league.training.selfplay.SelfPlay`) and ``"pbt"``
@@ -31,7 +31,9 @@ Output: each run writes into ``out_dir/<scheme>-seed<seed>/`` one arena-policy f
 and snapshot (``<learner>-step<env steps>/``, its manifest's ``provenance`` holding scheme, game,
 steps, seed, learner, hyper-parameters and metrics) and, once finished, ``run.json``. A finished
 run asked for again with the same arguments is read back instead of retrained, so an interrupted
-population build resumes run by run.
+population build resumes run by run. An unfinished run keeps ``checkpoint.pt`` there (written every
+``checkpoint_seconds`` of wall time, 120 by default, at an iteration boundary): asked for again with
+the same arguments it continues from it, and ends exactly as the run would have uninterrupted.
 """
 
 from __future__ import annotations
@@ -41,7 +43,11 @@ import importlib.util
 import inspect
 import json
 import math
+import os
+import pickle
 import shutil
+import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -66,16 +72,20 @@ from arena_league.training.selfplay import SelfPlay
 from arena_league.training.trainer import PPO
 
 __all__ = [
+    "CHECKPOINT_FILE",
+    "CHECKPOINT_SECONDS",
     "ENV_OPTIONS",
     "RUN_RECORD",
     "SCHEMES",
     "Runner",
     "Snapshot",
     "check_scheme_options",
+    "load_checkpoint",
     "make_env_fn",
     "register_scheme",
     "run_scheme",
     "run_trainer",
+    "save_checkpoint",
     "scheme_action_types",
     "scheme_runner",
     "split_overrides",
@@ -87,6 +97,12 @@ Runner = Callable[..., list["Snapshot"]]
 ENV_OPTIONS = ("max_cycles", "tree", "action_type", "env_kwargs")
 #: The file a finished run leaves in its folder.
 RUN_RECORD = "run.json"
+#: The file an unfinished run continues from (removed once ``run.json`` is written).
+CHECKPOINT_FILE = "checkpoint.pt"
+#: Seconds of wall time between two checkpoints of a run, by default: a stop loses at most this.
+CHECKPOINT_SECONDS = 120.0
+#: The layout of a checkpoint; another one is not resumed.
+CHECKPOINT_FORMAT = 1
 #: Modules that register more schemes when imported (another engineer's learners).
 _LAZY_SCHEME_MODULES = {"cc": "arena_league.training.cc", "cf": "arena_league.training.cf"}
 
@@ -136,7 +152,7 @@ def register_scheme(name: str, runner: Runner) -> None:
 
 def run_scheme(scheme: str, game_id: str, *, steps: int, seed: int, snapshot_every: int | None, out_dir: str | Path,
                callback: Callable[[Any, dict[str, Any]], None] | None = None, log: Callable[[str], None] | None = None,
-               **overrides: Any) -> list[Snapshot]:
+               checkpoint_seconds: float | None = CHECKPOINT_SECONDS, **overrides: Any) -> list[Snapshot]:
     """Train ``game_id`` with ``scheme`` for ``steps`` env steps and return its snapshots.
 
     Args:
@@ -148,12 +164,17 @@ def run_scheme(scheme: str, game_id: str, *, steps: int, seed: int, snapshot_eve
         snapshot_every: env steps between snapshots (each learner is saved at the first iteration
             boundary past every multiple, and at the end); None or 0: at the end only.
         out_dir: the run writes into ``out_dir/<scheme>-seed<seed>/``.
-        callback: called after every iteration with the trainer and the iteration's record.
+        callback: called after every iteration with the trainer and the iteration's record. When it
+            has a ``checkpoint()`` method (a function's attribute will do), what that returns is
+            saved with each checkpoint and handed to ``callback.resume(state)`` when the run resumes,
+            so the caller's own records (curves) continue too.
         log: called with a line per iteration.
+        checkpoint_seconds: seconds of wall time between two checkpoints of the unfinished run (0:
+            every iteration; None: none). A checkpoint never changes the run's results.
         **overrides: hyper-parameters, env options and scheme options (see the module docstring).
     """
     return _runner(scheme)(game_id, steps=steps, seed=seed, snapshot_every=snapshot_every, out_dir=out_dir,
-                           callback=callback, log=log, **overrides)
+                           callback=callback, log=log, checkpoint_seconds=checkpoint_seconds, **overrides)
 
 
 def check_scheme_options(scheme: str, game_id: str, overrides: Mapping[str, Any]) -> None:
@@ -207,7 +228,8 @@ def scheme_runner(trainer_cls: type) -> Runner:
 
     def runner(game_id: str, *, steps: int, seed: int, snapshot_every: int | None, out_dir: str | Path,
                callback: Callable[[Any, dict[str, Any]], None] | None = None,
-               log: Callable[[str], None] | None = None, **overrides: Any) -> list[Snapshot]:
+               log: Callable[[str], None] | None = None, checkpoint_seconds: float | None = CHECKPOINT_SECONDS,
+               **overrides: Any) -> list[Snapshot]:
         imitation = WarmStart.parse(overrides.pop("warm_start", None))
         snapshot_at = _snapshot_marks(overrides.pop("snapshot_at", ()))
         config, env_options, scheme_options = split_overrides(overrides, trainer_cls)
@@ -223,15 +245,30 @@ def scheme_runner(trainer_cls: type) -> Runner:
         finished = load_run(run_dir, request)
         if finished is not None:
             return finished
-        env_fn = make_env_fn(game_id, **env_options)
+        if checkpoint_seconds is not None and not checkpoint_seconds >= 0:
+            raise ValueError(f"checkpoint_seconds must be >= 0 (0: every iteration) or None (no checkpoints), "
+                             f"not {checkpoint_seconds!r}")
         # the whole run on one torch thread, its set-up and warm start too: with the caller's count
         # (the machine's cores) the actors' initial weights differed in their last bits
         with torch_threads(1):
-            trainer = trainer_cls(env_fn, config, seed, total_steps=int(steps), log=log, **scheme_options)
-            if imitation is not None:
-                trainer.warm_start_record = warm_start(trainer.learners, env_fn, game_id, imitation, seed, log=log)
+            resumed = load_checkpoint(run_dir, request)
+            if resumed is not None:
+                trainer, progress, caller = resumed
+                trainer.log = log
+                if caller is not None and callable(getattr(callback, "resume", None)):
+                    callback.resume(caller)
+                if log is not None:
+                    log(f"{trainer.scheme} resumed from {run_dir / CHECKPOINT_FILE} at iteration {trainer.iteration} "
+                        f"({trainer.env_steps} env steps)")
+            else:
+                env_fn = make_env_fn(game_id, **env_options)
+                trainer = trainer_cls(env_fn, config, seed, total_steps=int(steps), log=log, **scheme_options)
+                if imitation is not None:
+                    trainer.warm_start_record = warm_start(trainer.learners, env_fn, game_id, imitation, seed, log=log)
+                progress = None
             return run_trainer(trainer, game_id=game_id, steps=steps, seed=seed, snapshot_every=snapshot_every,
-                               run_dir=run_dir, callback=callback, request=request, snapshot_at=snapshot_at)
+                               run_dir=run_dir, callback=callback, request=request, snapshot_at=snapshot_at,
+                               checkpoint_seconds=checkpoint_seconds, progress=progress)
 
     runner.trainer_cls = trainer_cls  # type: ignore[attr-defined]  # check_scheme_options reads it
     runner.__name__ = f"run_{trainer_cls.scheme}"
@@ -288,26 +325,31 @@ def _snapshot_marks(marks: Any) -> tuple[int, ...]:
 
 def run_trainer(trainer: Any, *, game_id: str, steps: int, seed: int, snapshot_every: int | None,
                 run_dir: str | Path, callback: Callable[[Any, dict[str, Any]], None] | None = None,
-                request: Mapping[str, Any] | None = None, snapshot_at: tuple[int, ...] = ()) -> list[Snapshot]:
+                request: Mapping[str, Any] | None = None, snapshot_at: tuple[int, ...] = (),
+                checkpoint_seconds: float | None = None, progress: _Progress | None = None) -> list[Snapshot]:
     """Iterate ``trainer`` until ``steps`` env steps, saving every learner every ``snapshot_every``
     env steps, at the first iteration boundary past each of ``snapshot_at`` (0: before training,
-    e.g. the warm-started actors) and at the end into ``run_dir``; writes ``run.json`` when done."""
+    e.g. the warm-started actors) and at the end into ``run_dir``; writes ``run.json`` when done.
+    With ``checkpoint_seconds``, checkpoints the run (:func:`save_checkpoint`) at the first iteration
+    boundary after that many seconds since the last (0: every iteration); ``progress`` continues a
+    checkpointed run (:func:`load_checkpoint`)."""
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise ValueError(f"steps must be a positive number of env steps, not {steps!r}")
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / RUN_RECORD).unlink(missing_ok=True)
     every = int(snapshot_every or 0)
-    next_snapshot = every if every > 0 else None
-    snapshots: list[Snapshot] = []
-    history: list[dict[str, Any]] = []
-    marks = [m for m in snapshot_at if m < steps]
-    if marks and marks[0] == 0:
-        snapshots += save_snapshots(trainer, game_id, seed, run_dir, {})
-        marks.pop(0)
+    if progress is None:
+        progress = _Progress(next_snapshot=every if every > 0 else None,
+                             marks=[m for m in snapshot_at if m < steps])
+        if progress.marks and progress.marks[0] == 0:
+            progress.snapshots += save_snapshots(trainer, game_id, seed, run_dir, {})
+            progress.marks.pop(0)
+    marks = progress.marks
+    saved_at = time.monotonic()
     while trainer.env_steps < steps:
         record = trainer.iterate()
-        history.append(json_safe({k: v for k, v in record.items() if k != "losses"} | {
+        progress.history.append(json_safe({k: v for k, v in record.items() if k != "losses"} | {
             "losses": record.get("losses", [])}))
         if callback is not None:
             callback(trainer, record)
@@ -315,14 +357,97 @@ def run_trainer(trainer: Any, *, game_id: str, steps: int, seed: int, snapshot_e
         marked = bool(marks) and trainer.env_steps >= marks[0]
         while marks and marks[0] <= trainer.env_steps:
             marks.pop(0)
-        if at_end or marked or (next_snapshot is not None and trainer.env_steps >= next_snapshot):
-            snapshots += save_snapshots(trainer, game_id, seed, run_dir, record)
-            while next_snapshot is not None and next_snapshot <= trainer.env_steps:
-                next_snapshot += every
-    document = {"request": json_safe(dict(request or {})), "snapshots": [_snapshot_entry(s, run_dir) for s in snapshots],
-                "history": history}
+        if at_end or marked or (progress.next_snapshot is not None and trainer.env_steps >= progress.next_snapshot):
+            progress.snapshots += save_snapshots(trainer, game_id, seed, run_dir, record)
+            while progress.next_snapshot is not None and progress.next_snapshot <= trainer.env_steps:
+                progress.next_snapshot += every
+        if not at_end and checkpoint_seconds is not None and time.monotonic() - saved_at >= checkpoint_seconds:
+            try:
+                caller = callback.checkpoint() if callable(getattr(callback, "checkpoint", None)) else None
+                save_checkpoint(run_dir, request, trainer, progress, caller)
+            except (pickle.PicklingError, TypeError, AttributeError) as error:
+                # a part that cannot be saved (an opponent on an ONNX session) must not stop the run
+                warnings.warn(f"{run_dir}: this run cannot be checkpointed ({type(error).__name__}: {error}); it "
+                              "goes on, but a stop will start it again from zero", RuntimeWarning, stacklevel=2)
+                checkpoint_seconds = None
+            saved_at = time.monotonic()
+    document = {"request": json_safe(dict(request or {})),
+                "snapshots": [_snapshot_entry(s, run_dir) for s in progress.snapshots], "history": progress.history}
     (run_dir / RUN_RECORD).write_text(json.dumps(document, indent=1, allow_nan=False) + "\n")
-    return snapshots
+    # run.json supersedes the checkpoint: a finished run is read back, never resumed
+    (run_dir / CHECKPOINT_FILE).unlink(missing_ok=True)
+    return progress.snapshots
+
+
+@dataclass
+class _Progress:
+    """Where :func:`run_trainer` stands besides the trainer: what a checkpoint holds with it."""
+
+    next_snapshot: int | None
+    """The env-step count of the next ``snapshot_every`` snapshot (None: none)."""
+    marks: list[int]
+    """The ``snapshot_at`` counts not reached yet."""
+    snapshots: list[Snapshot] = field(default_factory=list)
+    history: list[dict[str, Any]] = field(default_factory=list)
+    """One record per iteration, as ``run.json`` keeps them."""
+
+    def __getstate__(self) -> dict[str, Any]:
+        # the snapshots are on disk already: a checkpoint names their folders, not their weights again
+        state = dict(self.__dict__)
+        state["snapshots"] = [_snapshot_entry(s, s.path.parent) for s in self.snapshots]
+        return state
+
+
+def save_checkpoint(run_dir: Path, request: Mapping[str, Any] | None, trainer: Any, progress: _Progress,
+                    caller: Any = None) -> Path:
+    """Write everything that continues the run at this iteration boundary to ``run_dir/checkpoint.pt``
+    atomically (a temporary file, then a rename), so a stop at any moment leaves a whole checkpoint.
+
+    The trainer is pickled whole (learners with their Adam state and generators, the run's
+    generators, counters, scheme state, the collector's envs mid-episode); its log callback is not
+    (a resumed run logs to the caller's). ``caller``: what the run's callback keeps of its own (its
+    ``checkpoint()``), handed back to the resumed run's callback (its ``resume(state)``)."""
+    log = getattr(trainer, "log", None)
+    trainer.log = None
+    path = run_dir / CHECKPOINT_FILE
+    temporary = path.with_name(f".{CHECKPOINT_FILE}.{os.getpid()}.tmp")
+    try:
+        torch.save({"format": CHECKPOINT_FORMAT, "request": json_safe(dict(request or {})), "trainer": trainer,
+                    "progress": progress, "torch_rng": torch.get_rng_state(), "caller": caller}, temporary)
+        os.replace(temporary, path)
+    finally:
+        trainer.log = log
+        temporary.unlink(missing_ok=True)
+    return path
+
+
+def load_checkpoint(run_dir: str | Path, request: Mapping[str, Any]) -> tuple[Any, _Progress, Any] | None:
+    """The trainer, progress and caller's state of the unfinished run checkpointed in ``run_dir``, None when there is
+    no checkpoint; a checkpoint of other arguments raises, naming the first difference and the fix.
+    Restores torch's global generator as it stood at the checkpoint."""
+    path = Path(run_dir) / CHECKPOINT_FILE
+    if not path.exists():
+        return None
+    state = torch.load(path, weights_only=False)
+    wanted = json_safe(dict(request))
+    if state.get("format") != CHECKPOINT_FORMAT or state["request"] != wanted:
+        difference = _first_difference(state.get("request", {}), wanted) if state.get("format") == CHECKPOINT_FORMAT \
+            else f"format {state.get('format')!r}, not {CHECKPOINT_FORMAT}"
+        raise ValueError(f"{path} is the checkpoint of a run with other arguments ({difference}); pass another "
+                         "out_dir, or delete that checkpoint to start this run from zero")
+    progress: _Progress = state["progress"]
+    progress.snapshots = [_read_snapshot(Path(run_dir), entry) for entry in progress.snapshots]
+    torch.set_rng_state(state["torch_rng"])
+    return state["trainer"], progress, state.get("caller")
+
+
+def _first_difference(had: Any, wanted: Any, where: str = "") -> str:
+    """The first place two requests differ, as ``key: checkpoint X, now Y``."""
+    if isinstance(had, dict) and isinstance(wanted, dict):
+        for key in sorted(set(had) | set(wanted)):
+            if had.get(key) != wanted.get(key):
+                return _first_difference(had.get(key), wanted.get(key), f"{where}.{key}" if where else key)
+    return f"{where or 'request'}: checkpoint {had!r}, now {wanted!r}"
 
 
 def save_snapshots(trainer: Any, game_id: str, seed: int, run_dir: Path, record: Mapping[str, Any]) -> list[Snapshot]:
@@ -361,14 +486,15 @@ def load_run(run_dir: str | Path, request: Mapping[str, Any]) -> list[Snapshot] 
     if document.get("request") != json_safe(dict(request)):
         raise ValueError(f"{run_dir} holds a finished run made with other arguments ({document.get('request')}); "
                          "pass another out_dir, or delete that folder to train again")
-    snapshots = []
-    for entry in document["snapshots"]:
-        path = Path(run_dir) / entry["folder"]
-        manifest = json.loads((path / MANIFEST_FILE).read_text())
-        snapshots.append(Snapshot(entry["scheme"], entry["game_id"], entry["steps"], entry["seed"],
-                                  manifest_architecture(manifest), dict(load_file(str(path / WEIGHTS_FILE))), path,
-                                  entry["learner"], entry["metrics"]))
-    return snapshots
+    return [_read_snapshot(Path(run_dir), entry) for entry in document["snapshots"]]
+
+
+def _read_snapshot(run_dir: Path, entry: Mapping[str, Any]) -> Snapshot:
+    """A saved snapshot from its entry of ``run.json`` (or of a checkpoint)."""
+    path = run_dir / entry["folder"]
+    manifest = json.loads((path / MANIFEST_FILE).read_text())
+    return Snapshot(entry["scheme"], entry["game_id"], entry["steps"], entry["seed"], manifest_architecture(manifest),
+                    dict(load_file(str(path / WEIGHTS_FILE))), path, entry["learner"], entry["metrics"])
 
 
 def _snapshot_entry(snapshot: Snapshot, run_dir: Path) -> dict[str, Any]:

@@ -119,8 +119,12 @@ class PPO(TrainerBase):
                  log: Callable[[str], None] | None = None) -> None:
         probe = self._begin(env_fn, config or PPOConfig(), seed, architecture, total_steps, log)
         self.learners = [Learner(self.architecture, self.config, seed, name="ppo")]
-        self.collector = RolloutCollector(env_fn, self.config.num_envs, seed,
-                                          seating=lambda env_index, episode: np.zeros(probe.rules.n_agents, int))
+        self.n_agents = int(probe.rules.n_agents)
+        self.collector = RolloutCollector(env_fn, self.config.num_envs, seed, seating=self._seating)
+
+    def _seating(self, env_index: int, episode: int) -> np.ndarray:
+        """Every seat of every env plays the one learner (a method, not a closure, so a run pickles)."""
+        return np.zeros(self.n_agents, int)
 
     def _iterate(self) -> dict[str, Any]:
         """One iteration: rollout, GAE, update; returns its log record."""

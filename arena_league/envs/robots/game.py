@@ -694,6 +694,20 @@ class RobotMatches:
         if pool is not None:
             pool.shutdown(wait=False)
 
+    # --- copies: a training run's checkpoint holds its engine mid-match --------------------------
+    def __getstate__(self) -> dict[str, Any]:
+        return {"arguments": (self.rules, self.n_slots, self.max_cycles, self.threads), "datas": self.datas,
+                "match": self.match, "anneal": self.measures.anneal}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # built afresh (its views of the match state and the MuJoCo buffers, its worker threads),
+        # then given the saved matches' values in place
+        self.__init__(*state["arguments"])
+        for data, saved in zip(self.datas, state["datas"], strict=True):
+            mujoco.mj_copyData(data, self.rules.model, saved)
+        self.match.load(state["match"])
+        self.measures.anneal = state["anneal"]
+
     def start(self, slot: int, seed: int) -> None:
         rules, st = self.rules, self.match
         rng = np.random.default_rng(seed)
