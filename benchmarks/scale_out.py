@@ -18,6 +18,7 @@ run would take on 16, 64 and 256 CPUs.
 
     PYTHONPATH=. python benchmarks/scale_out.py [--agents 100] [--matches-per-pair 10]
                                                 [--build-size 16] [--build-steps 131072] [--skip-build]
+                                                [--backends inprocess pool ray1 ray2]
 """
 
 from __future__ import annotations
@@ -74,37 +75,49 @@ def time_round_robin(specs: list, refs: dict[str, AgentRef], **options) -> tuple
     return time.perf_counter() - start, [r.without_replay() for r in results]
 
 
-def round_robin_part(agents: int, matches_per_pair: int, log_dir: Path) -> dict:
+#: The round robin's backends, by the name ``--backends`` takes, and each row's label.
+BACKENDS = {"inprocess": "in process (1 CPU)", "pool": "process pool (2 workers)",
+            "ray1": "ray, 1 node (1 CPU each)", "ray2": "ray, 2 nodes (1 CPU each)"}
+
+
+def round_robin_part(agents: int, matches_per_pair: int, log_dir: Path, backends: list[str]) -> dict:
     refs = member_refs(agents)
     seatings = round_robin(list(refs), matches_per_pair)
     specs = specs_for_seatings(GAME, seatings, league_seed=0)
-    rows = {}
-    # one torch thread, as the league's worker and every pool or Ray worker play: the batched
-    # forwards are small, and a second thread's hand-offs cost more than it computes
-    with torch_threads(1):
-        seconds, reference = time_round_robin(specs, refs, backend="inprocess")
-    rows["in process (1 CPU)"] = seconds
-    seconds, pooled = time_round_robin(specs, refs, backend="process", workers=2)
-    rows["process pool (2 workers)"] = seconds
-    same = {"process pool (2 workers)": pooled == reference}
-    for nodes in (1, 2):
-        label = f"ray, {nodes} node{'s' if nodes > 1 else ''} (1 CPU each)"
-        with ray_nodes(nodes, log_dir / f"rr{nodes}") as address:
-            seconds, played = time_round_robin(specs, refs, backend="ray", ray_address=address)
-        rows[label], same[label] = seconds, played == reference
-    one = rows["in process (1 CPU)"]
-    ray_one, ray_two = rows["ray, 1 node (1 CPU each)"], rows["ray, 2 nodes (1 CPU each)"]
-    return {
+    rows, played = {}, {}
+    for backend in backends:
+        label = BACKENDS[backend]
+        if backend == "inprocess":
+            # one torch thread, as the league's worker and every pool or Ray worker play: the batched
+            # forwards are small, and a second thread's hand-offs cost more than it computes
+            with torch_threads(1):
+                rows[label], played[label] = time_round_robin(specs, refs, backend="inprocess")
+        elif backend == "pool":
+            rows[label], played[label] = time_round_robin(specs, refs, backend="process", workers=2)
+        else:
+            with ray_nodes(int(backend[-1]), log_dir / backend) as address:
+                rows[label], played[label] = time_round_robin(specs, refs, backend="ray", ray_address=address)
+    # every row against the first one run (a match's result depends on its spec and agents only)
+    reference = played[BACKENDS[backends[0]]]
+    one = rows.get(BACKENDS["inprocess"])
+    out = {
         "agents": agents, "matches_per_pair": matches_per_pair, "matches": len(specs),
         "mean_steps_per_match": round(sum(r.steps for r in reference) / len(reference), 1),
         "backends": {label: {"seconds": round(s, 1), "matches_per_second": round(len(specs) / s, 1),
-                             "speedup_over_one_process": round(one / s, 2), "same_results": same.get(label, True)}
+                             **({"speedup_over_one_process": round(one / s, 2)} if one else {}),
+                             "same_results": played[label] == reference}
                      for label, s in rows.items()},
-        "ray_two_nodes_over_one": round(ray_one / ray_two, 2),
-        "ray_overhead_over_pool_same_cores": round(ray_two / rows["process pool (2 workers)"] - 1.0, 3),
-        # the faster of the two one-CPU runs: the in-process one also pays for this process's other threads
-        "seconds_per_match_one_cpu": round(min(one, ray_one) / len(specs), 5),
     }
+    ray_one, ray_two, pool = (rows.get(BACKENDS[b]) for b in ("ray1", "ray2", "pool"))
+    if ray_one and ray_two:
+        out["ray_two_nodes_over_one"] = round(ray_one / ray_two, 2)
+    if ray_two and pool:
+        out["ray_overhead_over_pool_same_cores"] = round(ray_two / pool - 1.0, 3)
+    # the faster of the one-CPU runs: the in-process one also pays for this process's other threads
+    one_cpu = [t for t in (one, ray_one) if t]
+    if one_cpu:
+        out["seconds_per_match_one_cpu"] = round(min(one_cpu) / len(specs), 5)
+    return out
 
 
 #: The build's training runs: two schemes, two seeds each, so that two nodes can share them evenly.
@@ -136,11 +149,13 @@ def build_part(size: int, steps: int, log_dir: Path) -> dict:
     }
 
 
-def projection(round_robin: dict, build: dict | None) -> dict:
+def projection(round_robin: dict, build: dict | None) -> dict | None:
     """Wall time on C CPUs from the measured one-CPU costs, assuming perfect spreading over the CPUs
     up to the number of independent tasks (matches in chunks of 256; one training run per CPU),
     no overhead, and the same CPU speed as here."""
-    per_match = round_robin["seconds_per_match_one_cpu"]
+    per_match = round_robin.get("seconds_per_match_one_cpu")
+    if per_match is None:
+        return None  # no one-CPU row was run
     full_round_robin = 100 * 99 // 2 * 10
     out = {"assumptions": projection.__doc__.split("\n\n")[0].replace("\n    ", " "),
            "seconds_per_match_one_cpu": per_match}
@@ -169,9 +184,11 @@ def main() -> None:
     parser.add_argument("--build-size", type=int, default=16)
     parser.add_argument("--build-steps", type=int, default=131_072, help="env steps of each build run")
     parser.add_argument("--skip-build", action="store_true", help="the round robin only")
+    parser.add_argument("--backends", nargs="+", choices=list(BACKENDS), default=list(BACKENDS),
+                        help="the round robin's backends, in this order (default: all four)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="scale-") as root:
-        rr = round_robin_part(args.agents, args.matches_per_pair, Path(root))
+        rr = round_robin_part(args.agents, args.matches_per_pair, Path(root), args.backends)
         print(json.dumps({"round_robin": rr}), file=sys.stderr, flush=True)  # kept should the build part fail
         build = None if args.skip_build else build_part(args.build_size, args.build_steps, Path(root))
     print(json.dumps({
