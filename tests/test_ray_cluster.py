@@ -78,6 +78,12 @@ def test_play_matches_on_two_nodes_gives_the_in_process_results(joined):
     agents = {name: AgentRef("scripted", name, game) for name in ("random", "heuristic")}
     specs = specs_for_seatings(game, round_robin(list(agents), 6), league_seed=11)
     expected = play_matches(specs, agents)
+    # a worker process on each node first: matches of a few milliseconds could otherwise all be
+    # played on the head while the other node is still starting its worker (seen on a busy machine)
+    warm = []
+    run_tasks(dict.fromkeys(range(4), (where_and_setups, ("warm", 0.5))), lambda key, found: warm.append(found[0]),
+              backend="ray", address=joined.address)
+    assert len(set(warm)) == 2
     results = play_matches(specs, agents, backend="ray", ray_address=joined.address, chunk_size=1, batch_size=1,
                            recording=NodeRecording())
     assert [r.without_replay() for r in results] == expected
