@@ -69,3 +69,29 @@ def assert_replays_bit_for_bit(make: Callable[[], Any], measures: Sequence[str],
     for a, b in zip(first, second):
         assert a == b if isinstance(a, list) else np.array_equal(a, b)
     assert not np.array_equal(first[0], trace(make(), 4, 0, measures)[0])
+
+
+def heuristic_wins(rules_cls: Any, players: int, action_type: str, matches: int) -> int:
+    """Two-team matches the heuristic wins against random moves, over seeds ``0 .. matches - 1``,
+    the heuristic's team alternating with the seed."""
+    wins = 0
+    for seed in range(matches):
+        heuristic_team = seed % 2
+        r = heuristic_against_random(rules_cls, 2, players, action_type, seed, heuristic_team)
+        wins += r.team_result()[heuristic_team] == 1.0
+    return wins
+
+
+def assert_a_copy_goes_on_as_the_original(r: Any, copier: Callable[[Any], Any], n_actions: int) -> None:
+    """``copier(r)`` taken after 30 random steps plays the next 60 (or to the end) as ``r`` does."""
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        r.step(rng.integers(0, n_actions, r.n_agents))
+    duplicate = copier(r)
+    for _ in range(60):
+        step = rng.integers(0, n_actions, r.n_agents)
+        r.step(step)
+        duplicate.step(step)
+        assert np.array_equal(r.observe(), duplicate.observe()) and r.events() == duplicate.events()
+        if r.game_over:
+            break

@@ -11,7 +11,12 @@ import pickle
 
 import numpy as np
 import pytest
-from physics2d_matches import assert_replays_bit_for_bit, heuristic_against_random, play
+from physics2d_matches import (
+    assert_a_copy_goes_on_as_the_original,
+    assert_replays_bit_for_bit,
+    heuristic_wins,
+    play,
+)
 
 from arena_league.envs.games.battlecity import FIRE_ACTION, BattleCityControls, BattleCityRules
 from arena_league.envs.games.battlecity.maze import (
@@ -245,31 +250,16 @@ def test_same_seed_same_actions_bit_identical_whatever_was_played_before():
                                steps=60, detour=25)
 
 
-@pytest.mark.parametrize("copier", [pickle.loads, copy.deepcopy])
+@pytest.mark.parametrize("copier", [lambda r: pickle.loads(pickle.dumps(r)), copy.deepcopy], ids=["pickle", "deepcopy"])
 def test_a_copy_mid_match_goes_on_bit_for_bit_as_the_original(copier):
-    r = rules(players=2, seed=4)
-    rng = np.random.default_rng(0)
-    for _ in range(30):
-        r.step(rng.integers(0, 10, r.n_agents))
-    duplicate = copier(pickle.dumps(r)) if copier is pickle.loads else copier(r)
-    for _ in range(60):
-        step = rng.integers(0, 10, r.n_agents)
-        r.step(step)
-        duplicate.step(step)
-        assert np.array_equal(r.observe(), duplicate.observe()) and r.events() == duplicate.events()
-        if r.game_over:
-            break
+    assert_a_copy_goes_on_as_the_original(rules(players=2, seed=4), copier, n_actions=10)
 
 
 # --- the heuristic and the tree -------------------------------------------------------------------------
 @pytest.mark.parametrize("players, action_type, matches", [(1, "discrete", 20), (2, "discrete", 20),
                                                           (1, "continuous", 10), (2, "continuous", 10)])
 def test_heuristic_beats_random_teams(players, action_type, matches):
-    wins = 0
-    for seed in range(matches):
-        heuristic_team = seed % 2
-        r = heuristic_against_random(BattleCityRules, 2, players, action_type, seed, heuristic_team)
-        wins += r.team_result()[heuristic_team] == 1.0
+    wins = heuristic_wins(BattleCityRules, players, action_type, matches)
     assert wins >= 0.9 * matches, wins
 
 

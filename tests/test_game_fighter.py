@@ -10,7 +10,11 @@ import pickle
 
 import numpy as np
 import pytest
-from physics2d_matches import assert_replays_bit_for_bit, heuristic_against_random
+from physics2d_matches import (
+    assert_a_copy_goes_on_as_the_original,
+    assert_replays_bit_for_bit,
+    heuristic_wins,
+)
 
 from arena_league.envs.games.fighter import FighterControls, FighterRules
 from arena_league.envs.games.fighter.arena import COLS, HALF_X, HALF_Y, POSITION_UNIT, ROWS
@@ -153,31 +157,16 @@ def test_same_seed_same_actions_bit_identical_whatever_was_played_before():
                                steps=60, detour=25)
 
 
-@pytest.mark.parametrize("copier", [pickle.loads, copy.deepcopy])
+@pytest.mark.parametrize("copier", [lambda r: pickle.loads(pickle.dumps(r)), copy.deepcopy], ids=["pickle", "deepcopy"])
 def test_a_copy_mid_match_goes_on_bit_for_bit_as_the_original(copier):
-    r = rules(players=2, seed=4)
-    rng = np.random.default_rng(0)
-    for _ in range(30):
-        r.step(rng.integers(0, 10, r.n_agents))
-    duplicate = copier(pickle.dumps(r)) if copier is pickle.loads else copier(r)
-    for _ in range(60):
-        step = rng.integers(0, 10, r.n_agents)
-        r.step(step)
-        duplicate.step(step)
-        assert np.array_equal(r.observe(), duplicate.observe()) and r.events() == duplicate.events()
-        if r.game_over:
-            break
+    assert_a_copy_goes_on_as_the_original(rules(players=2, seed=4), copier, n_actions=10)
 
 
 # --- the heuristic, the tree, the controls ------------------------------------------------------------------
 @pytest.mark.parametrize("players, action_type, matches", [(1, "discrete", 16), (2, "discrete", 16),
                                                           (1, "continuous", 6), (2, "continuous", 6)])
 def test_heuristic_beats_random_teams(players, action_type, matches):
-    wins = 0
-    for seed in range(matches):
-        heuristic_team = seed % 2
-        r = heuristic_against_random(FighterRules, 2, players, action_type, seed, heuristic_team)
-        wins += r.team_result()[heuristic_team] == 1.0
+    wins = heuristic_wins(FighterRules, players, action_type, matches)
     assert wins >= 0.9 * matches, wins
 
 
