@@ -329,9 +329,10 @@ def cmd_worker(args: argparse.Namespace) -> int:
     import logging
     import signal
 
-    from arena_league.league import run_worker
+    from arena_league.league import run_worker, signal_stop
 
     def stop(signum: int, frame: object) -> None:
+        signal_stop()
         raise KeyboardInterrupt  # the worker hands its job back to the queue
 
     signal.signal(signal.SIGTERM, stop)

@@ -84,6 +84,12 @@ class WorkerSummary:
         return asdict(self)
 
 
+def signal_stop() -> None:
+    """Note, from a signal handler, that this worker process was asked to stop: a job its stop
+    breaks mid-call is handed back rather than failed (see ``registry.jobs.signal_stop``)."""
+    reg.jobs.signal_stop()
+
+
 def run_worker(league: League, *, worker_id: str | None = None, lease_seconds: float = 60.0,
                poll_seconds: float = 1.0, max_jobs: int | None = None, until_idle: bool = False,
                stop_event: threading.Event | None = None, parent_pid: int | None = None,

@@ -465,6 +465,18 @@ def default_worker_id() -> str:
     return f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:6]}"
 
 
+#: Set when this process was asked to stop (SIGTERM, see :func:`signal_stop`): a job whose handler
+#: fails from then on is handed back, since the stop can break it mid-call (a sandbox child ended
+#: beside the worker), rather than failed and retried by this worker.
+STOP_SIGNALLED = threading.Event()
+
+
+def signal_stop() -> None:
+    """Note that this process was asked to stop: call it from a signal handler before raising
+    ``KeyboardInterrupt``."""
+    STOP_SIGNALLED.set()
+
+
 def run_worker(
     league: League,
     handlers: Mapping[str, Handler],
@@ -519,9 +531,10 @@ def run_worker(
     if limit < 1:
         raise InvalidRecordError(f"max_db_failures must be at least 1, not {limit}")
     failures = 0
+    STOP_SIGNALLED.clear()
     if parent_pid is not None:
         _end_with_parent()
-    while not stop.is_set() and (max_jobs is None or len(report.job_ids) < max_jobs):
+    while not stop.is_set() and not STOP_SIGNALLED.is_set() and (max_jobs is None or len(report.job_ids) < max_jobs):
         if _orphaned(parent_pid):
             logger.warning("worker %s stops: the process that started it (pid %d) has ended", worker, parent_pid)
             break
@@ -652,7 +665,11 @@ def _run_one(
         with contextlib.suppress(LeaseLostError):  # already handed back (its parent ended) or taken
             release_job(league, job)
         raise
-    except Exception:  # any handler error fails this attempt; the worker goes on
+    except Exception as failure:  # any handler error fails this attempt; the worker goes on
+        if STOP_SIGNALLED.is_set() or _orphaned(parent_pid):
+            with contextlib.suppress(LeaseLostError):  # the stop broke it: hand it back, as on KeyboardInterrupt
+                release_job(league, job)
+            raise KeyboardInterrupt from failure
         error = traceback.format_exc()
         logger.error("job %d (%s) failed on attempt %d:\n%s", job.id, job.kind, job.attempt, error)
         try:
