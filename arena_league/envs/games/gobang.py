@@ -141,6 +141,7 @@ from arena_league.envs.controls import Controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.options import Option
 from arena_league.envs.rendering import Canvas
+from arena_league.envs.social import team_groups
 
 EMPTY, BLACK, WHITE = 0, 1, 2
 #: (row step, col step) of the four lines: row, column, diagonal, anti-diagonal.
@@ -755,12 +756,7 @@ class GoBangRules(GameRules):
     # --- the social tree and the scripted player ----------------------------------------------
     @classmethod
     def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        if players_per_team == 1:
-            children: list = [f"player_{t}" for t in range(n_teams)]
-        else:
-            children = [{"scheme": "NL", "reward": "none",
-                         "children": [f"player_{t * players_per_team + p}" for p in range(players_per_team)]}
-                        for t in range(n_teams)]
+        children = team_groups(n_teams, players_per_team)
         return {"scheme": "CP", "reward": "win_loss", "scale": 1, "children": children}
 
     @staticmethod

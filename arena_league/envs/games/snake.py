@@ -185,6 +185,7 @@ from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.options import Option
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
+from arena_league.envs.social import team_groups
 
 #: Action meanings, in each seat's own frame; the board direction is (action + quarter turns) % 4.
 DIRECTIONS: tuple[str, ...] = ("up", "right", "down", "left")
@@ -1209,12 +1210,7 @@ class SnakeRules(OneBoard, GameRules):
         def leaf(seat: int) -> dict:
             return {"agent": f"player_{seat}", "scheme": "IS", "reward": "velocity_to_target", "scale": 0.02}
 
-        if players_per_team == 1:
-            children: list = [leaf(t) for t in range(n_teams)]
-        else:
-            children = [{"scheme": "NL", "reward": "none",
-                         "children": [leaf(t * players_per_team + p) for p in range(players_per_team)]}
-                        for t in range(n_teams)]
+        children = team_groups(n_teams, players_per_team, leaf)
         return {"scheme": "CP", "reward": "ranking", "scale": 10, "params": {"order": "survive"},
                 "children": children}
 

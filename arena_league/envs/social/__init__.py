@@ -12,7 +12,14 @@ from arena_league.envs.social.rewards import (
     register_reward,
     unregister_reward,
 )
-from arena_league.envs.social.tree import SocialNode, SocialTree, TreeSpecError, load_tree_spec, team_tree
+from arena_league.envs.social.tree import (
+    SocialNode,
+    SocialTree,
+    TreeSpecError,
+    load_tree_spec,
+    team_groups,
+    team_tree,
+)
 
 __all__ = [
     "REWARD_FUNCTIONS",
@@ -27,6 +34,7 @@ __all__ = [
     "lookup_reward",
     "register_grouped",
     "register_reward",
+    "team_groups",
     "team_tree",
     "unregister_reward",
 ]

@@ -18,7 +18,7 @@ Spec (a dict, or the same as YAML/JSON)::
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -282,6 +282,16 @@ def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[
         else:
             calls += [(n.reward.fn, n.view, n.params, n.scale) for n in group]
     return calls
+
+
+def team_groups(n_teams: int, players_per_team: int, member: Callable[[int], Any] = "player_{}".format) -> list[Any]:
+    """A root's children, one per team: ``member(seat)`` of each agent when a team has one player,
+    else an NL node over each team's members (the teams of a CP root whose members share no reward)."""
+    if players_per_team == 1:
+        return [member(t) for t in range(n_teams)]
+    return [{"scheme": "NL", "reward": "none",
+             "children": [member(t * players_per_team + p) for p in range(players_per_team)]}
+            for t in range(n_teams)]
 
 
 def team_tree(n_teams: int, players_per_team: int, root: str, *, team: str = "team_target", leaf: str = "target",

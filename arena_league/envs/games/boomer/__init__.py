@@ -215,6 +215,7 @@ from arena_league.envs.games.boomer.boards import (
 from arena_league.envs.games.boomer.heuristic import heuristic_actions
 from arena_league.envs.options import Option
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
+from arena_league.envs.social import team_groups
 
 #: Quarter turns of each seat's start, by layout (teams, players per team).
 QUARTER_TURNS: dict[tuple[int, int], tuple[int, ...]] = {(2, 1): (0, 2), (4, 1): (0, 1, 2, 3), (2, 2): (0, 2, 1, 3)}
@@ -411,12 +412,7 @@ class BoomerRules(OneBoard, GameRules):
     # --- the social tree and the scripted player ----------------------------------------------
     @classmethod
     def default_tree(cls, n_teams: int, players_per_team: int) -> dict:
-        if players_per_team == 1:
-            children: list = [f"player_{t}" for t in range(n_teams)]
-        else:
-            children = [{"scheme": "NL", "reward": "none",
-                         "children": [f"player_{t * players_per_team + p}" for p in range(players_per_team)]}
-                        for t in range(n_teams)]
+        children = team_groups(n_teams, players_per_team)
         return {"scheme": "CP", "reward": "ranking", "scale": 1, "params": {"order": "survive"},
                 "children": children}
 
