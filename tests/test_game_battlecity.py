@@ -285,6 +285,35 @@ def test_heuristic_finishes_a_match_against_itself():
     assert steps < 600 and r.game_over
 
 
+def test_a_tuned_heuristic_snipes_the_base_through_bricks_and_is_the_heuristic_at_its_defaults():
+    """``heuristic-aim0.2-brick1-snipe12`` parses and is bounded; at the heuristic's own values it
+    plays the heuristic on a batch of observations; with ``snipe`` a tank below the enemy base
+    shoots it through the ring's brick where the heuristic drives on."""
+    from arena_league.envs.games.battlecity.heuristic import BRICK_COST, IN_LINE
+    from arena_league.policies.scripted import heuristic_options, scripted_policy
+
+    game = "BattleCity-2T1P-v1"
+    assert heuristic_options("heuristic-aim0.2-brick1-snipe12") == {"aim": 0.2, "brick": 1.0, "snipe": 12.0}
+    assert scripted_policy("heuristic-aim0.2-brick1-snipe12", game).name == "heuristic-aim0.2-brick1-snipe12"
+    with pytest.raises(ValueError, match="option snipe must be from 0 to 12, not 13"):
+        scripted_policy("heuristic-snipe13", game)
+    r, rng, batch = rules(seed=3), np.random.default_rng(0), []
+    for _ in range(40):
+        batch.append(r.observe())
+        r.step(rng.integers(0, 10, 2))
+    obs = np.concatenate(batch)
+    plain = BattleCityRules.heuristic(obs, "discrete")
+    same = BattleCityRules.heuristic(obs, "discrete", aim=IN_LINE, brick=BRICK_COST, snipe=0.0)
+    np.testing.assert_array_equal(same, plain)
+    np.testing.assert_array_equal(scripted_policy(f"heuristic-aim{IN_LINE:g}-brick{BRICK_COST:g}-snipe0", game)
+                                  .act(obs, np.zeros((len(obs), 1)))[0], plain)
+    r = rules()  # seat 0 in the enemy base's column, a brick of its ring between
+    r.place([tile_centre(6, 6), tile_centre(0, 0)], [UP, DOWN],
+            open_maze(*[(*tile, BRICK) for tile in BASE_RING], *[(*turned(*tile), BRICK) for tile in BASE_RING]))
+    assert BattleCityRules.heuristic(r.observe(), "discrete")[0] == N
+    assert BattleCityRules.heuristic(r.observe(), "discrete", snipe=12.0)[0] == FIRE
+
+
 def test_default_tree_ranks_by_survival_over_team_living_time():
     tree = BattleCityRules.default_tree(2, 2)
     assert tree["reward"] == "ranking" and tree["params"] == {"order": "survive"}

@@ -14,6 +14,12 @@ Each seat, in its own frame (its base at the bottom, the enemy base at the top):
    (ties: N, E, W, S), sliding back toward its tile's centre line on the way (a diagonal move)
    when more than 0.1 off it; when that neighbour is a brick or the base, it faces it and fires
    whenever the gun is loaded.
+
+A tuned heuristic changes three constants: ``aim`` (how far off its line an opponent still counts
+as in line, 0.35), ``brick`` (what a brick costs beyond an empty tile, 3) and ``snipe`` (0: off; S:
+a tile at most S tiles below or beside the enemy base with no steel between counts as a way to the
+base, at ``brick`` a shell for each brick between and for the base, and a tank whose own tile is
+its cheapest way stands there, faces the base and fires whenever the gun is loaded).
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ IN_LINE, SHOT_RANGE = 0.35, 8.0
 #: Off the tile's centre line by more than this, the tank slides back toward it as it moves.
 CENTRE_SLACK = 0.1
 _NOOP, _FIRE = 0, 9
+_ENEMY_BASE = turned(*BASE_TILE)
 #: The four ways a tank goes, in the order ties are broken: (d_row, d_col).
 _WAYS = ((1, 0), (0, 1), (0, -1), (-1, 0))
 
@@ -49,14 +56,33 @@ def _compass(dx: float, dy: float) -> int:
     return 1 + round(math.atan2(dy, dx) / (math.pi / 4)) % 8
 
 
-def _cost_to_base(bricks: np.ndarray, steel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _snipe_cost(bricks: np.ndarray, steel: np.ndarray, snipe: float, brick_cost: float) -> np.ndarray:
+    """Every tile's cost to destroy the enemy base by shooting from it, for every row of ``(N, GRID,
+    GRID)`` planes at once: ``brick_cost`` a shell (one per brick between, one for the base) on the
+    tiles at most ``snipe`` tiles below or beside the base with no steel between; inf elsewhere."""
+    shots = np.full(bricks.shape, np.inf)
+    base_row, base_col = _ENEMY_BASE
+    for d_row, d_col in ((-1, 0), (0, -1), (0, 1)):
+        between = np.zeros(len(bricks))
+        for k in range(1, GRID):
+            r, c = base_row + k * d_row, base_col + k * d_col
+            if k > snipe or not (0 <= r < GRID and 0 <= c < GRID):
+                break
+            shots[:, r, c] = between + 1.0
+            between = between + np.where(steel[:, r, c], np.inf, bricks[:, r, c])
+    return brick_cost * shots
+
+
+def _cost_to_base(bricks: np.ndarray, steel: np.ndarray, brick_cost: float = BRICK_COST,
+                  start: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(enter, reach)``: every tile's cost to enter and ``enter + cost to the base from it``,
-    for every row of ``(N, GRID, GRID)`` planes at once."""
-    enter = np.where(steel, np.inf, np.where(bricks, 1.0 + BRICK_COST, 1.0))
+    for every row of ``(N, GRID, GRID)`` planes at once; ``start`` (inf where none) is what the
+    base costs from a tile without moving on."""
+    enter = np.where(steel, np.inf, np.where(bricks, 1.0 + brick_cost, 1.0))
     own_base, enemy_base = BASE_TILE, turned(*BASE_TILE)
     enter[:, own_base[0], own_base[1]] = np.inf
-    enter[:, enemy_base[0], enemy_base[1]] = 1.0 + BRICK_COST
-    cost = np.full_like(enter, np.inf)
+    enter[:, enemy_base[0], enemy_base[1]] = 1.0 + brick_cost
+    cost = np.full_like(enter, np.inf) if start is None else start.copy()
     cost[:, enemy_base[0], enemy_base[1]] = 0.0
     for _ in range(GRID * GRID):
         reach = enter + cost
@@ -81,7 +107,8 @@ def _line_clear(solid: np.ndarray, row: int, col: int, d_row: int, d_col: int, t
     return True
 
 
-def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
+def heuristic(obs: np.ndarray, action_type: str, *, aim: float = IN_LINE, brick: float = BRICK_COST,
+              snipe: float = 0.0) -> np.ndarray:
     obs = np.asarray(obs, dtype=np.float64)
     if obs.ndim != 2 or obs.shape[1] not in (343 + 13 * 2, 343 + 13 * 4):
         raise ValueError(f"BattleCity heuristic: observations of shape {obs.shape} are not BattleCity's (N, 343 + 13 n) "
@@ -92,7 +119,9 @@ def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
     planes = GRID * GRID
     bricks = obs[:, layout.at("bricks"): layout.at("bricks") + planes].reshape(-1, GRID, GRID) > 0.5
     steel = obs[:, layout.at("steel"): layout.at("steel") + planes].reshape(-1, GRID, GRID) > 0.5
-    enter, reach = _cost_to_base(bricks, steel)
+    # Sniping tiles start the relaxation at their shots' cost, so the way there competes with driving in.
+    shots = _snipe_cost(bricks, steel, snipe, brick) if snipe >= 1.0 else None
+    enter, reach = _cost_to_base(bricks, steel, brick, shots)
     solid = bricks | steel
     moves = np.zeros((len(obs), 3))  # (dx, dy, fire) per row
     for i, row_obs in enumerate(obs):
@@ -110,10 +139,10 @@ def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
             if row_obs[layout.at(f"other_{k}_active")] < 0.5:
                 continue
             rx, ry = row_obs[layout.at(f"other_{k}")] * HALF, row_obs[layout.at(f"other_{k}") + 1] * HALF
-            if abs(ry) < IN_LINE and abs(rx) < SHOT_RANGE:
+            if abs(ry) < aim and abs(rx) < SHOT_RANGE:
                 candidate = (0, 1 if rx > 0 else -1)
                 tiles = round(abs(rx) / TILE)
-            elif abs(rx) < IN_LINE and abs(ry) < SHOT_RANGE:
+            elif abs(rx) < aim and abs(ry) < SHOT_RANGE:
                 candidate = (1 if ry > 0 else -1, 0)
                 tiles = round(abs(ry) / TILE)
             else:
@@ -128,9 +157,13 @@ def heuristic(obs: np.ndarray, action_type: str) -> np.ndarray:
                 r, c = row + d_row, col + d_col
                 if 0 <= r < GRID and 0 <= c < GRID and reach[i, r, c] < best:
                     best, way = reach[i, r, c], (d_row, d_col)
-            if way is None:
+            if shots is not None and shots[i, row, col] <= best:
+                way = (1, 0) if col == _ENEMY_BASE[1] else (0, 1 if col < _ENEMY_BASE[1] else -1)
+                shoot = True
+            elif way is None:
                 continue
-            shoot = enter[i, row + way[0], col + way[1]] > 1.0
+            else:
+                shoot = enter[i, row + way[0], col + way[1]] > 1.0
         d_row, d_col = way
         facing = hx * d_col + hy * d_row > 0.95
         if shoot and facing and loaded:
