@@ -208,3 +208,33 @@ def test_heuristic_takes_any_batch_of_observations_and_refuses_another_games():
     assert FighterRules.heuristic(obs[1:2], "continuous").shape == (1, 3)
     with pytest.raises(ValueError, match="not Fighter's"):
         FighterRules.heuristic(np.zeros((2, 369)), "discrete")
+
+
+def test_tuned_heuristics_parse_are_bounded_and_default_to_the_heuristic():
+    from arena_league.policies.scripted import scripted_policy
+
+    game = "Fighter-2T1P-v1"
+    tuned = scripted_policy("heuristic-dodge4-lead0.5", game)
+    assert tuned.name == "heuristic-dodge4-lead0.5" and tuned.options == {"dodge": 4.0, "lead": 0.5}
+    with pytest.raises(ValueError, match="dodge must be from 0 to 10, not 12"):
+        scripted_policy("heuristic-dodge12", game)
+    r = rules(players=2, seed=5)
+    moves = np.random.default_rng(0)
+    batch = []
+    for _ in range(12):  # a few steps of random play: fighters moving, shells in flight
+        r.step(moves.integers(0, 10, size=4))
+        batch.append(r.observe())
+    obs = np.concatenate(batch)
+    for action_type in ("discrete", "continuous"):
+        plain = FighterRules.heuristic(obs, action_type)
+        np.testing.assert_array_equal(FighterRules.heuristic(obs, action_type, dodge=0.0, lead=0.0), plain)
+
+
+def test_a_dodging_heuristic_sidesteps_a_shell_coming_its_way():
+    r = rules(seed=2)
+    r.place([(-6.0, BOTTOM), (-2.0, BOTTOM)], [EAST, WEST])
+    r.step(actions(NOOP, FIRE))  # the opponent's shell flies west along the fighter's row
+    obs = r.observe()
+    assert FighterRules.heuristic(obs, "discrete")[0] == FIRE
+    assert FighterRules.heuristic(obs, "discrete", dodge=4.0)[0] in (2, N, 4)  # NE, N or NW: the wall is south
+    assert FighterRules.heuristic(obs, "discrete", dodge=2.0)[0] == FIRE  # not due within 2 steps
