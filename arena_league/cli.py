@@ -745,17 +745,26 @@ def cmd_quickstart(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from arena_league.league.train import train_entrant
+    from arena_league.league.train import runs_folder, train_entrant
 
     def log(line: str) -> None:
         if not args.json:
             stderr.print(line, highlight=False)
 
-    report = train_entrant(args.game, args.scheme, steps=args.steps, seed=args.seed, report_dir=args.report,
-                           eval_every=args.eval_every, eval_matches=args.eval_matches, reference=args.reference,
-                           snapshot_every=args.snapshot_every, out_dir=args.out, warm_start_steps=args.warm_start,
-                           hidden=args.hidden, log=log, home=args.home,
-                           eval_background=False if args.eval_inline else None)
+    out = args.out
+    if out is None and args.report is None:
+        out = runs_folder(args.home, args.game, args.scheme, args.seed)
+    try:
+        report = train_entrant(args.game, args.scheme, steps=args.steps, seed=args.seed, report_dir=args.report,
+                               eval_every=args.eval_every, eval_matches=args.eval_matches, reference=args.reference,
+                               snapshot_every=args.snapshot_every, out_dir=out, warm_start_steps=args.warm_start,
+                               hidden=args.hidden, log=log, home=args.home,
+                               eval_background=False if args.eval_inline else None,
+                               checkpoint_seconds=args.checkpoint_seconds)
+    except KeyboardInterrupt:
+        where = out if out is not None else Path(args.report) / "snapshots"
+        raise KeyboardInterrupt(f"training stopped; its last checkpoint is under {where}: the same command, run "
+                                "again, resumes the run from there") from None
     document = report.as_dict()
     if args.json:
         emit_json(document)
@@ -1180,6 +1189,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--warm-start", type=_positive_int, default=None, metavar="STEPS",
                    help="first imitate the game's heuristic (DAgger) for this many env steps")
     p.add_argument("--hidden", type=_positive_int, nargs="+", default=None, help="actor hidden widths (default 64 64)")
+    p.add_argument("--checkpoint-seconds", type=_non_negative_float, default=None, metavar="SECONDS",
+                   help="wall time between checkpoints of the unfinished run (default 120; 0: every iteration); "
+                        "the same command, run again after a stop, resumes the run bit for bit")
     _json_option(p)
     p.set_defaults(func=cmd_train)
 
@@ -1244,6 +1256,17 @@ def _int_at_least(minimum: int, requirement: str, maximum: int | None = None) ->
         return value
 
     return parse
+
+
+def _non_negative_float(text: str) -> float:
+    """An argparse type: a finite number of at least 0, refused as one line."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a number of seconds, 0 or more, not {text}")
+    return value
 
 
 _positive_int = _int_at_least(1, "a positive integer")

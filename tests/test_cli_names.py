@@ -93,6 +93,38 @@ def test_train_reports_the_steps_it_trained_and_keeps_snapshots_in_the_league_ho
     assert runs == [home / "runs" / f"Crossroads-2T1P-v1-ppo-seed0-{k}" for k in (1, 2)]
 
 
+def test_a_stopped_train_resumes_when_the_same_command_runs_again(capsys, home, monkeypatch, tmp_path):
+    from arena_league import cli
+
+    argv = ["train", "Crossroads-2T1P-v1", "--scheme", "ppo", "--steps", "3000", "--hidden", "8", "--eval-matches",
+            "2", "--eval-inline", "--checkpoint-seconds", "0"]
+    code, straight, err = run(capsys, *argv, "--out", tmp_path / "straight", "--json")
+    assert code == 0, err
+    console = cli.stderr
+
+    class Stopping:
+        """The terminal as Ctrl-C reaches it inside the second iteration, after the first one's checkpoint."""
+
+        def print(self, line, **kwargs):
+            if " iter 2 " in str(line):
+                raise KeyboardInterrupt
+            console.print(line, **kwargs)
+
+    monkeypatch.setattr(cli, "stderr", Stopping())
+    code, _, _ = run(capsys, *argv)
+    monkeypatch.setattr(cli, "stderr", console)
+    folder = home / "runs" / "Crossroads-2T1P-v1-ppo-seed0-1"
+    assert code == 130 and (folder / "ppo-seed0" / "checkpoint.pt").exists()
+    code, _, err = run(capsys, *argv)
+    said = err.replace("\n", "")  # the terminal wraps long lines
+    assert code == 0 and f"resumed from {folder / 'ppo-seed0' / 'checkpoint.pt'} at iteration 1" in said, err
+    # the resumed run's snapshot is the uninterrupted run's, bit for bit, in the folder the stop left
+    assert not (home / "runs" / "Crossroads-2T1P-v1-ppo-seed0-2").exists()
+    last = sorted((folder / "ppo-seed0").glob("*/weights.safetensors"))[-1]
+    same = tmp_path / "straight" / "ppo-seed0" / last.parent.name / "weights.safetensors"
+    assert last.read_bytes() == same.read_bytes() and Path(straight["snapshots"][-1]["path"]).name == last.parent.name
+
+
 def test_train_prints_the_rounded_steps_and_no_nan(home):
     done = subprocess.run([sys.executable, "-m", "arena_league.cli", "train", "Crossroads-2T1P-v1", "--scheme", "ppo",
                            "--steps", "10", "--hidden", "8", "--eval-matches", "2"], capture_output=True, text=True, check=False,
