@@ -129,6 +129,29 @@ def test_a_match_cut_at_max_cycles_is_decided_by_captures():
     assert env.unwrapped.rules.team_result().tolist() == [0.5, 0.5]
 
 
+def test_equal_captures_at_max_cycles_go_to_the_team_that_held_the_flag_longer():
+    env = make("CaptureFlag-2T1P-v1", max_cycles=4)
+    env.reset(seed=2)
+    rules = env.unwrapped.rules
+    rules.engine.set_board(0, OPEN, [cell(5, 17), cell(0, 5)])
+    env.step({"player_0": RIGHT, "player_1": STAY})  # onto the opponents' stand: the pick-up
+    for _ in range(3):
+        env.step({"player_0": STAY, "player_1": STAY})
+    assert not env.agents and rules.engine.captures[0].tolist() == [0, 0]
+    assert rules.engine.held_steps[0].tolist() == [4, 0]
+    assert rules.team_result().tolist() == [1.0, 0.0] and rules.measures.outcome.tolist() == [1.0, -1.0]
+    # the batched engine ends its matches the same way, for either team
+    boards = CaptureFlagBoards(2, 1, max_steps=4)
+    boards.set_board(0, OPEN, [cell(5, 17), cell(0, 5)])
+    boards.set_board(1, OPEN, [cell(0, 14), cell(5, 2)])
+    boards.step(np.array([[RIGHT, STAY], [STAY, RIGHT]]))
+    for _ in range(3):
+        boards.step(np.array([[STAY, STAY], [STAY, STAY]]))
+    assert boards.done.all() and boards.captures.tolist() == [[0, 0], [0, 0]]
+    assert boards.held_steps.tolist() == [[4, 0], [0, 4]]
+    assert boards.final_scores.tolist() == [[1.0, 0.0], [0.0, 1.0]]
+
+
 def test_both_teams_see_the_map_from_their_own_side():
     env = make("CaptureFlag-2T1P-v1")
     obs, _ = env.reset(seed=5)

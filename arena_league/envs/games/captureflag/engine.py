@@ -94,6 +94,7 @@ class CaptureFlagBoards:
         self.respawn = np.zeros((b, n), dtype=np.int64)
         self.carrier = np.full((b, 2), -1, dtype=np.int64)  # the seat carrying team t's flag
         self.captures = np.zeros((b, 2), dtype=np.int64)
+        self.held_steps = np.zeros((b, 2), dtype=np.int64)  # steps each team ended holding the other's flag
         self.t = np.zeros(b, dtype=np.int64)
         self.keys = np.zeros(b, dtype=np.uint64)
         self.done = np.zeros(b, dtype=bool)
@@ -238,6 +239,7 @@ class CaptureFlagBoards:
         self.respawn[sel] = 0
         self.carrier[sel] = -1
         self.captures[sel] = 0
+        self.held_steps[sel] = 0
         self.t[sel] = 0
         self.done[sel] = False
         self.truncated[sel] = False
@@ -345,6 +347,7 @@ class CaptureFlagBoards:
         self.t = self.t + live
         self.tagged, self.picked, self.scored = tagged, picked, scored
         self._update_flags()
+        self.held_steps += live[:, None] & (self.carrier[:, ::-1] >= 0)  # team t holds flag 1 - t
         # measures: the step toward the target the seat had, the distance to the one it has now
         after = np.take(self.dist, field + pos)
         self.toward_target = np.where(playing, self.target_distance - after, 0)
@@ -371,10 +374,12 @@ class CaptureFlagBoards:
         return np.where(self.carrier[:, ::-1] >= 0, self.stand_distance[:, None] - left, 0)
 
     def team_scores(self, boards: Any = None) -> np.ndarray:
-        """``float64[K, 2]``: 1 for more captures, 0.5 each for as many, 0 for fewer."""
+        """``float64[K, 2]``: 1 for more captures, 0 for fewer; on equal captures 1 for more steps
+        holding the opponents' flag, 0 for fewer, 0.5 each for as many (manual, the match's end)."""
         sel = self._boards if boards is None else np.asarray(boards, dtype=np.int64).reshape(-1)
-        c = self.captures[sel]
-        first = np.sign(c[:, 0] - c[:, 1]) * 0.5 + 0.5
+        c, held = self.captures[sel], self.held_steps[sel]
+        lead = np.where(c[:, 0] != c[:, 1], c[:, 0] - c[:, 1], held[:, 0] - held[:, 1])
+        first = np.sign(lead) * 0.5 + 0.5
         return np.stack([first, 1.0 - first], axis=1)
 
     # --- what seats see -----------------------------------------------------------------------
