@@ -165,13 +165,13 @@ RECIPES: dict[str, Recipe] = {
         per_scheme={"pbt": {"population_size": 4}, "cc": {"opponent_sampling": "80/20"}},
         warm_runs=1, warm_start={"steps": 100_000, "rounds": 5, "epochs": 6}, warm_steps=40_000,
         warm_overrides={"hidden": (128, 128)}),
-    # SP from scratch scores about 0.45 against the heuristic after 300,000 steps: copies of the heuristic
-    # that then play it alone set the top, the runs from scratch the ladder below.
+    # Learners that play the heuristic for 1.2 M steps, from scratch or from a copy of it, win 1 to 10%
+    # of their matches against it (it holds the flag longer): tuned heuristics (``scripted=``) make the top.
     "CaptureFlag": Recipe(
-        description="three schemes from scratch, one copy of the heuristic per scheme, two that play it for 1 M steps",
+        description="three schemes from scratch and one copy of the heuristic per scheme; tuned heuristics make the top",
         steps=300_000, snapshots=12, hidden=(64, 64), per_scheme={"pbt": {"population_size": 4}},
         early_snapshots=4, warm_runs=1, warm_start={"steps": 100_000, "rounds": 5, "epochs": 6},
-        warm_steps=100_000, warm_overrides={"hidden": (128, 128)}, top_runs=playing_the_heuristic(1_000_000)),
+        warm_steps=100_000, warm_overrides={"hidden": (128, 128)}),
     # SP from scratch scores 0.3 to 0.55 against the heuristic after 300,000 steps (5,000 steps/s here).
     # Actors are half as wide as elsewhere: each reads 1,339 cells, so a (64, 64) one weighs 350 KB.
     "Boomer": Recipe(
