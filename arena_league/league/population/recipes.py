@@ -188,9 +188,10 @@ RECIPES: dict[str, Recipe] = {
         description="the top-down duels' ladder with narrower copies of the heuristic; tuned heuristics make the top"),
     # SP from scratch scores about 0.65 against the random agent and none against the heuristic after
     # 300,000 steps: the copies of the heuristic give the middle, tuned heuristics (``scripted=``) the top.
+    # Members from 50 Elo above the random agent spread 753 Elo, from 0 846.
     "Fighter": dataclasses.replace(
-        TOP_DOWN_DUELS, warm_overrides={"hidden": (64, 64)},
-        description="the top-down duels' ladder with narrower copies of the heuristic; tuned heuristics make the top"),
+        TOP_DOWN_DUELS, warm_overrides={"hidden": (64, 64)}, floor_margin=0.0,
+        description="the top-down duels' ladder with narrower copies of the heuristic, floor 0; tuned heuristics make the top"),
 }
 FALLBACK_RECIPE = Recipe(description="three schemes from scratch, for a game without a recipe of its own",
                          steps=200_000, snapshots=12, hidden=(32, 32), per_scheme={"pbt": {"population_size": 4}})
