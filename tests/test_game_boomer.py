@@ -328,3 +328,32 @@ def test_a_player_leaves_its_own_bomb_but_no_one_walks_onto_it_and_a_bomb_slidin
     assert boards.bomb_timer[0, boards._inner[_cell(4, 2)]] == 8
     _step(boards, STOP, STOP)  # slides into the flame and goes off at once
     assert boards.bomb_timer[0].max() == 0 and {(3, 3), (5, 3), (4, 4)} <= _flames(boards)
+
+
+def test_a_tuned_heuristic_hunts_the_opponent_and_is_the_heuristic_at_its_defaults():
+    """``heuristic-block10-hunt1-wary1`` parses and is bounded; at its defaults the tuned heuristic
+    plays the heuristic on a batch of observations; with ``hunt`` a player walks toward the opponent
+    where the heuristic walks to the wood beside it."""
+    from arena_league.policies.scripted import heuristic_options, scripted_policy
+
+    game = "Boomer-2T1P-v1"
+    assert heuristic_options("heuristic-block10-hunt1-wary1") == {"block": 10.0, "hunt": 1.0, "wary": 1.0}
+    assert scripted_policy("heuristic-block10-hunt1-wary1", game).name == "heuristic-block10-hunt1-wary1"
+    with pytest.raises(ValueError, match="option wary must be from 0 to 3, not 4"):
+        scripted_policy("heuristic-wary4", game)
+    boards, rng, batch = BoomerBoards(8, 2, seed=1, autoreset=True), np.random.default_rng(0), []
+    for _ in range(60):
+        obs = boards.observe()
+        batch.append(obs.reshape(-1, obs.shape[-1]))
+        moves = heuristic_actions(batch[-1]).reshape(8, 2)
+        boards.step(np.where(rng.random(moves.shape) < 0.3, rng.integers(0, 6, moves.shape), moves))
+    obs = np.concatenate(batch)
+    plain = BoomerRules.heuristic(obs, "discrete")
+    np.testing.assert_array_equal(BoomerRules.heuristic(obs, "discrete", block=0, hunt=0, press=0, wary=0), plain)
+    np.testing.assert_array_equal(scripted_policy("heuristic-block0-hunt0-press0-wary0", game)
+                                  .act(obs, np.zeros((len(obs), 1)))[0], plain)
+    assert (BoomerRules.heuristic(obs, "discrete", block=10, hunt=1, wary=1) != plain).any()
+    boards = _boards(["1......", ".......", ".......", "0.+....", ".......", ".......", "......."])
+    seat0 = boards.observe()[:, 0]
+    assert BoomerRules.heuristic(seat0, "discrete")[0] == RIGHT  # toward the wood
+    assert BoomerRules.heuristic(seat0, "discrete", hunt=1)[0] == UP  # toward the opponent

@@ -100,8 +100,26 @@ def _escapes(start_row: np.ndarray, start_col: np.ndarray, passable: np.ndarray,
     return safe & first
 
 
-def heuristic_actions(obs: np.ndarray) -> np.ndarray:
-    """The Boomer heuristic's action per observation row (package docstring, "Heuristic")."""
+def _distances(goal: np.ndarray, passable: np.ndarray) -> np.ndarray:
+    """``int64[N, size, size]``: steps from each cell to the nearest goal over passable cells (``_FAR`` where
+    none is reached within ``2 size`` steps)."""
+    size = goal.shape[1]
+    distance = np.full(goal.shape, _FAR, dtype=np.int64)
+    distance[goal] = 0
+    frontier = goal
+    for k in range(1, 2 * size):
+        frontier = _grow(frontier) & passable & (distance == _FAR)
+        if not frontier.any():
+            break
+        distance[frontier] = k
+    return distance
+
+
+def heuristic_actions(obs: np.ndarray, *, block: float = 0, hunt: float = 0, press: float = 0,
+                      wary: float = 0) -> np.ndarray:
+    """The Boomer heuristic's action per observation row (package docstring, "Heuristic"); ``block``,
+    ``hunt``, ``press`` and ``wary`` tune it (``BoomerRules.heuristic_options_meaning``), their defaults
+    the plain heuristic."""
     obs = np.asarray(obs, dtype=np.float32)
     if obs.ndim != 2:
         raise ValueError(f"Boomer heuristic: observations must be float32[N, obs_dim], not shape {obs.shape}")
@@ -130,35 +148,70 @@ def heuristic_actions(obs: np.ndarray) -> np.ndarray:
     passable = ~rigid & ~wood & ~bombs & ~others
     rows = np.arange(m)
     safe = _escapes(row, col, passable, blast_step, flame_left)
+    near = opponents.copy()  # the cells within ``wary`` steps of an opponent: it may step into them first
+    for _ in range(int(wary)):
+        near = _grow(near)
+    if wary > 0:  # flee on ways that keep off them, where there are some
+        strict = _escapes(row, col, passable & ~near, blast_step, flame_left)
+        safe = np.where(strict.any(axis=1)[:, None], strict, safe)
+    opp_board, opp_row, opp_col = np.nonzero(opponents)  # every opponent: its board, row and column
     # a bomb here: worth it when its blast reaches wood or an opponent, and only with a way out
     cross = _cross(rigid, wood, row, col, strength)
     worth = (cross & (wood | opponents)).any(axis=(1, 2)) & (ammo > 0) & ~bombs[rows, row, col]
-    bomb_safe = np.zeros(m, dtype=bool)
-    if worth.any():  # the way out with the bomb counted, for the rows that would lay one
-        w = np.flatnonzero(worth)
-        with_bomb = np.where(cross[w], np.minimum(blast_step[w], BOMB_LIFE), blast_step[w])
-        passable_after = passable[w].copy()
-        passable_after[np.arange(len(w)), row[w], col[w]] = False
-        bomb_safe[w] = _escapes(row[w], col[w], passable_after, with_bomb, flame_left[w])[:, 1:].any(axis=1)
     # walk toward the nearest cell next to wood or an opponent, or onto a power-up
     goal = (_grow(wood | opponents) & ~wood & ~opponents & passable) | (power_up & passable)
-    distance = np.full((m, size, size), _FAR, dtype=np.int64)
-    distance[goal] = 0
-    frontier = goal
-    for k in range(1, 2 * size):
-        frontier = _grow(frontier) & passable & (distance == _FAR)
-        if not frontier.any():
-            break
-        distance[frontier] = k
     r = np.clip(row[:, None] + _MOVE_ROW[None, :], 0, size - 1)
     c = np.clip(col[:, None] + _MOVE_COL[None, :], 0, size - 1)
+    distance = _distances(goal, passable)
     score = distance[rows[:, None], r, c].astype(np.float64)
+    if hunt > 0:
+        # armed enough: only the cells its blast would reach an opponent from, and power-ups, draw it, not
+        # wood; where none can be reached it waits for the opponent to open the way
+        hunting = ammo >= hunt
+        if hunting.any():
+            # the cells whose blast would reach an opponent: its own cross at our strength, the arms alike
+            in_line = np.zeros((m, size, size), dtype=bool)
+            np.logical_or.at(in_line, opp_board, _cross(rigid[opp_board], wood[opp_board], opp_row, opp_col,
+                                                        strength[opp_board]))
+            prey = (in_line & ~opponents & passable) | (power_up & passable)
+            distance[hunting] = _distances(prey, passable)[hunting]
+            score[hunting] = distance[rows[:, None], r, c][hunting]
     score[:, 0] += 0.5  # at equal distance, keep moving
+    if block > 0 and len(opp_board):
+        # an opponent in a known blast: stand where it leaves the opponent fewest ways out
+        hunted = blast_step[opp_board, opp_row, opp_col] < _FAR
+        if hunted.any():
+            b, r0, c0 = opp_board[hunted], opp_row[hunted], opp_col[hunted]
+            k = len(b)
+            body = np.repeat(passable[b], 5, axis=0)
+            body[np.arange(5 * k), r[b].reshape(-1), c[b].reshape(-1)] = False
+            body[np.arange(5 * k), np.repeat(r0, 5), np.repeat(c0, 5)] = True
+            ways = _escapes(np.repeat(r0, 5), np.repeat(c0, 5), body, np.repeat(blast_step[b], 5, axis=0),
+                            np.repeat(flame_left[b], 5, axis=0)).sum(axis=1).reshape(k, 5)
+            np.add.at(score, b, block * ways)
     score[~safe] += 10 * _FAR
     # nowhere safe: at least avoid the cells that burn next step
     burning_next = (flame_left >= 2) | (blast_step == 1)
     score[~safe] += 5 * _FAR * burning_next[rows[:, None], r, c][~safe]
-    choice = MOVES[score.argmin(axis=1)]
-    choice = np.where(bomb_safe & (distance[rows, row, col] == 0), BOMB, choice)
+    best = score.argmin(axis=1)
+    choice = MOVES[best]
+    lay = worth & (distance[rows, row, col] == 0)
+    if press > 0 and len(opp_board):
+        # both heading for the one cell between us and an opponent, both moves fail for ever: bomb instead
+        two_away = np.abs(opp_row - row[opp_board]) + np.abs(opp_col - col[opp_board]) == 2
+        contested = np.zeros(m, dtype=bool)
+        contested[opp_board[two_away]] = True
+        contested &= (best > 0) & _grow(opponents)[rows, r[rows, best], c[rows, best]]
+        lay |= contested & (ammo > 0) & ~bombs[rows, row, col]
+    bomb_safe = np.zeros(m, dtype=bool)
+    if lay.any():  # the way out with the bomb counted, for the rows that would lay one
+        w = np.flatnonzero(lay)
+        with_bomb = np.where(cross[w], np.minimum(blast_step[w], BOMB_LIFE), blast_step[w])
+        passable_after = passable[w].copy()
+        passable_after[np.arange(len(w)), row[w], col[w]] = False
+        if wary > 0:  # an opponent may step first into a cell near it, and hold it: no way out through one
+            passable_after &= ~near[w]
+        bomb_safe[w] = _escapes(row[w], col[w], passable_after, with_bomb, flame_left[w])[:, 1:].any(axis=1)
+    choice = np.where(bomb_safe, BOMB, choice)
     actions[live] = choice
     return actions
