@@ -187,3 +187,33 @@ def test_the_heuristic_beats_random_play(players):
             break
     scores = engine.team_scores()[np.arange(n_boards), heuristic_team]
     assert (scores == 1.0).mean() >= 0.9, scores
+
+
+def test_tuned_heuristics_parse_are_bounded_and_default_to_the_heuristic():
+    from arena_league.policies.scripted import scripted_policy
+
+    game = "CaptureFlag-2T1P-v1"
+    tuned = scripted_policy("heuristic-commit0.5-hunt6-keep0.5-sortie0.9", game)
+    assert tuned.name == "heuristic-commit0.5-hunt6-keep0.5-sortie0.9"
+    assert tuned.options == {"commit": 0.5, "hunt": 6.0, "keep": 0.5, "sortie": 0.9}
+    with pytest.raises(ValueError, match="keep must be from 0 to 10, not 12"):
+        scripted_policy("heuristic-keep12", game)
+    for players in (2, 1):
+        engine = CaptureFlagBoards(16, players, seed=3)
+        rng = np.random.default_rng(1)
+        batch = []
+        for _ in range(40):  # random play: seats on both halves, some tagged, some carrying
+            engine.step(rng.integers(5, size=(16, 2 * players)))
+            batch.append(engine.observe().reshape(16 * 2 * players, -1))
+        obs = np.concatenate(batch)
+        plain = CaptureFlagRules.heuristic(obs, "discrete")
+        zeros = CaptureFlagRules.heuristic(obs, "discrete", commit=0.0, hunt=0.0, keep=0.0, sortie=0.0)
+        np.testing.assert_array_equal(zeros, plain)
+    assert (CaptureFlagRules.heuristic(obs, "discrete", commit=0.5, hunt=6.0, keep=0.5, sortie=0.9) != plain).any()
+
+
+def test_a_keeper_waits_by_its_stand_while_the_raider_is_far():
+    rules = duel([cell(5, 4), cell(5, 15)])
+    obs = rules.engine.observe()[0]
+    assert CaptureFlagRules.heuristic(obs[:1], "discrete")[0] == RIGHT
+    assert CaptureFlagRules.heuristic(obs[:1], "discrete", keep=2.0)[0] == LEFT  # back toward its stand
