@@ -120,7 +120,7 @@ def test_a_stopped_train_resumes_when_the_same_command_runs_again(capsys, home, 
     assert code == 0 and f"resumed from {folder / 'ppo-seed0' / 'checkpoint.pt'} at iteration 1" in said, err
     # the resumed run's snapshot is the uninterrupted run's, bit for bit, in the folder the stop left
     assert not (home / "runs" / "Crossroads-2T1P-v1-ppo-seed0-2").exists()
-    last = sorted((folder / "ppo-seed0").glob("*/weights.safetensors"))[-1]
+    last = max((folder / "ppo-seed0").glob("*/weights.safetensors"))
     same = tmp_path / "straight" / "ppo-seed0" / last.parent.name / "weights.safetensors"
     assert last.read_bytes() == same.read_bytes() and Path(straight["snapshots"][-1]["path"]).name == last.parent.name
 
