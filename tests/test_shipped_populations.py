@@ -37,7 +37,10 @@ REQUIRED = {"AirHockey-2T1P-v1", "BattleCity-2T1P-v1", "BlowBlow-2T1P-v1", "Cros
 NEWEST = sorted({shipped_population(p.parent.name) for p in SHIPPED})
 #: Games whose newest population still lacks headroom, and why (each must get a population that has it).
 #: (FightForFood's base-v1 was here: its best won 11 of these 20 replays; base-v2's searchers model contacts.)
-WITHOUT_HEADROOM: dict[str, str] = {}
+WITHOUT_HEADROOM: dict[str, str] = {
+    "CaptureFlag-2T1P-v1": "its best member, a tuned heuristic, beats the heuristic in 109 of 200 (55%): no trained "
+                           "learner nor tuned script has reached 60% yet (docs/population-build-notes.md)",
+}
 
 
 def _manifest(folder: Path) -> dict:
