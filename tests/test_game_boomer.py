@@ -357,3 +357,39 @@ def test_a_tuned_heuristic_hunts_the_opponent_and_is_the_heuristic_at_its_defaul
     seat0 = boards.observe()[:, 0]
     assert BoomerRules.heuristic(seat0, "discrete")[0] == RIGHT  # toward the wood
     assert BoomerRules.heuristic(seat0, "discrete", hunt=1)[0] == UP  # toward the opponent
+
+
+def test_the_search_agent_is_bounded_and_bombs_the_opponent_into_its_corner():
+    """``search-w6-r1-h10`` parses and refuses budgets it cannot search with one clear ValueError; from a
+    placed duel it lays the bomb that the heuristic's answer walks into, where the tuned heuristic it plays
+    elsewhere walks on and both live, and in team games it is the tuned heuristic."""
+    from arena_league.envs.games.boomer.search import OWN_PLAY, search_moves
+    from arena_league.policies.scripted import scripted_policy
+
+    game = "Boomer-2T1P-v1"
+    assert scripted_policy("search-w6-r1-h10", game).name == "search-w6-r1-h10"
+    with pytest.raises(ValueError, match="ask for W from 1 to 6, not 7"):
+        scripted_policy("search-w7-r1-h10", game)
+    with pytest.raises(ValueError, match="ask for R = 1, as in search-w6-r1-h10, not R = 2"):
+        scripted_policy("search-w6-r2-h10", game)
+    picture = ["1......", "+.0....", ".+..+.+", "....+.#", ".+...+.", ".......", ".+.+++."]
+
+    def play(first: int) -> list[bool]:
+        boards = BoomerBoards(1, 2, size=7, n_rigid=0, n_wood=0, n_items=0)
+        boards.set_board(0, picture)
+        for k in range(14):
+            obs = boards.observe()
+            own = first if k == 0 else heuristic_actions(obs[:, 0], **OWN_PLAY)[0]
+            boards.step(np.array([[own, heuristic_actions(obs[:, 1])[0]]]))
+        return boards.alive[0].tolist()
+
+    boards = BoomerBoards(1, 2, size=7, n_rigid=0, n_wood=0, n_items=0)
+    boards.set_board(0, picture)
+    seat0 = boards.observe()[:, 0]
+    assert heuristic_actions(seat0, **OWN_PLAY)[0] == UP
+    assert search_moves(seat0, np.zeros(1), width=6, rollouts=1, horizon=10, epsilon=0)[0] == BOMB
+    assert play(BOMB) == [True, False] and play(UP) == [True, True]
+    team = BoomerBoards(2, 4, seed=3)
+    obs = team.observe().reshape(8, -1)
+    np.testing.assert_array_equal(BoomerRules.search(obs, np.zeros(8), action_type="discrete", width=6, rollouts=1,
+                                                     horizon=10, epsilon=0), heuristic_actions(obs, **OWN_PLAY))
