@@ -104,7 +104,8 @@ def test_the_committed_index_agrees_with_checkpoints():
     """The index the package carries is the one ``population index --write`` makes from checkpoints/."""
     assert population_index.index_differences() == [], "run `arena-league population index --write`"
     index = population_index.load_index()
-    assert population_index.INDEX_PATH.stat().st_size < 500_000  # package data: kept small
+    # package data, kept small: about 30 KB a population (its files' sizes and SHA-256), 20 of them
+    assert population_index.INDEX_PATH.stat().st_size < 1_000_000
     every = {(p["game_id"], p["name"]) for p in index["populations"]}
     on_disk = {(m.parent.parent.name, m.parent.name)
                for m in population_index.CHECKOUT_POPULATIONS.glob("*/*/population.json")}
