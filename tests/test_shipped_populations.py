@@ -29,7 +29,7 @@ from arena_league.policies.threads import torch_threads
 ROOT = Path(__file__).resolve().parent.parent / "checkpoints"
 SHIPPED = sorted(p.parent for p in ROOT.glob("*/*/population.json"))
 #: The games that ship a base population. The quickstart ranks against Crossroads'.
-REQUIRED = {"AirHockey-2T1P-v1", "BattleCity-2T1P-v1", "BlowBlow-2T1P-v1", "CaptureFlag-2T1P-v1",
+REQUIRED = {"AirHockey-2T1P-v1", "BattleCity-2T1P-v1", "BlowBlow-2T1P-v1", "Boomer-2T1P-v1", "CaptureFlag-2T1P-v1",
             "Crossroads-2T2P-v1", "FightForFood-2T1P-v1", "Fighter-2T1P-v1", "GoBang-2T1P-v1", "PushBox-2T2P-v1",
             "RunToGoal-2T1P-v1", "Snake-2T2P-v1", "Soccer-2T2P-v1", "Sumo-2T1P-v1", "Tennis-2T1P-v1",
             "YouShallNotPass-2T1P-v1"}
