@@ -50,7 +50,7 @@ def test_budgets_past_their_bounds_are_refused_with_the_bound(name, words):
 
 
 def test_games_without_a_search_agent_say_so():
-    with pytest.raises(ValueError, match=r"no search agent \(games with one: Boomer, FightForFood, GoBang, Snake\)"):
+    with pytest.raises(ValueError, match=r"no search agent \(games with one: Boomer, CaptureFlag, FightForFood, GoBang, Snake\)"):
         scripted_policy("search-w4-r1-h10", "Sumo-2T1P-v1")
     with pytest.raises(ValueError, match="unknown scripted agent 'minimax'.*search-wW-rR-hH"):
         scripted_policy("minimax", GAME)

@@ -9,7 +9,7 @@ population. Both agents here are pure functions of their inputs, so they need no
   action_type)`` (documented in each game's manual). Should it ever name an illegal action, a
   random legal one is played instead.
 
-Some games (GoBang, Snake, FightForFood, Boomer) also offer **search** agents over their own rules
+Some games (GoBang, Snake, FightForFood, Boomer, CaptureFlag) also offer **search** agents over their own rules
 (``RULES.search``), named with their budget, ``search-wW-rR-hH-eE`` (``-e`` may be left out: 0), whose
 meaning each game's manual gives (``RULES.search_budget_meaning``): in GoBang ``search-w8-r4-h30-e0.1`` searches the 8
 moves the heuristic likes best, playing 4 rollouts of at most 30 more moves from each, the rollouts'
