@@ -211,7 +211,6 @@ from typing import Any, ClassVar
 import numpy as np
 
 from arena_league.envs import scene
-from arena_league.envs.boards import OneBoard
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.games.captureflag.engine import (
@@ -223,17 +222,18 @@ from arena_league.envs.games.captureflag.engine import (
     CaptureFlagBoards,
     CaptureFlagMatches,
     match_key,
-    write_measures,
 )
 from arena_league.envs.games.captureflag.heuristic import heuristic_actions
+from arena_league.envs.games.captureflag.scalar import ScalarBoard
 from arena_league.envs.options import Option
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 
 __all__ = ["RULES", "CaptureFlagBoards", "CaptureFlagMatches", "CaptureFlagRules"]
 
 
-class CaptureFlagRules(OneBoard, GameRules):
-    """One CaptureFlag match (the batched engine with one board); the package docstring is its manual."""
+class CaptureFlagRules(GameRules):
+    """One CaptureFlag match, played by a :class:`ScalarBoard` on maps its reference, a one-board
+    :class:`CaptureFlagBoards` (``engine``), draws; the package docstring is its manual."""
 
     name: ClassVar[str] = "CaptureFlag"
     version: ClassVar[int] = 1
@@ -267,11 +267,10 @@ class CaptureFlagRules(OneBoard, GameRules):
         self.check_layout(n_teams, players_per_team, action_type)
         super().__init__(n_teams, players_per_team, action_type)
         self.settings = settings
-        self.engine = CaptureFlagBoards(1, players_per_team, rows=settings["rows"], cols=settings["cols"],
-                                        wall_segments=settings["wall_segments"],
-                                        respawn_delay=settings["respawn_delay"],
-                                        captures_to_win=settings["captures_to_win"])
-        self.obs_dim, self.state_dim = self.engine.obs_dim, self.engine.state_dim
+        self._engine = CaptureFlagBoards(1, players_per_team, **settings)
+        self._board = ScalarBoard(self._engine)
+        self._mirrored = False  # True once a tool holds the engine: then it is the match, between steps
+        self.obs_dim, self.state_dim = self._engine.obs_dim, self._engine.state_dim
         self.n_actions, self.act_dim, self.action_meanings = N_ACTIONS, 0, ACTIONS
         self._all_measures = Measures.allocate(self.n_agents, self.measures_provided, 1)
         self.measures = self._all_measures.row(0)
@@ -281,29 +280,71 @@ class CaptureFlagRules(OneBoard, GameRules):
         self.__dict__.update(state)
         self.measures = self._all_measures.row(0)  # views of the one-match arrays again
 
+    # --- the engine, for tools ------------------------------------------------------------------
+    @property
+    def engine(self) -> CaptureFlagBoards:
+        """The match as board 0 of a one-board :class:`CaptureFlagBoards`, for tools and tests:
+        up to date when read; what a tool then sets on it (``set_board``, ``carrier``...) is the
+        match from the next step on, and every step from then on keeps it up to date."""
+        if not self._mirrored:
+            self._board.store(self._engine)
+            self._mirrored = True
+        return self._engine
+
+    def _current(self) -> ScalarBoard:
+        """The scalar board, holding the match (read back from the engine a tool holds)."""
+        if self._mirrored:
+            self._board.load(self._engine)
+        return self._board
+
+    def _seen(self) -> CaptureFlagBoards:
+        """The engine up to date, to read the match from (pictures, the text view)."""
+        if not self._mirrored:
+            self._board.store(self._engine)
+        return self._engine
+
     # --- the match -------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
         self.rng = np.random.default_rng(seed)
-        self.engine.reset(keys=match_key(seed))
-        write_measures(self._all_measures, self.engine, np.array([0]), np.zeros(0, dtype=np.int64))
+        self._engine.reset(keys=match_key(seed))
+        self._board.load(self._engine)
+        self._board.write_measures(self.measures, ended=False)
         self.game_over = False
         self._events = []
 
     def step(self, actions: np.ndarray) -> None:
         if self.game_over:
             raise RuntimeError("CaptureFlag: the match is over; call reset() before step()")
-        engine = self.engine
-        engine.step(np.asarray(actions, dtype=np.int64).reshape(1, -1))
-        ended = np.array([0]) if engine.done[0] else np.zeros(0, dtype=np.int64)
-        write_measures(self._all_measures, engine, np.array([0]), ended)
-        events = [{"kind": "tag", "seat": int(i)} for i in np.flatnonzero(engine.tagged[0])]
-        events += [{"kind": "pickup", "seat": int(i)} for i in np.flatnonzero(engine.picked[0])]
-        events += [{"kind": "capture", "team": int(t)} for t in np.flatnonzero(engine.scored[0])]
-        self._events = events
-        self.game_over = bool(engine.done[0])
+        values = np.asarray(actions, dtype=np.int64).reshape(-1)
+        if values.shape != (self.n_agents,):
+            raise ValueError(f"CaptureFlag takes one integer action per seat, shape ({self.n_agents},); got shape "
+                             f"{np.shape(actions)}")
+        moves = values.tolist()
+        if min(moves) < 0 or max(moves) >= N_ACTIONS:
+            raise ValueError("CaptureFlag actions are 0 stay, 1 up, 2 right, 3 down, 4 left (seat frame)")
+        board = self._current()
+        board.step(moves)
+        board.write_measures(self.measures, ended=board.done)
+        self._events = board.events()
+        self.game_over = board.done
+        if self._mirrored:
+            board.store(self._engine)
 
     def finish(self) -> None:
         self.measures.outcome[:] = 2.0 * self.team_result()[self.team_of] - 1.0
+        self._board.forget_measures()
+
+    def team_result(self) -> np.ndarray:
+        return self._current().team_scores()
+
+    def events(self) -> list[dict]:
+        return list(self._events)
+
+    def observe(self) -> np.ndarray:
+        return self._current().observe()
+
+    def state(self) -> np.ndarray:
+        return self._current().state()
 
     # --- what seats see ----------------------------------------------------------------------
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -318,7 +359,7 @@ class CaptureFlagRules(OneBoard, GameRules):
         return cell_bounds((-1, 1, self.state_dim))
 
     def render_topdown(self) -> np.ndarray:
-        engine = self.engine
+        engine = self._seen()
         r, c = engine.rows, engine.cols
         codes = np.zeros((r, c), dtype=np.int64)
         codes[:, c // 2:] = 1
@@ -349,7 +390,7 @@ class CaptureFlagRules(OneBoard, GameRules):
         return picture
 
     def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
-        engine, ts = self.engine, timestamp_ns
+        engine, ts = self._seen(), timestamp_ns
         r, c = engine.rows, engine.cols
         floor = [scene.cube(c / 4, r / 2, -0.05, (c / 2, r, 0.1), scene.team_colour(0, 0.25)),
                  scene.cube(3 * c / 4, r / 2, -0.05, (c / 2, r, 0.1), scene.team_colour(1, 0.25))]
@@ -422,7 +463,7 @@ class CaptureFlagControls(Controls):
     rules: CaptureFlagRules
 
     def view(self) -> str:
-        rules, engine = self.rules, self.rules.engine
+        rules, engine = self.rules, self.rules._seen()
         r, c = engine.rows, engine.cols
         chars = np.full(r * c, ".", dtype="<U1")
         chars[engine.walls[0, engine._inner]] = "#"
