@@ -234,8 +234,8 @@ class SocialTree:
         receives each node's unscaled reward (for verification)."""
         total = np.zeros(self.n_agents)
         if per_node is None:
-            for fn, view, params, scale in self.plan:
-                total[view.agents] += scale * fn(ctx, view, params)
+            for fn, view, params, scale, where in self.plan:
+                total[where] += scale * fn(ctx, view, params)
             return total
         for k, node in enumerate(self.nodes):
             value = node.reward.fn(ctx, node.view, node.params)
@@ -248,10 +248,12 @@ class SocialTree:
         return [n.describe() for n in self.nodes]
 
 
-def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float]]:
+def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float, Any]]:
     """The calls of a step: IS leaves of one reward computed in one call (every agent once), as are
     sibling nodes of a reward with a grouped form (each team's CL node), which takes the place of
-    the first of them (each agent's reward is summed in the same order as node by node)."""
+    the first of them (each agent's reward is summed in the same order as node by node). Each call
+    comes with where its rewards go: a slice when its agents are consecutive seats (cheaper than
+    indexing by an array, and the same sums)."""
     plan: list[tuple[Any, NodeView, dict[str, Any], float] | None] = []
     fused: dict[tuple, list[SocialNode]] = {}
     siblings: dict[tuple, list[tuple[int, SocialNode]]] = {}
@@ -281,7 +283,14 @@ def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[
             calls.append((group[0].reward.fn, view, group[0].params, group[0].scale))
         else:
             calls += [(n.reward.fn, n.view, n.params, n.scale) for n in group]
-    return calls
+    return [(*call, _place(call[1].agents)) for call in calls]
+
+
+def _place(agents: np.ndarray) -> Any:
+    """``agents`` as a slice when they are consecutive seats in order, else as they are."""
+    if len(agents) and np.array_equal(agents, np.arange(agents[0], agents[0] + len(agents))):
+        return slice(int(agents[0]), int(agents[0]) + len(agents))
+    return agents
 
 
 def team_groups(n_teams: int, players_per_team: int, member: Callable[[int], Any] = "player_{}".format) -> list[Any]:

@@ -16,6 +16,8 @@ import numpy as np
 
 from arena_league.envs.games.captureflag.engine import N_ACTIONS, CaptureFlagBoards
 
+_NO_DANGER = (0.0,) * N_ACTIONS
+
 
 class ScalarBoard:
     """One CaptureFlag match of ``engine``'s layout and options, its state in Python lists:
@@ -120,13 +122,15 @@ class ScalarBoard:
         self._wall_cells = walls[inner].astype(np.float64).tolist()
 
     def _cell(self, team: int, p: int) -> tuple:
-        """``(blocked, to_enemy_stand, to_own_stand, walls, dests)`` of padded cell ``p`` in
-        ``team``'s frame: the observation's fixed runs there, and each action's cell as ``(row,
-        col, half)``."""
+        """``(blocked + to_enemy_stand + to_own_stand, walls, dests, row, column, in_enemy_half)`` of
+        padded cell ``p`` in ``team``'s frame: the observation's fixed runs there, each action's
+        cell as ``(row, col, half)`` and the seat's own cells of the observation."""
         rows = self._static[team, p].tolist()
         dests = self._dests[team, p].tolist()
         at = 3 * N_ACTIONS
-        cell = (rows[:at], rows[at:], [(self.row_of[d], self.col_of[d], self.half_of[d]) for d in dests])
+        cell = (rows[:at], rows[at:], [(self.row_of[d], self.col_of[d], self.half_of[d]) for d in dests],
+                self.row_of[p] * (2.0 / (self.rows - 1)) - 1.0, self.frame_col[team][p] * (2.0 / (self.cols - 1)) - 1.0,
+                self.half_of[p] != team)
         self._cells[team][p] = cell
         return cell
 
@@ -258,8 +262,11 @@ class ScalarBoard:
         pos, active, carrier = self.pos, self.active, self.carrier
         row_of, col_of, half_of, frame_col = self.row_of, self.col_of, self.half_of, self.frame_col
         inv_r, inv_c = 1.0 / (self.rows - 1), 1.0 / (self.cols - 1)
-        to_row, to_col = 2.0 / (self.rows - 1), 2.0 / (self.cols - 1)
         per_capture, per_step = 1.0 / self.captures_to_win, 1.0 / self.respawn_delay
+        c0, c1 = self.captures
+        # per team: its flag home, the opponents' home, its captures and theirs, scaled
+        teams = ((carrier[0] < 0, carrier[1] < 0, c0 * per_capture, c1 * per_capture),
+                 (carrier[1] < 0, carrier[0] < 0, c1 * per_capture, c0 * per_capture))
         flag_at = [pos[carrier[k]] if carrier[k] >= 0 else self.stands[k] for k in (0, 1)]
         held = [carrier[0] == j or carrier[1] == j for j in range(n)]
         rows = []
@@ -268,31 +275,40 @@ class ScalarBoard:
             cell = self._cells[f][p] or self._cell(f, p)
             carrying = carrier[1 - f] == i
             pr, pc, fcols = row_of[p], frame_col[f][p], frame_col[f]
-            own, enemy = self.captures[f], self.captures[1 - f]
-            row = [active[i], pr * to_row - 1.0, pc * to_col - 1.0, carrying, carrier[f] < 0, carrier[1 - f] < 0,
-                   half_of[p] != f, 0.0 if active[i] else self.respawn[i] * per_step, own * per_capture,
-                   enemy * per_capture]
+            home, away, own, enemy = teams[f]
+            row = [active[i], cell[3], cell[4], carrying, home, away, cell[5],
+                   0.0 if active[i] else self.respawn[i] * per_step, own, enemy]
             row += cell[0]
-            # danger: each action's cell, exposed there, within 2 steps of an active opponent
-            near = [(row_of[pos[j]], col_of[pos[j]]) for j in self.rivals[i] if active[j]
-                    and abs(pr - row_of[pos[j]]) + abs(col_of[p] - col_of[pos[j]]) <= 3]
-            if near:
+            # danger: each action's cell, exposed there, within 2 steps of an active opponent (one more
+            # than 3 steps from the seat is more than 2 from every such cell)
+            pcol = col_of[p]
+            near = None
+            for j in self.rivals[i]:
+                if active[j]:
+                    q = pos[j]
+                    r, c = row_of[q], col_of[q]
+                    if abs(pr - r) + abs(pcol - c) <= 3:
+                        if near is None:
+                            near = [(r, c)]
+                        else:
+                            near.append((r, c))
+            if near is None:
+                row += _NO_DANGER
+            else:
                 for dr, dc, dh in cell[2]:
                     if carrying or dh != f:
                         gap = min(abs(dr - r) + abs(dc - c) for r, c in near)
                         row.append(1.0 if gap <= 1 else 0.5 if gap == 2 else 0.0)
                     else:
                         row.append(0.0)
-            else:
-                row += (0.0, 0.0, 0.0, 0.0, 0.0)
             enemy_at, own_at = flag_at[1 - f], flag_at[f]
             row += ((row_of[enemy_at] - pr) * inv_r, (fcols[enemy_at] - pc) * inv_c,
                     (row_of[own_at] - pr) * inv_r, (fcols[own_at] - pc) * inv_c)
             row += cell[1]
             for j in self.others[i]:
                 q = pos[j]
-                row += ((row_of[q] - pr) * inv_r, (fcols[q] - pc) * inv_c, active[j], held[j],
-                        held[j] or half_of[q] != team[j])
+                h = held[j]
+                row += ((row_of[q] - pr) * inv_r, (fcols[q] - pc) * inv_c, active[j], h, h or half_of[q] != team[j])
             rows.append(row)
         return np.array(rows, dtype=np.float32)
 
