@@ -3,11 +3,11 @@
 After the capture-the-flag game of Jaderberg et al., "Human-level performance in 3D multiplayer
 games with population-based reinforcement learning" (Science 2019), as adopted by Song et al.,
 "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent Intelligence" (AAAI
-2020), here on a grid and built as a batched numpy engine. Ids: ``CaptureFlag-2T1P-v1`` and
-``CaptureFlag-2T2P-v1``. Melting Pot's grid substrate ``paintball__capture_the_flag`` (four a side,
-tagging with a zapping beam that also paints the floor) has the same scoring rule, a capture only
-while the own flag is home, and pays the whole team; here a tag is a touch, as in the playground
-game, and there is no paint.
+2020), here on a grid, built as a batched numpy engine with a scalar one-board engine for the env.
+Ids: ``CaptureFlag-2T1P-v1`` and ``CaptureFlag-2T2P-v1``. Melting Pot's grid substrate
+``paintball__capture_the_flag`` (four a side, tagging with a zapping beam that also paints the
+floor) has the same scoring rule, a capture only while the own flag is home, and pays the whole
+team; here a tag is a touch, as in the playground game, and there is no paint.
 
 Field
 -----
@@ -180,6 +180,19 @@ tests), ``observe() -> float32[B, seats, obs_dim]``, ``state()``, ``team_scores(
 whole-array path (``CaptureFlagRules.batched_matches``), each match's map drawn from its seed as
 ``reset`` draws it.
 
+One match
+---------
+The rules (and so the env) play one match on
+:class:`~arena_league.envs.games.captureflag.scalar.ScalarBoard`: the same step in Python ints and
+lists, observations built from rows of tables cut once per map (numpy's per-call cost on a
+one-board batch made a step about seven times dearer). Maps are still drawn by a one-board
+:class:`CaptureFlagBoards`, the reference, which ``CaptureFlagRules.engine`` hands to tools up to
+date; what a tool sets on it (``set_board``, ``carrier``...) is the match from the next step on.
+``tests/test_game_captureflag_scalar.py`` plays seeded matches of both layouts and several option
+sets on both engines and finds every step alike. Speed through the PettingZoo API with the default
+tree, one core: about 24,000 env steps per CPU second in 2T1P and 19,000-20,000 in 2T2P on the
+project's shared 2-core machine (``docs/performance.md``).
+
 Playing it (``arena-league play``)
 ----------------------------------
 The map is drawn in text: ``#`` wall, ``F``/``f`` your team's / the opponents' flag, ``@`` you,
@@ -196,7 +209,7 @@ carry, pale while they wait), each flag as a small square in its team's colour.
 
 Copies
 ------
-The match is plain arrays: rules pickle and copy as they are.
+The match is plain arrays and lists: rules pickle and copy as they are.
 
 Replay scene
 ------------

@@ -237,19 +237,22 @@ class ScalarBoard:
     def write_measures(self, m: Any, ended: bool) -> None:
         """The measures the rules set after a step or a start (``m``: one match's rows), the
         outcome too when the match ``ended``; an array is written only when its values change."""
-        team, written = self.team, self._written
-        values = {"active": self.active, "target_distance": self.target_distance,
-                  "velocity_to_target": self.toward_target,
-                  "object_progress": [self.flag_progress[t] for t in team]}
+        written = self._written
+        m.target_distance[:] = self.target_distance
+        m.velocity_to_target[:] = self.toward_target
+        if written.get("active") != self.active:
+            m.active[:] = written["active"] = self.active[:]
+        progress = self.flag_progress
+        if written.get("object_progress") != progress:
+            m.object_progress[:] = [progress[t] for t in self.team]
+            written["object_progress"] = progress
         if ended:
             scores = self.team_scores().tolist()
-            values["outcome"] = [2.0 * scores[t] - 1.0 for t in team]
-        else:
-            values["outcome"] = [0.0] * self.n
-        for name, value in values.items():
-            if written.get(name) != value:
-                getattr(m, name)[:] = value
-                written[name] = value[:]
+            m.outcome[:] = [2.0 * scores[t] - 1.0 for t in self.team]
+            written["outcome"] = True
+        elif written.get("outcome") is not False:
+            m.outcome[:] = 0.0
+            written["outcome"] = False
 
     def forget_measures(self) -> None:
         """Someone else wrote the measures: the next :meth:`write_measures` writes every array."""
