@@ -31,6 +31,7 @@ from arena_league.envs.social.rewards import (
     NodeView,
     RewardContext,
     RewardFunction,
+    is_cached_zeros,
     lookup_reward,
 )
 
@@ -234,8 +235,12 @@ class SocialTree:
         receives each node's unscaled reward (for verification)."""
         total = np.zeros(self.n_agents)
         if per_node is None:
-            for fn, view, params, scale, where in self.plan:
-                total[where] += scale * fn(ctx, view, params)
+            for fn, view, params, scale, where, first in self.plan:
+                value = fn(ctx, view, params)
+                # cached zeros add +0.0: nothing to do while no call before has touched those rewards
+                if first and is_cached_zeros(value, view):
+                    continue
+                total[where] += scale * value
             return total
         for k, node in enumerate(self.nodes):
             value = node.reward.fn(ctx, node.view, node.params)
@@ -248,7 +253,7 @@ class SocialTree:
         return [n.describe() for n in self.nodes]
 
 
-def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float, Any]]:
+def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float, Any, bool]]:
     """The calls of a step: IS leaves of one reward computed in one call (every agent once), as are
     sibling nodes of a reward with a grouped form (each team's CL node), which takes the place of
     the first of them (each agent's reward is summed in the same order as node by node). Each call
@@ -283,7 +288,13 @@ def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[
             calls.append((group[0].reward.fn, view, group[0].params, group[0].scale))
         else:
             calls += [(n.reward.fn, n.view, n.params, n.scale) for n in group]
-    return [(*call, _place(call[1].agents)) for call in calls]
+    reached: set[int] = set()
+    placed_calls = []
+    for call in calls:
+        agents = call[1].agents.tolist()
+        placed_calls.append((*call, _place(call[1].agents), reached.isdisjoint(agents)))
+        reached.update(agents)
+    return placed_calls
 
 
 def _place(agents: np.ndarray) -> Any:
