@@ -137,33 +137,33 @@ class ScalarBoard:
     # --- the match ---------------------------------------------------------------------------
     def step(self, actions: list[int]) -> None:
         """One step of the match (it must not be over); ``actions[i]`` is in seat ``i``'s frame."""
-        n, team, dist = self.n, self.team, self.dist
+        n, team, dist, walls, delta = self.n, self.team, self.dist, self.walls, self.delta
         pos, active, respawn, carrier = self.pos, self.active, self.respawn, self.carrier
         row_of, col_of, half_of = self.row_of, self.col_of, self.half_of
-        carrying = [carrier[1 - team[i]] == i for i in range(n)]
-        fields = [dist[team[i]] if carrying[i] else dist[1 - team[i]] for i in range(n)]
         before = self._flag_gain()
-        # 1. moves
-        walls, delta = self.walls, self.delta
+        # 1. moves; each seat's target field as it stood (its own stand's while it carries)
         moved = pos[:]
+        fields = []
         for i in range(n):
+            t = team[i]
+            fields.append(dist[t] if carrier[1 - t] == i else dist[1 - t])
             if active[i]:
                 q = pos[i] + delta[i][actions[i]]
                 if not walls[q]:
                     moved[i] = q
-        # 2. tags, judged on everyone's new cells
+        # 2. tags, judged at once on everyone's new cells: an exposed seat next to an active opponent
         tagged = [False] * n
+        any_tag = False
         for i in range(n):
             p = moved[i]
-            if not active[i] or not (carrying[i] or half_of[p] != team[i]):
-                continue
-            r, c = row_of[p], col_of[p]
-            for j in self.rivals[i]:
-                q = moved[j]
-                if active[j] and abs(r - row_of[q]) + abs(c - col_of[q]) <= 1:
-                    tagged[i] = True
-                    break
-        if True in tagged:
+            if active[i] and (carrier[1 - team[i]] == i or half_of[p] != team[i]):
+                r, c = row_of[p], col_of[p]
+                for j in self.rivals[i]:
+                    q = moved[j]
+                    if active[j] and abs(r - row_of[q]) + abs(c - col_of[q]) <= 1:
+                        tagged[i] = any_tag = True
+                        break
+        if any_tag:
             for flag in (0, 1):
                 if carrier[flag] >= 0 and tagged[carrier[flag]]:
                     carrier[flag] = -1
@@ -171,14 +171,13 @@ class ScalarBoard:
                 if tagged[i]:
                     moved[i] = self.spawns[i]
                     respawn[i] = self.respawn_delay + 1
-        playing = [active[i] and not tagged[i] for i in range(n)]
         # 3. pick-ups, the lowest seat first
         picked = [False] * n
         stands = self.stands
         for flag in (0, 1):
             if carrier[flag] < 0:
                 for i in self.team_seats[1 - flag]:
-                    if playing[i] and moved[i] == stands[flag]:
+                    if active[i] and not tagged[i] and moved[i] == stands[flag]:
                         carrier[flag] = i
                         picked[i] = True
                         break
@@ -188,26 +187,30 @@ class ScalarBoard:
             if scored[t]:
                 carrier[1 - t] = -1
                 self.captures[t] += 1
-        # 5. respawns
+        # 5. respawns; the measures: the step toward the target a playing seat had, the target now
+        toward, target, was = [], [], self.target_distance
         for i in range(n):
+            p = moved[i]
             if not active[i]:
                 respawn[i] -= 1
                 if respawn[i] <= 0:
                     active[i] = True
+                toward.append(0)
             elif tagged[i]:
                 respawn[i] -= 1
                 active[i] = False
+                toward.append(0)
+            else:
+                toward.append(was[i] - fields[i][p])
+            t = team[i]
+            target.append(dist[t][p] if carrier[1 - t] == i else dist[1 - t][p])
         self.pos = moved
         self.t += 1
         self.tagged, self.picked, self.scored = tagged, picked, scored
+        self.toward_target, self.target_distance = toward, target
         for t in (0, 1):
             if carrier[1 - t] >= 0:
                 self.held_steps[t] += 1
-        # measures
-        target = self.target_distance
-        self.toward_target = [target[i] - fields[i][moved[i]] if playing[i] else 0 for i in range(n)]
-        self.target_distance = [dist[team[i]][moved[i]] if carrier[1 - team[i]] == i else dist[1 - team[i]][moved[i]]
-                                for i in range(n)]
         after = self._flag_gain()
         sd = self.stand_distance
         self.flag_progress = [after[t] + (sd if scored[t] else 0) - before[t] for t in (0, 1)]
