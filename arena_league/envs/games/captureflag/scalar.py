@@ -273,8 +273,8 @@ class ScalarBoard:
         # per team: its flag home, the opponents' home, its captures and theirs, scaled
         teams = ((carrier[0] < 0, carrier[1] < 0, c0 * per_capture, c1 * per_capture),
                  (carrier[1] < 0, carrier[0] < 0, c1 * per_capture, c0 * per_capture))
-        flag_at = [pos[carrier[k]] if carrier[k] >= 0 else self.stands[k] for k in (0, 1)]
-        held = [carrier[0] == j or carrier[1] == j for j in range(n)]
+        k0, k1 = carrier
+        flag_at = (pos[k0] if k0 >= 0 else self.stands[0], pos[k1] if k1 >= 0 else self.stands[1])
         rows = []
         for i in range(n):
             f, p = team[i], pos[i]
@@ -303,7 +303,11 @@ class ScalarBoard:
             else:
                 for dr, dc, dh in cell[2]:
                     if carrying or dh != f:
-                        gap = min(abs(dr - r) + abs(dc - c) for r, c in near)
+                        gap = 3
+                        for r, c in near:
+                            g = abs(dr - r) + abs(dc - c)
+                            if g < gap:
+                                gap = g
                         row.append(1.0 if gap <= 1 else 0.5 if gap == 2 else 0.0)
                     else:
                         row.append(0.0)
@@ -313,7 +317,7 @@ class ScalarBoard:
             row += cell[1]
             for j in self.others[i]:
                 q = pos[j]
-                h = held[j]
+                h = k0 == j or k1 == j
                 row += ((row_of[q] - pr) * inv_r, (fcols[q] - pc) * inv_c, active[j], h, h or half_of[q] != team[j])
             rows.append(row)
         return np.array(rows, dtype=np.float32)
