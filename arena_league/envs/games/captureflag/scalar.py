@@ -46,6 +46,11 @@ class ScalarBoard:
         self._inner = e._inner
         self._padded = padded
         self._scale = 1.0 / (2 * (e.rows + e.cols))
+        # d / (size - 1) as the observation computes it, ``d * (1 / (size - 1))``, for every difference
+        # d of two rows (columns), negative ones indexed from the end as Python lists are
+        inv_r, inv_c = 1.0 / (e.rows - 1), 1.0 / (e.cols - 1)
+        self._rel_row = [d * inv_r for d in range(e.rows)] + [d * inv_r for d in range(1 - e.rows, 0)]
+        self._rel_col = [d * inv_c for d in range(e.cols)] + [d * inv_c for d in range(1 - e.cols, 0)]
         self._map_walls: np.ndarray | None = None
         self._map_dist: np.ndarray | None = None
         self._written: dict[str, list] = {}
@@ -267,7 +272,7 @@ class ScalarBoard:
         n, team = self.n, self.team
         pos, active, carrier = self.pos, self.active, self.carrier
         row_of, col_of, half_of, frame_col = self.row_of, self.col_of, self.half_of, self.frame_col
-        inv_r, inv_c = 1.0 / (self.rows - 1), 1.0 / (self.cols - 1)
+        rel_row, rel_col = self._rel_row, self._rel_col
         per_capture, per_step = 1.0 / self.captures_to_win, 1.0 / self.respawn_delay
         c0, c1 = self.captures
         # per team: its flag home, the opponents' home, its captures and theirs, scaled
@@ -312,13 +317,13 @@ class ScalarBoard:
                     else:
                         row.append(0.0)
             enemy_at, own_at = flag_at[1 - f], flag_at[f]
-            row += ((row_of[enemy_at] - pr) * inv_r, (fcols[enemy_at] - pc) * inv_c,
-                    (row_of[own_at] - pr) * inv_r, (fcols[own_at] - pc) * inv_c)
+            row += (rel_row[row_of[enemy_at] - pr], rel_col[fcols[enemy_at] - pc],
+                    rel_row[row_of[own_at] - pr], rel_col[fcols[own_at] - pc])
             row += cell[1]
             for j in self.others[i]:
                 q = pos[j]
                 h = k0 == j or k1 == j
-                row += ((row_of[q] - pr) * inv_r, (fcols[q] - pc) * inv_c, active[j], h, h or half_of[q] != team[j])
+                row += (rel_row[row_of[q] - pr], rel_col[fcols[q] - pc], active[j], h, h or half_of[q] != team[j])
             rows.append(row)
         return np.array(rows, dtype=np.float32)
 
