@@ -92,7 +92,6 @@ def test_the_scalar_engine_plays_every_step_as_the_batched_one(players):
             seen["cut"] += 1
             captures, held = boards.captures[k], boards.held_steps[k]
             seen["held_steps_decide"] += int(captures[0] == captures[1] and held[0] != held[1])
-    print(seen)
     assert all(seen.values()), seen
 
 

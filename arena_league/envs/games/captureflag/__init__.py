@@ -184,14 +184,14 @@ One match
 ---------
 The rules (and so the env) play one match on
 :class:`~arena_league.envs.games.captureflag.scalar.ScalarBoard`: the same step in Python ints and
-lists, observations built from rows of tables cut once per map (numpy's per-call cost on a
-one-board batch made a step about seven times dearer). Maps are still drawn by a one-board
+lists, observations built from rows of tables cut once per map. Maps are still drawn by a one-board
 :class:`CaptureFlagBoards`, the reference, which ``CaptureFlagRules.engine`` hands to tools up to
 date; what a tool sets on it (``set_board``, ``carrier``...) is the match from the next step on.
 ``tests/test_game_captureflag_scalar.py`` plays seeded matches of both layouts and several option
 sets on both engines and finds every step alike. Speed through the PettingZoo API with the default
-tree, one core: about 24,000 env steps per CPU second in 2T1P and 19,000-20,000 in 2T2P on the
-project's shared 2-core machine (``docs/performance.md``).
+tree, one core: 25,000-31,000 env steps per CPU second in 2T1P and 21,000-24,000 in 2T2P on the
+project's busy 2-core machine, against about 3,300 on a one-board ``CaptureFlagBoards``
+(``docs/performance.md``).
 
 Playing it (``arena-league play``)
 ----------------------------------
