@@ -2,9 +2,10 @@
 
 Such a game keeps its rules once, in a whole-array engine of many boards, and reaches it two ways:
 its :class:`~arena_league.envs.core.GameRules` plays board 0 of a one-board engine
-(:class:`OneBoard`), and its ``batched_matches`` plays one match per board of a wide one
-(:class:`BoardSlots`). :func:`reset_keys` checks the boards and keys a ``reset`` is given, and
-:func:`grow` is the 4-neighbour step of the flood fills their map makers and distance fields use.
+(:class:`OneBoard`; CaptureFlag's plays a scalar copy of one board, checked against it), and its
+``batched_matches`` plays one match per board of a wide one (:class:`BoardSlots`).
+:func:`reset_keys` checks the boards and keys a ``reset`` is given, and :func:`grow` is the
+4-neighbour step of the flood fills their map makers and distance fields use.
 """
 
 from __future__ import annotations

@@ -168,6 +168,12 @@ def _zeros_for(node: NodeView) -> np.ndarray:
     return zeros
 
 
+def is_cached_zeros(value: np.ndarray, node: NodeView) -> bool:
+    """Whether a reward function returned the node's cached zeros (:func:`_zeros_for`): a step
+    on which it pays nothing."""
+    return value is node.memory.get("_zeros")
+
+
 def _shared(node: NodeView, value: float) -> np.ndarray:
     """``value`` for every agent of the node, as a new array (ones times the value: the same
     numbers as ``np.full``, for less work on the hot path)."""
@@ -224,7 +230,7 @@ def _target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
 @register_reward("velocity_to_target", "IS", needs=("velocity_to_target",))
 def _velocity_to_target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """Velocity component toward one's target."""
-    return ctx.measures.velocity_to_target[node.agents].astype(np.float64)
+    return ctx.measures.velocity_to_target[node.agents].astype(np.float64, copy=False)
 
 
 @register_reward("facing_target", "IS", needs=("facing_target",))
@@ -365,7 +371,7 @@ def _win_loss(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
 def _team_progress(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """Team progress of a shared object: the distance it moved toward the goal, shared by all."""
     values = ctx.measures.object_progress[node.agents]
-    return np.full(len(values), values.sum() / len(values))
+    return _shared(node, np.add.reduce(values, axis=None) / len(values))  # what ndarray.sum calls
 
 
 @register_reward("team_target", "CL", needs=("target_distance",), needs_previous=("target_distance",))

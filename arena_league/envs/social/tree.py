@@ -31,6 +31,7 @@ from arena_league.envs.social.rewards import (
     NodeView,
     RewardContext,
     RewardFunction,
+    is_cached_zeros,
     lookup_reward,
 )
 
@@ -234,8 +235,12 @@ class SocialTree:
         receives each node's unscaled reward (for verification)."""
         total = np.zeros(self.n_agents)
         if per_node is None:
-            for fn, view, params, scale in self.plan:
-                total[view.agents] += scale * fn(ctx, view, params)
+            for fn, view, params, scale, where, first in self.plan:
+                value = fn(ctx, view, params)
+                # cached zeros add +0.0: nothing to do while no call before has touched those rewards
+                if first and is_cached_zeros(value, view):
+                    continue
+                total[where] += scale * value
             return total
         for k, node in enumerate(self.nodes):
             value = node.reward.fn(ctx, node.view, node.params)
@@ -248,10 +253,12 @@ class SocialTree:
         return [n.describe() for n in self.nodes]
 
 
-def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float]]:
+def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float, Any, bool]]:
     """The calls of a step: IS leaves of one reward computed in one call (every agent once), as are
     sibling nodes of a reward with a grouped form (each team's CL node), which takes the place of
-    the first of them (each agent's reward is summed in the same order as node by node)."""
+    the first of them (each agent's reward is summed in the same order as node by node). Each call
+    comes with where its rewards go: a slice when its agents are consecutive seats (cheaper than
+    indexing by an array, and the same sums)."""
     plan: list[tuple[Any, NodeView, dict[str, Any], float] | None] = []
     fused: dict[tuple, list[SocialNode]] = {}
     siblings: dict[tuple, list[tuple[int, SocialNode]]] = {}
@@ -281,7 +288,20 @@ def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[
             calls.append((group[0].reward.fn, view, group[0].params, group[0].scale))
         else:
             calls += [(n.reward.fn, n.view, n.params, n.scale) for n in group]
-    return calls
+    reached: set[int] = set()
+    placed_calls = []
+    for call in calls:
+        agents = call[1].agents.tolist()
+        placed_calls.append((*call, _place(call[1].agents), reached.isdisjoint(agents)))
+        reached.update(agents)
+    return placed_calls
+
+
+def _place(agents: np.ndarray) -> Any:
+    """``agents`` as a slice when they are consecutive seats in order, else as they are."""
+    if len(agents) and np.array_equal(agents, np.arange(agents[0], agents[0] + len(agents))):
+        return slice(int(agents[0]), int(agents[0]) + len(agents))
+    return agents
 
 
 def team_groups(n_teams: int, players_per_team: int, member: Callable[[int], Any] = "player_{}".format) -> list[Any]:

@@ -3,11 +3,11 @@
 After the capture-the-flag game of Jaderberg et al., "Human-level performance in 3D multiplayer
 games with population-based reinforcement learning" (Science 2019), as adopted by Song et al.,
 "Arena: A General Evaluation Platform and Building Toolkit for Multi-Agent Intelligence" (AAAI
-2020), here on a grid and built as a batched numpy engine. Ids: ``CaptureFlag-2T1P-v1`` and
-``CaptureFlag-2T2P-v1``. Melting Pot's grid substrate ``paintball__capture_the_flag`` (four a side,
-tagging with a zapping beam that also paints the floor) has the same scoring rule, a capture only
-while the own flag is home, and pays the whole team; here a tag is a touch, as in the playground
-game, and there is no paint.
+2020), here on a grid, built as a batched numpy engine with a scalar one-board engine for the env.
+Ids: ``CaptureFlag-2T1P-v1`` and ``CaptureFlag-2T2P-v1``. Melting Pot's grid substrate
+``paintball__capture_the_flag`` (four a side, tagging with a zapping beam that also paints the
+floor) has the same scoring rule, a capture only while the own flag is home, and pays the whole
+team; here a tag is a touch, as in the playground game, and there is no paint.
 
 Field
 -----
@@ -195,6 +195,19 @@ tests), ``observe() -> float32[B, seats, obs_dim]``, ``state()``, ``team_scores(
 whole-array path (``CaptureFlagRules.batched_matches``), each match's map drawn from its seed as
 ``reset`` draws it.
 
+One match
+---------
+The rules (and so the env) play one match on
+:class:`~arena_league.envs.games.captureflag.scalar.ScalarBoard`: the same step in Python ints and
+lists, observations built from rows of tables cut once per map. Maps are still drawn by a one-board
+:class:`CaptureFlagBoards`, the reference, which ``CaptureFlagRules.engine`` hands to tools up to
+date; what a tool sets on it (``set_board``, ``carrier``...) is the match from the next step on.
+``tests/test_game_captureflag_scalar.py`` plays seeded matches of both layouts and several option
+sets on both engines and finds every step alike. Speed through the PettingZoo API with the default
+tree, one core: 25,000-31,000 env steps per CPU second in 2T1P and 21,000-24,000 in 2T2P on the
+project's busy 2-core machine, against about 3,300 on a one-board ``CaptureFlagBoards``
+(``docs/performance.md``).
+
 Playing it (``arena-league play``)
 ----------------------------------
 The map is drawn in text: ``#`` wall, ``F``/``f`` your team's / the opponents' flag, ``@`` you,
@@ -211,7 +224,7 @@ carry, pale while they wait), each flag as a small square in its team's colour.
 
 Copies
 ------
-The match is plain arrays: rules pickle and copy as they are.
+The match is plain arrays and lists: rules pickle and copy as they are.
 
 Replay scene
 ------------
@@ -226,7 +239,6 @@ from typing import Any, ClassVar
 import numpy as np
 
 from arena_league.envs import scene
-from arena_league.envs.boards import OneBoard
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
 from arena_league.envs.games.captureflag.engine import (
@@ -238,9 +250,9 @@ from arena_league.envs.games.captureflag.engine import (
     CaptureFlagBoards,
     CaptureFlagMatches,
     match_key,
-    write_measures,
 )
 from arena_league.envs.games.captureflag.heuristic import heuristic_actions
+from arena_league.envs.games.captureflag.scalar import ScalarBoard
 from arena_league.envs.games.captureflag.search import search_moves
 from arena_league.envs.options import Option
 from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
@@ -248,8 +260,9 @@ from arena_league.envs.rendering import TEAM_COLOURS, grid_picture
 __all__ = ["RULES", "CaptureFlagBoards", "CaptureFlagMatches", "CaptureFlagRules"]
 
 
-class CaptureFlagRules(OneBoard, GameRules):
-    """One CaptureFlag match (the batched engine with one board); the package docstring is its manual."""
+class CaptureFlagRules(GameRules):
+    """One CaptureFlag match, played by a :class:`ScalarBoard` on maps its reference, a one-board
+    :class:`CaptureFlagBoards` (``engine``), draws; the package docstring is its manual."""
 
     name: ClassVar[str] = "CaptureFlag"
     version: ClassVar[int] = 1
@@ -283,11 +296,10 @@ class CaptureFlagRules(OneBoard, GameRules):
         self.check_layout(n_teams, players_per_team, action_type)
         super().__init__(n_teams, players_per_team, action_type)
         self.settings = settings
-        self.engine = CaptureFlagBoards(1, players_per_team, rows=settings["rows"], cols=settings["cols"],
-                                        wall_segments=settings["wall_segments"],
-                                        respawn_delay=settings["respawn_delay"],
-                                        captures_to_win=settings["captures_to_win"])
-        self.obs_dim, self.state_dim = self.engine.obs_dim, self.engine.state_dim
+        self._engine = CaptureFlagBoards(1, players_per_team, **settings)
+        self._board = ScalarBoard(self._engine)
+        self._mirrored = False  # True once a tool holds the engine: then it is the match, between steps
+        self.obs_dim, self.state_dim = self._engine.obs_dim, self._engine.state_dim
         self.n_actions, self.act_dim, self.action_meanings = N_ACTIONS, 0, ACTIONS
         self._all_measures = Measures.allocate(self.n_agents, self.measures_provided, 1)
         self.measures = self._all_measures.row(0)
@@ -297,29 +309,71 @@ class CaptureFlagRules(OneBoard, GameRules):
         self.__dict__.update(state)
         self.measures = self._all_measures.row(0)  # views of the one-match arrays again
 
+    # --- the engine, for tools ------------------------------------------------------------------
+    @property
+    def engine(self) -> CaptureFlagBoards:
+        """The match as board 0 of a one-board :class:`CaptureFlagBoards`, for tools and tests:
+        up to date when read; what a tool then sets on it (``set_board``, ``carrier``...) is the
+        match from the next step on, and every step from then on keeps it up to date."""
+        if not self._mirrored:
+            self._board.store(self._engine)
+            self._mirrored = True
+        return self._engine
+
+    def _current(self) -> ScalarBoard:
+        """The scalar board, holding the match (read back from the engine a tool holds)."""
+        if self._mirrored:
+            self._board.load(self._engine)
+        return self._board
+
+    def _seen(self) -> CaptureFlagBoards:
+        """The engine up to date, to read the match from (pictures, the text view)."""
+        if not self._mirrored:
+            self._board.store(self._engine)
+        return self._engine
+
     # --- the match -------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
         self.rng = np.random.default_rng(seed)
-        self.engine.reset(keys=match_key(seed))
-        write_measures(self._all_measures, self.engine, np.array([0]), np.zeros(0, dtype=np.int64))
+        self._engine.reset(keys=match_key(seed))
+        self._board.load(self._engine)
+        self._board.write_measures(self.measures, ended=False)
         self.game_over = False
         self._events = []
 
     def step(self, actions: np.ndarray) -> None:
         if self.game_over:
             raise RuntimeError("CaptureFlag: the match is over; call reset() before step()")
-        engine = self.engine
-        engine.step(np.asarray(actions, dtype=np.int64).reshape(1, -1))
-        ended = np.array([0]) if engine.done[0] else np.zeros(0, dtype=np.int64)
-        write_measures(self._all_measures, engine, np.array([0]), ended)
-        events = [{"kind": "tag", "seat": int(i)} for i in np.flatnonzero(engine.tagged[0])]
-        events += [{"kind": "pickup", "seat": int(i)} for i in np.flatnonzero(engine.picked[0])]
-        events += [{"kind": "capture", "team": int(t)} for t in np.flatnonzero(engine.scored[0])]
-        self._events = events
-        self.game_over = bool(engine.done[0])
+        values = np.asarray(actions, dtype=np.int64).reshape(-1)
+        if values.shape != (self.n_agents,):
+            raise ValueError(f"CaptureFlag takes one integer action per seat, shape ({self.n_agents},); got shape "
+                             f"{np.shape(actions)}")
+        moves = values.tolist()
+        if min(moves) < 0 or max(moves) >= N_ACTIONS:
+            raise ValueError("CaptureFlag actions are 0 stay, 1 up, 2 right, 3 down, 4 left (seat frame)")
+        board = self._current()
+        board.step(moves)
+        board.write_measures(self.measures, ended=board.done)
+        self._events = board.events()
+        self.game_over = board.done
+        if self._mirrored:
+            board.store(self._engine)
 
     def finish(self) -> None:
         self.measures.outcome[:] = 2.0 * self.team_result()[self.team_of] - 1.0
+        self._board.forget_measures()
+
+    def team_result(self) -> np.ndarray:
+        return self._current().team_scores()
+
+    def events(self) -> list[dict]:
+        return list(self._events)
+
+    def observe(self) -> np.ndarray:
+        return self._current().observe()
+
+    def state(self) -> np.ndarray:
+        return self._current().state()
 
     # --- what seats see ----------------------------------------------------------------------
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -334,7 +388,7 @@ class CaptureFlagRules(OneBoard, GameRules):
         return cell_bounds((-1, 1, self.state_dim))
 
     def render_topdown(self) -> np.ndarray:
-        engine = self.engine
+        engine = self._seen()
         r, c = engine.rows, engine.cols
         codes = np.zeros((r, c), dtype=np.int64)
         codes[:, c // 2:] = 1
@@ -365,7 +419,7 @@ class CaptureFlagRules(OneBoard, GameRules):
         return picture
 
     def scene_entities(self, timestamp_ns: int) -> list[dict[str, Any]]:
-        engine, ts = self.engine, timestamp_ns
+        engine, ts = self._seen(), timestamp_ns
         r, c = engine.rows, engine.cols
         floor = [scene.cube(c / 4, r / 2, -0.05, (c / 2, r, 0.1), scene.team_colour(0, 0.25)),
                  scene.cube(3 * c / 4, r / 2, -0.05, (c / 2, r, 0.1), scene.team_colour(1, 0.25))]
@@ -462,7 +516,7 @@ class CaptureFlagControls(Controls):
     rules: CaptureFlagRules
 
     def view(self) -> str:
-        rules, engine = self.rules, self.rules.engine
+        rules, engine = self.rules, self.rules._seen()
         r, c = engine.rows, engine.cols
         chars = np.full(r * c, ".", dtype="<U1")
         chars[engine.walls[0, engine._inner]] = "#"

@@ -470,18 +470,15 @@ class CaptureFlagBoards:
 
 
 class CaptureFlagMatches(BoardSlots):
-    """CaptureFlag matches stepped together on a :class:`CaptureFlagBoards` built like the rules'
-    own one-board engine; each match's map key is drawn from its seed exactly as the rules' ``reset``
+    """CaptureFlag matches stepped together on a :class:`CaptureFlagBoards` with the rules'
+    options; each match's map key is drawn from its seed exactly as the rules' ``reset``
     draws it. ``measures`` holds every match's measures as the rules set them, ``state()`` every
     match's global state (what ``arena_league.training.engine_batch`` computes rewards from)."""
 
     def __init__(self, rules: Any, n_slots: int, max_cycles: int) -> None:
-        one = rules.engine
         self.n_slots, self.max_cycles = n_slots, max_cycles
         self.team_of = np.asarray(rules.team_of, dtype=np.int64)
-        self.boards = CaptureFlagBoards(n_slots, one.players_per_team, rows=one.rows, cols=one.cols,
-                                        wall_segments=one.wall_segments, respawn_delay=one.respawn_delay,
-                                        captures_to_win=one.captures_to_win)
+        self.boards = CaptureFlagBoards(n_slots, rules.players_per_team, **rules.settings)
         self.boards.done[:] = True  # idle slots: the engine leaves finished boards alone
         self._steps = np.zeros(n_slots, dtype=np.int64)
         self.measures = Measures.allocate(rules.n_agents, rules.measures_provided, n_slots)
