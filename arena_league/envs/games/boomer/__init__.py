@@ -228,6 +228,7 @@ from arena_league.envs import scene
 from arena_league.envs.boards import BoardSlots, OneBoard
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
+from arena_league.envs.games.boomer.board import BoomerBoard
 from arena_league.envs.games.boomer.boards import (
     ACTIONS,
     BOMB,
@@ -318,7 +319,7 @@ class BoomerMatches(BoardSlots):
 
 
 class BoomerRules(OneBoard, GameRules):
-    """One Boomer match (the batched engine with one board); the package docstring is its manual."""
+    """One Boomer match (the one-board engine, ``BoomerBoard``); the package docstring is its manual."""
 
     name: ClassVar[str] = "Boomer"
     version: ClassVar[int] = 1
@@ -342,10 +343,10 @@ class BoomerRules(OneBoard, GameRules):
             raise ValueError(f"Boomer has only the 'discrete' action variant, not {action_type!r}")
         super().__init__(n_teams, players_per_team, action_type)
         self.settings = settings
-        self.engine = BoomerBoards(1, self.n_agents, size=settings["size"], n_rigid=settings["n_rigid"],
-                                   n_wood=settings["n_wood"], n_items=settings["n_items"],
-                                   blast_strength=settings["blast_strength"], team_of=self.team_of,
-                                   quarter_turns=QUARTER_TURNS[(n_teams, players_per_team)])
+        self.engine = BoomerBoard(self.n_agents, size=settings["size"], n_rigid=settings["n_rigid"],
+                                  n_wood=settings["n_wood"], n_items=settings["n_items"],
+                                  blast_strength=settings["blast_strength"], team_of=self.team_of,
+                                  quarter_turns=QUARTER_TURNS[(n_teams, players_per_team)])
         self.size = self.engine.size
         self.obs_dim = self.engine.obs_dim
         self.state_dim = self.engine.state_dim
@@ -366,15 +367,17 @@ class BoomerRules(OneBoard, GameRules):
         if self.game_over:
             raise RuntimeError("Boomer: the match is over; call reset() before step()")
         engine = self.engine
-        engine.step(np.asarray(actions, dtype=np.int64).reshape(1, -1))
-        for measure, source in MEASURE_SOURCES:
-            getattr(self.measures, measure)[:] = getattr(engine, source)[0]
-        happened = engine.laid[0] | engine.kicked[0] | engine.picked[0] | engine.died[0]
-        self._events = [] if not happened.any() else [{"kind": kind, "seat": int(i)} for kind, flags in (
-            ("laid_a_bomb", engine.laid), ("kicked_a_bomb", engine.kicked), ("took_a_power_up", engine.picked),
-            ("death", engine.died))
-            for i in np.flatnonzero(flags[0])]
-        if engine.done[0]:
+        actions = np.asarray(actions, dtype=np.int64).reshape(-1).tolist()
+        if len(actions) != self.n_agents:
+            raise ValueError(f"Boomer takes one action per seat ({self.n_agents}), not {len(actions)}")
+        engine.play(actions)
+        measures = self.measures
+        measures.alive[:] = measures.active[:] = engine._alive
+        measures.resource_gain[:] = engine._picked
+        self._events = [{"kind": kind, "seat": seat} for kind, flags in (
+            ("laid_a_bomb", engine._laid), ("kicked_a_bomb", engine._kicked), ("took_a_power_up", engine._picked),
+            ("death", engine._died)) if any(flags) for seat, flag in enumerate(flags) if flag]
+        if engine._done:
             self.game_over = True
             self.finish()
 

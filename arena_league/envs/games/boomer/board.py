@@ -1,0 +1,605 @@
+"""Boomer's one-board engine: the rules of :class:`~arena_league.envs.games.boomer.boards.BoomerBoards`
+for a single match, stepped in plain Python (the manual is the package docstring).
+
+A one-board batch pays numpy's per-call overhead on every one of its whole-array operations, while a
+match has a few seats, bombs and flames: here the bombs and flames are sets of cells, the per-cell
+state is ``bytearray`` s on the padded board (so a move, a kick or a blast arm never needs a bounds
+check), and a seat's observation is one gather from a source vector of the eight shared planes and
+the seats' scalars. ``BoomerBoards`` stays the reference: the two agree exactly, step by step, on
+every array, observation and state (``tests/test_game_boomer_board.py``).
+
+Read-only numpy views with ``BoomerBoards``' names and shapes (one board) are offered for the
+picture, the scene and the text view: ``terrain`` (writable: it is the engine's own memory),
+``hidden``, ``flame``, ``bomb_timer``, ``bomb_strength``, ``bomb_owner``, ``bomb_direction`` and the
+seats' ``position``, ``alive``, ``ammo``, ``strength``, ``can_kick``, ``death_step``, ``picked``,
+``died``, ``laid``, ``kicked``, ``t``, ``done``, ``truncated``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from arena_league.envs.games.boomer.boards import (
+    ACTION_DIRECTION,
+    ACTIONS,
+    BOMB,
+    BOMB_LIFE,
+    EXTRA_BOMB,
+    FLAME_STEPS,
+    KICK,
+    MAX_AMMO,
+    MAX_STRENGTH,
+    N_BOARD_PLANES,
+    PASSAGE,
+    PER_AGENT,
+    PLANES,
+    POWER_UPS,
+    RANGE,
+    RIGID,
+    STATE_PER_AGENT,
+    WOOD,
+    _ITEM_SALT,
+    BoomerBoards,
+    _hash_columns,
+    _splitmix64,
+)
+
+_NONE = 255  # "no owner" and "lying still" in the unsigned cells (-1 through the int8 views)
+_TERRAIN_ONEHOT = np.zeros((5, 256), dtype=np.float32)  # terrain code -> its five planes
+for _plane, _code in enumerate((RIGID, WOOD, EXTRA_BOMB, RANGE, KICK)):
+    _TERRAIN_ONEHOT[_plane, _code] = 1.0
+# a flame's plane value, computed as the batched engine computes it (int8 times float32)
+_FLAME_VALUE = np.zeros(256, dtype=np.float32)
+_FLAME_VALUE[:FLAME_STEPS + 1] = np.arange(FLAME_STEPS + 1, dtype=np.int8) * np.float32(1.0 / FLAME_STEPS)
+
+
+class BoomerBoard:
+    """One Boomer match, the rules of ``BoomerBoards`` with ``n_boards=1`` (same arguments but
+    ``autoreset``; ``reset(keys=...)`` draws the same map from the same key)."""
+
+    n_boards = 1
+
+    def __init__(self, n_seats: int = 2, size: int = 11, n_rigid: int = 36, n_wood: int = 36, n_items: int = 20,
+                 blast_strength: int = 2, team_of: Any = None, quarter_turns: Any = None,
+                 max_steps: int | None = None, seed: int = 0) -> None:
+        # the batched engine checks the arguments and lays out the map tables, frames and seat orders
+        layout = BoomerBoards(1, n_seats, size=size, n_rigid=n_rigid, n_wood=n_wood, n_items=n_items,
+                              blast_strength=blast_strength, team_of=team_of, quarter_turns=quarter_turns,
+                              max_steps=max_steps)
+        self._layout = layout
+        for name in ("n_seats", "size", "n_rigid", "n_wood", "n_items", "blast_strength", "max_steps", "team_of",
+                     "n_teams", "quarter_turns", "n_cells", "side", "_inner", "header", "obs_dim", "state_dim"):
+            setattr(self, name, getattr(layout, name))
+        self.rng = np.random.default_rng(seed)
+        s, n, side = self.n_seats, self.size, self.side
+        cells = side * side
+        self._cells = cells
+        self._delta = (-side, 1, side, -1)  # compass: up, right, down, left
+        # per seat, the padded step of each action in the seat's frame (None: stop or bomb)
+        self._step_of = [[None if d < 0 else self._delta[(int(d) + int(q)) % 4] for d in ACTION_DIRECTION]
+                         for q in self.quarter_turns]
+        self._direction_of = [[-1 if d < 0 else (int(d) + int(q)) % 4 for d in ACTION_DIRECTION]
+                              for q in self.quarter_turns]
+        self._team = [int(t) for t in self.team_of]
+        self._orbit_board_cells = [[int(c) for c in orbit] for orbit in layout._orbits]
+        self._orbit_padded = [[int(layout._inner[c]) for c in orbit] for orbit in layout._orbits]
+        self._start_bit = 1 << int(layout._start_cells[0])
+        blank = bytearray([RIGID]) * cells
+        for cell in layout._inner:
+            blank[cell] = PASSAGE
+        self._blank = bytes(blank)
+        self._free = [int(k) for k in layout._free_orbits]
+        self._lanes = [int(k) for k in layout._lane_orbits]
+        self._start = [int(layout._inner[c]) for c in layout._start_cells]
+        full = (1 << (n * n)) - 1
+        col0 = sum(1 << (r * n) for r in range(n))
+        self._bits = (full, full & ~col0, full & ~(col0 << (n - 1)))  # all, not column 0, not the last column
+        # observation gather: [S, obs_dim] indices into the source vector (8 padded planes, the seats'
+        # four scalars, then one zero)
+        planes_end = N_BOARD_PLANES * cells
+        zero = planes_end + PER_AGENT * s
+        index = np.full((s, self.obs_dim), zero, dtype=np.int64)
+        for i in range(s):
+            for m, j in enumerate([i, *layout._others[i].tolist()]):
+                index[i, PER_AGENT * m:PER_AGENT * (m + 1)] = planes_end + PER_AGENT * j + np.arange(PER_AGENT)
+            shown = layout._inner[layout._frame_cells[i]]  # frame cell -> padded cell
+            for p in range(N_BOARD_PLANES):
+                start = self.header + p * self.n_cells
+                index[i, start:start + self.n_cells] = p * cells + shown
+        self._obs_index = index
+        self._src = np.zeros(zero + 1, dtype=np.float32)
+        self._planes = self._src[:planes_end].reshape(N_BOARD_PLANES, cells)
+        self._state_index = (np.arange(N_BOARD_PLANES)[:, None] * cells + layout._inner[None, :]).reshape(-1)
+        # where seat j's position lands in seat i's flat observation, by padded cell
+        self._mark = []
+        for i in range(s):
+            frame_of = np.full(cells, -1, dtype=np.int64)
+            frame_of[layout._inner] = layout._frame_of[i]
+            self._mark.append([[i * self.obs_dim + self.header + int(layout._position_plane[i, j]) * self.n_cells
+                                + int(f) for f in frame_of] for j in range(s)])
+        self._row_col = [((c // side - 1) / (n - 1), (c % side - 1) / (n - 1)) for c in range(cells)]
+        self._T = bytearray(cells)
+        self._H = bytearray(cells)
+        self._F = bytearray(cells)
+        self._BT = bytearray(cells)
+        self._BS = bytearray(cells)
+        self._BO = bytearray(cells)
+        self._BD = bytearray(cells)
+        self._views()
+        self._seen_terrain = self._seen_flame = b""  # what the planes show: none yet
+        self._bomb_planes_set = False
+        self._reach: dict[int, list[int]] = {}  # blast cells by bomb cell and strength, for the terrain seen
+        self.reset()
+
+    def _views(self) -> None:
+        for name, cells in (("terrain", self._T), ("hidden", self._H), ("flame", self._F), ("bomb_timer", self._BT),
+                            ("bomb_strength", self._BS), ("bomb_owner", self._BO), ("bomb_direction", self._BD)):
+            setattr(self, name, np.frombuffer(cells, dtype=np.int8).reshape(1, -1))
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        for name in ("terrain", "hidden", "flame", "bomb_timer", "bomb_strength", "bomb_owner", "bomb_direction"):
+            del state[name]  # views of the bytearrays: rebuilt on the copy's own
+        state["_planes"] = None
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._planes = self._src[:N_BOARD_PLANES * self._cells].reshape(N_BOARD_PLANES, self._cells)
+        self._views()
+
+    # --- the map -------------------------------------------------------------------------------
+    @staticmethod
+    def _orbit_order(key: np.uint64, counter: int, count: int) -> list[int]:
+        """The stable order of ``count`` hashes of (key, counter), as ``BoomerBoards.generate`` sorts them."""
+        return np.argsort(_splitmix64(key ^ _hash_columns(counter, count)), kind="stable").tolist()
+
+    def _reachable(self, rigid: list[int]) -> bool:
+        """Every cell that is not rigid is reachable from the first corner's start (a bitboard flood fill
+        over the board cells ``row * size + col``)."""
+        n = self.size
+        full, not_first, not_last = self._bits
+        blocked = 0
+        for cell in rigid:
+            blocked |= 1 << cell
+        open_ = full & ~blocked
+        # a cell walled in on all four sides fails at once, without the flood
+        if open_ & ~(((open_ << 1) & not_first) | ((open_ >> 1) & not_last) | (open_ << n) | (open_ >> n)):
+            return False
+        reach = self._start_bit
+        while True:
+            grown = (reach | ((reach << 1) & not_first) | ((reach >> 1) & not_last) | (reach << n) | (reach >> n)) \
+                & open_
+            if grown == reach:
+                return reach == open_
+            reach = grown
+
+    def _generate(self, key: int) -> None:
+        """``BoomerBoards.generate`` for one key, written into the padded terrain and hidden cells."""
+        key = np.uint64(key)
+        orbits, free = self._orbit_board_cells, self._free
+        n_rigid, n_wood = self.n_rigid // 4, (self.n_wood - 4 * len(self._lanes)) // 4
+        attempt = 0
+        while True:
+            drawn = [free[k] for k in self._orbit_order(key, attempt, len(free))]
+            attempt += 1
+            if self._reachable([c for k in drawn[:n_rigid] for c in orbits[k]]):
+                break
+        padded = self._orbit_padded
+        terrain, hidden = self._T, self._H
+        terrain[:] = self._blank
+        hidden[:] = bytes(self._cells)
+        for k in drawn[:n_rigid]:
+            for cell in padded[k]:
+                terrain[cell] = RIGID
+        wooden = self._lanes + drawn[n_rigid:n_rigid + n_wood]
+        for k in wooden:
+            for cell in padded[k]:
+                terrain[cell] = WOOD
+        n_item_orbits = self.n_items // 4
+        if n_item_orbits:
+            salt = _ITEM_SALT
+            pick = self._orbit_order(key, salt, len(wooden))[:n_item_orbits]
+            kinds = (_splitmix64(key ^ _hash_columns(salt + 1, n_item_orbits)) % np.uint64(3)).tolist()
+            for k, kind in zip(pick, kinds, strict=True):
+                for cell in padded[wooden[k]]:
+                    hidden[cell] = POWER_UPS[kind]
+
+    # --- matches -------------------------------------------------------------------------------
+    def reset(self, boards: Any = None, keys: Any = None) -> None:
+        """A new match; its map comes from its key (one ``uint64``, drawn from the engine's generator
+        unless given), as ``BoomerBoards.reset`` draws it."""
+        if boards is not None and np.asarray(boards).reshape(-1).tolist() != [0]:
+            raise ValueError(f"a one-board Boomer engine resets board 0 only, not {boards!r}")
+        if keys is None:
+            keys = self.rng.integers(0, 2**64, size=1, dtype=np.uint64)
+        keys = np.asarray(keys, dtype=np.uint64).reshape(-1)
+        if keys.shape != (1,):
+            raise ValueError(f"reset got {keys.size} keys for 1 board; give one uint64 key")
+        self.keys = keys.copy()
+        self._generate(int(keys[0]))
+        empty, none = bytes(self._cells), bytes([_NONE]) * self._cells
+        self._F[:] = self._BT[:] = self._BS[:] = empty
+        self._BO[:] = self._BD[:] = none
+        self._bombs: set[int] = set()
+        self._flames: set[int] = set()
+        s = self.n_seats
+        self._pos = list(self._start)
+        self._alive = [True] * s
+        self._ammo = [1] * s
+        self._strength = [self.blast_strength] * s
+        self._kick = [False] * s
+        self._death = [-1] * s
+        self._picked = [False] * s
+        self._died = [False] * s
+        self._laid = [False] * s
+        self._kicked = [False] * s
+        self._t = 0
+        self._done = False
+        self._truncated = False
+        self._final: list[float] | None = None
+
+    def step(self, actions: Any) -> None:
+        """``BoomerBoards.step`` with ``actions`` of shape ``(1, seats)``."""
+        actions = np.asarray(actions)
+        if actions.shape != (1, self.n_seats) or actions.dtype.kind not in "iu":
+            raise ValueError(f"BoomerBoard.step takes integer actions of shape (1, {self.n_seats}); "
+                             f"got shape {actions.shape} dtype {actions.dtype}")
+        self.play(actions[0].tolist())
+
+    def play(self, actions: list[int]) -> None:
+        """One step, ``actions`` a list of one action per seat in its own frame (0..5)."""
+        if min(actions) < 0 or max(actions) >= len(ACTIONS):
+            raise ValueError("Boomer actions are 0 stop, 1 up, 2 down, 3 left, 4 right, 5 bomb (in the seat's frame)")
+        s = self.n_seats
+        self._picked = [False] * s
+        self._died = [False] * s
+        self._laid = [False] * s
+        self._kicked = [False] * s
+        if self._done:
+            return
+        if self._flames:
+            self._burn_down()
+        if self._bombs:
+            self._slide_bombs()
+        self._lay_bombs(actions)
+        self._move_agents(actions)
+        if self._bombs:
+            self._explode()
+        flame, alive, pos = self._F, self._alive, self._pos
+        for seat in range(s):
+            if alive[seat] and flame[pos[seat]]:
+                alive[seat] = False
+                self._died[seat] = True
+                self._death[seat] = self._t + 1
+        self._t += 1
+        self._judge()
+
+    def _burn_down(self) -> None:
+        flame, hidden, terrain = self._F, self._H, self._T
+        out = []
+        for cell in self._flames:
+            left = flame[cell] - 1
+            flame[cell] = left
+            if not left:
+                out.append(cell)
+                if hidden[cell]:
+                    terrain[cell] = hidden[cell]
+                    hidden[cell] = 0
+        self._flames.difference_update(out)
+
+    def _slide_bombs(self) -> None:
+        direction = self._BD
+        sliding = [cell for cell in self._bombs if direction[cell] != _NONE]
+        if not sliding:
+            return
+        delta, terrain, timer = self._delta, self._T, self._BT
+        targets = [cell + delta[direction[cell]] for cell in sliding]
+        players = {p for p, a in zip(self._pos, self._alive, strict=True) if a}
+        moves = []
+        for cell, target in zip(sliding, targets, strict=True):
+            if terrain[target] != PASSAGE or timer[target] or target in players or targets.count(target) > 1:
+                direction[cell] = _NONE
+            else:
+                moves.append((cell, target))
+        if moves:
+            self._move_bombs(moves)
+
+    def _move_bombs(self, moves: list[tuple[int, int]]) -> None:
+        """Bombs from each source to its target (every source is cleared before any target is written)."""
+        arrays = (self._BT, self._BS, self._BO, self._BD)
+        values = [[a[source] for a in arrays] for source, _ in moves]
+        bombs = self._bombs
+        for source, _ in moves:
+            for a, empty in zip(arrays, (0, 0, _NONE, _NONE), strict=True):
+                a[source] = empty
+            bombs.discard(source)
+        for (_, target), value in zip(moves, values, strict=True):
+            for a, v in zip(arrays, value, strict=True):
+                a[target] = v
+            bombs.add(target)
+
+    def _lay_bombs(self, actions: list[int]) -> None:
+        timer, pos, ammo = self._BT, self._pos, self._ammo
+        layers = [seat for seat in range(self.n_seats)
+                  if actions[seat] == BOMB and self._alive[seat] and ammo[seat] > 0 and not timer[pos[seat]]]
+        for seat in layers:
+            cell = pos[seat]
+            timer[cell] = BOMB_LIFE
+            self._BS[cell] = self._strength[seat]
+            self._BO[cell] = seat
+            self._BD[cell] = _NONE
+            ammo[seat] -= 1
+            self._laid[seat] = True
+            self._bombs.add(cell)
+
+    def _move_agents(self, actions: list[int]) -> None:
+        """Simultaneous moves, settled as ``BoomerBoards._move_agents`` settles them."""
+        s_count, alive, pos = self.n_seats, self._alive, self._pos
+        terrain, timer = self._T, self._BT
+        step_of = self._step_of
+        moving = [alive[seat] and step_of[seat][actions[seat]] is not None for seat in range(s_count)]
+        if not any(moving):
+            return
+        here = [pos[seat] if alive[seat] else -1 - seat for seat in range(s_count)]
+        want = list(here)
+        landing = [-1 - s_count - seat for seat in range(s_count)]
+        for seat in range(s_count):
+            if not moving[seat]:
+                continue
+            step = step_of[seat][actions[seat]]
+            target = pos[seat] + step
+            if terrain[target] in (RIGID, WOOD):
+                moving[seat] = False
+                continue
+            if timer[target]:
+                beyond = target + step
+                if not (self._kick[seat] and terrain[beyond] == PASSAGE and not timer[beyond]
+                        and not any(a and p == beyond for p, a in zip(pos, alive, strict=True))):
+                    moving[seat] = False
+                    continue
+                landing[seat] = beyond
+            want[seat] = target
+        while True:
+            fails = [i for i in range(s_count) if moving[i] and any(
+                want[i] == want[j] or (want[i] == here[j] and want[j] == here[i]) or want[i] == landing[j]
+                or landing[i] == landing[j] or landing[i] == want[j] for j in range(s_count) if j != i)]
+            if not fails:
+                break
+            for i in fails:
+                moving[i] = False
+                want[i] = here[i]
+                landing[i] = -1 - s_count - i
+        kicks = [seat for seat in range(s_count) if moving[seat] and landing[seat] >= 0]
+        if kicks:
+            self._move_bombs([(want[seat], landing[seat]) for seat in kicks])
+            for seat in kicks:
+                self._BD[landing[seat]] = self._direction_of[seat][actions[seat]]
+                self._kicked[seat] = True
+        for seat in range(s_count):
+            if not moving[seat]:
+                continue
+            cell = pos[seat] = want[seat]
+            kind = terrain[cell]
+            if kind >= EXTRA_BOMB:
+                self._ammo[seat] = min(self._ammo[seat] + (kind == EXTRA_BOMB), MAX_AMMO)
+                self._strength[seat] = min(self._strength[seat] + (kind == RANGE), MAX_STRENGTH)
+                self._kick[seat] = self._kick[seat] or kind == KICK
+                terrain[cell] = PASSAGE
+                self._picked[seat] = True
+
+    def blast_cells(self, cell: int, strength: int) -> list[int]:
+        """The padded cells a blast of ``strength`` from ``cell`` reaches, the bomb's own first; an arm
+        runs ``strength - 1`` cells, stops before a rigid wall and at a wooden one."""
+        terrain = self._T
+        reached = [cell]
+        for delta in self._delta:
+            at = cell
+            for _ in range(strength - 1):
+                at += delta
+                kind = terrain[at]
+                if kind == RIGID:
+                    break
+                reached.append(at)
+                if kind == WOOD:
+                    break
+        return reached
+
+    def _explode(self) -> None:
+        timer, flame, bombs = self._BT, self._F, self._bombs
+        wave = []
+        for cell in bombs:
+            left = timer[cell] - 1
+            timer[cell] = left
+            if not left or flame[cell]:
+                wave.append(cell)
+        if not wave:
+            return
+        strength, owner, direction, ammo = self._BS, self._BO, self._BD, self._ammo
+        marked: set[int] = set()
+        while wave:
+            for cell in wave:
+                ammo[owner[cell]] += 1
+                timer[cell] = 0
+                owner[cell] = _NONE
+                direction[cell] = _NONE
+                bombs.discard(cell)
+            reached = set()
+            for cell in wave:
+                reached.update(self.blast_cells(cell, strength[cell]))
+            marked |= reached
+            wave = [cell for cell in reached if timer[cell]]
+        self._ammo = [min(a, MAX_AMMO) for a in ammo]
+        terrain = self._T
+        for cell in marked:
+            terrain[cell] = PASSAGE  # wooden walls burn down, power-ups in a blast are lost
+            flame[cell] = FLAME_STEPS
+        self._flames |= marked
+
+    def _judge(self) -> None:
+        """End the match when at most one team has a player left (or at ``max_steps``)."""
+        teams_left = {team for team, a in zip(self._team, self._alive, strict=True) if a}
+        ended = len(teams_left) <= 1
+        if not ended and self.max_steps is not None and self._t >= self.max_steps:
+            self._truncated = ended = True
+        if ended:
+            self._done = True
+            self._final = self.team_scores()[0].tolist()
+
+    def team_scores(self, boards: Any = None) -> np.ndarray:
+        """``float64[1, n_teams]``: as ``BoomerBoards.team_scores``."""
+        big = np.iinfo(np.int64).max
+        last = [-(2**63)] * self.n_teams
+        for team, a, death in zip(self._team, self._alive, self._death, strict=True):
+            last[team] = max(last[team], big if a else death)
+        return np.array([[sum(x > y for y in last) + 0.5 * (sum(x == y for y in last) - 1) for x in last]],
+                        dtype=np.float64)
+
+    # --- what seats see --------------------------------------------------------------------------
+    def _seat_scalars(self) -> list[float]:
+        out: list[float] = []
+        for a, ammo, strength, kick in zip(self._alive, self._ammo, self._strength, self._kick, strict=True):
+            out += (1.0, ammo / MAX_AMMO, strength / MAX_STRENGTH, float(kick)) if a else (0.0, 0.0, 0.0, 0.0)
+        return out
+
+    def _board_planes(self) -> None:
+        """Fill the eight shared planes (padded cells) of the source vector; the terrain and flame planes
+        only when their cells changed since the last call."""
+        planes = self._planes
+        terrain = bytes(self._T)
+        if terrain != self._seen_terrain:
+            np.take(_TERRAIN_ONEHOT, self.terrain[0].view(np.uint8), axis=1, out=planes[:5])
+            self._seen_terrain = terrain
+            self._reach.clear()
+        flame = bytes(self._F)
+        if flame != self._seen_flame:
+            np.take(_FLAME_VALUE, self.flame[0].view(np.uint8), out=planes[7])
+            self._seen_flame = flame
+        if self._bomb_planes_set:
+            planes[5:7] = 0.0
+            self._bomb_planes_set = False
+        if not self._bombs:
+            return
+        timer, strength, reach = self._BT, self._BS, self._reach
+        bombs = list(self._bombs)
+        blasts = []
+        for cell in bombs:
+            key = cell * 16 + strength[cell]
+            if key not in reach:
+                reach[key] = self.blast_cells(cell, strength[cell])
+            blasts.append(reach[key])
+        if len(bombs) == 1:
+            earliest = dict.fromkeys(blasts[0], timer[bombs[0]])
+        else:
+            steps = [timer[cell] for cell in bombs]
+            # a bomb reached by an earlier blast goes off with it: relax until nothing changes
+            while True:
+                earliest = {}
+                for at, cells in zip(steps, blasts, strict=True):
+                    for x in cells:
+                        if earliest.get(x, BOMB_LIFE + 1) > at:
+                            earliest[x] = at
+                sooner = [earliest[cell] for cell in bombs]
+                if sooner == steps:
+                    break
+                steps = sooner
+        planes[5, bombs] = [1.0 / timer[cell] for cell in bombs]
+        planes[6, list(earliest)] = [1.0 / e for e in earliest.values()]
+        self._bomb_planes_set = True
+
+    def observe(self) -> np.ndarray:
+        """``float32[1, S, obs_dim]``: as ``BoomerBoards.observe``."""
+        self._board_planes()
+        s, cells = self.n_seats, self._cells
+        self._src[N_BOARD_PLANES * cells:-1] = self._seat_scalars()
+        obs = self._src.take(self._obs_index)
+        alive, pos = self._alive, self._pos
+        flat = obs.reshape(-1)
+        marks = [self._mark[i][j][pos[j]] for i in range(s) if alive[i] for j in range(s) if alive[j]]
+        flat[marks] = 1.0
+        for i in range(s):
+            if not alive[i]:
+                obs[i] = 0.0
+        return obs[None]
+
+    def state(self) -> np.ndarray:
+        """``float32[1, state_dim]``: as ``BoomerBoards.state``."""
+        self._board_planes()
+        state = np.empty((1, self.state_dim), dtype=np.float32)
+        split = N_BOARD_PLANES * self.n_cells
+        np.take(self._src, self._state_index, out=state[0, :split])
+        per: list[float] = []
+        scalars = self._seat_scalars()
+        for seat, (a, cell) in enumerate(zip(self._alive, self._pos, strict=True)):
+            per += scalars[PER_AGENT * seat:PER_AGENT * (seat + 1)]
+            per += self._row_col[cell] if a else (0.0, 0.0)
+        state[0, split:] = per
+        return state
+
+    def board_cell(self, padded: Any) -> np.ndarray:
+        """Board cells (``row * size + col``) of padded cells."""
+        row, col = np.divmod(np.asarray(padded), self.side)
+        return (row - 1) * self.size + (col - 1)
+
+    def grid(self, board: int = 0) -> np.ndarray:
+        """``int64[size, size]`` terrain codes (0 passage, 1 rigid, 2 wood, 3..5 power-ups)."""
+        return self.terrain[int(board), self._inner].astype(np.int64).reshape(self.size, self.size)
+
+    # --- the seats, as BoomerBoards' one-board arrays (copies) --------------------------------
+    @property
+    def position(self) -> np.ndarray:
+        return np.array([self._pos], dtype=np.int64)
+
+    @property
+    def alive(self) -> np.ndarray:
+        return np.array([self._alive], dtype=bool)
+
+    @property
+    def ammo(self) -> np.ndarray:
+        return np.array([self._ammo], dtype=np.int64)
+
+    @property
+    def strength(self) -> np.ndarray:
+        return np.array([self._strength], dtype=np.int64)
+
+    @property
+    def can_kick(self) -> np.ndarray:
+        return np.array([self._kick], dtype=bool)
+
+    @property
+    def death_step(self) -> np.ndarray:
+        return np.array([self._death], dtype=np.int64)
+
+    @property
+    def picked(self) -> np.ndarray:
+        return np.array([self._picked], dtype=bool)
+
+    @property
+    def died(self) -> np.ndarray:
+        return np.array([self._died], dtype=bool)
+
+    @property
+    def laid(self) -> np.ndarray:
+        return np.array([self._laid], dtype=bool)
+
+    @property
+    def kicked(self) -> np.ndarray:
+        return np.array([self._kicked], dtype=bool)
+
+    @property
+    def t(self) -> np.ndarray:
+        return np.array([self._t], dtype=np.int64)
+
+    @property
+    def done(self) -> np.ndarray:
+        return np.array([self._done], dtype=bool)
+
+    @property
+    def truncated(self) -> np.ndarray:
+        return np.array([self._truncated], dtype=bool)
+
+    @property
+    def final_scores(self) -> np.ndarray:
+        return np.array([self._final if self._final is not None else [np.nan] * self.n_teams], dtype=np.float64)
