@@ -354,6 +354,7 @@ class BoomerRules(OneBoard, GameRules):
         self.act_dim = 0
         self.action_meanings = ACTIONS
         self._events: list[dict] = []
+        self._gained = False
 
     # --- the match -------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
@@ -362,6 +363,7 @@ class BoomerRules(OneBoard, GameRules):
         start_measures(self.measures)
         self.game_over = False
         self._events = []
+        self._gained = False
 
     def step(self, actions: np.ndarray) -> None:
         if self.game_over:
@@ -372,11 +374,18 @@ class BoomerRules(OneBoard, GameRules):
             raise ValueError(f"Boomer takes one action per seat ({self.n_agents}), not {len(actions)}")
         engine.play(actions)
         measures = self.measures
-        measures.alive[:] = measures.active[:] = engine._alive
-        measures.resource_gain[:] = engine._picked
-        self._events = [{"kind": kind, "seat": seat} for kind, flags in (
-            ("laid_a_bomb", engine._laid), ("kicked_a_bomb", engine._kicked), ("took_a_power_up", engine._picked),
-            ("death", engine._died)) if any(flags) for seat, flag in enumerate(flags) if flag]
+        # the measures change only with a death or a power-up taken (or the step after one): most steps write nothing
+        if self._gained or any(engine._picked):
+            measures.resource_gain[:] = engine._picked
+            self._gained = any(engine._picked)
+        if engine.eventful:
+            if any(engine._died):
+                measures.alive[:] = measures.active[:] = engine._alive
+            self._events = [{"kind": kind, "seat": seat} for kind, flags in (
+                ("laid_a_bomb", engine._laid), ("kicked_a_bomb", engine._kicked), ("took_a_power_up", engine._picked),
+                ("death", engine._died)) for seat, flag in enumerate(flags) if flag]
+        elif self._events:
+            self._events = []
         if engine._done:
             self.game_over = True
             self.finish()

@@ -17,6 +17,7 @@ seats' ``position``, ``alive``, ``ammo``, ``strength``, ``can_kick``, ``death_st
 
 from __future__ import annotations
 
+from array import array
 from typing import Any
 
 import numpy as np
@@ -46,13 +47,13 @@ from arena_league.envs.games.boomer.boards import (
     _splitmix64,
 )
 
+_ATTEMPTS = 4  # draws of the rigid walls hashed at once (most maps need one to three)
+_POWER_UP_CODES = np.array(POWER_UPS, dtype=np.int8)
 _NONE = 255  # "no owner" and "lying still" in the unsigned cells (-1 through the int8 views)
-_TERRAIN_ONEHOT = np.zeros((5, 256), dtype=np.float32)  # terrain code -> its five planes
-for _plane, _code in enumerate((RIGID, WOOD, EXTRA_BOMB, RANGE, KICK)):
-    _TERRAIN_ONEHOT[_plane, _code] = 1.0
+_TERRAIN_CODES = np.array([RIGID, WOOD, EXTRA_BOMB, RANGE, KICK], dtype=np.int8)[:, None]  # the first five planes
 # a flame's plane value, computed as the batched engine computes it (int8 times float32)
-_FLAME_VALUE = np.zeros(256, dtype=np.float32)
-_FLAME_VALUE[:FLAME_STEPS + 1] = np.arange(FLAME_STEPS + 1, dtype=np.int8) * np.float32(1.0 / FLAME_STEPS)
+_FLAME_VALUES = (np.arange(FLAME_STEPS + 1, dtype=np.int8) * np.float32(1.0 / FLAME_STEPS)).tolist()
+_INVERSE = [0.0] + [1.0 / steps for steps in range(1, BOMB_LIFE + 2)]  # 1 / steps, as the planes show it
 
 
 class BoomerBoard:
@@ -83,42 +84,45 @@ class BoomerBoard:
         self._direction_of = [[-1 if d < 0 else (int(d) + int(q)) % 4 for d in ACTION_DIRECTION]
                               for q in self.quarter_turns]
         self._team = [int(t) for t in self.team_of]
-        self._orbit_board_cells = [[int(c) for c in orbit] for orbit in layout._orbits]
-        self._orbit_padded = [[int(layout._inner[c]) for c in orbit] for orbit in layout._orbits]
+        self._orbit_bits = [sum(1 << int(c) for c in orbit) for orbit in layout._orbits]
+        self._orbit_padded = layout._inner[layout._orbits]  # [orbits, 4] padded cells
         self._start_bit = 1 << int(layout._start_cells[0])
         blank = bytearray([RIGID]) * cells
         for cell in layout._inner:
             blank[cell] = PASSAGE
         self._blank = bytes(blank)
-        self._free = [int(k) for k in layout._free_orbits]
-        self._lanes = [int(k) for k in layout._lane_orbits]
+        self._free = layout._free_orbits
+        self._lanes = layout._lane_orbits
+        n_wooden = len(self._lanes) + (self.n_wood - 4 * len(self._lanes)) // 4
+        self._columns = np.concatenate([_hash_columns(attempt, len(self._free)) for attempt in range(_ATTEMPTS)]
+                                       + [_hash_columns(_ITEM_SALT, n_wooden),
+                                          _hash_columns(_ITEM_SALT + 1, self.n_items // 4)])
         self._start = [int(layout._inner[c]) for c in layout._start_cells]
         full = (1 << (n * n)) - 1
         col0 = sum(1 << (r * n) for r in range(n))
         self._bits = (full, full & ~col0, full & ~(col0 << (n - 1)))  # all, not column 0, not the last column
-        # observation gather: [S, obs_dim] indices into the source vector (8 padded planes, the seats'
-        # four scalars, then one zero)
+        # the observations are one gather from a source vector that the engine keeps up to date cell by
+        # cell: the eight shared planes (padded cells), the seats' four scalars, one zero, then each
+        # viewer's three position planes (own, teammates, opponents; padded cells)
         planes_end = N_BOARD_PLANES * cells
+        self._scalar_base = planes_end
         zero = planes_end + PER_AGENT * s
-        index = np.full((s, self.obs_dim), zero, dtype=np.int64)
+        marks = zero + 1
+        index = np.full((1, s, self.obs_dim), zero, dtype=np.int64)
         for i in range(s):
             for m, j in enumerate([i, *layout._others[i].tolist()]):
-                index[i, PER_AGENT * m:PER_AGENT * (m + 1)] = planes_end + PER_AGENT * j + np.arange(PER_AGENT)
+                index[0, i, PER_AGENT * m:PER_AGENT * (m + 1)] = planes_end + PER_AGENT * j + np.arange(PER_AGENT)
             shown = layout._inner[layout._frame_cells[i]]  # frame cell -> padded cell
-            for p in range(N_BOARD_PLANES):
+            for p in range(len(PLANES)):
+                base = p * cells if p < N_BOARD_PLANES else marks + (3 * i + p - N_BOARD_PLANES) * cells
                 start = self.header + p * self.n_cells
-                index[i, start:start + self.n_cells] = p * cells + shown
-        self._obs_index = index
-        self._src = np.zeros(zero + 1, dtype=np.float32)
-        self._planes = self._src[:planes_end].reshape(N_BOARD_PLANES, cells)
+                index[0, i, start:start + self.n_cells] = base + shown
+        self._index = index
+        self._zero = zero
+        self._mark = [[marks + (3 * i + int(layout._position_plane[i, j]) - N_BOARD_PLANES) * cells
+                       for j in range(s)] for i in range(s)]
+        self._src = array("f", bytes(4 * (marks + 3 * s * cells)))
         self._state_index = (np.arange(N_BOARD_PLANES)[:, None] * cells + layout._inner[None, :]).reshape(-1)
-        # where seat j's position lands in seat i's flat observation, by padded cell
-        self._mark = []
-        for i in range(s):
-            frame_of = np.full(cells, -1, dtype=np.int64)
-            frame_of[layout._inner] = layout._frame_of[i]
-            self._mark.append([[i * self.obs_dim + self.header + int(layout._position_plane[i, j]) * self.n_cells
-                                + int(f) for f in frame_of] for j in range(s)])
         self._row_col = [((c // side - 1) / (n - 1), (c % side - 1) / (n - 1)) for c in range(cells)]
         self._T = bytearray(cells)
         self._H = bytearray(cells)
@@ -128,43 +132,43 @@ class BoomerBoard:
         self._BO = bytearray(cells)
         self._BD = bytearray(cells)
         self._views()
-        self._seen_terrain = self._seen_flame = b""  # what the planes show: none yet
-        self._bomb_planes_set = False
-        self._reach: dict[int, list[int]] = {}  # blast cells by bomb cell and strength, for the terrain seen
+        # what the source vector shows: no terrain yet, no flames, bombs or positions
+        self._shown_terrain = bytearray([_NONE]) * cells
+        self._shown_flames: set[int] = set()
+        self._shown_bombs: list[int] = []
+        self._shown_seats: tuple = ()
+        self._shown_marks: list[int] = []
+        self._obs_index = index.copy()  # a dead viewer's row points at the zero
+        self._reach: dict[int, list[int]] = {}  # blast cells by bomb cell and strength, for the terrain shown
         self.reset()
+
+    _VIEWS = ("terrain", "hidden", "flame", "bomb_timer", "bomb_strength", "bomb_owner", "bomb_direction",
+              "_values", "_planes")
 
     def _views(self) -> None:
         for name, cells in (("terrain", self._T), ("hidden", self._H), ("flame", self._F), ("bomb_timer", self._BT),
                             ("bomb_strength", self._BS), ("bomb_owner", self._BO), ("bomb_direction", self._BD)):
             setattr(self, name, np.frombuffer(cells, dtype=np.int8).reshape(1, -1))
+        self._values = np.frombuffer(self._src, dtype=np.float32)
+        self._planes = self._values[:N_BOARD_PLANES * self._cells].reshape(N_BOARD_PLANES, self._cells)
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
-        for name in ("terrain", "hidden", "flame", "bomb_timer", "bomb_strength", "bomb_owner", "bomb_direction"):
-            del state[name]  # views of the bytearrays: rebuilt on the copy's own
-        state["_planes"] = None
+        for name in self._VIEWS:
+            del state[name]  # views of the engine's buffers: a copy makes its own
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
-        self._planes = self._src[:N_BOARD_PLANES * self._cells].reshape(N_BOARD_PLANES, self._cells)
         self._views()
 
     # --- the map -------------------------------------------------------------------------------
-    @staticmethod
-    def _orbit_order(key: np.uint64, counter: int, count: int) -> list[int]:
-        """The stable order of ``count`` hashes of (key, counter), as ``BoomerBoards.generate`` sorts them."""
-        return np.argsort(_splitmix64(key ^ _hash_columns(counter, count)), kind="stable").tolist()
-
-    def _reachable(self, rigid: list[int]) -> bool:
-        """Every cell that is not rigid is reachable from the first corner's start (a bitboard flood fill
-        over the board cells ``row * size + col``)."""
+    def _reachable(self, rigid: int) -> bool:
+        """Every cell that is not rigid (a bit of ``rigid`` for board cell ``row * size + col``) is
+        reachable from the first corner's start (a bitboard flood fill)."""
         n = self.size
         full, not_first, not_last = self._bits
-        blocked = 0
-        for cell in rigid:
-            blocked |= 1 << cell
-        open_ = full & ~blocked
+        open_ = full & ~rigid
         # a cell walled in on all four sides fails at once, without the flood
         if open_ & ~(((open_ << 1) & not_first) | ((open_ >> 1) & not_last) | (open_ << n) | (open_ >> n)):
             return False
@@ -179,33 +183,35 @@ class BoomerBoard:
     def _generate(self, key: int) -> None:
         """``BoomerBoards.generate`` for one key, written into the padded terrain and hidden cells."""
         key = np.uint64(key)
-        orbits, free = self._orbit_board_cells, self._free
+        free, n_free, orbit_bits = self._free, len(self._free), self._orbit_bits
         n_rigid, n_wood = self.n_rigid // 4, (self.n_wood - 4 * len(self._lanes)) // 4
+        hashes = _splitmix64(key ^ self._columns)  # every draw of a usual map in one pass
         attempt = 0
         while True:
-            drawn = [free[k] for k in self._orbit_order(key, attempt, len(free))]
+            if attempt < _ATTEMPTS:
+                draw = hashes[attempt * n_free:(attempt + 1) * n_free]
+            else:
+                draw = _splitmix64(key ^ _hash_columns(attempt, n_free))
+            drawn = free[np.argsort(draw, kind="stable")]
             attempt += 1
-            if self._reachable([c for k in drawn[:n_rigid] for c in orbits[k]]):
+            rigid = 0
+            for k in drawn[:n_rigid].tolist():
+                rigid |= orbit_bits[k]
+            if self._reachable(rigid):
                 break
         padded = self._orbit_padded
-        terrain, hidden = self._T, self._H
-        terrain[:] = self._blank
-        hidden[:] = bytes(self._cells)
-        for k in drawn[:n_rigid]:
-            for cell in padded[k]:
-                terrain[cell] = RIGID
-        wooden = self._lanes + drawn[n_rigid:n_rigid + n_wood]
-        for k in wooden:
-            for cell in padded[k]:
-                terrain[cell] = WOOD
+        self._T[:] = self._blank
+        self._H[:] = bytes(self._cells)
+        terrain, hidden = self.terrain[0], self.hidden[0]
+        terrain[padded[drawn[:n_rigid]]] = RIGID
+        wooden = np.concatenate([self._lanes, drawn[n_rigid:n_rigid + n_wood]])
+        terrain[padded[wooden]] = WOOD
         n_item_orbits = self.n_items // 4
         if n_item_orbits:
-            salt = _ITEM_SALT
-            pick = self._orbit_order(key, salt, len(wooden))[:n_item_orbits]
-            kinds = (_splitmix64(key ^ _hash_columns(salt + 1, n_item_orbits)) % np.uint64(3)).tolist()
-            for k, kind in zip(pick, kinds, strict=True):
-                for cell in padded[wooden[k]]:
-                    hidden[cell] = POWER_UPS[kind]
+            start = _ATTEMPTS * n_free
+            pick = np.argsort(hashes[start:start + len(wooden)], kind="stable")[:n_item_orbits]
+            kinds = _POWER_UP_CODES[hashes[start + len(wooden):] % np.uint64(3)]
+            hidden[padded[wooden[pick]]] = kinds[:, None]
 
     # --- matches -------------------------------------------------------------------------------
     def reset(self, boards: Any = None, keys: Any = None) -> None:
@@ -237,6 +243,8 @@ class BoomerBoard:
         self._laid = [False] * s
         self._kicked = [False] * s
         self._t = 0
+        self.eventful = False
+        self._scalars_stale = True  # the seats' scalars in the source vector
         self._done = False
         self._truncated = False
         self._final: list[float] | None = None
@@ -258,6 +266,7 @@ class BoomerBoard:
         self._died = [False] * s
         self._laid = [False] * s
         self._kicked = [False] * s
+        self.eventful = False  # whether any seat laid, kicked, took or died on this step
         if self._done:
             return
         if self._flames:
@@ -272,7 +281,7 @@ class BoomerBoard:
         for seat in range(s):
             if alive[seat] and flame[pos[seat]]:
                 alive[seat] = False
-                self._died[seat] = True
+                self._died[seat] = self.eventful = self._scalars_stale = True
                 self._death[seat] = self._t + 1
         self._t += 1
         self._judge()
@@ -332,7 +341,7 @@ class BoomerBoard:
             self._BO[cell] = seat
             self._BD[cell] = _NONE
             ammo[seat] -= 1
-            self._laid[seat] = True
+            self._laid[seat] = self.eventful = self._scalars_stale = True
             self._bombs.add(cell)
 
     def _move_agents(self, actions: list[int]) -> None:
@@ -362,7 +371,12 @@ class BoomerBoard:
                     continue
                 landing[seat] = beyond
             want[seat] = target
-        while True:
+        # no cell wanted or landed on twice and no move into a cell a mover leaves: no move fails
+        claimed = want + [cell for cell in landing if cell >= 0]
+        left = {here[seat] for seat in range(s_count) if moving[seat]}
+        clear = len(set(claimed)) == len(claimed) and not any(
+            moving[seat] and want[seat] in left for seat in range(s_count))
+        while not clear:  # a move that meets another fails, until none does
             fails = [i for i in range(s_count) if moving[i] and any(
                 want[i] == want[j] or (want[i] == here[j] and want[j] == here[i]) or want[i] == landing[j]
                 or landing[i] == landing[j] or landing[i] == want[j] for j in range(s_count) if j != i)]
@@ -377,7 +391,7 @@ class BoomerBoard:
             self._move_bombs([(want[seat], landing[seat]) for seat in kicks])
             for seat in kicks:
                 self._BD[landing[seat]] = self._direction_of[seat][actions[seat]]
-                self._kicked[seat] = True
+                self._kicked[seat] = self.eventful = True
         for seat in range(s_count):
             if not moving[seat]:
                 continue
@@ -388,7 +402,7 @@ class BoomerBoard:
                 self._strength[seat] = min(self._strength[seat] + (kind == RANGE), MAX_STRENGTH)
                 self._kick[seat] = self._kick[seat] or kind == KICK
                 terrain[cell] = PASSAGE
-                self._picked[seat] = True
+                self._picked[seat] = self.eventful = self._scalars_stale = True
 
     def blast_cells(self, cell: int, strength: int) -> list[int]:
         """The padded cells a blast of ``strength`` from ``cell`` reaches, the bomb's own first; an arm
@@ -432,6 +446,7 @@ class BoomerBoard:
             marked |= reached
             wave = [cell for cell in reached if timer[cell]]
         self._ammo = [min(a, MAX_AMMO) for a in ammo]
+        self._scalars_stale = True
         terrain = self._T
         for cell in marked:
             terrain[cell] = PASSAGE  # wooden walls burn down, power-ups in a blast are lost
@@ -458,83 +473,116 @@ class BoomerBoard:
                         dtype=np.float64)
 
     # --- what seats see --------------------------------------------------------------------------
-    def _seat_scalars(self) -> list[float]:
-        out: list[float] = []
-        for a, ammo, strength, kick in zip(self._alive, self._ammo, self._strength, self._kick, strict=True):
-            out += (1.0, ammo / MAX_AMMO, strength / MAX_STRENGTH, float(kick)) if a else (0.0, 0.0, 0.0, 0.0)
-        return out
-
-    def _board_planes(self) -> None:
-        """Fill the eight shared planes (padded cells) of the source vector; the terrain and flame planes
-        only when their cells changed since the last call."""
-        planes = self._planes
-        terrain = bytes(self._T)
-        if terrain != self._seen_terrain:
-            np.take(_TERRAIN_ONEHOT, self.terrain[0].view(np.uint8), axis=1, out=planes[:5])
-            self._seen_terrain = terrain
+    def _refresh(self) -> None:
+        """Bring the source vector up to the board: the terrain planes when a cell changed, the
+        flames, bombs and blasts, the seats' scalars, and the positions when a seat moved or died."""
+        src, cells = self._src, self._cells
+        if self._T != self._shown_terrain:
+            self._planes[:5] = self.terrain[0] == _TERRAIN_CODES
+            self._shown_terrain[:] = self._T
             self._reach.clear()
-        flame = bytes(self._F)
-        if flame != self._seen_flame:
-            np.take(_FLAME_VALUE, self.flame[0].view(np.uint8), out=planes[7])
-            self._seen_flame = flame
-        if self._bomb_planes_set:
-            planes[5:7] = 0.0
-            self._bomb_planes_set = False
-        if not self._bombs:
-            return
-        timer, strength, reach = self._BT, self._BS, self._reach
-        bombs = list(self._bombs)
-        blasts = []
+        flames = self._flames
+        if flames or self._shown_flames:
+            base = 7 * cells
+            for cell in self._shown_flames - flames:
+                src[base + cell] = 0.0
+            flame = self._F
+            for cell in flames:
+                src[base + cell] = _FLAME_VALUES[flame[cell]]
+            self._shown_flames = set(flames)
+        for slot in self._shown_bombs:
+            src[slot] = 0.0
+        self._shown_bombs = self._bomb_planes() if self._bombs else []
+        if self._scalars_stale:
+            self._write_scalars()
+        seats = (*self._pos, *self._alive)
+        if seats != self._shown_seats:
+            for slot in self._shown_marks:
+                src[slot] = 0.0
+            alive, pos, mark = self._alive, self._pos, self._mark
+            marks = self._shown_marks = [mark[i][j] + pos[j] for i in range(self.n_seats) if alive[i]
+                                         for j in range(self.n_seats) if alive[j]]
+            for slot in marks:
+                src[slot] = 1.0
+            if seats[self.n_seats:] != self._shown_seats[self.n_seats:]:
+                for i, a in enumerate(alive):
+                    self._obs_index[0, i] = self._index[0, i] if a else self._zero
+            self._shown_seats = seats
+
+    def _write_scalars(self) -> None:
+        """The seats' alive flag, ammo / 10, blast strength / 10 and kick (zeros for the dead)."""
+        src, base = self._src, self._scalar_base
+        for alive, ammo, strength, kick in zip(self._alive, self._ammo, self._strength, self._kick, strict=True):
+            if alive:
+                src[base] = 1.0
+                src[base + 1] = ammo / MAX_AMMO
+                src[base + 2] = strength / MAX_STRENGTH
+                src[base + 3] = kick
+            else:
+                src[base] = src[base + 1] = src[base + 2] = src[base + 3] = 0.0
+            base += PER_AGENT
+        self._scalars_stale = False
+
+    def _blast_slots(self, cell: int) -> tuple[list[int], frozenset[int]]:
+        """The blast plane's slots and the cells of the blast of the bomb on ``cell`` (kept until the terrain changes)."""
+        key = cell * 16 + self._BS[cell]
+        found = self._reach.get(key)
+        if found is None:
+            cells = self.blast_cells(cell, self._BS[cell])
+            found = self._reach[key] = ([6 * self._cells + x for x in cells], frozenset(cells))
+        return found
+
+    def _bomb_planes(self) -> list[int]:
+        """Write the bomb and blast planes; return the slots written."""
+        src, timer = self._src, self._BT
+        bombs = self._bombs
+        blasts = {cell: self._blast_slots(cell) for cell in bombs}
+        at = {cell: timer[cell] for cell in bombs}
+        if len(bombs) > 1 and any(len(bombs & cells) > 1 for _, cells in blasts.values()):
+            # a bomb in another's blast goes off with it: the bombs in order of their timers, each setting
+            # off the bombs its blast reaches (and theirs) before the next goes off on its own
+            went: set[int] = set()
+            for source in sorted(bombs, key=timer.__getitem__):
+                if source in went:
+                    continue
+                went.add(source)
+                chain = [source]
+                while chain:
+                    for other in blasts[chain.pop()][1] & bombs:
+                        if other not in went:
+                            went.add(other)
+                            at[other] = at[source]
+                            chain.append(other)
+        # the blast plane holds each cell's earliest blast: written latest first, the earliest write stays
+        slots = []
+        for cell in sorted(bombs, key=at.__getitem__, reverse=True):
+            value = _INVERSE[at[cell]]
+            blast = blasts[cell][0]
+            for slot in blast:
+                src[slot] = value
+            slots += blast
+        base = 5 * self._cells
         for cell in bombs:
-            key = cell * 16 + strength[cell]
-            if key not in reach:
-                reach[key] = self.blast_cells(cell, strength[cell])
-            blasts.append(reach[key])
-        if len(bombs) == 1:
-            earliest = dict.fromkeys(blasts[0], timer[bombs[0]])
-        else:
-            steps = [timer[cell] for cell in bombs]
-            # a bomb reached by an earlier blast goes off with it: relax until nothing changes
-            while True:
-                earliest = {}
-                for at, cells in zip(steps, blasts, strict=True):
-                    for x in cells:
-                        if earliest.get(x, BOMB_LIFE + 1) > at:
-                            earliest[x] = at
-                sooner = [earliest[cell] for cell in bombs]
-                if sooner == steps:
-                    break
-                steps = sooner
-        planes[5, bombs] = [1.0 / timer[cell] for cell in bombs]
-        planes[6, list(earliest)] = [1.0 / e for e in earliest.values()]
-        self._bomb_planes_set = True
+            src[base + cell] = _INVERSE[timer[cell]]
+            slots.append(base + cell)
+        return slots
 
     def observe(self) -> np.ndarray:
         """``float32[1, S, obs_dim]``: as ``BoomerBoards.observe``."""
-        self._board_planes()
-        s, cells = self.n_seats, self._cells
-        self._src[N_BOARD_PLANES * cells:-1] = self._seat_scalars()
-        obs = self._src.take(self._obs_index)
-        alive, pos = self._alive, self._pos
-        flat = obs.reshape(-1)
-        marks = [self._mark[i][j][pos[j]] for i in range(s) if alive[i] for j in range(s) if alive[j]]
-        flat[marks] = 1.0
-        for i in range(s):
-            if not alive[i]:
-                obs[i] = 0.0
-        return obs[None]
+        self._refresh()
+        return self._values.take(self._obs_index)
 
     def state(self) -> np.ndarray:
         """``float32[1, state_dim]``: as ``BoomerBoards.state``."""
-        self._board_planes()
+        self._refresh()
         state = np.empty((1, self.state_dim), dtype=np.float32)
         split = N_BOARD_PLANES * self.n_cells
-        np.take(self._src, self._state_index, out=state[0, :split])
+        np.take(self._values, self._state_index, out=state[0, :split])
         per: list[float] = []
-        scalars = self._seat_scalars()
-        for seat, (a, cell) in enumerate(zip(self._alive, self._pos, strict=True)):
-            per += scalars[PER_AGENT * seat:PER_AGENT * (seat + 1)]
-            per += self._row_col[cell] if a else (0.0, 0.0)
+        for a, ammo, strength, kick, cell in zip(self._alive, self._ammo, self._strength, self._kick, self._pos,
+                                                 strict=True):
+            per += (1.0, ammo / MAX_AMMO, strength / MAX_STRENGTH, float(kick), *self._row_col[cell]) if a \
+                else (0.0,) * STATE_PER_AGENT
         state[0, split:] = per
         return state
 
