@@ -235,7 +235,10 @@ class SocialTree:
         total = np.zeros(self.n_agents)
         if per_node is None:
             for fn, view, params, scale in self.plan:
-                total[view.agents] += scale * fn(ctx, view, params)
+                value = fn(ctx, view, params)
+                # a node's cached zero adds nothing (no sum of rewards is ever -0.0, so skipping it is exact)
+                if value is not view.memory.get("_zeros"):
+                    total[view.agents] += scale * value
             return total
         for k, node in enumerate(self.nodes):
             value = node.reward.fn(ctx, node.view, node.params)
