@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from arena_league.envs.games.boomer.boards import (
+    _ITEM_SALT,
     ACTION_DIRECTION,
     ACTIONS,
     BOMB,
@@ -41,7 +42,6 @@ from arena_league.envs.games.boomer.boards import (
     RIGID,
     STATE_PER_AGENT,
     WOOD,
-    _ITEM_SALT,
     BoomerBoards,
     _hash_columns,
     _splitmix64,
@@ -51,6 +51,7 @@ _ATTEMPTS = 4  # draws of the rigid walls hashed at once (most maps need one to 
 _POWER_UP_CODES = np.array(POWER_UPS, dtype=np.int8)
 _NONE = 255  # "no owner" and "lying still" in the unsigned cells (-1 through the int8 views)
 _TERRAIN_CODES = np.array([RIGID, WOOD, EXTRA_BOMB, RANGE, KICK], dtype=np.int8)[:, None]  # the first five planes
+_TERRAIN_VALUES = [tuple(float(code == plane) for plane in _TERRAIN_CODES[:, 0].tolist()) for code in range(6)]
 # a flame's plane value, computed as the batched engine computes it (int8 times float32)
 _FLAME_VALUES = (np.arange(FLAME_STEPS + 1, dtype=np.int8) * np.float32(1.0 / FLAME_STEPS)).tolist()
 _INVERSE = [0.0] + [1.0 / steps for steps in range(1, BOMB_LIFE + 2)]  # 1 / steps, as the planes show it
@@ -226,6 +227,7 @@ class BoomerBoard:
             raise ValueError(f"reset got {keys.size} keys for 1 board; give one uint64 key")
         self.keys = keys.copy()
         self._generate(int(keys[0]))
+        self._changed: list[int] = []  # terrain cells changed since the source vector was brought up to date
         empty, none = bytes(self._cells), bytes([_NONE]) * self._cells
         self._F[:] = self._BT[:] = self._BS[:] = empty
         self._BO[:] = self._BD[:] = none
@@ -248,6 +250,31 @@ class BoomerBoard:
         self._done = False
         self._truncated = False
         self._final: list[float] | None = None
+
+    def load(self, boards: BoomerBoards, board: int = 0) -> None:
+        """Take over board ``board`` of a batched engine built alike, as it stands (puzzles, tests:
+        ``BoomerBoards.set_board`` and ``lay_bomb`` set positions up)."""
+        b = int(board)
+        for cells, name in ((self._T, "terrain"), (self._H, "hidden"), (self._F, "flame"), (self._BT, "bomb_timer"),
+                            (self._BS, "bomb_strength"), (self._BO, "bomb_owner"), (self._BD, "bomb_direction")):
+            cells[:] = getattr(boards, name)[b].view(np.uint8).tobytes()
+        self._bombs = {int(c) for c in np.flatnonzero(boards.bomb_timer[b])}
+        self._flames = {int(c) for c in np.flatnonzero(boards.flame[b])}
+        self._changed = []
+        self._pos = boards.position[b].tolist()
+        self._alive = boards.alive[b].tolist()
+        self._ammo = boards.ammo[b].tolist()
+        self._strength = boards.strength[b].tolist()
+        self._kick = boards.can_kick[b].tolist()
+        self._death = boards.death_step[b].tolist()
+        for name in ("picked", "died", "laid", "kicked"):
+            setattr(self, f"_{name}", getattr(boards, name)[b].tolist())
+        self.keys = boards.keys[b:b + 1].copy()
+        self._t = int(boards.t[b])
+        self._done, self._truncated = bool(boards.done[b]), bool(boards.truncated[b])
+        self._final = boards.final_scores[b].tolist() if self._done else None
+        self.eventful = False
+        self._scalars_stale = True
 
     def step(self, actions: Any) -> None:
         """``BoomerBoards.step`` with ``actions`` of shape ``(1, seats)``."""
@@ -296,6 +323,7 @@ class BoomerBoard:
                 out.append(cell)
                 if hidden[cell]:
                     terrain[cell] = hidden[cell]
+                    self._changed.append(cell)
                     hidden[cell] = 0
         self._flames.difference_update(out)
 
@@ -402,6 +430,7 @@ class BoomerBoard:
                 self._strength[seat] = min(self._strength[seat] + (kind == RANGE), MAX_STRENGTH)
                 self._kick[seat] = self._kick[seat] or kind == KICK
                 terrain[cell] = PASSAGE
+                self._changed.append(cell)
                 self._picked[seat] = self.eventful = self._scalars_stale = True
 
     def blast_cells(self, cell: int, strength: int) -> list[int]:
@@ -448,8 +477,11 @@ class BoomerBoard:
         self._ammo = [min(a, MAX_AMMO) for a in ammo]
         self._scalars_stale = True
         terrain = self._T
+        changed = self._changed
         for cell in marked:
-            terrain[cell] = PASSAGE  # wooden walls burn down, power-ups in a blast are lost
+            if terrain[cell] != PASSAGE:
+                terrain[cell] = PASSAGE  # wooden walls burn down, power-ups in a blast are lost
+                changed.append(cell)
             flame[cell] = FLAME_STEPS
         self._flames |= marked
 
@@ -477,7 +509,15 @@ class BoomerBoard:
         """Bring the source vector up to the board: the terrain planes when a cell changed, the
         flames, bombs and blasts, the seats' scalars, and the positions when a seat moved or died."""
         src, cells = self._src, self._cells
-        if self._T != self._shown_terrain:
+        if self._changed:
+            terrain, shown = self._T, self._shown_terrain
+            for cell in self._changed:
+                shown[cell] = code = terrain[cell]
+                for slot, value in zip(range(cell, 5 * cells, cells), _TERRAIN_VALUES[code], strict=True):
+                    src[slot] = value
+            self._changed = []
+            self._reach.clear()
+        if self._shown_terrain != self._T:  # a new map, or cells written from outside
             self._planes[:5] = self.terrain[0] == _TERRAIN_CODES
             self._shown_terrain[:] = self._T
             self._reach.clear()
@@ -536,6 +576,14 @@ class BoomerBoard:
         """Write the bomb and blast planes; return the slots written."""
         src, timer = self._src, self._BT
         bombs = self._bombs
+        if len(bombs) == 1:
+            (cell,) = bombs
+            slots = self._blast_slots(cell)[0]
+            value = _INVERSE[timer[cell]]
+            for slot in slots:
+                src[slot] = value
+            src[5 * self._cells + cell] = value
+            return [*slots, 5 * self._cells + cell]
         blasts = {cell: self._blast_slots(cell) for cell in bombs}
         at = {cell: timer[cell] for cell in bombs}
         if len(bombs) > 1 and any(len(bombs & cells) > 1 for _, cells in blasts.values()):
