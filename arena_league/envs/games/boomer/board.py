@@ -137,8 +137,8 @@ class BoomerBoard:
         self._shown_terrain = bytearray([_NONE]) * cells
         self._shown_flames: set[int] = set()
         self._shown_bombs: list[int] = []
-        self._shown_seats: tuple = ()
-        self._shown_marks: list[int] = []
+        self._shown_alive: list[bool] = []
+        self._shown_pos: list[int] = []
         self._obs_index = index.copy()  # a dead viewer's row points at the zero
         self._reach: dict[int, list[int]] = {}  # blast cells by bomb cell and strength, for the terrain shown
         self.reset()
@@ -374,36 +374,40 @@ class BoomerBoard:
 
     def _move_agents(self, actions: list[int]) -> None:
         """Simultaneous moves, settled as ``BoomerBoards._move_agents`` settles them."""
-        s_count, alive, pos = self.n_seats, self._alive, self._pos
-        terrain, timer = self._T, self._BT
-        step_of = self._step_of
-        moving = [alive[seat] and step_of[seat][actions[seat]] is not None for seat in range(s_count)]
-        if not any(moving):
-            return
-        here = [pos[seat] if alive[seat] else -1 - seat for seat in range(s_count)]
-        want = list(here)
-        landing = [-1 - s_count - seat for seat in range(s_count)]
-        for seat in range(s_count):
-            if not moving[seat]:
+        alive, pos, terrain, timer = self._alive, self._pos, self._T, self._BT
+        movers = []  # (seat, target, where its kick lands the bomb or None)
+        for seat, steps in enumerate(self._step_of):
+            step = steps[actions[seat]]
+            if step is None or not alive[seat]:
                 continue
-            step = step_of[seat][actions[seat]]
             target = pos[seat] + step
-            if terrain[target] in (RIGID, WOOD):
-                moving[seat] = False
+            kind = terrain[target]
+            if kind in (RIGID, WOOD):
                 continue
+            beyond = None
             if timer[target]:
                 beyond = target + step
                 if not (self._kick[seat] and terrain[beyond] == PASSAGE and not timer[beyond]
                         and not any(a and p == beyond for p, a in zip(pos, alive, strict=True))):
-                    moving[seat] = False
                     continue
+            movers.append((seat, target, beyond))
+        if not movers:
+            return
+        s_count = self.n_seats
+        here = [pos[seat] if alive[seat] else -1 - seat for seat in range(s_count)]
+        want = list(here)
+        landing = [-1 - s_count - seat for seat in range(s_count)]
+        moving = [False] * s_count
+        claimed = list(here)
+        for seat, target, beyond in movers:
+            moving[seat] = True
+            want[seat] = claimed[seat] = target
+            if beyond is not None:
                 landing[seat] = beyond
-            want[seat] = target
+                claimed.append(beyond)
         # no cell wanted or landed on twice and no move into a cell a mover leaves: no move fails
-        claimed = want + [cell for cell in landing if cell >= 0]
-        left = {here[seat] for seat in range(s_count) if moving[seat]}
-        clear = len(set(claimed)) == len(claimed) and not any(
-            moving[seat] and want[seat] in left for seat in range(s_count))
+        left = {here[seat] for seat, _, _ in movers}
+        clear = len(set(claimed)) == len(claimed) and not any(target in left for _, target, _ in movers)
         while not clear:  # a move that meets another fails, until none does
             fails = [i for i in range(s_count) if moving[i] and any(
                 want[i] == want[j] or (want[i] == here[j] and want[j] == here[i]) or want[i] == landing[j]
@@ -414,13 +418,13 @@ class BoomerBoard:
                 moving[i] = False
                 want[i] = here[i]
                 landing[i] = -1 - s_count - i
-        kicks = [seat for seat in range(s_count) if moving[seat] and landing[seat] >= 0]
+        kicks = [seat for seat, _, beyond in movers if beyond is not None and moving[seat]]
         if kicks:
             self._move_bombs([(want[seat], landing[seat]) for seat in kicks])
             for seat in kicks:
                 self._BD[landing[seat]] = self._direction_of[seat][actions[seat]]
                 self._kicked[seat] = self.eventful = True
-        for seat in range(s_count):
+        for seat, _, _ in movers:
             if not moving[seat]:
                 continue
             cell = pos[seat] = want[seat]
@@ -535,19 +539,31 @@ class BoomerBoard:
         self._shown_bombs = self._bomb_planes() if self._bombs else []
         if self._scalars_stale:
             self._write_scalars()
-        seats = (*self._pos, *self._alive)
-        if seats != self._shown_seats:
-            for slot in self._shown_marks:
-                src[slot] = 0.0
-            alive, pos, mark = self._alive, self._pos, self._mark
-            marks = self._shown_marks = [mark[i][j] + pos[j] for i in range(self.n_seats) if alive[i]
-                                         for j in range(self.n_seats) if alive[j]]
-            for slot in marks:
-                src[slot] = 1.0
-            if seats[self.n_seats:] != self._shown_seats[self.n_seats:]:
-                for i, a in enumerate(alive):
-                    self._obs_index[0, i] = self._index[0, i] if a else self._zero
-            self._shown_seats = seats
+        alive, pos = self._alive, self._pos
+        if alive != self._shown_alive:
+            mark, shown = self._mark, self._shown_pos
+            seen = [seat for seat, a in enumerate(self._shown_alive) if a]
+            for i in seen:
+                for j in seen:
+                    src[mark[i][j] + shown[j]] = 0.0
+            seen = [seat for seat in range(self.n_seats) if alive[seat]]
+            for i in seen:
+                for j in seen:
+                    src[mark[i][j] + pos[j]] = 1.0
+            for i, a in enumerate(alive):
+                self._obs_index[0, i] = self._index[0, i] if a else self._zero
+            self._shown_alive, self._shown_pos = list(alive), list(pos)
+        elif pos != self._shown_pos:
+            # the seats that moved: every viewer's mark leaves the old cell, then lands on the new one
+            mark, shown, seen = self._mark, self._shown_pos, [seat for seat in range(self.n_seats) if alive[seat]]
+            moved = [j for j in seen if pos[j] != shown[j]]
+            for j in moved:
+                for i in seen:
+                    src[mark[i][j] + shown[j]] = 0.0
+            for j in moved:
+                for i in seen:
+                    src[mark[i][j] + pos[j]] = 1.0
+            self._shown_pos = list(pos)
 
     def _write_scalars(self) -> None:
         """The seats' alive flag, ammo / 10, blast strength / 10 and kick (zeros for the dead)."""
