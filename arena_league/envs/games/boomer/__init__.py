@@ -3,7 +3,7 @@
 Arena's game "inspired by Bomberman" (Song et al., "Arena: A General Evaluation Platform and
 Building Toolkit for Multi-Agent Intelligence", AAAI 2020), on the rules of Pommerman (Resnick et
 al., "Pommerman: A Multi-Agent Playground", 2018; the NeurIPS 2018 competition), built as a batched
-numpy engine. Ids: ``Boomer-2T1P-v1`` (a duel), ``Boomer-4T1P-v1`` (free-for-all of four, as
+numpy engine, with a one-board engine in plain Python for single matches. Ids: ``Boomer-2T1P-v1`` (a duel), ``Boomer-4T1P-v1`` (free-for-all of four, as
 Pommerman's FFA) and ``Boomer-2T2P-v1`` (two teams of two, as Pommerman's team game).
 
 Field
@@ -191,6 +191,19 @@ A board's map is a function of its ``uint64`` key only (``reset(boards, keys)``)
 in the batch. :class:`BoomerMatches` is the match engine's and training's whole-array path
 (``BoomerRules.batched_matches``): matches of one layout on one engine built like the rules' own,
 each match's key drawn from its seed as ``BoomerRules.reset`` draws it.
+
+One-board engine
+----------------
+A single match (``BoomerRules``, hence the PettingZoo env) runs on
+:class:`~arena_league.envs.games.boomer.board.BoomerBoard`, the batched engine's rules for one board
+in plain Python: a one-board batch pays numpy's per-call cost on some 150-200 array operations a step
+(about 3,000 env steps per CPU second), while a match holds a few seats, bombs and flames. Its cells
+are ``bytearray`` s, its bombs and flames sets of cells, and it keeps the eight shared observation
+planes up to date cell by cell, so all seats' observations are one gather. It equals
+``BoomerBoards`` exactly, step by step: maps, cells, seats, observations, global state, team scores
+(``tests/test_game_boomer_board.py``). Through the PettingZoo API with random actions (a match ends
+every 15-24 steps, so a map is drawn every few dozen steps), about SPEED env steps per CPU second
+on one core (docs/performance.md).
 
 Playing it (``arena-league play``)
 ----------------------------------
@@ -383,7 +396,7 @@ class BoomerRules(OneBoard, GameRules):
                 measures.alive[:] = measures.active[:] = engine._alive
             self._events = [{"kind": kind, "seat": seat} for kind, flags in (
                 ("laid_a_bomb", engine._laid), ("kicked_a_bomb", engine._kicked), ("took_a_power_up", engine._picked),
-                ("death", engine._died)) for seat, flag in enumerate(flags) if flag]
+                ("death", engine._died)) if True in flags for seat, flag in enumerate(flags) if flag]
         elif self._events:
             self._events = []
         if engine._done:

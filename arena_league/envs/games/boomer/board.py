@@ -245,6 +245,7 @@ class BoomerBoard:
         self._laid = [False] * s
         self._kicked = [False] * s
         self._t = 0
+        self._judged = False
         self.eventful = False
         self._scalars_stale = True  # the seats' scalars in the source vector
         self._done = False
@@ -275,6 +276,7 @@ class BoomerBoard:
         self._final = boards.final_scores[b].tolist() if self._done else None
         self.eventful = False
         self._scalars_stale = True
+        self._judged = False
 
     def step(self, actions: Any) -> None:
         """``BoomerBoards.step`` with ``actions`` of shape ``(1, seats)``."""
@@ -311,7 +313,10 @@ class BoomerBoard:
                 self._died[seat] = self.eventful = self._scalars_stale = True
                 self._death[seat] = self._t + 1
         self._t += 1
-        self._judge()
+        # the teams left change only with a death: judge on one, on a match's first step and near max_steps
+        if not self._judged or any(self._died) or self.max_steps is not None:
+            self._judged = True
+            self._judge()
 
     def _burn_down(self) -> None:
         flame, hidden, terrain = self._F, self._H, self._T
@@ -491,8 +496,7 @@ class BoomerBoard:
 
     def _judge(self) -> None:
         """End the match when at most one team has a player left (or at ``max_steps``)."""
-        teams_left = {team for team, a in zip(self._team, self._alive, strict=True) if a}
-        ended = len(teams_left) <= 1
+        ended = len({team for team, a in zip(self._team, self._alive, strict=True) if a}) <= 1
         if not ended and self.max_steps is not None and self._t >= self.max_steps:
             self._truncated = ended = True
         if ended:
@@ -580,12 +584,13 @@ class BoomerBoard:
         self._scalars_stale = False
 
     def _blast_slots(self, cell: int) -> tuple[list[int], frozenset[int]]:
-        """The blast plane's slots and the cells of the blast of the bomb on ``cell`` (kept until the terrain changes)."""
+        """The blast plane's slots of the blast of the bomb on ``cell`` and the cells its arms reach (kept
+        until the terrain changes)."""
         key = cell * 16 + self._BS[cell]
         found = self._reach.get(key)
         if found is None:
             cells = self.blast_cells(cell, self._BS[cell])
-            found = self._reach[key] = ([6 * self._cells + x for x in cells], frozenset(cells))
+            found = self._reach[key] = ([6 * self._cells + x for x in cells], frozenset(cells[1:]))
         return found
 
     def _bomb_planes(self) -> list[int]:
@@ -602,7 +607,7 @@ class BoomerBoard:
             return [*slots, 5 * self._cells + cell]
         blasts = {cell: self._blast_slots(cell) for cell in bombs}
         at = {cell: timer[cell] for cell in bombs}
-        if len(bombs) > 1 and any(len(bombs & cells) > 1 for _, cells in blasts.values()):
+        if not all(bombs.isdisjoint(arms) for _, arms in blasts.values()):
             # a bomb in another's blast goes off with it: the bombs in order of their timers, each setting
             # off the bombs its blast reaches (and theirs) before the next goes off on its own
             went: set[int] = set()
