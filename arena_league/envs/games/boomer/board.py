@@ -4,15 +4,18 @@ for a single match, stepped in plain Python (the manual is the package docstring
 A one-board batch pays numpy's per-call overhead on every one of its whole-array operations, while a
 match has a few seats, bombs and flames: here the bombs and flames are sets of cells, the per-cell
 state is ``bytearray`` s on the padded board (so a move, a kick or a blast arm never needs a bounds
-check), and a seat's observation is one gather from a source vector of the eight shared planes and
-the seats' scalars. ``BoomerBoards`` stays the reference: the two agree exactly, step by step, on
-every array, observation and state (``tests/test_game_boomer_board.py``).
+check), and all seats' observations are one gather from a source vector (the eight shared planes,
+the seats' scalars and each viewer's position planes) that the engine brings up to date cell by
+cell. ``BoomerBoards`` stays the reference: the two agree exactly, step by step, on every array,
+observation and state (``tests/test_game_boomer_board.py``); :meth:`BoomerBoard.load` takes over a
+board of it (set-up positions).
 
-Read-only numpy views with ``BoomerBoards``' names and shapes (one board) are offered for the
-picture, the scene and the text view: ``terrain`` (writable: it is the engine's own memory),
-``hidden``, ``flame``, ``bomb_timer``, ``bomb_strength``, ``bomb_owner``, ``bomb_direction`` and the
-seats' ``position``, ``alive``, ``ammo``, ``strength``, ``can_kick``, ``death_step``, ``picked``,
-``died``, ``laid``, ``kicked``, ``t``, ``done``, ``truncated``.
+Numpy arrays with ``BoomerBoards``' names and shapes (one board) serve the picture, the scene, the
+text view and tests: the cells ``terrain``, ``hidden``, ``flame``, ``bomb_timer``, ``bomb_strength``,
+``bomb_owner``, ``bomb_direction`` are views of the engine's memory (read them; only ``terrain`` may
+be written, which the next observation shows), the seats' ``position``, ``alive``, ``ammo``,
+``strength``, ``can_kick``, ``death_step``, ``picked``, ``died``, ``laid``, ``kicked`` and ``t``,
+``done``, ``truncated``, ``final_scores`` are copies.
 """
 
 from __future__ import annotations
