@@ -86,7 +86,9 @@ class ArenaParallelEnv(ParallelEnv):
                          for i in range(n)]
         self._build_spaces()
         self._step = 0
-        self._seed_rng = np.random.default_rng(0)
+        # the generator of unseeded resets' match seeds, made from _seed_base when first needed
+        self._seed_base = 0
+        self._seed_rng: np.random.Generator | None = None
         self._ctx: RewardContext | None = None
         self._per_node: np.ndarray | None = None
         self.last_obs: np.ndarray | None = None
@@ -144,9 +146,11 @@ class ArenaParallelEnv(ParallelEnv):
         if seed is not None:
             if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
                 raise ValueError(f"seed must be a non-negative integer, not {seed!r}")
-            self._seed_rng = np.random.default_rng(int(seed))
+            self._seed_base, self._seed_rng = int(seed), None  # made only if an unseeded reset follows
             match_seed = int(seed)
         else:
+            if self._seed_rng is None:
+                self._seed_rng = np.random.default_rng(self._seed_base)
             match_seed = int(self._seed_rng.integers(_MAX_SEED))
         self.rules.reset(match_seed)
         self.tree.reset()

@@ -3,7 +3,7 @@
 Arena's game "inspired by Bomberman" (Song et al., "Arena: A General Evaluation Platform and
 Building Toolkit for Multi-Agent Intelligence", AAAI 2020), on the rules of Pommerman (Resnick et
 al., "Pommerman: A Multi-Agent Playground", 2018; the NeurIPS 2018 competition), built as a batched
-numpy engine. Ids: ``Boomer-2T1P-v1`` (a duel), ``Boomer-4T1P-v1`` (free-for-all of four, as
+numpy engine, with a one-board engine in plain Python for single matches. Ids: ``Boomer-2T1P-v1`` (a duel), ``Boomer-4T1P-v1`` (free-for-all of four, as
 Pommerman's FFA) and ``Boomer-2T2P-v1`` (two teams of two, as Pommerman's team game).
 
 Field
@@ -192,6 +192,20 @@ in the batch. :class:`BoomerMatches` is the match engine's and training's whole-
 (``BoomerRules.batched_matches``): matches of one layout on one engine built like the rules' own,
 each match's key drawn from its seed as ``BoomerRules.reset`` draws it.
 
+One-board engine
+----------------
+A single match (``BoomerRules``, hence the PettingZoo env) runs on
+:class:`~arena_league.envs.games.boomer.board.BoomerBoard`, the batched engine's rules for one board
+in plain Python: a one-board batch pays numpy's per-call cost on some 150-200 array operations a step
+(about 3,000 env steps per CPU second), while a match holds a few seats, bombs and flames. Its cells
+are ``bytearray`` s, its bombs and flames sets of cells, and it keeps the eight shared observation
+planes up to date cell by cell, so all seats' observations are one gather. It equals
+``BoomerBoards`` exactly, step by step: maps, cells, seats, observations, global state, team scores
+(``tests/test_game_boomer_board.py``). Through the PettingZoo API with random actions (a match ends
+every 15-24 steps, and each draws a map), 23,000-28,000 env steps per CPU second on one core for
+2T1P and 19,000-22,000 for 2T2P and 4T1P on a shared machine (docs/performance.md), up from about
+3,000 on a one-board batch.
+
 Playing it (``arena-league play``)
 ----------------------------------
 The board is drawn in text: ``#`` rigid, ``+`` wood, ``e`` ``r`` ``k`` power-ups (extra bomb,
@@ -228,6 +242,7 @@ from arena_league.envs import scene
 from arena_league.envs.boards import BoardSlots, OneBoard
 from arena_league.envs.controls import Controls, arrow_keys, key_controls
 from arena_league.envs.core import GameRules, Measures, cell_bounds
+from arena_league.envs.games.boomer.board import BoomerBoard
 from arena_league.envs.games.boomer.boards import (
     ACTIONS,
     BOMB,
@@ -318,7 +333,7 @@ class BoomerMatches(BoardSlots):
 
 
 class BoomerRules(OneBoard, GameRules):
-    """One Boomer match (the batched engine with one board); the package docstring is its manual."""
+    """One Boomer match (the one-board engine, ``BoomerBoard``); the package docstring is its manual."""
 
     name: ClassVar[str] = "Boomer"
     version: ClassVar[int] = 1
@@ -342,10 +357,10 @@ class BoomerRules(OneBoard, GameRules):
             raise ValueError(f"Boomer has only the 'discrete' action variant, not {action_type!r}")
         super().__init__(n_teams, players_per_team, action_type)
         self.settings = settings
-        self.engine = BoomerBoards(1, self.n_agents, size=settings["size"], n_rigid=settings["n_rigid"],
-                                   n_wood=settings["n_wood"], n_items=settings["n_items"],
-                                   blast_strength=settings["blast_strength"], team_of=self.team_of,
-                                   quarter_turns=QUARTER_TURNS[(n_teams, players_per_team)])
+        self.engine = BoomerBoard(self.n_agents, size=settings["size"], n_rigid=settings["n_rigid"],
+                                  n_wood=settings["n_wood"], n_items=settings["n_items"],
+                                  blast_strength=settings["blast_strength"], team_of=self.team_of,
+                                  quarter_turns=QUARTER_TURNS[(n_teams, players_per_team)])
         self.size = self.engine.size
         self.obs_dim = self.engine.obs_dim
         self.state_dim = self.engine.state_dim
@@ -353,6 +368,7 @@ class BoomerRules(OneBoard, GameRules):
         self.act_dim = 0
         self.action_meanings = ACTIONS
         self._events: list[dict] = []
+        self._gained = False
 
     # --- the match -------------------------------------------------------------------------
     def reset(self, seed: int) -> None:
@@ -361,20 +377,30 @@ class BoomerRules(OneBoard, GameRules):
         start_measures(self.measures)
         self.game_over = False
         self._events = []
+        self._gained = False
 
     def step(self, actions: np.ndarray) -> None:
         if self.game_over:
             raise RuntimeError("Boomer: the match is over; call reset() before step()")
         engine = self.engine
-        engine.step(np.asarray(actions, dtype=np.int64).reshape(1, -1))
-        for measure, source in MEASURE_SOURCES:
-            getattr(self.measures, measure)[:] = getattr(engine, source)[0]
-        happened = engine.laid[0] | engine.kicked[0] | engine.picked[0] | engine.died[0]
-        self._events = [] if not happened.any() else [{"kind": kind, "seat": int(i)} for kind, flags in (
-            ("laid_a_bomb", engine.laid), ("kicked_a_bomb", engine.kicked), ("took_a_power_up", engine.picked),
-            ("death", engine.died))
-            for i in np.flatnonzero(flags[0])]
-        if engine.done[0]:
+        actions = np.asarray(actions, dtype=np.int64).reshape(-1).tolist()
+        if len(actions) != self.n_agents:
+            raise ValueError(f"Boomer takes one action per seat ({self.n_agents}), not {len(actions)}")
+        engine.play(actions)
+        measures = self.measures
+        # the measures change only with a death or a power-up taken (or the step after one): most steps write nothing
+        if self._gained or any(engine._picked):
+            measures.resource_gain[:] = engine._picked
+            self._gained = any(engine._picked)
+        if engine.eventful:
+            if any(engine._died):
+                measures.alive[:] = measures.active[:] = engine._alive
+            self._events = [{"kind": kind, "seat": seat} for kind, flags in (
+                ("laid_a_bomb", engine._laid), ("kicked_a_bomb", engine._kicked), ("took_a_power_up", engine._picked),
+                ("death", engine._died)) if True in flags for seat, flag in enumerate(flags) if flag]
+        elif self._events:
+            self._events = []
+        if engine._done:
             self.game_over = True
             self.finish()
 

@@ -9,6 +9,7 @@ that explode, not over the boards.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from typing import Any
 
@@ -46,21 +47,33 @@ STATE_PER_AGENT = 6  # the same, then row and column / (size - 1)
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
 _MIX2 = np.uint64(0x94D049BB133111EB)
+_SHIFT30, _SHIFT27, _SHIFT31 = np.uint64(30), np.uint64(27), np.uint64(31)
 _ITEM_SALT = 1 << 20  # the power-up draws' counters, far from the wall draws' attempts
 
 
 def _splitmix64(x: np.ndarray) -> np.ndarray:
     """The SplitMix64 finaliser, element-wise on ``uint64`` arrays (wrapping arithmetic)."""
     z = x + _GOLDEN
-    z = (z ^ (z >> np.uint64(30))) * _MIX1
-    z = (z ^ (z >> np.uint64(27))) * _MIX2
-    return z ^ (z >> np.uint64(31))
+    z ^= z >> _SHIFT30  # in place: a fresh array each step costs more than the arithmetic on small ones
+    z *= _MIX1
+    z ^= z >> _SHIFT27
+    z *= _MIX2
+    z ^= z >> _SHIFT31
+    return z
+
+
+@functools.lru_cache(maxsize=256)
+def _hash_columns(counter: int, count: int) -> np.ndarray:
+    """``uint64[count]``: the key-free half of :func:`_hashes` (read-only: the draws of every map share it)."""
+    columns = np.uint64(counter) * np.uint64(1 << 12) + np.arange(count, dtype=np.uint64)
+    hashed = _splitmix64(columns)
+    hashed.flags.writeable = False
+    return hashed
 
 
 def _hashes(keys: np.ndarray, counter: int, count: int) -> np.ndarray:
     """``uint64[len(keys), count]``: random numbers that are a function of (key, counter, column)."""
-    columns = np.uint64(counter) * np.uint64(1 << 12) + np.arange(count, dtype=np.uint64)
-    return _splitmix64(keys[:, None] ^ _splitmix64(columns)[None, :])
+    return _splitmix64(keys[:, None] ^ _hash_columns(counter, count)[None, :])
 
 
 def quarter_turn_orbits(size: int) -> np.ndarray:
