@@ -104,13 +104,14 @@ def test_missing_folder_is_refused_with_the_fix(board, tmp_path):
 
 def test_a_hundred_agents_render_in_a_few_seconds(tmp_path):
     rows, names = simulated_league(np.linspace(-400, 400, 100), 4000, seed=7)
-    start = time.perf_counter()
+    # CPU seconds, not wall seconds: a loaded CI machine stretches the wall clock, not the work
+    start = time.process_time()
     board = compute_leaderboard(rows, kinds(names), GAME, "bt", rounds=100)
-    computed = time.perf_counter() - start
+    computed = time.process_time() - start
     text = write_html_report(board, tmp_path / "big.html").read_text()
-    rendered = time.perf_counter() - start - computed
-    print(f"100 agents, 4000 matches: leaderboard {computed:.2f} s, report {rendered:.2f} s")
-    # a few seconds on an idle core; the bound leaves room for a loaded CI machine
+    rendered = time.process_time() - start - computed
+    print(f"100 agents, 4000 matches: leaderboard {computed:.2f} s, report {rendered:.2f} s of CPU")
+    # a few seconds of one core
     assert computed + rendered < 15.0
     assert len(embedded_images(text)) == 4
     assert all(name in text for name in names)
