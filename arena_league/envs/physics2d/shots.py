@@ -283,17 +283,18 @@ class ThrustFacing:
     def __init__(self, frame: np.ndarray, threshold: float) -> None:
         self.frame = np.asarray(frame, dtype=np.float64)
         self.threshold = float(threshold)
-        n = len(self.frame)
-        self._turning = np.zeros((n, 1), dtype=bool)
-        self._length = np.zeros((n, 1))
-        self._facing = np.zeros((n, 2))
+        self._signs = self.frame.tolist()
 
     def face(self, thrust: np.ndarray, length: np.ndarray, heading: np.ndarray) -> None:
         """``heading`` (``(n, 2)``, world) from ``thrust`` (``(n, 2)``, seat frames) of ``length``."""
-        turning = np.greater(length[:, None], self.threshold, out=self._turning)
-        facing = np.divide(thrust, np.maximum(length[:, None], self.threshold, out=self._length), out=self._facing)
-        np.multiply(facing, self.frame, out=facing)
-        np.copyto(heading, facing, where=turning)
+        # (a few seats: Python floats beat numpy calls, and divide and multiply the same way)
+        threshold, pairs = self.threshold, None
+        for seat, size in enumerate(length.tolist()):
+            if size > threshold:
+                if pairs is None:
+                    pairs = thrust.tolist()
+                (x, y), (sx, sy) = pairs[seat], self._signs[seat]
+                heading[seat] = x / size * sx, y / size * sy
 
 
 def _segment_enters_circle(px: float, py: float, dx: float, dy: float, radius_sq: float) -> float:
