@@ -187,6 +187,8 @@ OPTIONS = (Option("hit_points", int, 5, "hits a fighter takes before it is destr
            Option("bunker_pairs", int, 4, "bunkers in each half (mirrored in the other)", 1, 6))
 
 _NOWHERE = pymunk.ShapeFilter(categories=0, mask=0)
+#: The ufunc np.clip calls, without np.clip's argument handling (the same values).
+_clip = np._core.umath.clip
 
 
 class FighterRules(Physics2DRules):
@@ -228,6 +230,8 @@ class FighterRules(Physics2DRules):
         self._gathered = np.zeros((n, self._moving), dtype=np.float32)
         self._bunker_order = bunker_order(self.x_sign)
         self._plane = np.zeros(ROWS * COLS, dtype=np.float32)
+        # every seat's observation with its bunker plane laid out (bunkers stand all match)
+        self._seen = np.zeros((n, self.obs_dim), dtype=np.float32)
         self._state_columns, self._state_scales = state_index(world, n)
         state_low, state_high = arena_state(n).bounds()
         self._state_low, self._state_high = state_low[: 14 * n], state_high[: 14 * n]
@@ -266,6 +270,7 @@ class FighterRules(Physics2DRules):
         self.tiles.build(self.world.build({"fighter": starts}), self.kinds)
         self.kinds = self.tiles.kinds
         self._plane[:] = self.kinds.reshape(-1) == BUNKER
+        self._plane.take(self._bunker_order, out=self._seen[:, self._moving:])
         self.shells.reset()
         self._show_shells()
         self._heading[:] = self._frame * (1.0, 0.0)
@@ -374,10 +379,9 @@ class FighterRules(Physics2DRules):
     def observe(self) -> np.ndarray:
         gathered = self._gathered
         self._gather.fill(gathered.reshape(-1))
-        np.clip(gathered, self._low, self._high, out=gathered)
-        obs = np.empty((self.n_agents, self.obs_dim), dtype=np.float32)
+        _clip(gathered, self._low, self._high, out=gathered)
+        obs = self._seen.copy()
         obs[:, : self._moving] = gathered
-        self._plane.take(self._bunker_order, out=obs[:, self._moving:])
         return obs
 
     def state(self) -> np.ndarray:
