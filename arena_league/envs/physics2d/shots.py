@@ -72,6 +72,9 @@ class TileMap:
         self._shapes: dict[tuple[int, int], pymunk.Shape] = {}
         self._last: dict[tuple[int, int], int] = {}
         self._space: pymunk.Space | None = None
+        # every box made so far, by (row, first, last): a box goes from match to match (on the
+        # match's static body), which spares making its pymunk shape again
+        self._boxes: dict[tuple[int, int, int], pymunk.Shape] = {}
 
     def centre(self, row: int, col: int) -> tuple[float, float]:
         """The world point at the centre of tile ``(row, col)``."""
@@ -86,8 +89,9 @@ class TileMap:
         shapes to make each match, and no seams for a body sliding along a wall), runs added row by
         row from the bottom, left to right (the boxes of an earlier layout in the same space leave
         it first)."""
-        if self._space is space and self._shapes:
-            space.remove(*self._shapes.values())
+        placed = [box for box in self._shapes.values() if box.space is not None]
+        if placed:
+            placed[0].space.remove(*placed)
         self.kinds[:] = kinds
         self._rows = rows = self.kinds.tolist()
         self._shapes, self._last = {}, {}
@@ -109,10 +113,15 @@ class TileMap:
 
     def _run(self, row: int, first: int, last: int) -> pymunk.Shape:
         """The box over tiles ``first`` to ``last`` of ``row``, noted under its first tile."""
-        x0, y0 = self.origin[0] + first * self.tile, self.origin[1] + row * self.tile
-        x1, y1 = self.origin[0] + (last + 1) * self.tile, y0 + self.tile
-        box = pymunk.Poly(self._space.static_body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-        self.material.apply(box)
+        static = self._space.static_body
+        box = self._boxes.get((row, first, last))
+        if box is None:
+            x0, y0 = self.origin[0] + first * self.tile, self.origin[1] + row * self.tile
+            x1, y1 = self.origin[0] + (last + 1) * self.tile, y0 + self.tile
+            box = self._boxes[row, first, last] = pymunk.Poly(static, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+            self.material.apply(box)
+        elif box.body is not static:
+            box.body = static
         self._shapes[row, first] = box
         self._last[row, first] = last
         return box
