@@ -213,11 +213,16 @@ class Shells:
         flight fires from ``xy[seat]`` along ``direction[seat]``, and its gun reloads for
         ``reload_steps`` steps (see :meth:`reload`). Returns the seats that fired, in order."""
         fired = []
-        for seat in np.flatnonzero(fire).tolist():
-            if able[seat] and not self.loaded_in[seat] and not self.flying[seat]:
-                self.fire(seat, xy[seat], direction[seat])
-                self.loaded_in[seat] = self.reload_steps
-                fired.append(seat)
+        ready = None
+        for seat, pulled in enumerate(fire.tolist()):
+            if pulled:
+                if ready is None:
+                    ready = [a and not (loading or up) for a, loading, up in
+                             zip(able.tolist(), self.loaded_in.tolist(), self.flying.tolist())]
+                if ready[seat]:
+                    self.fire(seat, xy[seat], direction[seat])
+                    self.loaded_in[seat] = self.reload_steps
+                    fired.append(seat)
         self._reloading += len(fired)
         return fired
 

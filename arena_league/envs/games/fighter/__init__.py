@@ -315,7 +315,9 @@ class FighterRules(Physics2DRules):
         m = self.measures
         if self.action_type == "discrete":
             firing = np.equal(actions, FIRE_ACTION, out=self._firing)
-            self._seat_thrust.set(np.where(firing, 0, actions), m.energy)
+            if np.count_nonzero(firing):  # (a fire is a noop move)
+                actions = np.where(firing, 0, actions)
+            self._seat_thrust.set(actions, m.energy)
         else:
             firing = np.greater(actions[:, 2], 0.0, out=self._firing)
             self._seat_thrust.set(actions[:, :2], m.energy)
