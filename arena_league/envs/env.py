@@ -344,7 +344,7 @@ class ArenaParallelEnv(ParallelEnv):
                     for i, a in enumerate(self.possible_agents)}
         if self._has_boards:
             return {a: obs[i, : self._obs_dim[i]] for i, a in enumerate(self.possible_agents)}
-        return {a: obs[i] for i, a in enumerate(self.possible_agents)}
+        return dict(zip(self.possible_agents, obs))
 
     def _seat_observation(self, seat: int, obs: np.ndarray) -> Any:
         """What the dict API gives ``seat`` (a copy) for the observations ``obs``."""

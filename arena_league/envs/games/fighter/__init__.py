@@ -255,6 +255,10 @@ class FighterRules(Physics2DRules):
         self._apart, self._distance = np.zeros((n, n)), np.zeros(n)
         self._row_start, self._nearest = np.arange(n) * n, np.zeros(n, dtype=np.intp)
         self._length = np.zeros(n)
+        # views and buffers the step reuses
+        self._xy_row, self._xy_column = self._xy_c[None, :], self._xy_c[:, None]
+        self._flying_column = self.shells.flying[:, None]
+        self._conj_heading, self._way_to = np.zeros(n, dtype=np.complex128), np.zeros(n, dtype=np.complex128)
         self._firing = np.zeros(n, dtype=bool)
         self._moves = np.zeros(n, dtype=np.int64)
         self.hits_left = np.zeros(n, dtype=np.int64)
@@ -288,20 +292,21 @@ class FighterRules(Physics2DRules):
     def _show_shells(self) -> None:
         """The shells into the work vector, those not in flight as zeros."""
         shells = self.shells
-        np.multiply(shells.xy, shells.flying[:, None], out=self._shell_xy)
-        np.multiply(shells.direction, shells.flying[:, None], out=self._shell_way)
+        np.multiply(shells.xy, self._flying_column, out=self._shell_xy)
+        np.multiply(shells.direction, self._flying_column, out=self._shell_way)
         self._flying[:] = shells.flying
 
     def _aim(self) -> None:
         """Each fighter's nearest opponent in play: its distance and how squarely it is faced (kept
         when none is left)."""
         m = self.measures
-        way = np.subtract(self._xy_c[None, :], self._xy_c[:, None], out=self._way)
+        way = np.subtract(self._xy_row, self._xy_column, out=self._way)
         apart = np.abs(way, out=self._apart)
         np.add(apart, self._out_of_reach, out=apart)  # +inf on teammates and fighters out of play
         nearest = np.add(apart.argmin(axis=1), self._row_start, out=self._nearest)
         distance = apart.take(nearest, out=self._distance)
-        facing = np.multiply(np.conj(self._heading_c), way.take(nearest), out=self._facing_c).real
+        facing = np.multiply(np.conjugate(self._heading_c, out=self._conj_heading), way.take(nearest, out=self._way_to),
+                             out=self._facing_c).real
         if self._everyone_in:
             np.copyto(m.target_distance, distance)
             np.divide(facing, distance, out=m.facing_target)
