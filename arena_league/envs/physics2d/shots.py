@@ -231,9 +231,9 @@ class Shells:
         observation of the reload then changed)."""
         if not self._reloading:
             return False
-        loaded_in = self.loaded_in
-        np.subtract(loaded_in, loaded_in > 0, out=loaded_in)
-        self._reloading = np.count_nonzero(loaded_in)
+        left = [steps - 1 if steps > 0 else 0 for steps in self.loaded_in.tolist()]
+        self.loaded_in[:] = left
+        self._reloading = len(left) - left.count(0)
         return True
 
     def fire(self, seat: int, xy: Sequence[float], direction: Sequence[float]) -> None:
