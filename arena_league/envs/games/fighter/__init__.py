@@ -341,7 +341,7 @@ class FighterRules(Physics2DRules):
                     self._damage(hit.shooter, hit.seat)
             self._show_shells()
         if self.shells.reload():
-            self._reload[:] = self.shells.loaded_in / RELOAD_STEPS
+            np.divide(self.shells.loaded_in, RELOAD_STEPS, out=self._reload)
         self._aim()
         if not self._everyone_in and not (np.bincount(self.team_of, weights=m.active, minlength=2) > 0).all():
             self.game_over = True
