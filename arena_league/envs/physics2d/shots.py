@@ -19,8 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pymunk
@@ -38,11 +37,11 @@ FIRE_ACTION = len(COMPASS_MOVE_NAMES)
 SHOOTER_ACTIONS = (*COMPASS_MOVE_NAMES, "fire")
 
 
-@dataclass(frozen=True)
-class Hit:
+class Hit(NamedTuple):
     """What a shell of seat ``shooter`` met this step, at ``(x, y)``: a body (``seat`` >= 0), a
     tile (``row``, ``col`` and its ``kind``, ``broken`` if the shell broke it) or the map's edge
-    (neither)."""
+    (neither). (A named tuple: made on the hot path, where a frozen dataclass costs several times
+    as much.)"""
 
     shooter: int
     x: float
@@ -256,6 +255,7 @@ class Shells:
         bodies = body_xy.tolist()
         open_to_hit = targetable.tolist()
         xy, direction = self.xy.tolist(), self.direction.tolist()
+        moved = False
         for seat, up in enumerate(flying):
             if not up:
                 continue
@@ -264,11 +264,22 @@ class Shells:
             t_tile, row, col = tiles.first_solid(x0, y0, x0 + dx, y0 + dy)
             t_body, struck = math.inf, -1
             for j in self._targets[seat]:
-                if not open_to_hit[j]:
-                    continue
-                t = _segment_enters_circle(x0 - bodies[j][0], y0 - bodies[j][1], dx, dy, radius_sq)
-                if t < t_body:
-                    t_body, struck = t, j
+                if open_to_hit[j]:
+                    # the least t in [0, 1] where the segment is on or in the body's circle, if any
+                    px, py = x0 - bodies[j][0], y0 - bodies[j][1]
+                    c = px * px + py * py - radius_sq
+                    if c <= 0.0:
+                        t = 0.0
+                    else:
+                        b = px * dx + py * dy
+                        a = dx * dx + dy * dy
+                        if b >= 0.0 or b * b - a * c < 0.0:
+                            continue
+                        t = (-b - math.sqrt(b * b - a * c)) / a
+                        if t > 1.0:
+                            continue
+                    if t < t_body:
+                        t_body, struck = t, j
             if t_body <= t_tile and struck >= 0:
                 self.flying[seat] = False
                 hits.append(Hit(seat, x0 + t_body * dx, y0 + t_body * dy, seat=struck))
@@ -284,7 +295,10 @@ class Shells:
                     tiles.clear(row, col)
                 hits.append(Hit(seat, x, y, row=row, col=col, kind=kind, broken=broken))
             else:
-                self.xy[seat] = x0 + dx, y0 + dy
+                xy[seat] = [x0 + dx, y0 + dy]
+                moved = True
+        if moved:
+            self.xy[:] = xy
         return hits
 
 
@@ -309,23 +323,6 @@ class ThrustFacing:
                     pairs = thrust.tolist()
                 (x, y), (sx, sy) = pairs[seat], self._signs[seat]
                 heading[seat] = x / size * sx, y / size * sy
-
-
-def _segment_enters_circle(px: float, py: float, dx: float, dy: float, radius_sq: float) -> float:
-    """The least ``t`` in [0, 1] at which ``p + t d`` lies on or in the circle of squared radius
-    ``radius_sq`` about the origin (0 when ``p`` already does), or infinity."""
-    c = px * px + py * py - radius_sq
-    if c <= 0.0:
-        return 0.0
-    b = px * dx + py * dy
-    if b >= 0.0:
-        return math.inf  # moving away
-    a = dx * dx + dy * dy
-    disc = b * b - a * c
-    if disc < 0.0:
-        return math.inf
-    t = (-b - math.sqrt(disc)) / a
-    return t if t <= 1.0 else math.inf
 
 
 class FireKey:
