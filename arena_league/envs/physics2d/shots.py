@@ -6,8 +6,10 @@ names: empty, or solid, and among the solid kinds those a shell breaks) and a :c
 most one shell in flight per seat). :meth:`TileMap.build` adds one static box per run of solid
 tiles along a row to a match's fresh space, row by row from the bottom, after the field's declared
 parts (so the order is part of the game's rules); :meth:`TileMap.clear` empties a broken tile,
-putting the boxes of what is left of its run in place of the run's box. Shells are points that
-move at a constant speed: each env step, :meth:`Shells.advance` sweeps every shell in flight, in
+putting the boxes of what is left of its run in place of the run's box. A box made once is kept
+and goes into the next matches' spaces (the same shape for Chipmunk, added in the same order).
+Shells are points that move at a constant speed: each env step, :meth:`Shells.advance` sweeps
+every shell in flight, in
 seat order, along its segment for the step, and stops it at the first thing it meets: a solid tile
 (found by walking the tiles the segment crosses, in order), a body it may hit (the segment's first
 crossing of the body's circle) or the map's edge. A tile a shell breaks is cleared before the next
