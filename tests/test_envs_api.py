@@ -53,6 +53,10 @@ def test_continuous_actions_out_of_range_or_wrong_shape(game_id):
         env.step({**good, "player_1": np.zeros(dim + 1, np.float32)})
     with pytest.raises(ValueError, match="not NaN|finite"):
         env.step({**good, "player_0": np.full(dim, np.nan, np.float32)})
+    for values in ([0.5] + [np.nan] * (dim - 1), [np.nan] + [0.5] * (dim - 1), [0.1] * (dim - 1) + [-np.inf]):
+        # NaN anywhere among cells in range (where min and max may pass over it), or an infinity
+        with pytest.raises(ValueError, match="out of range; every component must be finite and within"):
+            env.step({**good, "player_1": np.array(values, np.float32)})
 
 
 @pytest.mark.parametrize("game_id", [g for g in GAMES if "continuous" in game_spec(g).rules.action_types

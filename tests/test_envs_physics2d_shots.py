@@ -64,6 +64,21 @@ def test_build_adds_one_static_box_per_run_of_solid_tiles_and_clear_splits_a_run
     assert len(space.shapes) == 0
 
 
+def test_a_box_goes_from_match_to_match_onto_the_new_space_static_body():
+    kinds = np.zeros((5, 5), dtype=np.int8)
+    kinds[2, 1:4] = BRICK
+    tiles, first = tile_map()
+    tiles.build(first, kinds)
+    (box,) = first.shapes
+    second = pymunk.Space()
+    tiles.build(second, kinds)  # the first space still holds the box: it leaves it
+    assert list(second.shapes) == [box] and box.body is second.static_body and not first.shapes
+    assert second.point_query_nearest((2.5, 2.5), 0.0, pymunk.ShapeFilter()) is not None
+    tiles.clear(2, 2)
+    tiles.build(second, kinds)  # the run as a whole again: the same box, the halves leave
+    assert list(second.shapes) == [box]
+
+
 def test_a_shell_breaks_a_brick_and_stops_at_steel():
     tiles, space = tile_map((2, 2, BRICK), (2, 4, STEEL))
     shells = Shells(np.ones((1, 1), dtype=bool), speed=10.0, body_radius=0.4)

@@ -210,3 +210,24 @@ def test_sibling_team_nodes_are_computed_in_one_call_with_the_same_rewards():
             env.step({a: (step + k) % 3 for k, a in enumerate(env.agents)})
             per_node = np.zeros((len(env.tree.nodes), env.tree.n_agents))
             assert env.tree.rewards(env._ctx).tobytes() == env.tree.rewards(env._ctx, per_node).tobytes()
+
+
+@pytest.mark.parametrize("reward", ["team_living_longer", "team_living_shorter"])
+def test_team_living_nodes_in_one_call_pay_what_they_pay_node_by_node(reward):
+    # one team arrives (goes out of play) first: the grouped call pays it 0.0 (-0.0 when shorter),
+    # the other team 1.0 (-1.0), the same bytes as the nodes one by one
+    tree = {"scheme": "CP", "reward": "ranking", "scale": 10, "children": [
+        {"scheme": "CL", "reward": reward, "scale": 0.5, "children": ["player_0", "player_1"]},
+        {"scheme": "CL", "reward": reward, "scale": 0.5, "children": ["player_2", "player_3"]}]}
+    env = make_line_race(tree=tree)
+    assert len(env.tree.plan) == 2
+    env.reset(seed=1)
+    paid = []
+    while env.agents:
+        fast = [2, 2, 0, 1]
+        env.step({a: fast[k] for k, a in enumerate(env.agents)})
+        per_node = np.zeros((len(env.tree.nodes), env.tree.n_agents))
+        rewards = env.tree.rewards(env._ctx)
+        assert rewards.tobytes() == env.tree.rewards(env._ctx, per_node).tobytes()
+        paid.append(tuple(per_node[1:].sum(axis=0)))
+    assert (0.0, 0.0, 1.0, 1.0) in paid or (-0.0, -0.0, -1.0, -1.0) in paid

@@ -214,7 +214,9 @@ class ArenaParallelEnv(ParallelEnv):
         if arr.shape != (n, self.rules.act_dim):
             raise ValueError(f"{self.game_id}: continuous actions have shape ({n}, {self.rules.act_dim}) "
                              f"(one vector of {self.rules.act_dim} floats in [-1, 1] per seat); got {arr.shape}")
-        if not all(-1.0 <= value <= 1.0 for value in arr.ravel().tolist()):  # NaN fails the comparisons
+        values = arr.ravel().tolist()
+        # (NaN fails a bound where min or max picks it, else makes the sum NaN, unequal to itself)
+        if not (min(values) >= -1.0 and max(values) <= 1.0 and sum(values) == sum(values)):
             seat = int(np.flatnonzero(~(np.isfinite(arr) & (np.abs(arr) <= 1.0)).all(axis=1))[0])
             raise ValueError(f"{self.game_id}: action {arr[seat].tolist()} of player_{seat} is out of range; "
                              f"every component must be finite and within [-1, 1]")
@@ -342,7 +344,7 @@ class ArenaParallelEnv(ParallelEnv):
                     for i, a in enumerate(self.possible_agents)}
         if self._has_boards:
             return {a: obs[i, : self._obs_dim[i]] for i, a in enumerate(self.possible_agents)}
-        return {a: obs[i] for i, a in enumerate(self.possible_agents)}
+        return dict(zip(self.possible_agents, obs))
 
     def _seat_observation(self, seat: int, obs: np.ndarray) -> Any:
         """What the dict API gives ``seat`` (a copy) for the observations ``obs``."""

@@ -6,8 +6,10 @@ names: empty, or solid, and among the solid kinds those a shell breaks) and a :c
 most one shell in flight per seat). :meth:`TileMap.build` adds one static box per run of solid
 tiles along a row to a match's fresh space, row by row from the bottom, after the field's declared
 parts (so the order is part of the game's rules); :meth:`TileMap.clear` empties a broken tile,
-putting the boxes of what is left of its run in place of the run's box. Shells are points that
-move at a constant speed: each env step, :meth:`Shells.advance` sweeps every shell in flight, in
+putting the boxes of what is left of its run in place of the run's box. A box made once is kept
+and goes into the next matches' spaces (the same shape for Chipmunk, added in the same order).
+Shells are points that move at a constant speed: each env step, :meth:`Shells.advance` sweeps
+every shell in flight, in
 seat order, along its segment for the step, and stops it at the first thing it meets: a solid tile
 (found by walking the tiles the segment crosses, in order), a body it may hit (the segment's first
 crossing of the body's circle) or the map's edge. A tile a shell breaks is cleared before the next
@@ -19,8 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pymunk
@@ -38,11 +39,11 @@ FIRE_ACTION = len(COMPASS_MOVE_NAMES)
 SHOOTER_ACTIONS = (*COMPASS_MOVE_NAMES, "fire")
 
 
-@dataclass(frozen=True)
-class Hit:
+class Hit(NamedTuple):
     """What a shell of seat ``shooter`` met this step, at ``(x, y)``: a body (``seat`` >= 0), a
     tile (``row``, ``col`` and its ``kind``, ``broken`` if the shell broke it) or the map's edge
-    (neither)."""
+    (neither). (A named tuple: made on the hot path, where a frozen dataclass costs several times
+    as much.)"""
 
     shooter: int
     x: float
@@ -72,6 +73,9 @@ class TileMap:
         self._shapes: dict[tuple[int, int], pymunk.Shape] = {}
         self._last: dict[tuple[int, int], int] = {}
         self._space: pymunk.Space | None = None
+        # every box made so far, by (row, first, last): a box goes from match to match (on the
+        # match's static body), which spares making its pymunk shape again
+        self._boxes: dict[tuple[int, int, int], pymunk.Shape] = {}
 
     def centre(self, row: int, col: int) -> tuple[float, float]:
         """The world point at the centre of tile ``(row, col)``."""
@@ -86,8 +90,9 @@ class TileMap:
         shapes to make each match, and no seams for a body sliding along a wall), runs added row by
         row from the bottom, left to right (the boxes of an earlier layout in the same space leave
         it first)."""
-        if self._space is space and self._shapes:
-            space.remove(*self._shapes.values())
+        placed = [box for box in self._shapes.values() if box.space is not None]
+        if placed:
+            placed[0].space.remove(*placed)
         self.kinds[:] = kinds
         self._rows = rows = self.kinds.tolist()
         self._shapes, self._last = {}, {}
@@ -109,10 +114,15 @@ class TileMap:
 
     def _run(self, row: int, first: int, last: int) -> pymunk.Shape:
         """The box over tiles ``first`` to ``last`` of ``row``, noted under its first tile."""
-        x0, y0 = self.origin[0] + first * self.tile, self.origin[1] + row * self.tile
-        x1, y1 = self.origin[0] + (last + 1) * self.tile, y0 + self.tile
-        box = pymunk.Poly(self._space.static_body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-        self.material.apply(box)
+        static = self._space.static_body
+        box = self._boxes.get((row, first, last))
+        if box is None:
+            x0, y0 = self.origin[0] + first * self.tile, self.origin[1] + row * self.tile
+            x1, y1 = self.origin[0] + (last + 1) * self.tile, y0 + self.tile
+            box = self._boxes[row, first, last] = pymunk.Poly(static, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+            self.material.apply(box)
+        elif box.body is not static:
+            box.body = static
         self._shapes[row, first] = box
         self._last[row, first] = last
         return box
@@ -204,11 +214,16 @@ class Shells:
         flight fires from ``xy[seat]`` along ``direction[seat]``, and its gun reloads for
         ``reload_steps`` steps (see :meth:`reload`). Returns the seats that fired, in order."""
         fired = []
-        for seat in np.flatnonzero(fire).tolist():
-            if able[seat] and not self.loaded_in[seat] and not self.flying[seat]:
-                self.fire(seat, xy[seat], direction[seat])
-                self.loaded_in[seat] = self.reload_steps
-                fired.append(seat)
+        ready = None
+        for seat, pulled in enumerate(fire.tolist()):
+            if pulled:
+                if ready is None:
+                    ready = [a and not (loading or up) for a, loading, up in
+                             zip(able.tolist(), self.loaded_in.tolist(), self.flying.tolist())]
+                if ready[seat]:
+                    self.fire(seat, xy[seat], direction[seat])
+                    self.loaded_in[seat] = self.reload_steps
+                    fired.append(seat)
         self._reloading += len(fired)
         return fired
 
@@ -217,9 +232,9 @@ class Shells:
         observation of the reload then changed)."""
         if not self._reloading:
             return False
-        loaded_in = self.loaded_in
-        np.subtract(loaded_in, loaded_in > 0, out=loaded_in)
-        self._reloading = np.count_nonzero(loaded_in)
+        left = [steps - 1 if steps > 0 else 0 for steps in self.loaded_in.tolist()]
+        self.loaded_in[:] = left
+        self._reloading = len(left) - left.count(0)
         return True
 
     def fire(self, seat: int, xy: Sequence[float], direction: Sequence[float]) -> None:
@@ -242,6 +257,7 @@ class Shells:
         bodies = body_xy.tolist()
         open_to_hit = targetable.tolist()
         xy, direction = self.xy.tolist(), self.direction.tolist()
+        moved = False
         for seat, up in enumerate(flying):
             if not up:
                 continue
@@ -250,11 +266,22 @@ class Shells:
             t_tile, row, col = tiles.first_solid(x0, y0, x0 + dx, y0 + dy)
             t_body, struck = math.inf, -1
             for j in self._targets[seat]:
-                if not open_to_hit[j]:
-                    continue
-                t = _segment_enters_circle(x0 - bodies[j][0], y0 - bodies[j][1], dx, dy, radius_sq)
-                if t < t_body:
-                    t_body, struck = t, j
+                if open_to_hit[j]:
+                    # the least t in [0, 1] where the segment is on or in the body's circle, if any
+                    px, py = x0 - bodies[j][0], y0 - bodies[j][1]
+                    c = px * px + py * py - radius_sq
+                    if c <= 0.0:
+                        t = 0.0
+                    else:
+                        b = px * dx + py * dy
+                        a = dx * dx + dy * dy
+                        if b >= 0.0 or b * b - a * c < 0.0:
+                            continue
+                        t = (-b - math.sqrt(b * b - a * c)) / a
+                        if t > 1.0:
+                            continue
+                    if t < t_body:
+                        t_body, struck = t, j
             if t_body <= t_tile and struck >= 0:
                 self.flying[seat] = False
                 hits.append(Hit(seat, x0 + t_body * dx, y0 + t_body * dy, seat=struck))
@@ -270,7 +297,10 @@ class Shells:
                     tiles.clear(row, col)
                 hits.append(Hit(seat, x, y, row=row, col=col, kind=kind, broken=broken))
             else:
-                self.xy[seat] = x0 + dx, y0 + dy
+                xy[seat] = [x0 + dx, y0 + dy]
+                moved = True
+        if moved:
+            self.xy[:] = xy
         return hits
 
 
@@ -283,34 +313,18 @@ class ThrustFacing:
     def __init__(self, frame: np.ndarray, threshold: float) -> None:
         self.frame = np.asarray(frame, dtype=np.float64)
         self.threshold = float(threshold)
-        n = len(self.frame)
-        self._turning = np.zeros((n, 1), dtype=bool)
-        self._length = np.zeros((n, 1))
-        self._facing = np.zeros((n, 2))
+        self._signs = self.frame.tolist()
 
     def face(self, thrust: np.ndarray, length: np.ndarray, heading: np.ndarray) -> None:
         """``heading`` (``(n, 2)``, world) from ``thrust`` (``(n, 2)``, seat frames) of ``length``."""
-        turning = np.greater(length[:, None], self.threshold, out=self._turning)
-        facing = np.divide(thrust, np.maximum(length[:, None], self.threshold, out=self._length), out=self._facing)
-        np.multiply(facing, self.frame, out=facing)
-        np.copyto(heading, facing, where=turning)
-
-
-def _segment_enters_circle(px: float, py: float, dx: float, dy: float, radius_sq: float) -> float:
-    """The least ``t`` in [0, 1] at which ``p + t d`` lies on or in the circle of squared radius
-    ``radius_sq`` about the origin (0 when ``p`` already does), or infinity."""
-    c = px * px + py * py - radius_sq
-    if c <= 0.0:
-        return 0.0
-    b = px * dx + py * dy
-    if b >= 0.0:
-        return math.inf  # moving away
-    a = dx * dx + dy * dy
-    disc = b * b - a * c
-    if disc < 0.0:
-        return math.inf
-    t = (-b - math.sqrt(disc)) / a
-    return t if t <= 1.0 else math.inf
+        # (a few seats: Python floats beat numpy calls, and divide and multiply the same way)
+        threshold, pairs = self.threshold, None
+        for seat, size in enumerate(length.tolist()):
+            if size > threshold:
+                if pairs is None:
+                    pairs = thrust.tolist()
+                (x, y), (sx, sy) = pairs[seat], self._signs[seat]
+                heading[seat] = x / size * sx, y / size * sy
 
 
 class FireKey:

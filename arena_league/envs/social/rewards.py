@@ -405,6 +405,38 @@ def _team_living_shorter(ctx: RewardContext, node: NodeView, params: dict) -> np
     return np.full(len(node.agents), -float(ctx.previous["active"][node.agents].any()))
 
 
+def _groups_living(ctx: RewardContext, nodes: NodeView, sign: float) -> np.ndarray:
+    """``sign`` times 1.0 for each agent whose node has an agent in play before the step, else
+    ``sign`` times 0.0 (a new array, or a cached read-only one while every node lives)."""
+    mem = nodes.memory
+    seats = mem.get("_seats")
+    if seats is None:  # (cached: grouped views live as long as the tree)
+        seats = mem["_seats"] = list(zip(nodes.agents.tolist(), nodes.group.tolist()))
+        mem["_all_living"] = np.full(len(seats), sign * 1.0)
+        mem["_all_living"].flags.writeable = False
+    active = ctx.previous["active"].tolist()
+    living = [sign * 0.0] * nodes.n_groups
+    for seat, group in seats:
+        if active[seat]:
+            living[group] = sign * 1.0
+    if sign * 0.0 not in living:  # (0.0 == -0.0: any node out)
+        return mem["_all_living"]
+    return np.array([living[group] for _, group in seats])
+
+
+@register_grouped("team_living_longer", "CL")
+def _team_living_longer_grouped(ctx: RewardContext, nodes: NodeView, params: dict) -> np.ndarray:
+    """``team_living_longer`` of several nodes (``nodes.group``: each agent's node) at once."""
+    return _groups_living(ctx, nodes, 1.0)
+
+
+@register_grouped("team_living_shorter", "CL")
+def _team_living_shorter_grouped(ctx: RewardContext, nodes: NodeView, params: dict) -> np.ndarray:
+    """``team_living_shorter`` of several nodes at once (-0.0 where a node's agents are all out, as
+    node by node)."""
+    return _groups_living(ctx, nodes, -1.0)
+
+
 # --- CC ------------------------------------------------------------------------------------------
 
 @register_reward("team_win_loss", "CC", needs=("outcome",))

@@ -268,6 +268,9 @@ class BattleCityRules(Physics2DRules):
         self._obs_scale = np.zeros(n * self._moving)
         self._tile_order = tile_order(self.team_of, self.frame)
         self._planes = np.zeros(2 * GRID * GRID, dtype=np.float32)
+        # every seat's observation with its tile planes laid out, redone only when a tile changed
+        self._seen = np.zeros((n, self.obs_dim), dtype=np.float32)
+        self._planes_changed = True
         self._state_matrix = state_matrix(world, n)
         self._state_low, self._state_high = (b.astype(np.float64)[: 14 * n + 2] for b in self.state_bounds())
         # views of the work vector the step reads and writes
@@ -307,6 +310,7 @@ class BattleCityRules(Physics2DRules):
         self.kinds = self.tiles.kinds
         self._planes[: GRID * GRID] = (self.kinds == BRICK).reshape(-1)
         self._planes[GRID * GRID:] = (self.kinds == STEEL).reshape(-1)
+        self._planes_changed = True
         self.shells.reset()
         self._heading[:, 0] = 0.0
         self._heading[:, 1] = self.frame
@@ -404,6 +408,7 @@ class BattleCityRules(Physics2DRules):
                     self.team_out[team] = self._decided = True
         elif hit.kind == BRICK:
             self._planes[hit.row * GRID + hit.col] = 0.0
+            self._planes_changed = True
             self._events.append({"kind": "brick", "seat": hit.shooter, "row": hit.row, "col": hit.col})
         elif hit.kind == BASE:
             team = base_tiles().index((hit.row, hit.col))
@@ -448,9 +453,11 @@ class BattleCityRules(Physics2DRules):
         np.multiply(linear, self._work.take(self._obs_mask, out=self._obs_scale), out=linear)
         np.minimum(linear, self._obs_high, out=linear)
         np.maximum(linear, self._obs_low, out=linear)
-        obs = np.empty((self.n_agents, self.obs_dim), dtype=np.float32)
+        if self._planes_changed:
+            self._planes.take(self._tile_order, out=self._seen[:, self._moving:])
+            self._planes_changed = False
+        obs = self._seen.copy()
         obs[:, : self._moving] = linear.reshape(self.n_agents, -1)
-        self._planes.take(self._tile_order, out=obs[:, self._moving:])
         return obs
 
     def state(self) -> np.ndarray:
@@ -490,6 +497,7 @@ class BattleCityRules(Physics2DRules):
             self.tiles.build(self.world.space, kinds)
             self._planes[: GRID * GRID] = (self.kinds == BRICK).reshape(-1)
             self._planes[GRID * GRID:] = (self.kinds == STEEL).reshape(-1)
+            self._planes_changed = True
         self.world.read()
         self._measure_distances()
         self._events = []

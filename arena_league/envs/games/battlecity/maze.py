@@ -48,6 +48,8 @@ BASE_RING = ((0, GRID // 2 - 1), (1, GRID // 2 - 1), (1, GRID // 2), (1, GRID //
 START_TILES = {1: ((0, 3),), 2: ((0, 3), (0, GRID - 4))}
 #: Draws of a maze before its steel is dropped (a closed-off maze is redrawn; rarely needs two).
 _MAZE_TRIES = 50
+#: A tile and its four neighbours: what joins passable tiles into one region.
+_FOUR_NEIGHBOURS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
 
 
 def turned(row: int, col: int) -> tuple[int, int]:
@@ -104,7 +106,7 @@ def _open(kinds: np.ndarray, start: tuple[int, int]) -> bool:
     from scipy import ndimage  # (imported on the first draw: the catalog's import stays light)
 
     passable = (kinds == EMPTY) | (kinds == BRICK)
-    labels, _ = ndimage.label(passable)
+    labels, _ = ndimage.label(passable, structure=_FOUR_NEIGHBOURS)  # (label's default, not made anew)
     return bool((labels[passable] == labels[start]).all())
 
 

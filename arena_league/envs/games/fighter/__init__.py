@@ -187,6 +187,8 @@ OPTIONS = (Option("hit_points", int, 5, "hits a fighter takes before it is destr
            Option("bunker_pairs", int, 4, "bunkers in each half (mirrored in the other)", 1, 6))
 
 _NOWHERE = pymunk.ShapeFilter(categories=0, mask=0)
+#: The ufunc np.clip calls, without np.clip's argument handling (the same values).
+_clip = np._core.umath.clip
 
 
 class FighterRules(Physics2DRules):
@@ -228,6 +230,8 @@ class FighterRules(Physics2DRules):
         self._gathered = np.zeros((n, self._moving), dtype=np.float32)
         self._bunker_order = bunker_order(self.x_sign)
         self._plane = np.zeros(ROWS * COLS, dtype=np.float32)
+        # every seat's observation with its bunker plane laid out (bunkers stand all match)
+        self._seen = np.zeros((n, self.obs_dim), dtype=np.float32)
         self._state_columns, self._state_scales = state_index(world, n)
         state_low, state_high = arena_state(n).bounds()
         self._state_low, self._state_high = state_low[: 14 * n], state_high[: 14 * n]
@@ -251,6 +255,10 @@ class FighterRules(Physics2DRules):
         self._apart, self._distance = np.zeros((n, n)), np.zeros(n)
         self._row_start, self._nearest = np.arange(n) * n, np.zeros(n, dtype=np.intp)
         self._length = np.zeros(n)
+        # views and buffers the step reuses
+        self._xy_row, self._xy_column = self._xy_c[None, :], self._xy_c[:, None]
+        self._flying_column = self.shells.flying[:, None]
+        self._conj_heading, self._way_to = np.zeros(n, dtype=np.complex128), np.zeros(n, dtype=np.complex128)
         self._firing = np.zeros(n, dtype=bool)
         self._moves = np.zeros(n, dtype=np.int64)
         self.hits_left = np.zeros(n, dtype=np.int64)
@@ -266,6 +274,7 @@ class FighterRules(Physics2DRules):
         self.tiles.build(self.world.build({"fighter": starts}), self.kinds)
         self.kinds = self.tiles.kinds
         self._plane[:] = self.kinds.reshape(-1) == BUNKER
+        self._plane.take(self._bunker_order, out=self._seen[:, self._moving:])
         self.shells.reset()
         self._show_shells()
         self._heading[:] = self._frame * (1.0, 0.0)
@@ -283,20 +292,21 @@ class FighterRules(Physics2DRules):
     def _show_shells(self) -> None:
         """The shells into the work vector, those not in flight as zeros."""
         shells = self.shells
-        np.multiply(shells.xy, shells.flying[:, None], out=self._shell_xy)
-        np.multiply(shells.direction, shells.flying[:, None], out=self._shell_way)
+        np.multiply(shells.xy, self._flying_column, out=self._shell_xy)
+        np.multiply(shells.direction, self._flying_column, out=self._shell_way)
         self._flying[:] = shells.flying
 
     def _aim(self) -> None:
         """Each fighter's nearest opponent in play: its distance and how squarely it is faced (kept
         when none is left)."""
         m = self.measures
-        way = np.subtract(self._xy_c[None, :], self._xy_c[:, None], out=self._way)
+        way = np.subtract(self._xy_row, self._xy_column, out=self._way)
         apart = np.abs(way, out=self._apart)
         np.add(apart, self._out_of_reach, out=apart)  # +inf on teammates and fighters out of play
         nearest = np.add(apart.argmin(axis=1), self._row_start, out=self._nearest)
         distance = apart.take(nearest, out=self._distance)
-        facing = np.multiply(np.conj(self._heading_c), way.take(nearest), out=self._facing_c).real
+        facing = np.multiply(np.conjugate(self._heading_c, out=self._conj_heading), way.take(nearest, out=self._way_to),
+                             out=self._facing_c).real
         if self._everyone_in:
             np.copyto(m.target_distance, distance)
             np.divide(facing, distance, out=m.facing_target)
@@ -310,7 +320,9 @@ class FighterRules(Physics2DRules):
         m = self.measures
         if self.action_type == "discrete":
             firing = np.equal(actions, FIRE_ACTION, out=self._firing)
-            self._seat_thrust.set(np.where(firing, 0, actions), m.energy)
+            if np.count_nonzero(firing):  # (a fire is a noop move)
+                actions = np.where(firing, 0, actions)
+            self._seat_thrust.set(actions, m.energy)
         else:
             firing = np.greater(actions[:, 2], 0.0, out=self._firing)
             self._seat_thrust.set(actions[:, :2], m.energy)
@@ -329,7 +341,7 @@ class FighterRules(Physics2DRules):
                     self._damage(hit.shooter, hit.seat)
             self._show_shells()
         if self.shells.reload():
-            self._reload[:] = self.shells.loaded_in / RELOAD_STEPS
+            np.divide(self.shells.loaded_in, RELOAD_STEPS, out=self._reload)
         self._aim()
         if not self._everyone_in and not (np.bincount(self.team_of, weights=m.active, minlength=2) > 0).all():
             self.game_over = True
@@ -374,10 +386,9 @@ class FighterRules(Physics2DRules):
     def observe(self) -> np.ndarray:
         gathered = self._gathered
         self._gather.fill(gathered.reshape(-1))
-        np.clip(gathered, self._low, self._high, out=gathered)
-        obs = np.empty((self.n_agents, self.obs_dim), dtype=np.float32)
+        _clip(gathered, self._low, self._high, out=gathered)
+        obs = self._seen.copy()
         obs[:, : self._moving] = gathered
-        self._plane.take(self._bunker_order, out=obs[:, self._moving:])
         return obs
 
     def state(self) -> np.ndarray:
