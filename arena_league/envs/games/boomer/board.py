@@ -60,6 +60,11 @@ _FLAME_VALUES = (np.arange(FLAME_STEPS + 1, dtype=np.int8) * np.float32(1.0 / FL
 _INVERSE = [0.0] + [1.0 / steps for steps in range(1, BOMB_LIFE + 2)]  # 1 / steps, as the planes show it
 
 
+def _one_board(attr: str, dtype: Any) -> property:
+    """A read-only ``BoomerBoards``-shaped view (``[1, ...]``, a copy) of the Python value ``attr``."""
+    return property(lambda self: np.array([getattr(self, attr)], dtype=dtype))
+
+
 class BoomerBoard:
     """One Boomer match, the rules of ``BoomerBoards`` with ``n_boards=1`` (same arguments but
     ``autoreset``; ``reset(keys=...)`` draws the same map from the same key)."""
@@ -668,57 +673,19 @@ class BoomerBoard:
         return self.terrain[int(board), self._inner].astype(np.int64).reshape(self.size, self.size)
 
     # --- the seats, as BoomerBoards' one-board arrays (copies) --------------------------------
-    @property
-    def position(self) -> np.ndarray:
-        return np.array([self._pos], dtype=np.int64)
-
-    @property
-    def alive(self) -> np.ndarray:
-        return np.array([self._alive], dtype=bool)
-
-    @property
-    def ammo(self) -> np.ndarray:
-        return np.array([self._ammo], dtype=np.int64)
-
-    @property
-    def strength(self) -> np.ndarray:
-        return np.array([self._strength], dtype=np.int64)
-
-    @property
-    def can_kick(self) -> np.ndarray:
-        return np.array([self._kick], dtype=bool)
-
-    @property
-    def death_step(self) -> np.ndarray:
-        return np.array([self._death], dtype=np.int64)
-
-    @property
-    def picked(self) -> np.ndarray:
-        return np.array([self._picked], dtype=bool)
-
-    @property
-    def died(self) -> np.ndarray:
-        return np.array([self._died], dtype=bool)
-
-    @property
-    def laid(self) -> np.ndarray:
-        return np.array([self._laid], dtype=bool)
-
-    @property
-    def kicked(self) -> np.ndarray:
-        return np.array([self._kicked], dtype=bool)
-
-    @property
-    def t(self) -> np.ndarray:
-        return np.array([self._t], dtype=np.int64)
-
-    @property
-    def done(self) -> np.ndarray:
-        return np.array([self._done], dtype=bool)
-
-    @property
-    def truncated(self) -> np.ndarray:
-        return np.array([self._truncated], dtype=bool)
+    position = _one_board("_pos", np.int64)
+    alive = _one_board("_alive", bool)
+    ammo = _one_board("_ammo", np.int64)
+    strength = _one_board("_strength", np.int64)
+    can_kick = _one_board("_kick", bool)
+    death_step = _one_board("_death", np.int64)
+    picked = _one_board("_picked", bool)
+    died = _one_board("_died", bool)
+    laid = _one_board("_laid", bool)
+    kicked = _one_board("_kicked", bool)
+    t = _one_board("_t", np.int64)
+    done = _one_board("_done", bool)
+    truncated = _one_board("_truncated", bool)
 
     @property
     def final_scores(self) -> np.ndarray:

@@ -17,6 +17,9 @@ import numpy as np
 from arena_league.envs.games.captureflag.engine import N_ACTIONS, CaptureFlagBoards
 
 _NO_DANGER = (0.0,) * N_ACTIONS
+#: The per-seat and per-team arrays a board's match is, as ``CaptureFlagBoards`` names them.
+_STATE = ("pos", "active", "respawn", "carrier", "captures", "held_steps", "tagged", "picked", "scored",
+          "target_distance", "toward_target", "flag_progress")
 
 
 class ScalarBoard:
@@ -64,41 +67,21 @@ class ScalarBoard:
         if (self._map_walls is None or not np.array_equal(walls, self._map_walls)
                 or not np.array_equal(dist, self._map_dist)):
             self._set_map(walls.copy(), dist.copy(), int(engine.stand_distance[b]))
-        self.pos = engine.pos[b].tolist()
-        self.active = engine.active[b].tolist()
-        self.respawn = engine.respawn[b].tolist()
-        self.carrier = engine.carrier[b].tolist()
-        self.captures = engine.captures[b].tolist()
-        self.held_steps = engine.held_steps[b].tolist()
+        for name in _STATE:
+            setattr(self, name, getattr(engine, name)[b].tolist())
         self.t = int(engine.t[b])
         self.done = bool(engine.done[b])
-        self.tagged = engine.tagged[b].tolist()
-        self.picked = engine.picked[b].tolist()
-        self.scored = engine.scored[b].tolist()
-        self.target_distance = engine.target_distance[b].tolist()
-        self.toward_target = engine.toward_target[b].tolist()
-        self.flag_progress = engine.flag_progress[b].tolist()
         self._written.clear()
 
     def store(self, engine: CaptureFlagBoards, board: int = 0) -> None:
         """Write this match's state into board ``board`` of ``engine``, which holds its map."""
         b = board
-        engine.pos[b] = self.pos
-        engine.active[b] = self.active
-        engine.respawn[b] = self.respawn
-        engine.carrier[b] = self.carrier
-        engine.captures[b] = self.captures
-        engine.held_steps[b] = self.held_steps
+        for name in _STATE:
+            getattr(engine, name)[b] = getattr(self, name)
         engine.t[b] = self.t
         engine.done[b] = self.done
         engine.truncated[b] = False
         engine.final_scores[b] = self.team_scores() if self.done else np.nan
-        engine.tagged[b] = self.tagged
-        engine.picked[b] = self.picked
-        engine.scored[b] = self.scored
-        engine.target_distance[b] = self.target_distance
-        engine.toward_target[b] = self.toward_target
-        engine.flag_progress[b] = self.flag_progress
         engine._update_flags()
 
     def _set_map(self, walls: np.ndarray, dist: np.ndarray, stand_distance: int) -> None:
