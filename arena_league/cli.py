@@ -807,13 +807,17 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         raise CommandError("a Ray address is for --backend ray; add it, or leave --address out")
     spread = None if args.backend == "inprocess" else \
         experiments.Spread(args.backend, args.processes or 1, args.address)
-    if args.which == "crossroads-social":
+    if args.readme_only:
+        out = args.out or (f"experiments/{args.which}" if args.which == "crossroads-social" or args.game is None
+                           else f"experiments/baselines-{args.game.split('-')[0].lower()}")
+        report = experiments.rewrite_readme(out)
+    elif args.which == "crossroads-social":
         if args.game is not None:
             raise CommandError("crossroads-social runs on Crossroads-2T2P-v1 and takes no GAME; leave it out")
         out = args.out or "experiments/crossroads-social"
         report = experiments.crossroads_social(out, seeds=args.seeds, steps=args.steps or 300_000,
-                                               episodes=args.episodes, max_cycles=args.max_cycles, log=log,
-                                               spread=spread)
+                                               episodes=args.episodes, max_cycles=args.max_cycles,
+                                               marks=args.marks, marks_at=args.marks_at, log=log, spread=spread)
     else:
         if args.game is None:
             raise CommandError(f"name the game: `arena-league experiment baselines GAME`, one of "
@@ -1204,6 +1208,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="env steps per run (default 300000 for crossroads-social, 150000 for baselines)")
     p.add_argument("--episodes", type=_positive_int, default=50,
                    help="crossroads-social: evaluation episodes per seed (default 50)")
+    p.add_argument("--marks", type=_positive_int, default=5,
+                   help="crossroads-social: log-spaced env-step marks, ending at --steps, at which the agents "
+                        "are evaluated (default 5)")
+    p.add_argument("--marks-at", type=_positive_int, nargs="+", default=None, metavar="STEPS",
+                   help="crossroads-social: these marks instead (--steps is added as the last)")
     p.add_argument("--methods", nargs="+", default=list(_BASELINES), choices=_BASELINES,
                    help="baselines: the methods (default all five)")
     p.add_argument("--checkpoints", type=_positive_int, default=6,
@@ -1212,6 +1221,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="baselines: placement matches per checkpoint (default 40)")
     p.add_argument("--max-cycles", type=_positive_int, default=None, help="training episodes' length cap")
     p.add_argument("--out", default=None, help="the report folder (default experiments/<experiment>)")
+    p.add_argument("--readme-only", action="store_true",
+                   help="write the folder's README.md again from its report.json, training and playing nothing")
     p.add_argument("--backend", choices=("inprocess", "process", "ray"), default="inprocess",
                    help="where the runs train (and are placed) before the report: here one after the other "
                         "(default), side by side in --processes processes, or as the tasks of a Ray cluster")

@@ -10,6 +10,7 @@ import pytest
 from cli_helpers import gobang_agent, run
 
 from arena_league.envs.games import crossroads as game
+from arena_league.league import experiments
 from arena_league.league.experiments import (
     BASELINES,
     _episode_measures,
@@ -17,7 +18,11 @@ from arena_league.league.experiments import (
     baselines,
     checkpoint_steps,
     crossroads_behaviour,
+    crossroads_social,
+    curve_noise,
     ordering_flips,
+    placement_budget,
+    social_marks,
 )
 from arena_league.policies.scripted import scripted_policy
 
@@ -82,6 +87,92 @@ def test_checkpoints_and_ordering_flips():
     assert ordering_flips({"a": [1, 0, 1], "b": [0, 1, 0]}) == 1.0
 
 
+def test_social_marks_and_curve_noise():
+    assert social_marks(10_000_000, 5) == [625_000, 1_250_000, 2_500_000, 5_000_000, 10_000_000]
+    assert social_marks(10_000_000, marks_at=[2_500_000, 400_000, 1_000_000]) == [400_000, 1_000_000, 2_500_000,
+                                                                                  10_000_000]
+    with pytest.raises(ValueError, match="--marks-at takes env-step counts from 1 to --steps"):
+        social_marks(1024, marks_at=[2048])
+    assert curve_noise([[1.0, 2.0, 3.0, 4.0], [5.0, 5.0, 5.0]]) == 0.0  # a straight trend has no noise
+    # residuals 2/3, -2/3, 2/3 about the moving average; the SD of the noise is sqrt(3/2) times their RMS
+    assert curve_noise([[0, 1, 0, 1, 0]]) == pytest.approx(np.sqrt(1.5) * 2 / 3)
+    assert curve_noise([[None, 1, 2, 4]]) == pytest.approx(np.sqrt(1.5) / 3)  # the triple with None is skipped
+    assert curve_noise([[1, 2], [None, 1, 3]]) is None
+
+
+def test_crossroads_social_marks_end_where_the_study_ends_and_resume(capsys, tmp_path, monkeypatch):
+    """Evaluated at two marks, a run's last mark gives the figures of the study evaluated at its end
+    only; again into the same folder, every evaluation is read back."""
+    args = {"seeds": [0], "steps": 2048, "episodes": 2, "trees": ["all_IS", "all_CL"], "max_cycles": 40, "reps": 200}
+    marked = crossroads_social(tmp_path / "marks", marks=2, **args)
+    plain = crossroads_social(tmp_path / "end", marks=1, **args)
+    assert marked["trees"] == plain["trees"] and marked["per_seed"] == plain["per_seed"]
+    assert marked["marks"] == [1024, 2048] and marked["mark_steps"]["all_IS"] == [[1024, 2048]]
+    for tree, by_measure in marked["trend"].items():
+        assert all(len(points) == 2 and points[-1] == marked["trees"][tree][m] for m, points in by_measure.items())
+    assert marked["findings_by_mark"][-1] == marked["findings"] and len(marked["findings_by_mark"]) == 2
+    readme = (tmp_path / "marks" / "README.md").read_text()
+    assert "## Trend with budget" in readme and "| 1,024 |" in readme and (tmp_path / "marks" / "trend.png").exists()
+    assert "## Trend with budget" not in (tmp_path / "end" / "README.md").read_text()
+
+    def played(*_, **__):
+        raise AssertionError("an evaluation kept beside its run was played again")
+
+    monkeypatch.setattr(experiments, "crossroads_behaviour", played)
+    again = crossroads_social(tmp_path / "marks", marks=2, **args)
+    assert again["trend"] == marked["trend"] and again["per_seed_trend"] == marked["per_seed_trend"]
+    # marks of one's own on the command line: checked before anything trains
+    code, _, err = run(capsys, "experiment", "crossroads-social", "--steps", "2048", "--marks-at", "4096", "--out",
+                       tmp_path / "bad")
+    assert code == 2 and "--marks-at takes env-step counts from 1 to --steps" in err
+
+
+def test_the_committed_readmes_are_what_their_reports_give(capsys, tmp_path):
+    """`--readme-only` writes a report folder's README again from its report.json; a baselines report
+    made before the curve noise and rank half-widths were measured gets them from its checkpoints
+    (whose rank interval's ends older reports name rank_best and rank_worst)."""
+    import shutil
+    from pathlib import Path
+
+    committed = Path(__file__).resolve().parents[1] / "experiments"
+    for name, which in [("crossroads-social", ["crossroads-social"]),
+                        ("baselines-crossroads", ["baselines", "Crossroads-2T2P-v1"]),
+                        ("baselines-pushbox", ["baselines", "PushBox-2T2P-v1"])]:
+        folder = tmp_path / name
+        shutil.copytree(committed / name, folder)
+        report = json.loads((folder / "report.json").read_text())
+        if "noise" in report:  # as the report was before these were measured
+            for key in ("episode_reward", "percentile"):
+                for field in ("curve_sd", "curve_sd_relative", "range"):
+                    report["noise"][key].pop(field)
+            report["noise"].pop("curve_trend")
+            report.pop("rank_half_width")
+            (folder / "report.json").write_text(json.dumps(report, indent=1))
+        (folder / "README.md").unlink()
+        code, _, err = run(capsys, "experiment", *which, "--readme-only", "--out", folder)
+        assert code == 0, err
+        assert (folder / "README.md").read_text() == (committed / name / "README.md").read_text()
+        assert json.loads((folder / "report.json").read_text()) == json.loads(
+            (committed / name / "report.json").read_text())
+    rank = json.loads((committed / "baselines-crossroads" / "report.json").read_text())["rank_half_width"]
+    first = json.loads((committed / "baselines-crossroads" / "report.json").read_text())["runs"]["dppo"][0]
+    assert rank["target"] == 5 and len(rank["median"]) == len(first["checkpoints"]) == 6
+    code, _, err = run(capsys, "experiment", "crossroads-social", "--readme-only", "--out", tmp_path / "none")
+    assert code == 2 and "no report.json in" in err
+
+
+def test_placement_budget_places_a_middle_member_until_its_interval_is_narrow():
+    result = placement_budget("Crossroads-2T2P-v1", members=1, max_budget=24, simulated=20, target=5)
+    member = result["members"][0]
+    assert result["base_size"] == 100 and 40 <= member["rank_in_base"] <= 61
+    widths = member["half_width_by_match"]
+    assert 1 <= len(widths) <= 24 and member["rank_lower"] <= member["rank"] <= member["rank_upper"]
+    assert member["matches_to_target"] in (None, len(widths))
+    assert 0 <= result["simulated"]["reached_share"] <= 1 and result["simulated"]["median_matches"] <= 24
+    with pytest.raises(ValueError, match="at least 1"):
+        placement_budget("Crossroads-2T2P-v1", members=0)
+
+
 def test_crossroads_social_end_to_end_and_deterministic(capsys, tmp_path):
     argv = ["experiment", "crossroads-social", "--seeds", "0", "1", "--steps", "1024", "--episodes", "2",
             "--max-cycles", "40", "--json"]
@@ -115,6 +206,12 @@ def test_baselines_end_to_end_at_a_tiny_budget(capsys, tmp_path):
     poi = report["probability_of_improvement"]
     assert poi["dppo"]["sp"] + poi["sp"]["dppo"] == pytest.approx(1.0)
     assert {"episode_reward", "percentile"} <= set(report["noise"])
+    # fewer than three checkpoints: no interior one, so no noise about a trend; the rank half-width at each
+    assert report["noise"]["percentile"]["curve_sd"] == dict.fromkeys(BASELINES)
+    half = report["rank_half_width"]
+    assert len(half["median"]) == len(half["met"]) == len(report["checkpoints"])
+    assert set(half["by_method"]) == set(BASELINES)
+    assert "Placement precision" in (tmp_path / "README.md").read_text()
     assert (tmp_path / "curves.png").stat().st_size > 0 and (tmp_path / "report.json").exists()
     # again into the same folder, the log on: every run and placement is read back, the report the same
     code, _, err = run(capsys, "experiment", "baselines", "Crossroads-2T2P-v1", "--seeds", "0", "1", "--steps",

@@ -30,6 +30,12 @@ Crossroads social-tree study (:func:`crossroads_social`)
 
     Each measure is averaged over a seed's episodes; across seeds the report gives the mean and a
     95% bootstrap interval (percentile, resampling seeds; with few seeds the interval is coarse).
+    The agents are measured so at every mark of :func:`social_marks` (``marks`` log-spaced env-step
+    counts ending at ``steps``, or ``marks_at``): each run snapshots its learners at the first
+    iteration past a mark, and each mark's agents play the same seeded episodes, so the report
+    (``trend``, the README's trend tables, ``trend.png``) gives every measure and the paper's
+    claims by budget; the last mark is the end point, the figures of a run evaluated at its end
+    only.
     A traffic jam can also put a standing agent on the other road: ``blocking_steps`` counts it,
     which is why the report sets it beside the collisions and the arrival steps.
 
@@ -43,10 +49,18 @@ Baselines by population performance (:func:`baselines`)
     curves per method and seed, the interquartile mean of the final percentile per method with a
     stratified bootstrap interval, the probability-of-improvement matrix of the final
     percentiles, and each signal's *ordering noise*: how often the order of two methods (by their
-    mean over seeds) flips between consecutive checkpoints, as a share of method pairs.
+    mean over seeds) flips between consecutive checkpoints, as a share of method pairs. Beside it,
+    each method's *curve noise* per signal (:func:`curve_noise`: the SD of a run's checkpoint curve
+    about its centred moving average over 3 checkpoints, pooled over seeds, also relative to the
+    signal's range over the report), and the placements' rank-interval half-width by checkpoint
+    (median over runs) against the target of :data:`RANK_TARGET` places;
+    :func:`placement_budget` (``benchmarks/placement_budget.py``) measures the budget that meets it
+    in the middle of a population.
 
-Both are resumable: a training run already finished under ``out/runs`` is read back, not retrained
-(and the baselines' placements of its checkpoints, kept beside it, are not played again).
+Both are resumable: a run stopped anywhere resumes from its checkpoint under ``out/runs``, a
+finished one is read back, not retrained, and what was measured of it, kept beside it (the social
+study's evaluations at its marks, the baselines' placements of its checkpoints), is not played
+again. :func:`rewrite_readme` writes a report folder's README again from its ``report.json``.
 """
 
 from __future__ import annotations
@@ -77,7 +91,11 @@ __all__ = [
     "baselines",
     "crossroads_behaviour",
     "crossroads_social",
+    "curve_noise",
     "ordering_flips",
+    "placement_budget",
+    "rewrite_readme",
+    "social_marks",
 ]
 
 CROSSROADS = "Crossroads-2T2P-v1"
@@ -101,6 +119,9 @@ SOCIAL_MEASURES = {
     "blocking_share": f"share of episodes with an agent blocking for at least {BLOCKING_MIN_STEPS} steps",
 }
 REPORT_FILE = "report.json"
+#: The rank interval the study's placements should reach: at most this many places either side.
+RANK_TARGET = 5.0
+CURVE_TREND = "centred moving average over 3 checkpoints"
 LEVEL = 0.95
 
 
@@ -226,20 +247,32 @@ def _episode_measures(state: np.ndarray, teams: np.ndarray, direction: np.ndarra
             "blocking_share": float((blocking.sum(axis=0) >= BLOCKING_MIN_STEPS).any())}
 
 
+def social_marks(steps: int, marks: int = 5, marks_at: Sequence[int] | None = None) -> list[int]:
+    """The env-step marks at which the social study evaluates its runs: ``marks_at`` (sorted, with
+    ``steps`` added as the last), else ``marks`` log-spaced marks ending at ``steps``
+    (:func:`checkpoint_steps`, one 1,024-step iteration apart at least)."""
+    if marks_at:
+        values = sorted({int(m) for m in marks_at})
+        if values[0] < 1 or values[-1] > steps:
+            raise ValueError(f"--marks-at takes env-step counts from 1 to --steps ({steps:,}), got {values}")
+        return values if values[-1] == steps else [*values, steps]
+    return checkpoint_steps(steps, marks, 1024)
+
+
 def crossroads_social(out: str | Path, *, seeds: Sequence[int] = (0, 1, 2), steps: int = 300_000,
                       episodes: int = 50, trees: Sequence[str] | None = None, max_cycles: int | None = None,
-                      reps: int = 2000, log: Callable[[str], None] | None = None,
-                      spread: Spread | None = None) -> dict[str, Any]:
+                      marks: int = 5, marks_at: Sequence[int] | None = None, reps: int = 2000,
+                      log: Callable[[str], None] | None = None, spread: Spread | None = None) -> dict[str, Any]:
     """Trains the paper's three Crossroads trees (D-PPO, one learner per seat) for ``steps`` env
-    steps per seed, measures the trained agents' behaviour over ``episodes`` episodes, and writes
-    ``report.json``, ``measures.png`` and ``README.md`` into ``out``; returns the report. With
-    ``spread``, the runs are trained first, side by side (:class:`Spread`)."""
+    steps per seed, measures the agents' behaviour over ``episodes`` episodes at every mark of
+    :func:`social_marks` (the last the trained agents), and writes ``report.json``,
+    ``measures.png``, ``trend.png`` and ``README.md`` into ``out``; returns the report. With
+    ``spread``, the runs are trained and evaluated first, side by side (:class:`Spread`)."""
     from arena_league.envs import example_trees
-    from arena_league.policies.families import TorchPolicy
-    from arena_league.training.schemes import run_scheme
 
     say = _say(log)
     seeds = _check_budget(seeds, steps, episodes, "episodes")
+    at = social_marks(steps, marks, marks_at)
     case_trees = example_trees(CROSSROADS)
     names = list(trees or case_trees)
     unknown = [t for t in names if t not in case_trees]
@@ -248,36 +281,106 @@ def crossroads_social(out: str | Path, *, seeds: Sequence[int] = (0, 1, 2), step
     out = _report_folder(out)
     started = time.perf_counter()
     if spread is not None:
-        spread.run({(name, seed): (_social_run, (name, seed, steps, case_trees[name], max_cycles, out))
+        spread.run({(name, seed): (_social_run, (name, seed, steps, case_trees[name], max_cycles, out, at, episodes))
                     for name in names for seed in seeds}, say)
-    per_seed: dict[str, dict[str, list[float]]] = {}
+    # per tree and measure: one list of per-seed values per mark
+    trend: dict[str, dict[str, list[list[float]]]] = {}
+    mark_steps: dict[str, list[list[int]]] = {}
     for name in names:
-        per_seed[name] = {m: [] for m in SOCIAL_MEASURES}
+        trend[name] = {m: [[] for _ in at] for m in SOCIAL_MEASURES}
+        mark_steps[name] = []
         for seed in seeds:
-            say(f"{name}, seed {seed}: {steps:,} env steps (D-PPO, one learner per seat)")
-            iterations: list[Any] = []
-            snapshots = run_scheme("dppo", CROSSROADS, steps=steps, seed=seed, snapshot_every=None,
-                                   out_dir=out / "runs" / name, tree=case_trees[name], per="agent",
-                                   max_cycles=max_cycles, callback=lambda trainer, row, seen=iterations: seen.append(row))
-            say(f"{name}, seed {seed}: " + ("trained" if iterations else f"read back from {out / 'runs' / name}"))
-            final = max(s.steps for s in snapshots)
-            seats = sorted((s for s in snapshots if s.steps == final), key=lambda s: s.learner)
-            policies = [TorchPolicy(s.architecture, s.params, name=s.learner) for s in seats]
-            measured = crossroads_behaviour(policies, case_trees[name], episodes, seed, max_cycles=max_cycles)
-            for m in SOCIAL_MEASURES:
-                per_seed[name][m].append(float(np.mean([e[m] for e in measured])))
-            say(f"{name}, seed {seed}: " + ", ".join(f"{m} {per_seed[name][m][-1]:.2f}" for m in SOCIAL_MEASURES))
+            say(f"{name}, seed {seed}: {steps:,} env steps (D-PPO, one learner per seat), evaluated at {at}")
+            evaluated, trained = _social_run(name, seed, steps, case_trees[name], max_cycles, out, at, episodes)
+            say(f"{name}, seed {seed}: " + ("trained" if trained else f"read back from {out / 'runs' / name}"))
+            mark_steps[name].append([e["env_steps"] for e in evaluated])
+            for k, e in enumerate(evaluated):
+                for m in SOCIAL_MEASURES:
+                    trend[name][m][k].append(e["measures"][m])
+            say(f"{name}, seed {seed}: " + ", ".join(f"{m} {evaluated[-1]['measures'][m]:.2f}"
+                                                     for m in SOCIAL_MEASURES))
+    per_seed = {name: {m: values[-1] for m, values in trend[name].items()} for name in names}
     report = {"game": CROSSROADS, "seeds": seeds, "steps_per_run": int(steps),
               "trees": {name: {m: _interval(v, 0, reps) for m, v in per_seed[name].items()} for name in names},
               "scheme": "dppo (one learner per seat)", "episodes_per_seed": int(episodes),
               "max_cycles": max_cycles, "level": LEVEL, "measures": SOCIAL_MEASURES, "per_seed": per_seed,
-              "tree_specs": {name: case_trees[name] for name in names},
-              "seconds": round(time.perf_counter() - started, 1)}
+              "tree_specs": {name: case_trees[name] for name in names}, "marks": at, "mark_steps": mark_steps,
+              "trend": {name: {m: [_interval(v, 0, reps) for v in values] for m, values in trend[name].items()}
+                        for name in names},
+              "per_seed_trend": trend, "seconds": round(time.perf_counter() - started, 1)}
     report["findings"] = social_findings(report)
+    report["findings_by_mark"] = [social_findings({"trees": {name: {m: report["trend"][name][m][k]
+                                                                     for m in SOCIAL_MEASURES} for name in names}})
+                                  for k in range(len(at))]
     _write(out, report)
-    _social_plot(report, out / "measures.png")
-    (out / "README.md").write_text(social_readme(report))
+    _social_files(report, out)
     return report
+
+
+def rewrite_readme(out: str | Path) -> dict[str, Any]:
+    """Writes the ``README.md`` of a report folder again from its ``report.json``, training and
+    playing nothing (after the README's wording changed); a baselines report made before the curve
+    noise and the rank half-widths were measured gets them, from the checkpoints it holds, in its
+    ``report.json`` too. Returns the report."""
+    out = Path(out)
+    path = out / REPORT_FILE
+    if not path.is_file():
+        raise ValueError(f"no {REPORT_FILE} in {out}; give the folder of a report with --out")
+    report = json.loads(path.read_text())
+    if "trees" in report:
+        (out / "README.md").write_text(social_readme(report))
+        return report
+    if "curve_sd" not in report["noise"]["percentile"] or "rank_half_width" not in report:
+        _baselines_spread(report)
+        _write(out, report)
+    (out / "README.md").write_text(baselines_readme(report))
+    return report
+
+
+def _social_files(report: Mapping[str, Any], out: Path) -> None:
+    """The plots and README of a social report (``trend.png`` only when it has a trend)."""
+    _social_plot(report, out / "measures.png")
+    if len(report.get("marks", [])) > 1:
+        _social_trend_plot(report, out / "trend.png")
+    (out / "README.md").write_text(social_readme(report))
+
+
+def _social_run(name: str, seed: int, steps: int, tree: Any, max_cycles: int | None, out: Path, marks: list[int],
+                episodes: int) -> tuple[list[dict[str, Any]], bool]:
+    """One run of the social study, trained into (or found in) ``out/runs/name`` with a snapshot
+    at every mark, and its agents evaluated at each mark (kept beside the run, in
+    ``behaviour-seed<seed>.json``, and read back from it): per mark, the env steps of its
+    snapshot and the measures' means over the episodes. Also whether the run trained now."""
+    from arena_league.policies.families import TorchPolicy
+    from arena_league.policies.threads import torch_threads
+    from arena_league.training.schemes import run_scheme
+
+    folder = out / "runs" / name
+    iterations: list[Any] = []
+    # only marks before the end: one mark (the end) asks for the run the study trained before marks
+    extra = {"snapshot_at": [m for m in marks if m < steps]} if len(marks) > 1 else {}
+    with torch_threads(1):
+        snapshots = run_scheme("dppo", CROSSROADS, steps=steps, seed=seed, snapshot_every=None, out_dir=folder,
+                               tree=tree, per="agent", max_cycles=max_cycles,
+                               callback=lambda trainer, row: iterations.append(row), **extra)
+    taken = sorted({s.steps for s in snapshots if s.steps > 0})
+    path = folder / f"behaviour-seed{seed}.json"
+    key = {"episodes": int(episodes), "max_cycles": max_cycles}
+    saved = json.loads(path.read_text()) if path.exists() else {}
+    # evaluations of a retrained run, or of other episodes, are not these
+    done = saved.get("evaluations", {}) if saved.get("key") == key and not iterations else {}
+    evaluated = []
+    for mark in marks:
+        at = next((t for t in taken if t >= mark), taken[-1])
+        if str(at) not in done:
+            seats = sorted((s for s in snapshots if s.steps == at), key=lambda s: s.learner)
+            with torch_threads(1):
+                policies = [TorchPolicy(s.architecture, s.params, name=s.learner) for s in seats]
+                measured = crossroads_behaviour(policies, tree, episodes, seed, max_cycles=max_cycles)
+            done[str(at)] = {m: float(np.mean([e[m] for e in measured])) for m in SOCIAL_MEASURES}
+            path.write_text(json.dumps({"key": key, "evaluations": done}))
+        evaluated.append({"mark": mark, "env_steps": at, "measures": done[str(at)]})
+    return evaluated, bool(iterations)
 
 
 def _separated(a: Mapping[str, float], b: Mapping[str, float]) -> str:
@@ -351,9 +454,68 @@ def social_readme(report: Mapping[str, Any]) -> str:
     for f in report["findings"]:
         verdict = "shown" if f["holds"] else f"not shown (intervals: {f['observed']})"
         lines.append(f"* {f['claim']}: **{verdict}** ({f['measure']}, {f['trees'][0]} vs {f['trees'][1]})")
+    lines += _social_trend_lines(report)
     lines += ["", "## Measures", ""] + [f"* `{m}`: {text}" for m, text in SOCIAL_MEASURES.items()]
     lines += ["", "![measures](measures.png)", ""]
+    if len(report.get("marks", [])) > 1:
+        lines += ["![trend](trend.png)", ""]
     return "\n".join(lines)
+
+
+def _social_trend_lines(report: Mapping[str, Any]) -> list[str]:
+    """The README's trend with budget: each measure at every mark, and the claims at every mark
+    (none for a report made before the study had marks, or with one mark only)."""
+    marks = report.get("marks", [])
+    if len(marks) < 2:
+        return []
+    names = list(report["trees"])
+    lines = ["", "## Trend with budget", "",
+             f"The same measures at each env-step mark of every run ({', '.join(f'{m:,}' for m in marks)}; a "
+             "snapshot is taken at the first iteration past a mark), each mark's agents playing the same "
+             f"{report['episodes_per_seed']} seeded episodes; the last mark is the table above."]
+    if report["findings"]:
+        lines += ["", "The paper's claims by mark (**shown**, or how the intervals compare):", "",
+                  "| env steps | " + " | ".join(f"{f['measure']} ({f['trees'][0]} vs {f['trees'][1]})"
+                                              for f in report["findings"]) + " |",
+                  "|---|" + "---|" * len(report["findings"])]
+        for mark, findings in zip(marks, report["findings_by_mark"]):
+            lines.append(f"| {mark:,} | " + " | ".join("**shown**" if f["holds"] else f["observed"]
+                                                      for f in findings) + " |")
+    for m in SOCIAL_MEASURES:
+        lines += ["", f"`{m}`:", "", "| env steps | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+        for k, mark in enumerate(marks):
+            cells = [f"{report['trend'][t][m][k]['mean']:.2f} [{report['trend'][t][m][k]['lower']:.2f}, "
+                     f"{report['trend'][t][m][k]['upper']:.2f}]" for t in names]
+            lines.append(f"| {mark:,} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def _social_trend_plot(report: Mapping[str, Any], path: Path) -> None:
+    from arena_league.training.curves import pyplot, save_figure
+
+    plt = pyplot()
+    measures = list(SOCIAL_MEASURES)
+    marks = report["marks"]
+    fig, axes = plt.subplots(2, math.ceil(len(measures) / 2), figsize=(13, 6))
+    for ax, m in zip(axes.flat, measures):
+        for i, (tree, by_measure) in enumerate(report["trend"].items()):
+            points = by_measure[m]
+            ax.plot(marks, [p["mean"] for p in points], color=f"C{i}", marker="o", markersize=3, label=tree)
+            ax.fill_between(marks, [p["lower"] for p in points], [p["upper"] for p in points], color=f"C{i}",
+                            alpha=0.2)
+        ax.set_xscale("log")
+        ax.xaxis.set_minor_locator(plt.NullLocator())  # ticks at the marks say more, and lay out faster
+        ax.set_xticks(marks, [f"{m / 1e6:.3g}M" if m >= 1e6 else f"{m / 1e3:.3g}k" for m in marks], fontsize=7)
+        ax.set_title(m, fontsize=9)
+        ax.tick_params(labelsize=8)
+        ax.grid(alpha=0.3)
+    axes.flat[0].legend(fontsize=8)
+    for ax in list(axes.flat)[len(measures):]:
+        ax.axis("off")
+    fig.suptitle(f"Crossroads-2T2P-v1: behaviour by env steps of training ({len(report['seeds'])} seeds; lines: mean, "
+                 "bands: 95% bootstrap over seeds)", fontsize=9)
+    fig.tight_layout()
+    save_figure(fig, path)
 
 
 # --- the five baselines by population performance -------------------------------------------------
@@ -394,6 +556,75 @@ def _place(game_id: str, entrant: Any, names: list[str], ratings: np.ndarray, po
     return {"rank": int(p.rank), "rank_lower": int(p.rank_lower), "rank_upper": int(p.rank_upper),
             "percentile": float(p.percentile), "percentile_lower": float(p.percentile_lower),
             "percentile_upper": float(p.percentile_upper), "rating": float(p.rating), "matches": int(chooser.matches)}
+
+
+class _TracedPlacement:
+    """An :class:`~arena_league.rating.AdaptivePlacement` that keeps its rank half-width after every match."""
+
+    def __init__(self, chooser: Any) -> None:
+        self.chooser = chooser
+        self.half_widths: list[float] = []
+
+    def next_opponent(self) -> int:
+        return self.chooser.next_opponent()
+
+    def record(self, opponent: int, score: float, side: int = 0) -> None:
+        self.chooser.record(opponent, score, side)
+        self.half_widths.append(float(self.chooser.placement.rank_half_width))
+
+    @property
+    def done(self) -> bool:
+        return self.chooser.done
+
+
+def placement_budget(game_id: str, population: str = "base-v1", *, target: float = RANK_TARGET, members: int = 1,
+                     max_budget: int = 300, seed: int = 0, simulated: int = 200) -> dict[str, Any]:
+    """The placement budget at which an entrant in the middle of ``game_id``'s base population gets a
+    rank interval of at most ``target`` places either side, measured two ways:
+
+    * ``members``: the ``members`` base members rated nearest the population's median, each placed
+      as the baselines experiment places a checkpoint (adaptive opponents, the whole base, a copy of
+      itself included), match by match until its half-width is at most ``target`` (from the
+      placement's minimum number of matches on) or ``max_budget`` matches; per member, the matches
+      that took (None: not within ``max_budget``) and the half-width after each match;
+    * ``simulated``: that many entrants of the median member's rating placed by simulation
+      (:func:`~arena_league.rating.simulate_placement`, Bradley-Terry outcomes, no draws, no match
+      played): the median matches and the share that reached ``target`` within ``max_budget``.
+    """
+    from arena_league.matchmaking import play_matches
+    from arena_league.matchmaking.selection import play_adaptive
+    from arena_league.policies.threads import torch_threads
+    from arena_league.rating import AdaptivePlacement, simulate_placement
+
+    if members < 1 or max_budget < 1 or simulated < 1 or not target > 0:
+        raise ValueError(f"members, max_budget and simulated must be at least 1 and target above 0, got {members}, "
+                         f"{max_budget}, {simulated} and {target}")
+    names, ratings, base = _base_population(game_id, population)
+    order = np.argsort(np.abs(ratings - np.median(ratings)), kind="stable")[:members]
+    placed = []
+    for k, index in enumerate(order):
+        chooser = _TracedPlacement(AdaptivePlacement(ratings, budget=max_budget, target_half_width=target))
+        agents = {**base, "entrant": base[names[index]]}
+        started = time.perf_counter()
+        with torch_threads(1):
+            play_adaptive("entrant", names, chooser, lambda specs, agents=agents: play_matches(specs, agents),
+                          game_id, league_seed=seed, first_match_id=(k + 1) * 100_000, max_matches=max_budget + 1)
+        widths = chooser.half_widths
+        reached = widths[-1] <= target and chooser.chooser.matches >= chooser.chooser.min_matches
+        p = chooser.chooser.placement
+        placed.append({"member": names[index], "rating": float(ratings[index]),
+                       "rank_in_base": int(1 + (ratings > ratings[index]).sum()),
+                       "matches_to_target": len(widths) if reached else None, "rank": int(p.rank),
+                       "rank_lower": int(p.rank_lower), "rank_upper": int(p.rank_upper),
+                       "half_width_by_match": widths, "seconds": round(time.perf_counter() - started, 1)})
+    simulation = simulate_placement(ratings, np.full(simulated, ratings[order[0]]), target_half_width=target,
+                                    budget=max_budget, seed=seed)
+    return {"game": game_id, "population": population, "base_size": len(names), "target_half_width": target,
+            "max_budget": max_budget, "seed": seed, "members": placed,
+            "simulated": {"entrants": simulated, "rating": float(ratings[order[0]]),
+                          "median_matches": simulation.median_matches,
+                          "reached_share": float(simulation.reached.mean()),
+                          "matches_90th_percentile": float(np.percentile(simulation.matches, 90))}}
 
 
 def _finite(value: Any) -> float | None:
@@ -459,16 +690,6 @@ class Spread:
             else f"{len(tasks)} runs as Ray tasks (cluster {self.address or 'RAY_ADDRESS or a local instance'})")
         run_tasks(tasks, lambda key, _: say(f"{', '.join(map(str, key))}: done"), backend=self.backend,
                   processes=self.processes, address=self.address)
-
-
-def _social_run(name: str, seed: int, steps: int, tree: Any, max_cycles: int | None, out: Path) -> None:
-    """One run of the social study, trained into (or found in) ``out/runs/name``."""
-    from arena_league.policies.threads import torch_threads
-    from arena_league.training.schemes import run_scheme
-
-    with torch_threads(1):
-        run_scheme("dppo", CROSSROADS, steps=steps, seed=seed, snapshot_every=None, out_dir=out / "runs" / name,
-                   tree=tree, per="agent", max_cycles=max_cycles)
 
 
 def _baselines_run(method: str, game_id: str, seed: int, steps: int, marks: list[int], tree: Any,
@@ -643,11 +864,62 @@ def _baselines_report(game_id: str, tree_name: str | None, population: str, base
     curves = {key: {m: mean_curve(m, key) for m in runs} for key in ("episode_reward", "percentile")}
     finite = {key: {m: c for m, c in per.items() if all(v is not None for v in c)} for key, per in curves.items()}
     noise = {key: {"ordering_flips": ordering_flips(per), "methods": list(per)} for key, per in finite.items()}
-    return {"game": game_id, "tree": tree_name or "default", "population": population, "base_size": base_size,
-            "methods": list(runs), "seeds": seeds, "steps_per_run": int(steps), "placement_budget": int(budget),
-            "checkpoints": marks, "level": LEVEL, "final": summary,
-            "probability_of_improvement": probability_of_improvement_matrix(final),
-            "noise": noise, "mean_curves": curves, "runs": runs}
+    report = {"game": game_id, "tree": tree_name or "default", "population": population, "base_size": base_size,
+              "methods": list(runs), "seeds": seeds, "steps_per_run": int(steps), "placement_budget": int(budget),
+              "checkpoints": marks, "level": LEVEL, "final": summary,
+              "probability_of_improvement": probability_of_improvement_matrix(final),
+              "noise": noise, "mean_curves": curves, "runs": runs}
+    _baselines_spread(report)
+    return report
+
+
+def curve_noise(curves: Sequence[Sequence[float | None]]) -> float | None:
+    """The noise SD of checkpoint curves around their own smoothed trend, pooled over the curves:
+    ``sqrt(3/2)`` times the root mean square of ``v[t] - (v[t-1] + v[t] + v[t+1]) / 3`` over the
+    interior checkpoints (a centred moving average over 3 checkpoints; the factor makes it the SD of
+    independent noise about a trend straight over three checkpoints, in log steps as they are
+    spaced). Triples with a missing value are skipped; None when no curve has one."""
+    residuals: list[float] = []
+    for curve in curves:
+        v = np.array([np.nan if x is None else x for x in curve], dtype=np.float64)
+        if len(v) >= 3:
+            r = v[1:-1] - (v[:-2] + v[1:-1] + v[2:]) / 3.0
+            residuals += [float(x) for x in r[np.isfinite(r)]]
+    return float(math.sqrt(1.5 * np.mean(np.square(residuals)))) if residuals else None
+
+
+def _rank_half_width(checkpoint: Mapping[str, Any]) -> float:
+    """Half the width of a placement's rank interval, in places (older reports name its ends
+    ``rank_best`` and ``rank_worst``)."""
+    lower = checkpoint.get("rank_lower", checkpoint.get("rank_best"))
+    upper = checkpoint.get("rank_upper", checkpoint.get("rank_worst"))
+    return 0.5 * (float(upper) - float(lower))
+
+
+def _baselines_spread(report: dict[str, Any]) -> None:
+    """Adds to a baselines report what its runs' checkpoints give besides the ordering noise: each
+    method's curve noise about its own trend (:func:`curve_noise`, per signal, and relative to the
+    signal's range over the report) and the placements' rank half-widths by checkpoint (median
+    over runs, and per method), against :data:`RANK_TARGET`. Reports written before these were
+    measured get them from the data they hold."""
+    runs = report["runs"]
+    for key in ("episode_reward", "percentile"):
+        per_run = {m: [[c[key] for c in r["checkpoints"]] for r in rs] for m, rs in runs.items()}
+        values = [v for curves in per_run.values() for curve in curves for v in curve if v is not None]
+        span = max(values) - min(values) if values else 0.0
+        sd = {m: curve_noise(curves) for m, curves in per_run.items()}
+        report["noise"][key]["curve_sd"] = sd
+        report["noise"][key]["curve_sd_relative"] = {m: None if v is None or span == 0 else v / span
+                                                     for m, v in sd.items()}
+        report["noise"][key]["range"] = span
+    report["noise"]["curve_trend"] = CURVE_TREND
+    half = {m: np.array([[_rank_half_width(c) for c in r["checkpoints"]] for r in rs]) for m, rs in runs.items()}
+    every = np.concatenate(list(half.values()), axis=0)
+    median = [float(v) for v in np.median(every, axis=0)]
+    report["rank_half_width"] = {
+        "target": RANK_TARGET, "median": median, "met": [v <= RANK_TARGET for v in median],
+        "env_steps": [int(c["env_steps"]) for c in next(iter(runs.values()))[0]["checkpoints"]],
+        "by_method": {m: [float(v) for v in np.median(h, axis=0)] for m, h in half.items()}}
 
 
 def _baselines_plot(report: Mapping[str, Any], path: Path) -> None:
@@ -704,6 +976,33 @@ def baselines_readme(report: Mapping[str, Any]) -> str:
     lines += ["", "Ordering noise (share of method pairs whose order flips between consecutive checkpoints; "
               "lower is a steadier signal):", "",
               f"* episode reward: {noise['episode_reward']['ordering_flips']:.2f}",
-              f"* population performance (percentile): {noise['percentile']['ordering_flips']:.2f}",
-              "", "![curves](curves.png)", ""]
+              f"* population performance (percentile): {noise['percentile']['ordering_flips']:.2f}"]
+    lines += _baselines_spread_lines(report)
+    lines += ["", "![curves](curves.png)", ""]
     return "\n".join(lines)
+
+
+def _baselines_spread_lines(report: Mapping[str, Any]) -> list[str]:
+    """The README's curve noise about each method's trend and the placements' rank half-widths."""
+    noise, methods = report["noise"], report["methods"]
+    if "curve_sd" not in noise["percentile"]:
+        return []
+
+    def cell(key: str, m: str) -> str:
+        sd, relative = noise[key]["curve_sd"].get(m), noise[key]["curve_sd_relative"].get(m)
+        return "n/a" if sd is None else f"{sd:.2f} ({relative:.2f})"
+
+    lines = ["", f"Curve noise about each method's own trend: the SD of a run's checkpoint curve about its "
+             f"{noise['curve_trend']} (interior checkpoints, pooled over seeds; in brackets, relative to the "
+             "signal's range over all runs and checkpoints, so the two signals compare; lower is steadier):", "",
+             "| method | percentile SD (relative) | episode reward SD (relative) |", "|---|---|---|"]
+    lines += [f"| {m} | {cell('percentile', m)} | {cell('episode_reward', m)} |" for m in methods]
+    rank = report["rank_half_width"]
+    met = sum(rank["met"])
+    lines += ["", f"Placement precision: the rank interval's half-width (median over runs) at the checkpoints "
+              f"{', '.join(f'{s:,}' for s in rank['env_steps'])}: "
+              f"{', '.join(f'{v:.1f}' for v in rank['median'])} places; the target of at most "
+              f"{rank['target']:.0f} places is met at {met} of {len(rank['median'])} checkpoints with "
+              f"{report['placement_budget']} matches (near the population's ends an interval is cut short "
+              "by the last place). `benchmarks/placement_budget.py` estimates the budget that meets it."]
+    return lines
