@@ -323,3 +323,27 @@ def test_two_worker_processes_run_each_job_exactly_once(sqlite_league: League) -
         owners = Counter(job.result["worker"] for job in list_jobs(session))
         assert queue_counts(session)["done"] == len(jobs)
     assert sum(owners.values()) == len(jobs)
+
+
+def test_a_stopped_worker_hands_its_job_back_through_a_busy_database(league, monkeypatch):
+    """A release that meets a locked database is tried again, so the job is queued at once rather than
+    left running until its lease expires (a killed server's workers all hand back together)."""
+    from sqlalchemy.exc import OperationalError
+
+    from arena_league.registry import jobs
+
+    job_id = _enqueue(league)
+    job = claim_job(league, "w1", lease_seconds=60, now=T0)
+    real, calls = jobs.release_job, []
+
+    def busy_once(league_, job_):
+        calls.append(job_.id)
+        if len(calls) == 1:
+            raise OperationalError("UPDATE jobs", {}, Exception("database is locked"))
+        real(league_, job_)
+
+    monkeypatch.setattr(jobs, "release_job", busy_once)
+    jobs._hand_back(league, job)
+    assert calls == [job_id, job_id]
+    row = _job(league, job_id)
+    assert (row.status, row.lease_owner, row.attempts) == ("queued", None, 0)

@@ -51,6 +51,7 @@ import signal
 import socket
 import sys
 import threading
+import time
 import traceback
 import uuid
 from collections.abc import Callable, Iterable, Mapping
@@ -662,13 +663,11 @@ def _run_one(
         logger.warning("job %d: lease lost (the job was cancelled, or another worker took it); stopped", job.id)
         return
     except KeyboardInterrupt:
-        with contextlib.suppress(LeaseLostError):  # already handed back (its parent ended) or taken
-            release_job(league, job)
+        _hand_back(league, job)
         raise
     except Exception as failure:  # any handler error fails this attempt; the worker goes on
         if STOP_SIGNALLED.is_set() or _orphaned(parent_pid):
-            with contextlib.suppress(LeaseLostError):  # the stop broke it: hand it back, as on KeyboardInterrupt
-                release_job(league, job)
+            _hand_back(league, job)  # the stop broke it: hand it back, as on KeyboardInterrupt
             raise KeyboardInterrupt from failure
         error = traceback.format_exc()
         logger.error("job %d (%s) failed on attempt %d:\n%s", job.id, job.kind, job.attempt, error)
@@ -681,6 +680,8 @@ def _run_one(
     if lease_lost.is_set():
         report.lost += 1
         logger.warning("job %d: lease lost while running; its result is discarded", job.id)
+        if _orphaned(parent_pid):
+            _hand_back(league, job)  # the lease keeper's own hand-back may have met a busy database
         return
     try:
         complete_job(league, job, result)
@@ -694,6 +695,23 @@ def _run_one(
         return
     report.completed += 1
     logger.info("job %d (%s) done", job.id, job.kind)
+
+
+def _hand_back(league: League, job: ClaimedJob, tries: int = 5) -> None:
+    """Release a held job on a stop, trying again while the database is busy (a server killed beside
+    its workers leaves them all handing back at once); after ``tries`` its lease runs out instead."""
+    for attempt in range(tries):
+        try:
+            release_job(league, job)
+            return
+        except LeaseLostError:  # already handed back, cancelled or taken: nothing to do
+            return
+        except _DATABASE_ERRORS as error:
+            if isinstance(error, _PERMANENT_ERRORS) or attempt == tries - 1:
+                logger.warning("job %d: could not hand it back (%s); it is retried once its lease expires",
+                               job.id, _one_line(error))
+                return
+            time.sleep(0.2 * 2 ** attempt)
 
 
 def _under_lease(league: League, handler: Handler, job: ClaimedJob, lease_seconds: float,
@@ -725,8 +743,7 @@ def _keep_lease(
         if _orphaned(parent_pid):
             logger.warning("job %d: the process that started this worker (pid %d) has ended; the job goes "
                            "back to the queue", job.id, parent_pid)
-            with contextlib.suppress(LeaseLostError, *_DATABASE_ERRORS):  # else its lease runs out
-                release_job(league, job)
+            _hand_back(league, job)
             context.lease_lost.set()
             return
         if not context.progressed.is_set():
