@@ -303,6 +303,9 @@ class GameRules(ABC):
     #: after populations were built with the first, adds ``-vV`` to the name and is passed to
     #: ``search`` as ``version=V`` (the first never is, so a game with one version takes no argument).
     search_versions: ClassVar[tuple[int, ...]] = (1,)
+    #: Why this game's search plays no random rollouts, where it plays none: ``arena_league.policies.scripted``
+    #: then refuses any ``R`` but 1 with this reason (None: the game takes rollouts).
+    search_without_rollouts: ClassVar[str | None] = None
     #: A game may offer its heuristic with other constants, ``heuristic(obs, action_type, **options)``:
     #: each option's (low, high) bounds, by name. ``arena_league.policies.scripted`` names such a
     #: tuned heuristic with its options, ``heuristic-lane0.6-side0.3``; none where the game has none.

@@ -18,7 +18,7 @@ improved keeps the first version under its old names (a population that holds on
 was rated as) and names the next with a suffix, ``-v2`` (``RULES.search_versions``). Their randomness comes from the
 engine's uniforms, so a match replays exactly; the budget is bounded (:data:`SEARCH_LIMITS`) so that
 no descriptor can ask for an unbounded search, and a game refuses a budget it cannot search (Snake's
-plays no rollouts: R must be 1) when the agent is made.
+plays no rollouts, ``RULES.search_without_rollouts``: R must be 1) when the agent is made.
 
 Some games (PushBox) also offer **tuned heuristics**: their heuristic with other constants
 (``RULES.heuristic_options``), named with them in alphabetical order, ``heuristic-lane0.6-side0.3``;
@@ -217,6 +217,11 @@ class SearchPolicy(Policy):
             raise ValueError(f"{game_id}'s search agent has version{'s' if len(versions) > 1 else ''} "
                              + ", ".join(map(str, versions)) + f", not {budget['version']}; "
                              + ("leave -v out" if versions == (1,) else "the first is named without -v"))
+        without, rollouts = game_spec(game_id).rules.search_without_rollouts, budget["rollouts"]
+        if without is not None and rollouts != 1:
+            one = name.replace(f"-r{rollouts}-", "-r1-", 1)
+            raise ValueError(f"{game_spec(game_id).rules.name}'s search plays no random rollouts ({without}): ask "
+                             f"for R = 1, as in {one}, not R = {rollouts}")
         self.spec = spec
         self.name = name
         self.budget = budget

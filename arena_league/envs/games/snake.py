@@ -984,9 +984,6 @@ def _shifted(a: np.ndarray, dr: int, dc: int) -> np.ndarray:
 def search_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
                  epsilon: float) -> np.ndarray:
     """The Snake search agent's action per observation row (module docstring, "Search agent")."""
-    if rollouts != 1:
-        raise ValueError(f"Snake's search plays no rollouts (its window holds no one else's moves): "
-                         f"ask for R = 1, as in search-w{width}-r1-h{horizon}, not R = {rollouts}")
     obs = np.asarray(obs, dtype=np.float32)
     n = len(obs)
     w, window, others = _window_parts(obs)
@@ -1223,6 +1220,7 @@ class SnakeRules(OneBoard, GameRules):
         return heuristic_actions(obs)
 
     search_budget_meaning: ClassVar[str] = SEARCH_BUDGET_MEANING
+    search_without_rollouts: ClassVar[str | None] = "its window holds no one else's moves"
 
     @staticmethod
     def search(obs: np.ndarray, uniforms: np.ndarray, *, action_type: str, width: int, rollouts: int, horizon: int,

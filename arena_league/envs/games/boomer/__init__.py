@@ -490,6 +490,7 @@ class BoomerRules(OneBoard, GameRules):
     search_budget_meaning: ClassVar[str] = (
         "W first actions (the tuned heuristic's own, then bomb, stop, up, down, left, right), each played out H "
         "steps on the board rebuilt from a duel seat's observation with both players' heuristics; R must be 1")
+    search_without_rollouts: ClassVar[str | None] = "both players' heuristics are deterministic"
 
     @staticmethod
     def search(obs: np.ndarray, uniforms: np.ndarray, *, action_type: str, width: int, rollouts: int, horizon: int,

@@ -101,9 +101,6 @@ def rebuild(obs: np.ndarray, copies: int) -> BoomerBoards:
 def search_moves(obs: np.ndarray, uniforms: np.ndarray, *, width: int, rollouts: int, horizon: int,
                  epsilon: float) -> np.ndarray:
     """The Boomer search agent's action per observation row (package docstring, "Search agent")."""
-    if rollouts != 1:
-        raise ValueError(f"Boomer's search plays no random rollouts (both players' heuristics are deterministic): "
-                         f"ask for R = 1, as in search-w{width}-r1-h{horizon}, not R = {rollouts}")
     if not 1 <= width <= len(_OTHERS):
         raise ValueError(f"Boomer's search has {len(_OTHERS)} actions to try: ask for W from 1 to {len(_OTHERS)}, "
                          f"not {width}")

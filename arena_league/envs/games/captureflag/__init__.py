@@ -473,14 +473,12 @@ class CaptureFlagRules(GameRules):
         "in a duel, with the opponent W steps away or nearer, every sequence of H moves played against the "
         "heuristic's predicted answers on the map rebuilt from the observation, to tag the opponent or raid past "
         "it; the tuned heuristic heuristic-commit0.5-hunt6-keep0.5-sortie0.9 elsewhere; R must be 1")
+    search_without_rollouts: ClassVar[str | None] = "the heuristic it plays against is deterministic"
 
     @staticmethod
     def search(obs: np.ndarray, uniforms: np.ndarray, *, action_type: str, width: int, rollouts: int, horizon: int,
                epsilon: float) -> np.ndarray:
         """:func:`~arena_league.envs.games.captureflag.search.search_moves`, ``epsilon`` of the moves random."""
-        if rollouts != 1:
-            raise ValueError(f"CaptureFlag's search plays no random rollouts (the heuristic is deterministic): ask "
-                             f"for R = 1, as in search-w{width}-r1-h{horizon}, not R = {rollouts}")
         obs = np.asarray(obs, dtype=np.float32)
         if obs.ndim != 2 or obs.shape[1] < N_HEADER or (obs.shape[1] - N_HEADER) % PER_OTHER:
             raise ValueError(f"CaptureFlag search: observations of shape {obs.shape} are not CaptureFlag's "
