@@ -89,3 +89,79 @@ def test_seat_thrust_scales_a_long_vector_back_and_names_compass_moves():
     discrete = SeatThrust(thrust, "discrete")
     discrete.set(np.array([0, 1, 3]), energy)  # noop, E, N
     assert np.allclose(thrust, [0.0, 1.0, 1.0j]) and energy.tolist() == [0.0, 1.0, 1.0]
+
+
+def _trace(env, seed: int) -> list[bytes]:
+    """Every step's observations and rewards of the match of ``seed``, with seeded random actions."""
+    rng = np.random.default_rng(seed)
+    out = [env.reset_arrays(seed=seed).tobytes()]
+    while True:
+        rules = env.rules
+        if rules.action_type == "discrete":
+            actions = rng.integers(0, rules.n_actions, size=rules.n_agents)
+        else:
+            actions = rng.uniform(-1.0, 1.0, size=(rules.n_agents, rules.act_dim))
+        obs, rewards, terminated, truncated = env.step_arrays(actions)
+        out += [obs.tobytes(), rewards.tobytes()]
+        if terminated or truncated:
+            return out
+
+
+@pytest.mark.parametrize("game_id, action_type, matches", [("BattleCity-2T2P-v1", "continuous", 24),
+                                                           ("Fighter-2T2P-v1", "discrete", 6),
+                                                           ("Soccer-2T2P-v1", "continuous", 3)])
+def test_a_reused_space_plays_every_seed_as_a_fresh_space_does(game_id, action_type, matches, monkeypatch):
+    from arena_league.envs import make
+    from arena_league.envs.physics2d import link
+
+    if not link.can_restart():
+        pytest.skip("pymunk's internals differ from what the reuse expects: every match gets a new space")
+    reused = make(game_id, action_type=action_type)
+    traces = [_trace(reused, seed) for seed in range(matches)]
+    space = reused.rules.world.space
+    assert _trace(reused, matches) and reused.rules.world.space is space, "the direct path reuses the space"
+    # the public path builds a new space every match: the reference (a tank kept with Chipmunk's
+    # bias velocity from its last contact changes BattleCity's third match)
+    monkeypatch.setattr(link, "FORCE_PUBLIC_API", True)
+    fresh = make(game_id, action_type=action_type)
+    for seed, trace in enumerate(traces):
+        assert _trace(fresh, seed) == trace, f"seed {seed}"
+    assert fresh.rules.world.space is not space
+
+
+def test_a_reused_space_holds_one_match_and_keeps_pymunks_records():
+    from arena_league.envs import make
+
+    env = make("BattleCity-2T2P-v1", action_type="continuous")
+    counts = set()
+    for seed in range(12):
+        _trace(env, seed)
+        world, tiles = env.rules.world, env.rules.tiles
+        space = world.space
+        # the walls, the tanks and one box per run of tiles: nothing from earlier matches stays
+        assert len(space.shapes) == 4 + 4 + len(tiles._shapes) and len(space.bodies) == 4
+        assert all(shape.space is space for shape in space.shapes)
+        counts.add(len(space.shapes))
+    assert len(counts) > 1, "different mazes, different numbers of boxes"
+
+
+def test_restart_and_renew_refuse_what_they_cannot_make_fresh():
+    import pymunk
+
+    from arena_league.envs.physics2d import link
+
+    if not link.can_restart():
+        pytest.skip("pymunk's internals differ from what restart expects")
+    space = pymunk.Space()
+    body = pymunk.Body(1.0, 1.0)
+    link.add_to(space, body, pymunk.Circle(body, 0.5))
+    with pytest.raises(ValueError, match="restart an empty space"):
+        link.restart(space)
+    with pytest.raises(ValueError, match="renew a body out of its space"):
+        link.renew(body)
+    link.remove_from(space, *space.shapes, body)
+    assert not space.shapes and not space.bodies and body.space is None
+    link.restart(space)
+    body.velocity = (3.0, 4.0)
+    link.renew(body)
+    assert tuple(body.velocity) == (0.0, 0.0) and tuple(body.position) == (0.0, 0.0)

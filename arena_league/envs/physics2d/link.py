@@ -27,6 +27,14 @@ remove objects or register post-step callbacks, and dynamic bodies of finite, po
 skips the assertion ``Space.step`` makes about bodies added since the last step). Bind again after
 adding or removing bodies or shapes.
 
+Filling and reusing a space
+    :func:`add_to` and :func:`remove_from` put bodies and shapes in a space and take them out as
+    ``Space.add`` and ``Space.remove`` do, keeping pymunk's records, without their per-object
+    checks. :func:`restart` sets an emptied space's counters back to zero and :func:`renew` a
+    removed body's state to a new one's, so that a world refills the previous match's space rather
+    than making a new one: a BattleCity match adds dozens of boxes, whose Python costs were most
+    of a reset. The matches are the same bit for bit (tests compare them with new spaces).
+
 Layout
     Bodies are visited in the order they were added to the space (the space's static body joins
     the first time ``space.static_body`` is touched); :attr:`SpaceLink.body_ids` lists them. Per
@@ -44,6 +52,7 @@ Arrays
 
 from __future__ import annotations
 
+import weakref
 from typing import Any, ClassVar
 
 import numpy as np
@@ -51,7 +60,8 @@ import pymunk
 import pymunk.batch
 from pymunk.batch import BodyFields
 
-__all__ = ["DIRECT_AVAILABLE", "FORCE_PUBLIC_API", "SPARE_CELLS", "BodyFields", "SpaceLink", "body_cells", "space_link"]
+__all__ = ["DIRECT_AVAILABLE", "FORCE_PUBLIC_API", "SPARE_CELLS", "BodyFields", "SpaceLink", "add_to", "body_cells",
+           "can_restart", "remove_from", "renew", "restart", "space_link"]
 
 #: Set to True to make every link created afterwards use pymunk's public API only.
 FORCE_PUBLIC_API = False
@@ -97,6 +107,40 @@ _DIRECT = _probe_direct()
 DIRECT_AVAILABLE = _DIRECT is not None
 if _DIRECT is not None:
     _ffi, _lib, _EACH_BODY, _EACH_ARBITER, _GET_BODIES, _SET_BODIES, _GET_ARBITERS = _DIRECT
+
+
+
+def _probe_fill() -> tuple[Any, ...] | None:
+    """What :func:`add_to`, :func:`remove_from` and :func:`restart` need of pymunk's internals (its
+    records of a space's shapes and bodies, and Chipmunk's counters), or None where they differ."""
+    if _DIRECT is None:
+        return None
+    try:
+        from pymunk._util import _dead_ref
+        lib = _DIRECT[1]
+        calls = (lib.cpSpaceAddShape, lib.cpSpaceRemoveShape, lib.cpSpaceAddBody, lib.cpSpaceRemoveBody,
+                 lib.cpSpaceSetShapeIDCounter, lib.cpSpaceSetTimestamp, lib.cpSpaceSetCurrentTimeStep,
+                 lib.cpBodyUpdatePosition)
+        space = pymunk.Space()
+        body = pymunk.Body(1.0, 1.0)
+        shape = pymunk.Circle(body, 1.0)
+        records = (space._shapes, space._bodies, space._bodies_to_check, shape._shape, body._body)
+        if not (isinstance(records[0], dict) and isinstance(records[1], dict) and isinstance(records[2], set)):
+            return None
+        space.add(body, shape)
+        if shape._space() is not space or body._space() is not space:
+            return None
+    except (ImportError, AttributeError, TypeError):
+        return None
+    return (_dead_ref, *calls)
+
+
+_FILL = _probe_fill()
+if _FILL is not None:
+    # what a new body's fields hold, set straight through Chipmunk (as pymunk's setters do)
+    _RENEWED = ((_lib.cpBodySetAngle, 0.0), (_lib.cpBodySetPosition, (0.0, 0.0)),
+                (_lib.cpBodySetVelocity, (0.0, 0.0)), (_lib.cpBodySetAngularVelocity, 0.0),
+                (_lib.cpBodySetForce, (0.0, 0.0)), (_lib.cpBodySetTorque, 0.0))
 
 
 def body_cells(fields: BodyFields) -> int:
@@ -286,3 +330,87 @@ def space_link(read: BodyFields, read_floats: np.ndarray, write: BodyFields | No
     :data:`FORCE_PUBLIC_API` is false; :meth:`SpaceLink.bind` it to a space before use."""
     cls = _DirectSpaceLink if DIRECT_AVAILABLE and not FORCE_PUBLIC_API else SpaceLink
     return cls(read, read_floats, write, write_floats, contacts)
+
+
+def can_restart() -> bool:
+    """Whether :func:`restart` is available (pymunk's internals as this module expects them, and
+    :data:`FORCE_PUBLIC_API` false): a world may then reuse one space from match to match."""
+    return _FILL is not None and not FORCE_PUBLIC_API
+
+
+def add_to(space: pymunk.Space, *objects: pymunk.Body | pymunk.Shape) -> None:
+    """``space.add(*objects)`` (bodies first, then shapes, each in the order given) for the objects
+    a world or a tile map made for ``space``: on the direct path Chipmunk's add is called with
+    pymunk's records of the space kept as ``Space.add`` keeps them, but without its checks, whose
+    Python costs several times the add itself (a maze adds dozens of boxes each match)."""
+    if not can_restart():
+        space.add(*objects)
+        return
+    _, add_shape, _, add_body, *_ = _FILL
+    owner = weakref.ref(space)
+    handle = space._space
+    shapes, bodies = space._shapes, space._bodies
+    for thing in objects:
+        if isinstance(thing, pymunk.Body):
+            object.__setattr__(thing, "_space", owner)
+            bodies[thing] = None
+            add_body(handle, thing._body)
+    for thing in objects:
+        if not isinstance(thing, pymunk.Body):
+            object.__setattr__(thing, "_space", owner)
+            shapes[thing] = None
+            add_shape(handle, thing._shape)
+
+
+def remove_from(space: pymunk.Space, *objects: pymunk.Body | pymunk.Shape) -> None:
+    """``space.remove(*objects)`` (each in ``space``), in the order given, on the direct path as
+    :func:`add_to` (pymunk's remove also keeps each removed shape until the next public step, which
+    a direct step never takes)."""
+    if not can_restart():
+        space.remove(*objects)
+        return
+    dead, _, remove_shape, _, remove_body, *_ = _FILL
+    handle = space._space
+    shapes, bodies, unchecked = space._shapes, space._bodies, space._bodies_to_check
+    for thing in objects:
+        object.__setattr__(thing, "_space", dead)
+        if isinstance(thing, pymunk.Body):
+            del bodies[thing]
+            unchecked.discard(thing)
+            remove_body(handle, thing._body)
+        else:
+            del shapes[thing]
+            remove_shape(handle, thing._shape)
+
+
+def restart(space: pymunk.Space) -> None:
+    """Set Chipmunk's shape-id counter, timestamp and last time step of ``space``, emptied of every
+    shape and of every body but its static one, back to a fresh space's zeros. Chipmunk orders its
+    collision work by shape ids and bounding-box trees, and an emptied tree refilled in the same
+    order is the tree a fresh space builds, so the space then fills and steps as a fresh one would,
+    bit for bit (a body kept from the last match is renewed first: :func:`renew`)."""
+    if not can_restart():
+        raise RuntimeError("restart needs pymunk's internals as arena_league expects them (pymunk>=7,<8) and "
+                           "FORCE_PUBLIC_API false; build a fresh pymunk.Space instead")
+    if space.shapes or any(body.body_type != pymunk.Body.STATIC for body in space.bodies):
+        raise ValueError("restart an empty space: remove every shape and every body but the static one first")
+    *_, set_counter, set_stamp, set_dt, _ = _FILL
+    set_counter(space._space, 0)
+    set_stamp(space._space, 0)
+    set_dt(space._space, 0.0)
+
+
+def renew(body: pymunk.Body) -> None:
+    """Give a dynamic ``body``, out of any space, the state of a new one: at rest at the origin,
+    angle zero, no force, and no bias velocity (the push apart of overlapping shapes that Chipmunk's
+    solver leaves for the next position update, which only that update clears: one of zero time
+    here, which moves nothing). Needs :func:`can_restart`."""
+    if not can_restart():
+        raise RuntimeError("renew needs pymunk's internals as arena_league expects them (pymunk>=7,<8) and "
+                           "FORCE_PUBLIC_API false; make a new body instead")
+    if body.space is not None:
+        raise ValueError("renew a body out of its space: remove it first")
+    handle = body._body
+    _FILL[-1](handle, 0.0)
+    for setter, value in _RENEWED:
+        setter(handle, value)

@@ -27,6 +27,7 @@ import numpy as np
 import pymunk
 
 from arena_league.envs.controls import key_controls
+from arena_league.envs.physics2d.link import add_to, remove_from
 from arena_league.envs.physics2d.rules import COMPASS_MOVE_NAMES
 from arena_league.envs.physics2d.world import Material
 
@@ -73,9 +74,12 @@ class TileMap:
         self._shapes: dict[tuple[int, int], pymunk.Shape] = {}
         self._last: dict[tuple[int, int], int] = {}
         self._space: pymunk.Space | None = None
-        # every box made so far, by (row, first, last): a box goes from match to match (on the
-        # match's static body), which spares making its pymunk shape again
-        self._boxes: dict[tuple[int, int, int], pymunk.Shape] = {}
+        # every box made so far, by (row, first, last), with the number of the static body it is on:
+        # a box goes from match to match (onto a new space's static body when the space is new),
+        # which spares making its pymunk shape again
+        self._boxes: dict[tuple[int, int, int], tuple[pymunk.Shape, int]] = {}
+        self._static: pymunk.Body | None = None
+        self._static_number = 0
 
     def centre(self, row: int, col: int) -> tuple[float, float]:
         """The world point at the centre of tile ``(row, col)``."""
@@ -90,39 +94,40 @@ class TileMap:
         shapes to make each match, and no seams for a body sliding along a wall), runs added row by
         row from the bottom, left to right (the boxes of an earlier layout in the same space leave
         it first)."""
-        placed = [box for box in self._shapes.values() if box.space is not None]
-        if placed:
-            placed[0].space.remove(*placed)
+        placed = list(self._shapes.values())
+        if placed and placed[0].space is not None:  # (a layout's boxes are all in its space, or none is)
+            remove_from(placed[0].space, *placed)
         self.kinds[:] = kinds
-        self._rows = rows = self.kinds.tolist()
+        self._rows = self.kinds.tolist()
         self._shapes, self._last = {}, {}
         self._space = space
-        shapes = []
-        for row, tiles in enumerate(rows):
-            col = 0
-            while col < self.n_cols:
-                if tiles[col] == EMPTY:
-                    col += 1
-                    continue
-                last = col
-                while last + 1 < self.n_cols and tiles[last + 1] != EMPTY:
-                    last += 1
-                shapes.append(self._run(row, col, last))
-                col = last + 1
+        if space.static_body is not self._static:
+            self._static = space.static_body
+            self._static_number += 1
+        # each run of solid tiles along a row: where the row turns solid, and where it turns empty again
+        solid = np.zeros((self.n_rows, self.n_cols + 2), dtype=np.int8)
+        np.not_equal(self.kinds, EMPTY, out=solid[:, 1:-1], casting="unsafe")
+        turns = np.diff(solid, axis=1)
+        rows, firsts = np.nonzero(turns == 1)
+        ends = np.nonzero(turns == -1)[1]
+        shapes = [self._run(row, first, end - 1) for row, first, end in zip(rows.tolist(), firsts.tolist(), ends.tolist())]
         if shapes:
-            space.add(*shapes)
+            add_to(space, *shapes)
 
     def _run(self, row: int, first: int, last: int) -> pymunk.Shape:
         """The box over tiles ``first`` to ``last`` of ``row``, noted under its first tile."""
-        static = self._space.static_body
-        box = self._boxes.get((row, first, last))
-        if box is None:
+        made = self._boxes.get((row, first, last))
+        if made is None:
             x0, y0 = self.origin[0] + first * self.tile, self.origin[1] + row * self.tile
             x1, y1 = self.origin[0] + (last + 1) * self.tile, y0 + self.tile
-            box = self._boxes[row, first, last] = pymunk.Poly(static, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+            box = pymunk.Poly(self._static, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
             self.material.apply(box)
-        elif box.body is not static:
-            box.body = static
+            self._boxes[row, first, last] = box, self._static_number
+        else:
+            box, number = made
+            if number != self._static_number:
+                box.body = self._static
+                self._boxes[row, first, last] = box, self._static_number
         self._shapes[row, first] = box
         self._last[row, first] = last
         return box
@@ -137,13 +142,13 @@ class TileMap:
         while first > 0 and tiles[first - 1] != EMPTY:
             first -= 1
         last = self._last.pop((row, first))
-        self._space.remove(self._shapes.pop((row, first)))
+        remove_from(self._space, self._shapes.pop((row, first)))
         self.kinds[row, col] = EMPTY
         tiles[col] = EMPTY
         parts = ([self._run(row, first, col - 1)] if col > first else []) + (
             [self._run(row, col + 1, last)] if col < last else [])
         if parts:
-            self._space.add(*parts)
+            add_to(self._space, *parts)
 
     def first_solid(self, x0: float, y0: float, x1: float, y1: float) -> tuple[float, int, int]:
         """Walk the tiles the segment from ``(x0, y0)`` to ``(x1, y1)`` crosses, in order, and give

@@ -22,12 +22,25 @@ from typing import Any
 import numpy as np
 import pymunk
 
-from arena_league.envs.physics2d.link import BodyFields, SpaceLink, body_cells, space_link
+from arena_league.envs.physics2d.link import (
+    BodyFields,
+    SpaceLink,
+    add_to,
+    body_cells,
+    can_restart,
+    remove_from,
+    renew,
+    restart,
+    space_link,
+)
 
 __all__ = ["ONE", "Bodies", "Field", "Material", "Walls", "World"]
 
 #: The name of a one-cell slot that always holds 1.0 (the constant column of affine maps).
 ONE = "one"
+
+#: The filter of a new shape: in every category, colliding with every category.
+_ANY = pymunk.ShapeFilter()
 
 #: Pymunk's batch array grows (reallocates) when fewer than 3 free cells are left: room left after
 #: the bodies' block.
@@ -190,6 +203,11 @@ class World:
         self._placement: np.ndarray | None = None
         self.space: pymunk.Space | None = None
         self.bodies: dict[str, list[pymunk.Body]] = {}
+        # each Walls part's segments on the current space, made with it and added again on reuse
+        self._walls: list[list[pymunk.Shape]] = []
+        # each kind's bodies and their shapes on the current space, renewed for the next match on reuse
+        self._made: dict[str, list[tuple[pymunk.Body, pymunk.Shape]]] = {}
+        self._reuses = self.link.direct and not contacts and can_restart()
 
     # --- addresses ---------------------------------------------------------------------------
     def index(self, name: str, k: int = 0) -> int:
@@ -225,44 +243,67 @@ class World:
     # --- the match ---------------------------------------------------------------------------
     def build(self, positions: Mapping[str, Any], velocities: Mapping[str, Any] | None = None,
               angles: Mapping[str, Any] | None = None) -> pymunk.Space:
-        """A fresh space for a new match (no cached contacts survive from the previous one, so a
-        seed gives the same match whatever was played before): every part added in declared
-        order, each kind of body at ``positions[name]`` (``(count, 2)``), with optional velocities
-        and angles. Reads the bodies into the work vector."""
+        """A space for a new match, as fresh as a new one (no cached contacts survive from the
+        previous match, so a seed gives the same match whatever was played before): every part
+        added in declared order, each kind of body at ``positions[name]`` (``(count, 2)``), with
+        optional velocities and angles. Reads the bodies into the work vector.
+
+        Where the link can (:func:`~arena_league.envs.physics2d.link.can_restart`, and no contacts
+        are read, whose order follows Chipmunk's arbiter table), the previous match's space is
+        emptied and restarted rather than made again, its walls and bodies kept to add again: bit for bit the
+        same matches, for a fraction of the cost of a new space and its shapes."""
         velocities = velocities or {}
         angles = angles or {}
         f = self.field
-        space = pymunk.Space()
-        space.damping = f.damping
-        space.collision_slop = f.collision_slop
-        if f.collision_bias is not None:
-            space.collision_bias = f.collision_bias
+        space = self.space
+        reuse = space is not None and self._reuses
+        if reuse:
+            remove_from(space, *space.shapes, *space.bodies)
+            restart(space)
+        else:
+            space = pymunk.Space()
+            space.damping = f.damping
+            space.collision_slop = f.collision_slop
+            if f.collision_bias is not None:
+                space.collision_bias = f.collision_bias
+            self._walls, self._made = [], {}
         self.bodies = {}
+        walls = iter(self._walls if reuse else ())
         for part in f.parts:
             if isinstance(part, Walls):
-                segments = []
-                for a, b in part.segments:
-                    segment = pymunk.Segment(space.static_body, a, b, part.radius)
-                    part.material.apply(segment)
-                    segments.append(segment)
+                segments = next(walls, None)
+                if segments is None:
+                    segments = []
+                    for a, b in part.segments:
+                        segment = pymunk.Segment(space.static_body, a, b, part.radius)
+                        part.material.apply(segment)
+                        segments.append(segment)
+                    self._walls.append(segments)
                 if part.one_by_one:
                     for segment in segments:
-                        space.add(segment)
+                        add_to(space, segment)
                 else:
-                    space.add(*segments)
+                    add_to(space, *segments)
                 continue
             xy = np.asarray(positions[part.name], dtype=np.float64).reshape(part.count, 2)
             velocity = velocities.get(part.name)
             angle = angles.get(part.name)
             placed = []
+            made = self._made.setdefault(part.name, [])
             for k in range(part.count):
-                body, shape = part.make(k)
+                if reuse:
+                    body, shape = made[k]
+                    renew(body)
+                    shape.filter = part.material_of(k).filter or _ANY  # (a game may have taken it out of play)
+                else:
+                    body, shape = part.make(k)
+                    made.append((body, shape))
                 body.position = float(xy[k, 0]), float(xy[k, 1])
                 if velocity is not None:
                     body.velocity = float(velocity[k][0]), float(velocity[k][1])
                 if angle is not None:
                     body.angle = float(angle[k])
-                space.add(body, shape)
+                add_to(space, body, shape)
                 placed.append(body)
             self.bodies[part.name] = placed
         self.space = space
