@@ -7,6 +7,7 @@ means.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -49,6 +50,7 @@ START_TILES = {1: ((0, 3),), 2: ((0, 3), (0, GRID - 4))}
 #: Draws of a maze before its steel is dropped (a closed-off maze is redrawn; rarely needs two).
 _MAZE_TRIES = 50
 #: A tile and its four neighbours: what joins passable tiles into one region.
+_RING = tuple(np.array(BASE_RING).T)  # (rows, cols): the ring's tiles as one index
 _FOUR_NEIGHBOURS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
 
 
@@ -78,26 +80,36 @@ def draw_maze(rng: np.random.Generator, players: int, brick: float, steel: float
     ``steel`` and brick with ``brick``, the starts and the tiles beside them cleared, each base in
     its ring of bricks; redrawn until every open or brick tile can be reached from every start
     without crossing steel (steel dropped after ``_MAZE_TRIES`` draws)."""
-    keep_clear = set()
-    for row, col in start_tiles(players):
-        keep_clear |= {(row + dr, col + dc) for dr, dc in ((0, 0), (1, 0), (-1, 0), (0, 1), (0, -1))}
+    cleared, start = _cleared(players), start_tiles(players)[0]
     for attempt in range(_MAZE_TRIES + 1):
         draw = rng.random((GRID // 2 + 1, GRID))
         steel_now = steel if attempt < _MAZE_TRIES else 0.0
         kinds = np.zeros((GRID, GRID), dtype=np.int8)
-        kinds[: GRID // 2 + 1] = np.where(draw < steel_now, STEEL, np.where(draw < steel_now + brick, BRICK, EMPTY))
+        # STEEL (2) below steel_now, BRICK (1) below steel_now + brick, else EMPTY (0)
+        half = kinds[: GRID // 2 + 1]
+        np.less(draw, steel_now + brick, out=half, casting="unsafe")
+        half += draw < steel_now
         kinds[GRID // 2, GRID // 2:] = EMPTY  # the middle row's right half is the image of its left half
-        for tile in BASE_RING:
-            kinds[tile] = BRICK
+        kinds[_RING] = BRICK
         kinds[BASE_TILE] = BASE
-        for tile in keep_clear:
-            if 0 <= tile[0] < GRID // 2 and 0 <= tile[1] < GRID:
-                kinds[tile] = EMPTY
+        kinds[cleared] = EMPTY
         kinds[GRID // 2 + 1:] = kinds[: GRID // 2][::-1, ::-1]
         kinds[GRID // 2, GRID // 2 + 1:] = kinds[GRID // 2, : GRID // 2][::-1]
-        if _open(kinds, start_tiles(players)[0]):
+        if _open(kinds, start):
             return kinds
     raise AssertionError("unreachable: a maze without steel is always open")  # pragma: no cover
+
+
+@functools.cache
+def _cleared(players: int) -> np.ndarray:
+    """The tiles of the bottom half a maze keeps open: every start tile and the tiles beside it."""
+    mask = np.zeros((GRID, GRID), dtype=bool)
+    for row, col in start_tiles(players):
+        for dr, dc in ((0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)):
+            if 0 <= row + dr < GRID // 2 and 0 <= col + dc < GRID:
+                mask[row + dr, col + dc] = True
+    mask.flags.writeable = False
+    return mask
 
 
 def _open(kinds: np.ndarray, start: tuple[int, int]) -> bool:
