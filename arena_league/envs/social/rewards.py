@@ -52,6 +52,19 @@ class NodeView:
     group: np.ndarray
     n_groups: int
     memory: dict[str, Any] = field(default_factory=dict)
+    #: ``agents`` as an index (:func:`seat_index`): a slice where they are consecutive seats.
+    index: Any = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        self.index = seat_index(self.agents)
+
+
+def seat_index(agents: np.ndarray) -> Any:
+    """``agents`` as a slice when they are consecutive seats in order (indexing with one is
+    cheaper than with an array, and picks the same cells), else as they are."""
+    if len(agents) and np.array_equal(agents, np.arange(agents[0], agents[0] + len(agents))):
+        return slice(int(agents[0]), int(agents[0]) + len(agents))
+    return agents
 
 
 @dataclass
@@ -223,7 +236,7 @@ def _constant(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
 @register_reward("target", "IS", needs=("target_distance",), needs_previous=("target_distance",))
 def _target(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
     """Progress toward one's target: the decrease of the distance to it this step."""
-    a = node.agents
+    a = node.index
     return ctx.previous["target_distance"][a] - ctx.measures.target_distance[a]
 
 
@@ -415,6 +428,8 @@ def _groups_living(ctx: RewardContext, nodes: NodeView, sign: float) -> np.ndarr
         mem["_all_living"] = np.full(len(seats), sign * 1.0)
         mem["_all_living"].flags.writeable = False
     active = ctx.previous["active"].tolist()
+    if False not in active:  # every seat in play: every node lives
+        return mem["_all_living"]
     living = [sign * 0.0] * nodes.n_groups
     for seat, group in seats:
         if active[seat]:

@@ -33,6 +33,7 @@ from arena_league.envs.social.rewards import (
     RewardFunction,
     is_cached_zeros,
     lookup_reward,
+    seat_index,
 )
 
 _NODE_KEYS = {"scheme", "reward", "scale", "params", "children", "board", "name"}
@@ -240,7 +241,7 @@ class SocialTree:
                 # cached zeros add +0.0: nothing to do while no call before has touched those rewards
                 if first and is_cached_zeros(value, view):
                     continue
-                total[where] += scale * value
+                total[where] += value if scale == 1.0 else scale * value  # (1.0 * x is x, bit for bit)
             return total
         for k, node in enumerate(self.nodes):
             value = node.reward.fn(ctx, node.view, node.params)
@@ -292,16 +293,9 @@ def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[
     placed_calls = []
     for call in calls:
         agents = call[1].agents.tolist()
-        placed_calls.append((*call, _place(call[1].agents), reached.isdisjoint(agents)))
+        placed_calls.append((*call, seat_index(call[1].agents), reached.isdisjoint(agents)))
         reached.update(agents)
     return placed_calls
-
-
-def _place(agents: np.ndarray) -> Any:
-    """``agents`` as a slice when they are consecutive seats in order, else as they are."""
-    if len(agents) and np.array_equal(agents, np.arange(agents[0], agents[0] + len(agents))):
-        return slice(int(agents[0]), int(agents[0]) + len(agents))
-    return agents
 
 
 def team_groups(n_teams: int, players_per_team: int, member: Callable[[int], Any] = "player_{}".format) -> list[Any]:
