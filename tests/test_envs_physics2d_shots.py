@@ -147,9 +147,9 @@ def test_a_gun_fires_when_loaded_with_no_shell_in_flight_and_reloads_for_its_ste
 
 
 def test_a_seat_faces_the_way_it_is_pushed_in_the_world_and_a_weak_push_keeps_its_heading():
-    heading = np.array([(0.0, 1.0), (0.0, 1.0)])
-    thrust = np.array([(0.6, 0.8), (0.1, 0.0)])
-    ThrustFacing(np.array([(-1.0, 1.0), (1.0, 1.0)]), 0.3).face(thrust, np.hypot(thrust[:, 0], thrust[:, 1]), heading)
-    assert heading.tolist() == [[-0.6, 0.8], [0.0, 1.0]]  # seat 0's frame is mirrored in x
-    ThrustFacing(np.array([(1.0, 1.0), (-1.0, -1.0)]), 0.3).face(thrust[:1].repeat(2, axis=0), np.ones(2), heading)
-    assert heading.tolist() == [[0.6, 0.8], [-0.6, -0.8]]
+    heading = np.array([0.0, 1.0, 0.0, 1.0])
+    thrust = [0.6, 0.8, 0.1, 0.0]
+    ThrustFacing(np.array([(-1.0, 1.0), (1.0, 1.0)]), 0.3).face(thrust, [1.0, 0.1], heading)
+    assert heading.tolist() == [-0.6, 0.8, 0.0, 1.0]  # seat 0's frame is mirrored in x
+    ThrustFacing(np.array([(1.0, 1.0), (-1.0, -1.0)]), 0.3).face(thrust[:2] * 2, [1.0, 1.0], heading)
+    assert heading.tolist() == [0.6, 0.8, -0.6, -0.8]

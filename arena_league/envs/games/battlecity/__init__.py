@@ -294,8 +294,10 @@ class BattleCityRules(Physics2DRules):
         self._length = np.zeros(n)
         self._thrust_pairs = world.view("thrust").reshape(n, 2)
         self._facing = ThrustFacing(np.repeat(self.frame[:, None], 2, axis=1), TURN_THRESHOLD)
-        self._fire, self._no_fire = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
-        self._moves = np.zeros(n, dtype=np.int64)
+        self._heading_flat = world.view("heading")
+        # the shells' cells (positions, directions, flags): adjacent slots, written in one go
+        self._shell_cells = world.work[world.at("shell", 0): world.at("flying", n - 1) + 1]
+        assert len(self._shell_cells) == 5 * n
         self._hits_left = np.zeros(n, dtype=np.int64)
 
     # --- the match ---------------------------------------------------------------------------
@@ -338,55 +340,47 @@ class BattleCityRules(Physics2DRules):
             np.copyto(self.measures.target_distance, np.abs(self._to_base_c), where=self.measures.active)
 
     def _sync_shells(self) -> None:
-        shells = self.shells
-        self._shell[:] = shells.xy
-        self._shell_direction[:] = shells.direction
-        self._flying[:] = shells.flying
+        self._shell_cells[:] = self.shells.cells()
 
     def step(self, actions: np.ndarray) -> None:
-        # (few numpy calls, each guarded by a count where the common step needs none: the hot path
-        # is Python-bound)
+        # (a few seats: the actions, thrust and shells go through Python lists, and the numpy calls
+        # left are guarded where the common step needs none)
         self._record("step", actions.copy())
         m = self.measures
+        listed = actions.tolist()
         if self.discrete:
-            fire = np.equal(actions, FIRE_ACTION, out=self._fire)
-            firing = np.count_nonzero(fire)
-            if firing:
-                np.multiply(actions, self._not_fire(fire), out=self._moves)
-                actions = self._moves
-            self._seat_thrust.set(actions, m.energy)
+            fire = [action == FIRE_ACTION for action in listed]
+            if True in fire:
+                listed = [0 if shoots else action for action, shoots in zip(listed, fire)]
         else:
-            fire = np.greater(actions[:, 2], 0.0, out=self._fire)
-            firing = np.count_nonzero(fire)
-            self._seat_thrust.set(actions[:, :2], m.energy)
-        thrust = self._thrust_c
+            fire = [row[2] > 0.0 for row in listed]
+        thrust, length = self._seat_thrust.set_listed(listed, m.energy)
         if not self._all_active:
-            np.multiply(thrust, self._active, out=thrust)
+            thrust_c = self._thrust_c
+            np.multiply(thrust_c, self._active, out=thrust_c)
             np.multiply(m.energy, self._active, out=m.energy)
-        self._facing.face(self._thrust_pairs, np.abs(thrust, out=self._length), self._heading)
+            thrust, length = self._thrust_pairs.reshape(-1).tolist(), np.abs(thrust_c, out=self._length).tolist()
+        self._facing.face(thrust, length, self._heading_flat)
         if self._events:
             self._events = []
-        if firing:
+        if True in fire:
             self._fire_shells(fire)
 
         self.world.step()
 
         shells = self.shells
-        if np.count_nonzero(shells.flying):
+        if shells.in_flight():
             for hit in shells.advance(DT, self.tiles, self._tank_xy, m.active):
                 self._resolve(hit)
             self._sync_shells()
         if shells.reload():
-            np.multiply(shells.loaded_in, 1.0 / RELOAD_STEPS, out=self._reload)
+            self._reload[:] = [steps * (1.0 / RELOAD_STEPS) for steps in shells.waits]
         self._measure_distances()
         if self._decided and not self.game_over:
             self.game_over = True
             self._set_outcome()
 
-    def _not_fire(self, fire: np.ndarray) -> np.ndarray:
-        return np.logical_not(fire, out=self._no_fire)
-
-    def _fire_shells(self, fire: np.ndarray) -> None:
+    def _fire_shells(self, fire: list[bool]) -> None:
         """Every seat that fires, is in play, has its gun loaded and no shell in flight shoots."""
         for seat in self.shells.pull_triggers(fire, self._tank_xy, self._heading, self.measures.active):
             self._events.append({"kind": "fire", "seat": seat})  # (its shell is shown once it has moved)
