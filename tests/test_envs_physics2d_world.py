@@ -91,7 +91,7 @@ def test_seat_thrust_scales_a_long_vector_back_and_names_compass_moves():
     assert np.allclose(thrust, [0.0, 1.0, 1.0j]) and energy.tolist() == [0.0, 1.0, 1.0]
 
 
-def test_seat_thrust_from_lists_matches_the_numpy_path_bit_for_bit():
+def test_seat_thrust_listed_and_from_moves_match_the_numpy_path_bit_for_bit():
     rng = np.random.default_rng(5)
     for action_type in ("continuous", "discrete"):
         thrust, listed_thrust = np.zeros(4, dtype=np.complex128), np.zeros(4, dtype=np.complex128)
@@ -99,13 +99,15 @@ def test_seat_thrust_from_lists_matches_the_numpy_path_bit_for_bit():
         numpy_path, list_path = SeatThrust(thrust, action_type), SeatThrust(listed_thrust, action_type)
         for _ in range(200):
             if action_type == "continuous":
-                actions = rng.uniform(-1.0, 1.0, size=(4, 3)).astype(np.float32)
-                actions[rng.random(4) < 0.1, :2] = -0.0
-                numpy_path.set(actions[:, :2], energy)
+                actions = rng.uniform(-1.0, 1.0, size=(4, 2)).astype(np.float32)
+                actions[rng.random(4) < 0.1] = -0.0
+                numpy_path.set(actions, energy)
+                list_path.set(actions, listed_energy)
+                pairs, length = list_path.listed()
             else:
                 actions = rng.integers(0, 9, size=4)
                 numpy_path.set(actions, energy)
-            pairs, length = list_path.set_listed(actions.tolist(), listed_energy)
+                pairs, length = list_path.set_moves(actions.tolist(), listed_energy)
             assert listed_thrust.tobytes() == thrust.tobytes() and listed_energy.tobytes() == energy.tobytes()
             assert np.array(pairs).tobytes() == thrust.view(np.float64).tobytes()
             assert np.array(length).tobytes() == np.abs(thrust).tobytes()

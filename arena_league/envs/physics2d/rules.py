@@ -43,12 +43,13 @@ class SeatThrust:
         self.discrete = action_type == "discrete"
         self.moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
         self.move_energy = (COMPASS_MOVES**2).sum(axis=1)
-        # the same as Python lists, for set_listed: each move's x, y, energy and length (numpy's
+        # the same as Python lists, for set_moves: each move's x, y, energy and length (numpy's
         # complex abs, which is not Python's hypot)
         self._flat = self.pairs.reshape(-1)
         self._move_pairs = COMPASS_MOVES.tolist()
         self._move_energy = self.move_energy.tolist()
         self._move_length = np.abs(self.moves).tolist()
+        self._scaled = False
 
     def set(self, actions: np.ndarray, energy: np.ndarray) -> None:
         thrust = self.thrust
@@ -60,42 +61,28 @@ class SeatThrust:
         length = np.abs(thrust, out=self.length)
         np.square(length, out=energy)
         # (a Python max of a few cells is cheaper than the two ufuncs when no thrust is too long)
-        if max(energy.tolist()) > 1.0:
+        self._scaled = max(energy.tolist()) > 1.0
+        if self._scaled:
             np.minimum(energy, 1.0, out=energy)
             np.maximum(length, 1.0, out=length)
             np.divide(thrust, length, out=thrust)
 
-    def set_listed(self, actions: list, energy: np.ndarray) -> tuple[list[float], list[float]]:
-        """:meth:`set` from actions as Python lists (discrete: ints; continuous: one row of floats
-        per seat, its first two the thrust), bit for bit; returns the thrust (``x, y`` seat after
-        seat) and each seat's thrust length (numpy's ``abs`` of :attr:`thrust`) as Python floats.
-        (A game that reads the thrust back in Python spares the numpy calls on a few seats.)"""
-        if self.discrete:
-            pairs = []
-            for action in actions:
-                pairs += self._move_pairs[action]
-            self._flat[:] = pairs
-            move_energy, move_length = self._move_energy, self._move_length
-            energy[:] = [move_energy[action] for action in actions]
-            return pairs, [move_length[action] for action in actions]
+    def listed(self) -> tuple[list[float], list[float]]:
+        """After a continuous :meth:`set`: the thrust (``x, y`` seat after seat) and each seat's
+        thrust length (numpy's ``abs`` of :attr:`thrust`), as Python floats."""
+        length = np.abs(self.thrust, out=self.length) if self._scaled else self.length
+        return self._flat.tolist(), length.tolist()
+
+    def set_moves(self, actions: list[int], energy: np.ndarray) -> tuple[list[float], list[float]]:
+        """A discrete :meth:`set` from the actions as a list of ints, bit for bit; returns what
+        :meth:`listed` does. (A game that reads the thrust back in Python spares numpy calls.)"""
         pairs = []
-        for row in actions:
-            pairs += row[:2]
+        for action in actions:
+            pairs += self._move_pairs[action]
         self._flat[:] = pairs
-        lengths = np.abs(self.thrust, out=self.length).tolist()
-        energies = [size * size for size in lengths]
-        if max(energies) > 1.0:
-            # np.minimum, np.maximum and the complex divide of set, seat by seat: x + iy over
-            # length + 0i is (x + y 0) / length, (y - x 0) / length, each times 1 / length
-            energies = [min(e, 1.0) for e in energies]
-            for seat, size in enumerate(lengths):
-                scale = 1.0 / max(size, 1.0)
-                x, y = pairs[2 * seat], pairs[2 * seat + 1]
-                pairs[2 * seat], pairs[2 * seat + 1] = (x + y * 0.0) * scale, (y - x * 0.0) * scale
-            self._flat[:] = pairs
-            lengths = np.abs(self.thrust, out=self.length).tolist()
-        energy[:] = energies
-        return pairs, lengths
+        move_energy, move_length = self._move_energy, self._move_length
+        energy[:] = [move_energy[action] for action in actions]
+        return pairs, [move_length[action] for action in actions]
 
 
 def mirror_signs(team_of: np.ndarray) -> np.ndarray:

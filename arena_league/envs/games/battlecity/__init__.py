@@ -347,14 +347,16 @@ class BattleCityRules(Physics2DRules):
         # left are guarded where the common step needs none)
         self._record("step", actions.copy())
         m = self.measures
-        listed = actions.tolist()
         if self.discrete:
-            fire = [action == FIRE_ACTION for action in listed]
+            moves = actions.tolist()
+            fire = [action == FIRE_ACTION for action in moves]
             if True in fire:
-                listed = [0 if shoots else action for action, shoots in zip(listed, fire)]
+                moves = [0 if shoots else action for action, shoots in zip(moves, fire)]
+            thrust, length = self._seat_thrust.set_moves(moves, m.energy)
         else:
-            fire = [row[2] > 0.0 for row in listed]
-        thrust, length = self._seat_thrust.set_listed(listed, m.energy)
+            fire = [pull > 0.0 for pull in actions[:, 2].tolist()]
+            self._seat_thrust.set(actions[:, :2], m.energy)
+            thrust, length = self._seat_thrust.listed()
         if not self._all_active:
             thrust_c = self._thrust_c
             np.multiply(thrust_c, self._active, out=thrust_c)

@@ -338,14 +338,16 @@ class FighterRules(Physics2DRules):
         # (a few seats: the actions, thrust and shells go through Python lists, not numpy calls)
         self._record("step", actions.copy())
         m = self.measures
-        listed = actions.tolist()
         if self.action_type == "discrete":
-            firing = [action == FIRE_ACTION for action in listed]
+            moves = actions.tolist()
+            firing = [action == FIRE_ACTION for action in moves]
             if True in firing:  # (a fire is a noop move)
-                listed = [0 if fire else action for action, fire in zip(listed, firing)]
+                moves = [0 if fire else action for action, fire in zip(moves, firing)]
+            thrust, length = self._seat_thrust.set_moves(moves, m.energy)
         else:
-            firing = [row[2] > 0.0 for row in listed]
-        thrust, length = self._seat_thrust.set_listed(listed, m.energy)
+            firing = [pull > 0.0 for pull in actions[:, 2].tolist()]
+            self._seat_thrust.set(actions[:, :2], m.energy)
+            thrust, length = self._seat_thrust.listed()
         if not self._everyone_in:
             self._thrust_c *= self._in_play
             m.energy *= self._in_play
