@@ -236,13 +236,14 @@ class Shells:
         in-flight flag (1.0 or 0.0): a game's work-vector cells. With ``hide_idle``, the position
         and direction of a shell not in flight are multiplied by 0 (as a numpy product with the
         flags would be, signed zeros included)."""
-        up = self.aloft
-        flags = [1.0 if f else 0.0 for f in up]
-        if hide_idle:
-            scale = [flags[i >> 1] for i in range(2 * self.n)]
-            return ([v * k for v, k in zip(self._at, scale)] + [v * k for v, k in zip(self._way, scale)]
-                    + flags)
-        return self._at + self._way + flags
+        at, way, flags = self._at, self._way, [1.0 if f else 0.0 for f in self.aloft]
+        if hide_idle and 0.0 in flags:
+            at, way = at[:], way[:]
+            for seat, flag in enumerate(flags):
+                if not flag:
+                    x, y = 2 * seat, 2 * seat + 1
+                    at[x], at[y], way[x], way[y] = at[x] * 0.0, at[y] * 0.0, way[x] * 0.0, way[y] * 0.0
+        return at + way + flags
 
     def reset(self) -> None:
         """No shell in flight, every gun loaded."""
@@ -331,11 +332,11 @@ class Shells:
                 if row < 0:
                     hits.append(Hit(seat, x, y))
                     continue
-                kind = int(tiles.kinds[row, col])
+                kind = tiles._rows[row][col]  # (the map's rows as Python ints, as its kinds)
                 broken = kind in tiles.breakable
                 if broken:
                     tiles.clear(row, col)
-                hits.append(Hit(seat, x, y, row=row, col=col, kind=kind, broken=broken))
+                hits.append(Hit(seat, x, y, -1, row, col, kind, broken))
             else:
                 at[2 * seat], at[2 * seat + 1] = x0 + dx, y0 + dy
         return hits
