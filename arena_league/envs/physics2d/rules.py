@@ -50,6 +50,9 @@ class SeatThrust:
         self._move_energy = self.move_energy.tolist()
         self._move_length = np.abs(self.moves).tolist()
         self._scaled = False
+        self._ones = np.ones(len(thrust))
+        self._divisor = np.zeros(len(thrust), dtype=np.complex128)
+        self._divisor_real = self._divisor.real
 
     def set(self, actions: np.ndarray, energy: np.ndarray) -> None:
         thrust = self.thrust
@@ -63,9 +66,10 @@ class SeatThrust:
         # (a Python max of a few cells is cheaper than the two ufuncs when no thrust is too long)
         self._scaled = max(energy.tolist()) > 1.0
         if self._scaled:
-            np.minimum(energy, 1.0, out=energy)
-            np.maximum(length, 1.0, out=length)
-            np.divide(thrust, length, out=thrust)
+            # (arrays of ones and a complex divisor: a scalar or a float divisor costs numpy a cast)
+            np.minimum(energy, self._ones, out=energy)
+            np.maximum(length, self._ones, out=self._divisor_real)
+            np.divide(thrust, self._divisor, out=thrust)
 
     def listed(self) -> tuple[list[float], list[float]]:
         """After a continuous :meth:`set`: the thrust (``x, y`` seat after seat) and each seat's
