@@ -298,7 +298,7 @@ class Shells:
         radius_sq = self.body_radius ** 2
         bodies = body_xy.tolist()
         open_to_hit = targetable.tolist()
-        at, way = self._at, self._way
+        at, way, targets = self._at, self._way, self._targets
         for seat, flying in enumerate(up):
             if not flying:
                 continue
@@ -306,16 +306,17 @@ class Shells:
             dx, dy = way[2 * seat] * reach, way[2 * seat + 1] * reach
             t_tile, row, col = tiles.first_solid(x0, y0, x0 + dx, y0 + dy)
             t_body, struck = math.inf, -1
-            for j in self._targets[seat]:
+            a = dx * dx + dy * dy
+            for j in targets[seat]:
                 if open_to_hit[j]:
                     # the least t in [0, 1] where the segment is on or in the body's circle, if any
-                    px, py = x0 - bodies[j][0], y0 - bodies[j][1]
+                    bx, by = bodies[j]
+                    px, py = x0 - bx, y0 - by
                     c = px * px + py * py - radius_sq
                     if c <= 0.0:
                         t = 0.0
                     else:
                         b = px * dx + py * dy
-                        a = dx * dx + dy * dy
                         if b >= 0.0 or b * b - a * c < 0.0:
                             continue
                         t = (-b - math.sqrt(b * b - a * c)) / a
@@ -351,19 +352,19 @@ class ThrustFacing:
     def __init__(self, frame: np.ndarray, threshold: float) -> None:
         self.frame = np.asarray(frame, dtype=np.float64)
         self.threshold = float(threshold)
-        self._signs = self.frame.reshape(-1).tolist()
+        # each seat's cells in a flat (x, y) list and its frame's signs
+        self._seats = [(2 * seat, 2 * seat + 1, sx, sy) for seat, (sx, sy) in enumerate(self.frame.tolist())]
 
     def face(self, thrust: Sequence[float], length: Sequence[float], heading: np.ndarray) -> None:
         """``heading`` (``float64[2 n]``, world, seat after seat) from ``thrust`` (``2 n`` floats,
         seat frames, seat after seat) of ``length`` (``n`` floats)."""
         # (a few seats: Python floats beat numpy calls, and divide and multiply the same way)
-        threshold, signs, turned = self.threshold, self._signs, None
-        for seat, size in enumerate(length):
+        threshold, turned = self.threshold, None
+        for (x, y, sx, sy), size in zip(self._seats, length):
             if size > threshold:
                 if turned is None:
                     turned = heading.tolist()
-                x, y = 2 * seat, 2 * seat + 1
-                turned[x], turned[y] = thrust[x] / size * signs[x], thrust[y] / size * signs[y]
+                turned[x], turned[y] = thrust[x] / size * sx, thrust[y] / size * sy
         if turned is not None:
             heading[:] = turned
 

@@ -298,6 +298,7 @@ class BattleCityRules(Physics2DRules):
         # the shells' cells (positions, directions, flags): adjacent slots, written in one go
         self._shell_cells = world.work[world.at("shell", 0): world.at("flying", n - 1) + 1]
         assert len(self._shell_cells) == 5 * n
+        self._reload_shares = [steps * (1.0 / RELOAD_STEPS) for steps in range(RELOAD_STEPS + 1)]
         self._hits_left = np.zeros(n, dtype=np.int64)
 
     # --- the match ---------------------------------------------------------------------------
@@ -376,7 +377,8 @@ class BattleCityRules(Physics2DRules):
                 self._resolve(hit)
             self._sync_shells()
         if shells.reload():
-            self._reload[:] = [steps * (1.0 / RELOAD_STEPS) for steps in shells.waits]
+            shares = self._reload_shares
+            self._reload[:] = [shares[steps] for steps in shells.waits]
         self._measure_distances()
         if self._decided and not self.game_over:
             self.game_over = True

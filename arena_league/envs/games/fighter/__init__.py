@@ -268,6 +268,7 @@ class FighterRules(Physics2DRules):
         self._heading_column = self._heading_c[:, None]
         self._conj_headings, self._faced = np.zeros((n, n), dtype=np.complex128), np.zeros((n, n), dtype=np.complex128)
         self._rival_seats = [np.flatnonzero(row).tolist() for row in self._rivals]
+        self._reload_shares = [steps / RELOAD_STEPS for steps in range(RELOAD_STEPS + 1)]
         self.hits_left = np.zeros(n, dtype=np.int64)
         self.damage = np.zeros(2)
 
@@ -365,7 +366,8 @@ class FighterRules(Physics2DRules):
                     self._damage(hit.shooter, hit.seat)
             self._show_shells()
         if shells.reload():
-            self._reload[:] = [steps / RELOAD_STEPS for steps in shells.waits]
+            shares = self._reload_shares
+            self._reload[:] = [shares[steps] for steps in shells.waits]
         self._aim()
         if not self._everyone_in and not (np.bincount(self.team_of, weights=m.active, minlength=2) > 0).all():
             self.game_over = True
