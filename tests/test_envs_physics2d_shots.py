@@ -155,6 +155,18 @@ def test_a_seat_faces_the_way_it_is_pushed_in_the_world_and_a_weak_push_keeps_it
     assert heading.tolist() == [0.6, 0.8, -0.6, -0.8]
 
 
+def test_facing_a_fixed_move_looks_up_what_facing_its_thrust_computes():
+    moves = [[0.0, 0.0], [1.0, 0.0], [0.6, 0.8], [-0.1, 0.2], [-0.7071067811865476, -0.7071067811865475]]
+    length = np.abs(np.array(moves).view(np.complex128).reshape(-1)).tolist()
+    facing = ThrustFacing(np.array([(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0)]), 0.3)
+    facing.learn_moves(moves, length)
+    for chosen in ([1, 2, 4], [0, 3, 2], [4, 4, 0]):
+        by_thrust, by_move = np.arange(6.0), np.arange(6.0)
+        facing.face([x for move in chosen for x in moves[move]], [length[move] for move in chosen], by_thrust)
+        facing.face_moves(chosen, by_move)
+        assert by_move.tobytes() == by_thrust.tobytes()
+
+
 def test_shells_give_their_cells_as_numpy_would_and_their_state_as_arrays():
     tiles, _ = tile_map()
     shells = Shells(np.zeros((3, 3), dtype=bool), speed=10.0, body_radius=0.4, reload_steps=2)

@@ -91,7 +91,7 @@ def test_seat_thrust_scales_a_long_vector_back_and_names_compass_moves():
     assert np.allclose(thrust, [0.0, 1.0, 1.0j]) and energy.tolist() == [0.0, 1.0, 1.0]
 
 
-def test_seat_thrust_listed_and_from_moves_match_the_numpy_path_bit_for_bit():
+def test_seat_thrust_listed_and_its_moves_match_the_numpy_path_bit_for_bit():
     rng = np.random.default_rng(5)
     for action_type in ("continuous", "discrete"):
         thrust, listed_thrust = np.zeros(4, dtype=np.complex128), np.zeros(4, dtype=np.complex128)
@@ -107,7 +107,9 @@ def test_seat_thrust_listed_and_from_moves_match_the_numpy_path_bit_for_bit():
             else:
                 actions = rng.integers(0, 9, size=4)
                 numpy_path.set(actions, energy)
-                pairs, length = list_path.set_moves(actions.tolist(), listed_energy)
+                list_path.set_moves(actions.tolist(), listed_energy)
+                pairs = [x for action in actions.tolist() for x in list_path.move_pairs[action]]
+                length = [list_path.move_lengths[action] for action in actions.tolist()]
             assert listed_thrust.tobytes() == thrust.tobytes() and listed_energy.tobytes() == energy.tobytes()
             assert np.array(pairs).tobytes() == thrust.view(np.float64).tobytes()
             assert np.array(length).tobytes() == np.abs(thrust).tobytes()

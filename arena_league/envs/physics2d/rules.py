@@ -43,12 +43,12 @@ class SeatThrust:
         self.discrete = action_type == "discrete"
         self.moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
         self.move_energy = (COMPASS_MOVES**2).sum(axis=1)
-        # the same as Python lists, for set_moves: each move's x, y, energy and length (numpy's
-        # complex abs, which is not Python's hypot)
         self._flat = self.pairs.reshape(-1)
-        self._move_pairs = COMPASS_MOVES.tolist()
+        #: Each move's ``[x, y]`` and length (numpy's complex abs, which is not Python's hypot), as
+        #: Python floats.
+        self.move_pairs = COMPASS_MOVES.tolist()
+        self.move_lengths = np.abs(self.moves).tolist()
         self._move_energy = self.move_energy.tolist()
-        self._move_length = np.abs(self.moves).tolist()
         self._scaled = False
         self._ones = np.ones(len(thrust))
         self._divisor = np.zeros(len(thrust), dtype=np.complex128)
@@ -77,16 +77,15 @@ class SeatThrust:
         length = np.abs(self.thrust, out=self.length) if self._scaled else self.length
         return self._flat.tolist(), length.tolist()
 
-    def set_moves(self, actions: list[int], energy: np.ndarray) -> tuple[list[float], list[float]]:
-        """A discrete :meth:`set` from the actions as a list of ints, bit for bit; returns what
-        :meth:`listed` does. (A game that reads the thrust back in Python spares numpy calls.)"""
+    def set_moves(self, actions: list[int], energy: np.ndarray) -> None:
+        """A discrete :meth:`set` from the actions as a list of ints, bit for bit (on a few seats,
+        cheaper than numpy's takes)."""
         pairs = []
         for action in actions:
-            pairs += self._move_pairs[action]
+            pairs += self.move_pairs[action]
         self._flat[:] = pairs
-        move_energy, move_length = self._move_energy, self._move_length
+        move_energy = self._move_energy
         energy[:] = [move_energy[action] for action in actions]
-        return pairs, [move_length[action] for action in actions]
 
 
 def mirror_signs(team_of: np.ndarray) -> np.ndarray:

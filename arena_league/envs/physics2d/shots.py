@@ -354,6 +354,7 @@ class ThrustFacing:
         self.threshold = float(threshold)
         # each seat's cells in a flat (x, y) list and its frame's signs
         self._seats = [(2 * seat, 2 * seat + 1, sx, sy) for seat, (sx, sy) in enumerate(self.frame.tolist())]
+        self._turns: list[list[tuple[float, float] | None]] = []
 
     def face(self, thrust: Sequence[float], length: Sequence[float], heading: np.ndarray) -> None:
         """``heading`` (``float64[2 n]``, world, seat after seat) from ``thrust`` (``2 n`` floats,
@@ -365,6 +366,25 @@ class ThrustFacing:
                 if turned is None:
                     turned = heading.tolist()
                 turned[x], turned[y] = thrust[x] / size * sx, thrust[y] / size * sy
+        if turned is not None:
+            heading[:] = turned
+
+    def learn_moves(self, pairs: Sequence[Sequence[float]], length: Sequence[float]) -> None:
+        """Note the heading each seat takes for each of a few fixed thrusts (``pairs[move]``,
+        ``[x, y]``, of ``length[move]``), for :meth:`face_moves`."""
+        self._turns = [[(x / size * sx, y / size * sy) if size > self.threshold else None
+                        for (x, y), size in zip(pairs, length)] for _, _, sx, sy in self._seats]
+
+    def face_moves(self, moves: Sequence[int], heading: np.ndarray) -> None:
+        """:meth:`face` for thrusts that are the moves of :meth:`learn_moves` (by index), bit for
+        bit (the same quotients, looked up)."""
+        turned = None
+        for (x, y, _, _), turns, move in zip(self._seats, self._turns, moves):
+            turn = turns[move]
+            if turn is not None:
+                if turned is None:
+                    turned = heading.tolist()
+                turned[x], turned[y] = turn
         if turned is not None:
             heading[:] = turned
 

@@ -294,6 +294,7 @@ class BattleCityRules(Physics2DRules):
         self._length = np.zeros(n)
         self._thrust_pairs = world.view("thrust").reshape(n, 2)
         self._facing = ThrustFacing(np.repeat(self.frame[:, None], 2, axis=1), TURN_THRESHOLD)
+        self._facing.learn_moves(self._seat_thrust.move_pairs, self._seat_thrust.move_lengths)
         self._heading_flat = world.view("heading")
         # the shells' cells (positions, directions, flags): adjacent slots, written in one go
         self._shell_cells = world.work[world.at("shell", 0): world.at("flying", n - 1) + 1]
@@ -353,7 +354,7 @@ class BattleCityRules(Physics2DRules):
             fire = [action == FIRE_ACTION for action in moves]
             if True in fire:
                 moves = [0 if shoots else action for action, shoots in zip(moves, fire)]
-            thrust, length = self._seat_thrust.set_moves(moves, m.energy)
+            self._seat_thrust.set_moves(moves, m.energy)
         else:
             fire = [pull > 0.0 for pull in actions[:, 2].tolist()]
             self._seat_thrust.set(actions[:, :2], m.energy)
@@ -363,7 +364,11 @@ class BattleCityRules(Physics2DRules):
             np.multiply(thrust_c, self._active, out=thrust_c)
             np.multiply(m.energy, self._active, out=m.energy)
             thrust, length = self._thrust_pairs.reshape(-1).tolist(), np.abs(thrust_c, out=self._length).tolist()
-        self._facing.face(thrust, length, self._heading_flat)
+            self._facing.face(thrust, length, self._heading_flat)
+        elif self.discrete:
+            self._facing.face_moves(moves, self._heading_flat)
+        else:
+            self._facing.face(thrust, length, self._heading_flat)
         if self._events:
             self._events = []
         if True in fire:

@@ -255,6 +255,7 @@ class FighterRules(Physics2DRules):
         self._flying = world.view("flying")
         self._frame = np.stack([self.x_sign, np.ones(n)], axis=1)
         self._facing = ThrustFacing(self._frame, TURN_THRESHOLD)
+        self._facing.learn_moves(self._seat_thrust.move_pairs, self._seat_thrust.move_lengths)
         self._rivals = self.team_of[:, None] != self.team_of[None, :]
         self._out_of_reach = np.where(self._rivals, 0.0, np.inf)
         self._way, self._apart = np.zeros((n, n), dtype=np.complex128), np.zeros((n, n))
@@ -344,7 +345,7 @@ class FighterRules(Physics2DRules):
             firing = [action == FIRE_ACTION for action in moves]
             if True in firing:  # (a fire is a noop move)
                 moves = [0 if fire else action for action, fire in zip(moves, firing)]
-            thrust, length = self._seat_thrust.set_moves(moves, m.energy)
+            self._seat_thrust.set_moves(moves, m.energy)
         else:
             firing = [pull > 0.0 for pull in actions[:, 2].tolist()]
             self._seat_thrust.set(actions[:, :2], m.energy)
@@ -353,7 +354,11 @@ class FighterRules(Physics2DRules):
             self._thrust_c *= self._in_play
             m.energy *= self._in_play
             thrust, length = self._thrust.reshape(-1).tolist(), np.abs(self._thrust_c, out=self._length).tolist()
-        self._facing.face(thrust, length, self._heading_flat)
+            self._facing.face(thrust, length, self._heading_flat)
+        elif self.action_type == "discrete":
+            self._facing.face_moves(moves, self._heading_flat)
+        else:
+            self._facing.face(thrust, length, self._heading_flat)
         self._events = []
         if True in firing:
             for seat in self.shells.pull_triggers(firing, self._xy, self._heading, m.active):
