@@ -219,6 +219,9 @@ OPTIONS = (Option("hit_points", int, 3, "hits a tank takes before it is destroye
 
 ACTION_MEANINGS = SHOOTER_ACTIONS
 _OUT_OF_PLAY = pymunk.ShapeFilter(categories=0, mask=0)
+#: The ufunc np.clip calls, without np.clip's argument handling (the same values as a minimum then a
+#: maximum: the bounds are ordered and no cell at a bound of 0 is -0.0).
+_clip = np._core.umath.clip
 
 
 class BattleCityRules(Physics2DRules):
@@ -454,8 +457,7 @@ class BattleCityRules(Physics2DRules):
     def observe(self) -> np.ndarray:
         linear = np.dot(self._obs_matrix, self._work, out=self._obs_linear)
         np.multiply(linear, self._work.take(self._obs_mask, out=self._obs_scale), out=linear)
-        np.minimum(linear, self._obs_high, out=linear)
-        np.maximum(linear, self._obs_low, out=linear)
+        _clip(linear, self._obs_low, self._obs_high, out=linear)
         if self._planes_changed:
             self._planes.take(self._tile_order, out=self._seen[:, self._moving:])
             self._planes_changed = False
