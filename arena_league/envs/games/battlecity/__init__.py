@@ -268,6 +268,7 @@ class BattleCityRules(Physics2DRules):
         self._obs_low = low.reshape(n, -1)[:, : self._moving].reshape(-1)
         self._obs_high = high.reshape(n, -1)[:, : self._moving].reshape(-1)
         self._obs_linear = np.zeros(n * self._moving)
+        self._obs_rows = self._obs_linear.reshape(n, self._moving)
         self._obs_scale = np.zeros(n * self._moving)
         self._tile_order = tile_order(self.team_of, self.frame)
         self._planes = np.zeros(2 * GRID * GRID, dtype=np.float32)
@@ -462,7 +463,7 @@ class BattleCityRules(Physics2DRules):
             self._planes.take(self._tile_order, out=self._seen[:, self._moving:])
             self._planes_changed = False
         obs = self._seen.copy()
-        obs[:, : self._moving] = linear.reshape(self.n_agents, -1)
+        obs[:, : self._moving] = self._obs_rows
         return obs
 
     def state(self) -> np.ndarray:

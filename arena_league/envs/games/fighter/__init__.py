@@ -234,6 +234,7 @@ class FighterRules(Physics2DRules):
         low, high = (bound.reshape(n, -1)[:, : self._moving] for bound in self.clip_bounds(self.layout))
         self._low, self._high = low.astype(np.float32), high.astype(np.float32)
         self._gathered = np.zeros((n, self._moving), dtype=np.float32)
+        self._gathered_flat = self._gathered.reshape(-1)
         self._bunker_order = bunker_order(self.x_sign)
         self._plane = np.zeros(ROWS * COLS, dtype=np.float32)
         # every seat's observation with its bunker plane laid out (bunkers stand all match)
@@ -416,7 +417,7 @@ class FighterRules(Physics2DRules):
 
     def observe(self) -> np.ndarray:
         gathered = self._gathered
-        self._gather.fill(gathered.reshape(-1))
+        self._gather.fill(self._gathered_flat)
         _clip(gathered, self._low, self._high, out=gathered)
         obs = self._seen.copy()
         obs[:, : self._moving] = gathered
