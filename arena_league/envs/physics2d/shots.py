@@ -259,11 +259,11 @@ class Shells:
         flight fires from ``xy[seat]`` along ``direction[seat]``, and its gun reloads for
         ``reload_steps`` steps (see :meth:`reload`). Returns the seats that fired, in order."""
         fired = []
-        up, waits = self.aloft, self.waits
+        aloft, waits = self.aloft, self.waits
         if isinstance(fire, np.ndarray):
             fire = fire.tolist()
         for seat, pulled in enumerate(fire):
-            if pulled and not (up[seat] or waits[seat]) and able[seat]:
+            if pulled and not (aloft[seat] or waits[seat]) and able[seat]:
                 self.fire(seat, xy[seat].tolist(), direction[seat].tolist())
                 waits[seat] = self.reload_steps
                 fired.append(seat)
@@ -291,15 +291,15 @@ class Shells:
         thing it meets: a body of a seat it may hit that is ``targetable``, a solid tile (broken if
         breakable) or the map's edge. Returns what was hit, in seat order."""
         hits: list[Hit] = []
-        up = self.aloft
-        if True not in up:
+        aloft = self.aloft
+        if True not in aloft:
             return hits
         reach = self.speed * dt
         radius_sq = self.body_radius ** 2
         bodies = body_xy.tolist()
         open_to_hit = targetable.tolist()
         at, way, targets = self._at, self._way, self._targets
-        for seat, flying in enumerate(up):
+        for seat, flying in enumerate(aloft):
             if not flying:
                 continue
             x0, y0 = at[2 * seat], at[2 * seat + 1]
@@ -325,10 +325,10 @@ class Shells:
                     if t < t_body:
                         t_body, struck = t, j
             if t_body <= t_tile and struck >= 0:
-                up[seat] = False
+                aloft[seat] = False
                 hits.append(Hit(seat, x0 + t_body * dx, y0 + t_body * dy, seat=struck))
             elif t_tile <= 1.0:
-                up[seat] = False
+                aloft[seat] = False
                 x, y = x0 + t_tile * dx, y0 + t_tile * dy
                 if row < 0:
                     hits.append(Hit(seat, x, y))
