@@ -147,9 +147,38 @@ def test_a_gun_fires_when_loaded_with_no_shell_in_flight_and_reloads_for_its_ste
 
 
 def test_a_seat_faces_the_way_it_is_pushed_in_the_world_and_a_weak_push_keeps_its_heading():
-    heading = np.array([(0.0, 1.0), (0.0, 1.0)])
-    thrust = np.array([(0.6, 0.8), (0.1, 0.0)])
-    ThrustFacing(np.array([(-1.0, 1.0), (1.0, 1.0)]), 0.3).face(thrust, np.hypot(thrust[:, 0], thrust[:, 1]), heading)
-    assert heading.tolist() == [[-0.6, 0.8], [0.0, 1.0]]  # seat 0's frame is mirrored in x
-    ThrustFacing(np.array([(1.0, 1.0), (-1.0, -1.0)]), 0.3).face(thrust[:1].repeat(2, axis=0), np.ones(2), heading)
-    assert heading.tolist() == [[0.6, 0.8], [-0.6, -0.8]]
+    heading = np.array([0.0, 1.0, 0.0, 1.0])
+    thrust = [0.6, 0.8, 0.1, 0.0]
+    ThrustFacing(np.array([(-1.0, 1.0), (1.0, 1.0)]), 0.3).face(thrust, [1.0, 0.1], heading)
+    assert heading.tolist() == [-0.6, 0.8, 0.0, 1.0]  # seat 0's frame is mirrored in x
+    ThrustFacing(np.array([(1.0, 1.0), (-1.0, -1.0)]), 0.3).face(thrust[:2] * 2, [1.0, 1.0], heading)
+    assert heading.tolist() == [0.6, 0.8, -0.6, -0.8]
+
+
+def test_facing_a_fixed_move_looks_up_what_facing_its_thrust_computes():
+    moves = [[0.0, 0.0], [1.0, 0.0], [0.6, 0.8], [-0.1, 0.2], [-0.7071067811865476, -0.7071067811865475]]
+    length = np.abs(np.array(moves).view(np.complex128).reshape(-1)).tolist()
+    facing = ThrustFacing(np.array([(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0)]), 0.3)
+    facing.learn_moves(moves, length)
+    for chosen in ([1, 2, 4], [0, 3, 2], [4, 4, 0]):
+        by_thrust, by_move = np.arange(6.0), np.arange(6.0)
+        facing.face([x for move in chosen for x in moves[move]], [length[move] for move in chosen], by_thrust)
+        facing.face_moves(chosen, by_move)
+        assert by_move.tobytes() == by_thrust.tobytes()
+
+
+def test_shells_give_their_cells_as_numpy_would_and_their_state_as_arrays():
+    tiles, _ = tile_map()
+    shells = Shells(np.zeros((3, 3), dtype=bool), speed=10.0, body_radius=0.4, reload_steps=2)
+    xy, heading = np.array([(0.5, 2.5), (-0.5, 0.5), (3.5, 2.5)]), np.array([(1.0, 0.0), (-0.6, -0.8), (0.0, 1.0)])
+    assert shells.pull_triggers(np.ones(3, dtype=bool), xy, heading, np.ones(3, dtype=bool)) == [0, 1, 2]
+    shells.advance(0.1, tiles, np.full((3, 2), 9.0), np.ones(3, dtype=bool))  # seat 1 leaves the map, 2 flies on
+    assert shells.flying.tolist() == [True, False, True] and shells.loaded_in.tolist() == [2, 2, 2]
+    assert shells.xy.tolist() == [[1.5, 2.5], [-0.5, 0.5], [3.5, 3.5]] and shells.direction.tolist() == heading.tolist()
+    flags = shells.flying[:, None]
+    hidden = np.concatenate([(shells.xy * flags).reshape(-1), (shells.direction * flags).reshape(-1),
+                             shells.flying.astype(np.float64)])
+    assert np.array(shells.cells(hide_idle=True)).tobytes() == hidden.tobytes()  # -0.0 where numpy has it
+    shown = np.concatenate([shells.xy.reshape(-1), shells.direction.reshape(-1), shells.flying.astype(np.float64)])
+    assert np.array(shells.cells()).tobytes() == shown.tobytes()
+    assert shells.in_flight() and shells.reload() and shells.loaded_in.tolist() == [1, 1, 1]

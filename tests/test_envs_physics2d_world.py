@@ -165,3 +165,27 @@ def test_restart_and_renew_refuse_what_they_cannot_make_fresh():
     body.velocity = (3.0, 4.0)
     link.renew(body)
     assert tuple(body.velocity) == (0.0, 0.0) and tuple(body.position) == (0.0, 0.0)
+
+
+def test_seat_thrust_listed_and_its_moves_match_the_numpy_path_bit_for_bit():
+    rng = np.random.default_rng(5)
+    for action_type in ("continuous", "discrete"):
+        thrust, listed_thrust = np.zeros(4, dtype=np.complex128), np.zeros(4, dtype=np.complex128)
+        energy, listed_energy = np.zeros(4), np.zeros(4)
+        numpy_path, list_path = SeatThrust(thrust, action_type), SeatThrust(listed_thrust, action_type)
+        for _ in range(200):
+            if action_type == "continuous":
+                actions = rng.uniform(-1.0, 1.0, size=(4, 2)).astype(np.float32)
+                actions[rng.random(4) < 0.1] = -0.0
+                numpy_path.set(actions, energy)
+                list_path.set(actions, listed_energy)
+                pairs, length = list_path.listed()
+            else:
+                actions = rng.integers(0, 9, size=4)
+                numpy_path.set(actions, energy)
+                list_path.set_moves(actions.tolist(), listed_energy)
+                pairs = [x for action in actions.tolist() for x in list_path.move_pairs[action]]
+                length = [list_path.move_lengths[action] for action in actions.tolist()]
+            assert listed_thrust.tobytes() == thrust.tobytes() and listed_energy.tobytes() == energy.tobytes()
+            assert np.array(pairs).tobytes() == thrust.view(np.float64).tobytes()
+            assert np.array(length).tobytes() == np.abs(thrust).tobytes()

@@ -43,6 +43,16 @@ class SeatThrust:
         self.discrete = action_type == "discrete"
         self.moves = np.ascontiguousarray(COMPASS_MOVES).view(np.complex128).reshape(-1)
         self.move_energy = (COMPASS_MOVES**2).sum(axis=1)
+        self._flat = self.pairs.reshape(-1)
+        #: Each move's ``[x, y]`` and length (numpy's complex abs, which is not Python's hypot), as
+        #: Python floats.
+        self.move_pairs = COMPASS_MOVES.tolist()
+        self.move_lengths = np.abs(self.moves).tolist()
+        self._move_energy = self.move_energy.tolist()
+        self._scaled = False
+        self._ones = np.ones(len(thrust))
+        self._divisor = np.zeros(len(thrust), dtype=np.complex128)
+        self._divisor_real = self._divisor.real
 
     def set(self, actions: np.ndarray, energy: np.ndarray) -> None:
         thrust = self.thrust
@@ -54,10 +64,28 @@ class SeatThrust:
         length = np.abs(thrust, out=self.length)
         np.square(length, out=energy)
         # (a Python max of a few cells is cheaper than the two ufuncs when no thrust is too long)
-        if max(energy.tolist()) > 1.0:
-            np.minimum(energy, 1.0, out=energy)
-            np.maximum(length, 1.0, out=length)
-            np.divide(thrust, length, out=thrust)
+        self._scaled = max(energy.tolist()) > 1.0
+        if self._scaled:
+            # (arrays of ones and a complex divisor: a scalar or a float divisor costs numpy a cast)
+            np.minimum(energy, self._ones, out=energy)
+            np.maximum(length, self._ones, out=self._divisor_real)
+            np.divide(thrust, self._divisor, out=thrust)
+
+    def listed(self) -> tuple[list[float], list[float]]:
+        """After a continuous :meth:`set`: the thrust (``x, y`` seat after seat) and each seat's
+        thrust length (numpy's ``abs`` of :attr:`thrust`), as Python floats."""
+        length = np.abs(self.thrust, out=self.length) if self._scaled else self.length
+        return self._flat.tolist(), length.tolist()
+
+    def set_moves(self, actions: list[int], energy: np.ndarray) -> None:
+        """A discrete :meth:`set` from the actions as a list of ints, bit for bit (on a few seats,
+        cheaper than numpy's takes)."""
+        pairs = []
+        for action in actions:
+            pairs += self.move_pairs[action]
+        self._flat[:] = pairs
+        move_energy = self._move_energy
+        energy[:] = [move_energy[action] for action in actions]
 
 
 def mirror_signs(team_of: np.ndarray) -> np.ndarray:

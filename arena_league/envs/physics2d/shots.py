@@ -192,6 +192,10 @@ class Shells:
     ``can_hit[i, j]`` says whether seat ``i``'s shell hits seat ``j``'s body (a seat's own shell
     never does; a game whose shells pass through teammates says so here); a body is a circle of
     ``body_radius``.
+
+    The state is kept in Python lists (a step reads and writes single seats, where lists beat
+    numpy); :attr:`xy`, :attr:`direction`, :attr:`flying` and :attr:`loaded_in` give it as fresh
+    arrays, and :meth:`cells` as a work vector's cells.
     """
 
     def __init__(self, can_hit: np.ndarray, speed: float, body_radius: float, reload_steps: int = 0) -> None:
@@ -199,36 +203,75 @@ class Shells:
         self.can_hit = np.asarray(can_hit, dtype=bool) & ~np.eye(self.n, dtype=bool)
         self._targets = [np.flatnonzero(row).tolist() for row in self.can_hit]
         self.speed, self.body_radius, self.reload_steps = float(speed), float(body_radius), int(reload_steps)
-        self.xy = np.zeros((self.n, 2))
-        self.direction = np.zeros((self.n, 2))
-        self.flying = np.zeros(self.n, dtype=bool)
-        #: Steps until each seat's gun is loaded again (0: loaded).
-        self.loaded_in = np.zeros(self.n, dtype=np.int64)
+        # x, y of every seat's shell, then its direction likewise, seat after seat
+        self._at = [0.0] * (2 * self.n)
+        self._way = [0.0] * (2 * self.n)
+        #: Whether each seat's shell is in flight (read only).
+        self.aloft = [False] * self.n
+        #: Steps until each seat's gun is loaded again (0: loaded; read only).
+        self.waits = [0] * self.n
         self._reloading = 0
+
+    @property
+    def xy(self) -> np.ndarray:
+        """``float64[n, 2]``: where each seat's shell is (where it last was once stopped)."""
+        return np.array(self._at).reshape(self.n, 2)
+
+    @property
+    def direction(self) -> np.ndarray:
+        """``float64[n, 2]``: each seat's last shell's direction (a unit vector; 0 before any shot)."""
+        return np.array(self._way).reshape(self.n, 2)
+
+    @property
+    def flying(self) -> np.ndarray:
+        """``bool[n]``: whether each seat's shell is in flight."""
+        return np.array(self.aloft, dtype=bool)
+
+    @property
+    def loaded_in(self) -> np.ndarray:
+        """``int64[n]``: steps until each seat's gun is loaded again (0: loaded)."""
+        return np.array(self.waits, dtype=np.int64)
+
+    def in_flight(self) -> bool:
+        """Whether any shell is in flight."""
+        return True in self.aloft
+
+    def cells(self, hide_idle: bool = False) -> list[float]:
+        """Every shell's ``x, y`` (seat after seat), then every direction likewise, then every
+        in-flight flag (1.0 or 0.0): a game's work-vector cells. With ``hide_idle``, the position
+        and direction of a shell not in flight are multiplied by 0 (as a numpy product with the
+        flags would be, signed zeros included)."""
+        at, way, flags = self._at, self._way, [1.0 if f else 0.0 for f in self.aloft]
+        if hide_idle and 0.0 in flags:
+            at, way = at[:], way[:]
+            for seat, flag in enumerate(flags):
+                if not flag:
+                    x, y = 2 * seat, 2 * seat + 1
+                    at[x], at[y], way[x], way[y] = at[x] * 0.0, at[y] * 0.0, way[x] * 0.0, way[y] * 0.0
+        return at + way + flags
 
     def reset(self) -> None:
         """No shell in flight, every gun loaded."""
-        self.xy[:] = 0.0
-        self.direction[:] = 0.0
-        self.flying[:] = False
-        self.loaded_in[:] = 0
+        self._at = [0.0] * (2 * self.n)
+        self._way = [0.0] * (2 * self.n)
+        self.aloft = [False] * self.n
+        self.waits = [0] * self.n
         self._reloading = 0
 
-    def pull_triggers(self, fire: np.ndarray, xy: np.ndarray, direction: np.ndarray, able: np.ndarray) -> list[int]:
+    def pull_triggers(self, fire: Sequence[bool] | np.ndarray, xy: np.ndarray, direction: np.ndarray,
+                      able: Sequence[bool] | np.ndarray) -> list[int]:
         """Every seat in ``fire`` that is ``able``, whose gun is loaded and whose shell is not in
         flight fires from ``xy[seat]`` along ``direction[seat]``, and its gun reloads for
         ``reload_steps`` steps (see :meth:`reload`). Returns the seats that fired, in order."""
         fired = []
-        ready = None
-        for seat, pulled in enumerate(fire.tolist()):
-            if pulled:
-                if ready is None:
-                    ready = [a and not (loading or up) for a, loading, up in
-                             zip(able.tolist(), self.loaded_in.tolist(), self.flying.tolist())]
-                if ready[seat]:
-                    self.fire(seat, xy[seat], direction[seat])
-                    self.loaded_in[seat] = self.reload_steps
-                    fired.append(seat)
+        aloft, waits = self.aloft, self.waits
+        if isinstance(fire, np.ndarray):
+            fire = fire.tolist()
+        for seat, pulled in enumerate(fire):
+            if pulled and not (aloft[seat] or waits[seat]) and able[seat]:
+                self.fire(seat, xy[seat].tolist(), direction[seat].tolist())
+                waits[seat] = self.reload_steps
+                fired.append(seat)
         self._reloading += len(fired)
         return fired
 
@@ -237,49 +280,48 @@ class Shells:
         observation of the reload then changed)."""
         if not self._reloading:
             return False
-        left = [steps - 1 if steps > 0 else 0 for steps in self.loaded_in.tolist()]
-        self.loaded_in[:] = left
+        self.waits = left = [steps - 1 if steps > 0 else 0 for steps in self.waits]
         self._reloading = len(left) - left.count(0)
         return True
 
     def fire(self, seat: int, xy: Sequence[float], direction: Sequence[float]) -> None:
         """Seat ``seat``'s shell leaves ``xy`` along the unit vector ``direction`` (it moves on the
         next :meth:`advance`)."""
-        self.xy[seat] = xy
-        self.direction[seat] = direction
-        self.flying[seat] = True
+        self._at[2 * seat], self._at[2 * seat + 1] = float(xy[0]), float(xy[1])
+        self._way[2 * seat], self._way[2 * seat + 1] = float(direction[0]), float(direction[1])
+        self.aloft[seat] = True
 
     def advance(self, dt: float, tiles: TileMap, body_xy: np.ndarray, targetable: np.ndarray) -> list[Hit]:
         """Move every shell in flight by ``speed * dt``, seat by seat, and stop each at the first
         thing it meets: a body of a seat it may hit that is ``targetable``, a solid tile (broken if
         breakable) or the map's edge. Returns what was hit, in seat order."""
         hits: list[Hit] = []
-        flying = self.flying.tolist()
-        if True not in flying:
+        aloft = self.aloft
+        if True not in aloft:
             return hits
         reach = self.speed * dt
         radius_sq = self.body_radius ** 2
         bodies = body_xy.tolist()
         open_to_hit = targetable.tolist()
-        xy, direction = self.xy.tolist(), self.direction.tolist()
-        moved = False
-        for seat, up in enumerate(flying):
-            if not up:
+        at, way, targets = self._at, self._way, self._targets
+        for seat, flying in enumerate(aloft):
+            if not flying:
                 continue
-            x0, y0 = xy[seat]
-            dx, dy = direction[seat][0] * reach, direction[seat][1] * reach
+            x0, y0 = at[2 * seat], at[2 * seat + 1]
+            dx, dy = way[2 * seat] * reach, way[2 * seat + 1] * reach
             t_tile, row, col = tiles.first_solid(x0, y0, x0 + dx, y0 + dy)
             t_body, struck = math.inf, -1
-            for j in self._targets[seat]:
+            a = dx * dx + dy * dy
+            for j in targets[seat]:
                 if open_to_hit[j]:
                     # the least t in [0, 1] where the segment is on or in the body's circle, if any
-                    px, py = x0 - bodies[j][0], y0 - bodies[j][1]
+                    bx, by = bodies[j]
+                    px, py = x0 - bx, y0 - by
                     c = px * px + py * py - radius_sq
                     if c <= 0.0:
                         t = 0.0
                     else:
                         b = px * dx + py * dy
-                        a = dx * dx + dy * dy
                         if b >= 0.0 or b * b - a * c < 0.0:
                             continue
                         t = (-b - math.sqrt(b * b - a * c)) / a
@@ -288,24 +330,21 @@ class Shells:
                     if t < t_body:
                         t_body, struck = t, j
             if t_body <= t_tile and struck >= 0:
-                self.flying[seat] = False
+                aloft[seat] = False
                 hits.append(Hit(seat, x0 + t_body * dx, y0 + t_body * dy, seat=struck))
             elif t_tile <= 1.0:
-                self.flying[seat] = False
+                aloft[seat] = False
                 x, y = x0 + t_tile * dx, y0 + t_tile * dy
                 if row < 0:
                     hits.append(Hit(seat, x, y))
                     continue
-                kind = int(tiles.kinds[row, col])
+                kind = tiles._rows[row][col]  # (the map's rows as Python ints, as its kinds)
                 broken = kind in tiles.breakable
                 if broken:
                     tiles.clear(row, col)
-                hits.append(Hit(seat, x, y, row=row, col=col, kind=kind, broken=broken))
+                hits.append(Hit(seat, x, y, -1, row, col, kind, broken))
             else:
-                xy[seat] = [x0 + dx, y0 + dy]
-                moved = True
-        if moved:
-            self.xy[:] = xy
+                at[2 * seat], at[2 * seat + 1] = x0 + dx, y0 + dy
         return hits
 
 
@@ -318,18 +357,41 @@ class ThrustFacing:
     def __init__(self, frame: np.ndarray, threshold: float) -> None:
         self.frame = np.asarray(frame, dtype=np.float64)
         self.threshold = float(threshold)
-        self._signs = self.frame.tolist()
+        # each seat's cells in a flat (x, y) list and its frame's signs
+        self._seats = [(2 * seat, 2 * seat + 1, sx, sy) for seat, (sx, sy) in enumerate(self.frame.tolist())]
+        self._turns: list[list[tuple[float, float] | None]] = []
 
-    def face(self, thrust: np.ndarray, length: np.ndarray, heading: np.ndarray) -> None:
-        """``heading`` (``(n, 2)``, world) from ``thrust`` (``(n, 2)``, seat frames) of ``length``."""
+    def face(self, thrust: Sequence[float], length: Sequence[float], heading: np.ndarray) -> None:
+        """``heading`` (``float64[2 n]``, world, seat after seat) from ``thrust`` (``2 n`` floats,
+        seat frames, seat after seat) of ``length`` (``n`` floats)."""
         # (a few seats: Python floats beat numpy calls, and divide and multiply the same way)
-        threshold, pairs = self.threshold, None
-        for seat, size in enumerate(length.tolist()):
+        threshold, turned = self.threshold, None
+        for (x, y, sx, sy), size in zip(self._seats, length):
             if size > threshold:
-                if pairs is None:
-                    pairs = thrust.tolist()
-                (x, y), (sx, sy) = pairs[seat], self._signs[seat]
-                heading[seat] = x / size * sx, y / size * sy
+                if turned is None:
+                    turned = heading.tolist()
+                turned[x], turned[y] = thrust[x] / size * sx, thrust[y] / size * sy
+        if turned is not None:
+            heading[:] = turned
+
+    def learn_moves(self, pairs: Sequence[Sequence[float]], length: Sequence[float]) -> None:
+        """Note the heading each seat takes for each of a few fixed thrusts (``pairs[move]``,
+        ``[x, y]``, of ``length[move]``), for :meth:`face_moves`."""
+        self._turns = [[(x / size * sx, y / size * sy) if size > self.threshold else None
+                        for (x, y), size in zip(pairs, length)] for _, _, sx, sy in self._seats]
+
+    def face_moves(self, moves: Sequence[int], heading: np.ndarray) -> None:
+        """:meth:`face` for thrusts that are the moves of :meth:`learn_moves` (by index), bit for
+        bit (the same quotients, looked up)."""
+        turned = None
+        for (x, y, _, _), turns, move in zip(self._seats, self._turns, moves):
+            turn = turns[move]
+            if turn is not None:
+                if turned is None:
+                    turned = heading.tolist()
+                turned[x], turned[y] = turn
+        if turned is not None:
+            heading[:] = turned
 
 
 class FireKey:

@@ -219,6 +219,9 @@ OPTIONS = (Option("hit_points", int, 3, "hits a tank takes before it is destroye
 
 ACTION_MEANINGS = SHOOTER_ACTIONS
 _OUT_OF_PLAY = pymunk.ShapeFilter(categories=0, mask=0)
+#: The ufunc np.clip calls, without np.clip's argument handling (the same values as a minimum then a
+#: maximum: the bounds are ordered and no cell at a bound of 0 is -0.0).
+_clip = np._core.umath.clip
 
 
 class BattleCityRules(Physics2DRules):
@@ -265,6 +268,7 @@ class BattleCityRules(Physics2DRules):
         self._obs_low = low.reshape(n, -1)[:, : self._moving].reshape(-1)
         self._obs_high = high.reshape(n, -1)[:, : self._moving].reshape(-1)
         self._obs_linear = np.zeros(n * self._moving)
+        self._obs_rows = self._obs_linear.reshape(n, self._moving)
         self._obs_scale = np.zeros(n * self._moving)
         self._tile_order = tile_order(self.team_of, self.frame)
         self._planes = np.zeros(2 * GRID * GRID, dtype=np.float32)
@@ -294,8 +298,12 @@ class BattleCityRules(Physics2DRules):
         self._length = np.zeros(n)
         self._thrust_pairs = world.view("thrust").reshape(n, 2)
         self._facing = ThrustFacing(np.repeat(self.frame[:, None], 2, axis=1), TURN_THRESHOLD)
-        self._fire, self._no_fire = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
-        self._moves = np.zeros(n, dtype=np.int64)
+        self._facing.learn_moves(self._seat_thrust.move_pairs, self._seat_thrust.move_lengths)
+        self._heading_flat = world.view("heading")
+        # the shells' cells (positions, directions, flags): adjacent slots, written in one go
+        self._shell_cells = world.work[world.at("shell", 0): world.at("flying", n - 1) + 1]
+        assert len(self._shell_cells) == 5 * n
+        self._reload_shares = [steps * (1.0 / RELOAD_STEPS) for steps in range(RELOAD_STEPS + 1)]
         self._hits_left = np.zeros(n, dtype=np.int64)
 
     # --- the match ---------------------------------------------------------------------------
@@ -338,55 +346,54 @@ class BattleCityRules(Physics2DRules):
             np.copyto(self.measures.target_distance, np.abs(self._to_base_c), where=self.measures.active)
 
     def _sync_shells(self) -> None:
-        shells = self.shells
-        self._shell[:] = shells.xy
-        self._shell_direction[:] = shells.direction
-        self._flying[:] = shells.flying
+        self._shell_cells[:] = self.shells.cells()
 
     def step(self, actions: np.ndarray) -> None:
-        # (few numpy calls, each guarded by a count where the common step needs none: the hot path
-        # is Python-bound)
+        # (a few seats: the actions, thrust and shells go through Python lists, and the numpy calls
+        # left are guarded where the common step needs none)
         self._record("step", actions.copy())
         m = self.measures
         if self.discrete:
-            fire = np.equal(actions, FIRE_ACTION, out=self._fire)
-            firing = np.count_nonzero(fire)
-            if firing:
-                np.multiply(actions, self._not_fire(fire), out=self._moves)
-                actions = self._moves
-            self._seat_thrust.set(actions, m.energy)
+            moves = actions.tolist()
+            fire = [action == FIRE_ACTION for action in moves]
+            if True in fire:
+                moves = [0 if shoots else action for action, shoots in zip(moves, fire)]
+            self._seat_thrust.set_moves(moves, m.energy)
         else:
-            fire = np.greater(actions[:, 2], 0.0, out=self._fire)
-            firing = np.count_nonzero(fire)
+            fire = [pull > 0.0 for pull in actions[:, 2].tolist()]
             self._seat_thrust.set(actions[:, :2], m.energy)
-        thrust = self._thrust_c
+            thrust, length = self._seat_thrust.listed()
         if not self._all_active:
-            np.multiply(thrust, self._active, out=thrust)
+            thrust_c = self._thrust_c
+            np.multiply(thrust_c, self._active, out=thrust_c)
             np.multiply(m.energy, self._active, out=m.energy)
-        self._facing.face(self._thrust_pairs, np.abs(thrust, out=self._length), self._heading)
+            thrust, length = self._thrust_pairs.reshape(-1).tolist(), np.abs(thrust_c, out=self._length).tolist()
+            self._facing.face(thrust, length, self._heading_flat)
+        elif self.discrete:
+            self._facing.face_moves(moves, self._heading_flat)
+        else:
+            self._facing.face(thrust, length, self._heading_flat)
         if self._events:
             self._events = []
-        if firing:
+        if True in fire:
             self._fire_shells(fire)
 
         self.world.step()
 
         shells = self.shells
-        if np.count_nonzero(shells.flying):
+        if shells.in_flight():
             for hit in shells.advance(DT, self.tiles, self._tank_xy, m.active):
                 self._resolve(hit)
             self._sync_shells()
         if shells.reload():
-            np.multiply(shells.loaded_in, 1.0 / RELOAD_STEPS, out=self._reload)
+            shares = self._reload_shares
+            self._reload[:] = [shares[steps] for steps in shells.waits]
         self._measure_distances()
         if self._decided and not self.game_over:
             self.game_over = True
             self._set_outcome()
 
-    def _not_fire(self, fire: np.ndarray) -> np.ndarray:
-        return np.logical_not(fire, out=self._no_fire)
-
-    def _fire_shells(self, fire: np.ndarray) -> None:
+    def _fire_shells(self, fire: list[bool]) -> None:
         """Every seat that fires, is in play, has its gun loaded and no shell in flight shoots."""
         for seat in self.shells.pull_triggers(fire, self._tank_xy, self._heading, self.measures.active):
             self._events.append({"kind": "fire", "seat": seat})  # (its shell is shown once it has moved)
@@ -451,13 +458,12 @@ class BattleCityRules(Physics2DRules):
     def observe(self) -> np.ndarray:
         linear = np.dot(self._obs_matrix, self._work, out=self._obs_linear)
         np.multiply(linear, self._work.take(self._obs_mask, out=self._obs_scale), out=linear)
-        np.minimum(linear, self._obs_high, out=linear)
-        np.maximum(linear, self._obs_low, out=linear)
+        _clip(linear, self._obs_low, self._obs_high, out=linear)
         if self._planes_changed:
             self._planes.take(self._tile_order, out=self._seen[:, self._moving:])
             self._planes_changed = False
         obs = self._seen.copy()
-        obs[:, : self._moving] = linear.reshape(self.n_agents, -1)
+        obs[:, : self._moving] = self._obs_rows
         return obs
 
     def state(self) -> np.ndarray:

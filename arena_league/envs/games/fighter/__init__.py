@@ -149,6 +149,7 @@ Replay scene
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -191,6 +192,11 @@ _NOWHERE = pymunk.ShapeFilter(categories=0, mask=0)
 _clip = np._core.umath.clip
 
 
+def _over(x: float, y: float) -> float:
+    """``x / y`` as numpy divides (infinite or NaN over 0, where Python raises)."""
+    return x / y if y else float(np.divide(x, y))
+
+
 class FighterRules(Physics2DRules):
     """Fighter in a pymunk arena with mirrored bunkers and shots; see the module docstring."""
 
@@ -228,6 +234,7 @@ class FighterRules(Physics2DRules):
         low, high = (bound.reshape(n, -1)[:, : self._moving] for bound in self.clip_bounds(self.layout))
         self._low, self._high = low.astype(np.float32), high.astype(np.float32)
         self._gathered = np.zeros((n, self._moving), dtype=np.float32)
+        self._gathered_flat = self._gathered.reshape(-1)
         self._bunker_order = bunker_order(self.x_sign)
         self._plane = np.zeros(ROWS * COLS, dtype=np.float32)
         # every seat's observation with its bunker plane laid out (bunkers stand all match)
@@ -249,18 +256,21 @@ class FighterRules(Physics2DRules):
         self._flying = world.view("flying")
         self._frame = np.stack([self.x_sign, np.ones(n)], axis=1)
         self._facing = ThrustFacing(self._frame, TURN_THRESHOLD)
+        self._facing.learn_moves(self._seat_thrust.move_pairs, self._seat_thrust.move_lengths)
         self._rivals = self.team_of[:, None] != self.team_of[None, :]
         self._out_of_reach = np.where(self._rivals, 0.0, np.inf)
-        self._way, self._facing_c = np.zeros((n, n), dtype=np.complex128), np.zeros(n, dtype=np.complex128)
-        self._apart, self._distance = np.zeros((n, n)), np.zeros(n)
-        self._row_start, self._nearest = np.arange(n) * n, np.zeros(n, dtype=np.intp)
+        self._way, self._apart = np.zeros((n, n), dtype=np.complex128), np.zeros((n, n))
         self._length = np.zeros(n)
         # views and buffers the step reuses
         self._xy_row, self._xy_column = self._xy_c[None, :], self._xy_c[:, None]
-        self._flying_column = self.shells.flying[:, None]
-        self._conj_heading, self._way_to = np.zeros(n, dtype=np.complex128), np.zeros(n, dtype=np.complex128)
-        self._firing = np.zeros(n, dtype=bool)
-        self._moves = np.zeros(n, dtype=np.int64)
+        self._heading_flat = world.view("heading")
+        # the shells' cells (positions, directions, flags): adjacent slots, written in one go
+        self._shell_cells = world.work[world.at("shell", 0): world.at("flying", n - 1) + 1]
+        assert len(self._shell_cells) == 5 * n
+        self._heading_column = self._heading_c[:, None]
+        self._conj_headings, self._faced = np.zeros((n, n), dtype=np.complex128), np.zeros((n, n), dtype=np.complex128)
+        self._rival_seats = [np.flatnonzero(row).tolist() for row in self._rivals]
+        self._reload_shares = [steps / RELOAD_STEPS for steps in range(RELOAD_STEPS + 1)]
         self.hits_left = np.zeros(n, dtype=np.int64)
         self.damage = np.zeros(2)
 
@@ -291,57 +301,79 @@ class FighterRules(Physics2DRules):
 
     def _show_shells(self) -> None:
         """The shells into the work vector, those not in flight as zeros."""
-        shells = self.shells
-        np.multiply(shells.xy, self._flying_column, out=self._shell_xy)
-        np.multiply(shells.direction, self._flying_column, out=self._shell_way)
-        self._flying[:] = shells.flying
+        self._shell_cells[:] = self.shells.cells(hide_idle=True)
 
     def _aim(self) -> None:
         """Each fighter's nearest opponent in play: its distance and how squarely it is faced (kept
         when none is left)."""
+        # (numpy for the complex abs and product, whose kernels Python's floats do not reproduce;
+        # the pick of the nearest opponent and the division in Python)
         m = self.measures
         way = np.subtract(self._xy_row, self._xy_column, out=self._way)
-        apart = np.abs(way, out=self._apart)
-        np.add(apart, self._out_of_reach, out=apart)  # +inf on teammates and fighters out of play
-        nearest = np.add(apart.argmin(axis=1), self._row_start, out=self._nearest)
-        distance = apart.take(nearest, out=self._distance)
-        facing = np.multiply(np.conjugate(self._heading_c, out=self._conj_heading), way.take(nearest, out=self._way_to),
-                             out=self._facing_c).real
+        apart = np.abs(way, out=self._apart).tolist()
+        np.conjugate(self._heading_column, out=self._conj_headings)
+        facing = np.multiply(self._conj_headings, way, out=self._faced).real.tolist()
         if self._everyone_in:
-            np.copyto(m.target_distance, distance)
-            np.divide(facing, distance, out=m.facing_target)
+            reach, active = self._rival_seats, None
         else:
-            found = np.isfinite(distance)
-            np.copyto(m.target_distance, distance, where=found)
-            np.copyto(m.facing_target, facing / np.where(found, distance, 1.0), where=found)
+            active = m.active.tolist()
+            reach = [[j for j in rivals if active[j]] for rivals in self._rival_seats]
+        distances, facings = [], []
+        for seat, rivals in enumerate(reach):
+            row, best, nearest = apart[seat], math.inf, -1
+            for j in rivals:  # the first of the nearest, as argmin
+                if row[j] < best:
+                    best, nearest = row[j], j
+            distances.append(best)
+            facings.append(_over(facing[seat][nearest], best) if nearest >= 0 else 0.0)
+        if active is None:
+            m.target_distance[:] = distances
+            m.facing_target[:] = facings
+        else:
+            kept_distance, kept_facing = m.target_distance.tolist(), m.facing_target.tolist()
+            for seat, distance in enumerate(distances):
+                if distance != math.inf:
+                    kept_distance[seat], kept_facing[seat] = distance, facings[seat]
+            m.target_distance[:] = kept_distance
+            m.facing_target[:] = kept_facing
 
     def step(self, actions: np.ndarray) -> None:
+        # (a few seats: the actions, thrust and shells go through Python lists, not numpy calls)
         self._record("step", actions.copy())
         m = self.measures
         if self.action_type == "discrete":
-            firing = np.equal(actions, FIRE_ACTION, out=self._firing)
-            if np.count_nonzero(firing):  # (a fire is a noop move)
-                actions = np.where(firing, 0, actions)
-            self._seat_thrust.set(actions, m.energy)
+            moves = actions.tolist()
+            firing = [action == FIRE_ACTION for action in moves]
+            if True in firing:  # (a fire is a noop move)
+                moves = [0 if fire else action for action, fire in zip(moves, firing)]
+            self._seat_thrust.set_moves(moves, m.energy)
         else:
-            firing = np.greater(actions[:, 2], 0.0, out=self._firing)
+            firing = [pull > 0.0 for pull in actions[:, 2].tolist()]
             self._seat_thrust.set(actions[:, :2], m.energy)
+            thrust, length = self._seat_thrust.listed()
         if not self._everyone_in:
             self._thrust_c *= self._in_play
             m.energy *= self._in_play
-        self._facing.face(self._thrust, np.abs(self._thrust_c, out=self._length), self._heading)
+            thrust, length = self._thrust.reshape(-1).tolist(), np.abs(self._thrust_c, out=self._length).tolist()
+            self._facing.face(thrust, length, self._heading_flat)
+        elif self.action_type == "discrete":
+            self._facing.face_moves(moves, self._heading_flat)
+        else:
+            self._facing.face(thrust, length, self._heading_flat)
         self._events = []
-        if np.count_nonzero(firing):
+        if True in firing:
             for seat in self.shells.pull_triggers(firing, self._xy, self._heading, m.active):
                 self._events.append({"kind": "fire", "seat": seat})  # (its shell is shown once it has moved)
         self.world.step()
-        if np.count_nonzero(self.shells.flying):
-            for hit in self.shells.advance(DT, self.tiles, self._xy, m.active):
+        shells = self.shells
+        if shells.in_flight():
+            for hit in shells.advance(DT, self.tiles, self._xy, m.active):
                 if hit.seat >= 0:
                     self._damage(hit.shooter, hit.seat)
             self._show_shells()
-        if self.shells.reload():
-            np.divide(self.shells.loaded_in, RELOAD_STEPS, out=self._reload)
+        if shells.reload():
+            shares = self._reload_shares
+            self._reload[:] = [shares[steps] for steps in shells.waits]
         self._aim()
         if not self._everyone_in and not (np.bincount(self.team_of, weights=m.active, minlength=2) > 0).all():
             self.game_over = True
@@ -385,7 +417,7 @@ class FighterRules(Physics2DRules):
 
     def observe(self) -> np.ndarray:
         gathered = self._gathered
-        self._gather.fill(gathered.reshape(-1))
+        self._gather.fill(self._gathered_flat)
         _clip(gathered, self._low, self._high, out=gathered)
         obs = self._seen.copy()
         obs[:, : self._moving] = gathered
