@@ -275,6 +275,14 @@ class BattleCityRules(Physics2DRules):
         # every seat's observation with its tile planes laid out, redone only when a tile changed
         self._seen = np.zeros((n, self.obs_dim), dtype=np.float32)
         self._planes_changed = True
+        # where each cell of the brick plane shows in the seats' observations (flat indices into
+        # _seen), so that a brick broken mid-match clears its few cells rather than every plane
+        self._seen_flat = self._seen.reshape(-1)
+        self._brick_seen: list[list[int]] = [[] for _ in range(GRID * GRID)]
+        for seat, order in enumerate(self._tile_order.tolist()):
+            for k, cell in enumerate(order):
+                if cell < GRID * GRID:
+                    self._brick_seen[cell].append(seat * self.obs_dim + self._moving + k)
         self._state_matrix = state_matrix(world, n)
         self._state_low, self._state_high = (b.astype(np.float64)[: 14 * n + 2] for b in self.state_bounds())
         # views of the work vector the step reads and writes
@@ -414,8 +422,11 @@ class BattleCityRules(Physics2DRules):
                 if not self.measures.active[self.team_of == team].any():
                     self.team_out[team] = self._decided = True
         elif hit.kind == BRICK:
-            self._planes[hit.row * GRID + hit.col] = 0.0
-            self._planes_changed = True
+            cell = hit.row * GRID + hit.col
+            self._planes[cell] = 0.0
+            seen = self._seen_flat
+            for at in self._brick_seen[cell]:
+                seen[at] = 0.0
             self._events.append({"kind": "brick", "seat": hit.shooter, "row": hit.row, "col": hit.col})
         elif hit.kind == BASE:
             team = base_tiles().index((hit.row, hit.col))
