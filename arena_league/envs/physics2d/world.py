@@ -307,15 +307,16 @@ class World:
                 placed.append(body)
             self.bodies[part.name] = placed
         self.space = space
-        self.link.bind(space)
-        if self._placement_link is not None:
-            self._placement_link.bind(space)
-        expected = [body.id for kind in f.bodies for body in self.bodies[kind.name]]
-        if f.has_walls:
-            expected.append(space.static_body.id)
-        if self.link.body_ids != expected:
-            raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; the 2D games support "
-                               "pymunk 7 (pip install 'pymunk>=7,<8')")
+        if not reuse:  # (a refilled space holds the same bodies in the same order: the links hold)
+            self.link.bind(space)
+            if self._placement_link is not None:
+                self._placement_link.bind(space)
+            expected = [body.id for kind in f.bodies for body in self.bodies[kind.name]]
+            if f.has_walls:
+                expected.append(space.static_body.id)
+            if self.link.body_ids != expected:
+                raise RuntimeError("pymunk.batch visits the bodies in an unexpected order; the 2D games support "
+                                   "pymunk 7 (pip install 'pymunk>=7,<8')")
         self.link.read_bodies()
         return space
 
