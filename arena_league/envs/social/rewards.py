@@ -315,29 +315,32 @@ def _ranking(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
         raise ValueError(f"ranking with order {params['order']!r} needs the measure {needed!r}, which this game lacks")
     mem = node.memory
     n_groups = node.n_groups
-    if "resolved" not in mem:
-        mem["resolved"] = np.zeros(n_groups, dtype=bool)
+    # (a few groups: Python lists beat numpy calls, and the places are the same Python floats)
+    resolved: list[bool] | None = mem.get("resolved")
+    if resolved is None:
+        resolved = mem["resolved"] = [False] * n_groups
         mem["best_free"] = 0  # next place from the top (depart)
         mem["worst_free"] = n_groups - 1  # next place from the bottom (survive)
         mem["flag_count"] = -1
-    resolved: np.ndarray = mem["resolved"]
+        mem["seats"] = list(zip(node.agents.tolist(), node.group.tolist()))
+    values = flag.tolist()
     # arrival and elimination flags only ever flip one way: an unchanged count means no change
-    count = np.count_nonzero(flag)
+    count = len(values) - values.count(0)
     if mem.get("all_resolved") or (not ctx.ending and count == mem["flag_count"]):
         return _zeros_for(node)  # nothing can resolve on this step
     mem["flag_count"] = count
-    rewards_g = np.zeros(n_groups)
-    cond = flag[node.agents]
-    if survive:
-        done_g = np.bincount(node.group, weights=cond, minlength=n_groups) == 0  # nobody alive
-    else:
-        done_g = np.bincount(node.group, weights=~cond, minlength=n_groups) == 0  # all arrived
-    newly = done_g & ~resolved
+    # a group is open while one of its agents is alive (survive) or has not arrived (depart)
+    open_g = [False] * n_groups
+    for seat, group in mem["seats"]:
+        if bool(values[seat]) is survive:
+            open_g[group] = True
+    newly = [not (is_open or done) for is_open, done in zip(open_g, resolved)]
+    rewards_g = [0.0] * n_groups
     span = max(n_groups - 1, 1)
     tie_penalty = float(params["tie_penalty"])
 
-    def place(groups: np.ndarray, from_top: bool) -> None:
-        k = int(groups.sum())
+    def place(groups: list[bool], from_top: bool) -> None:
+        k = groups.count(True)
         if k == 0:
             return
         if from_top:
@@ -347,16 +350,20 @@ def _ranking(ctx: RewardContext, node: NodeView, params: dict) -> np.ndarray:
             first = mem["worst_free"] - k + 1
             mem["worst_free"] -= k
         mean_place = first + (k - 1) / 2.0
-        rewards_g[groups] = 1.0 - 2.0 * mean_place / span - (tie_penalty if k > 1 else 0.0)
-        resolved[groups] = True
+        value = 1.0 - 2.0 * mean_place / span - (tie_penalty if k > 1 else 0.0)
+        for g, chosen in enumerate(groups):
+            if chosen:
+                rewards_g[g] = value
+                resolved[g] = True
 
     place(newly, from_top=not survive)
-    remaining = ~resolved
-    if remaining.sum() == 1 or (ctx.ending and remaining.any()):
+    remaining = [not done for done in resolved]
+    left = remaining.count(True)
+    if left == 1 or (ctx.ending and left):
         # the last group's place is determined; at the end the unresolved share what is left
         place(remaining, from_top=survive)
-    mem["all_resolved"] = bool(resolved.all())
-    return rewards_g[node.group]
+    mem["all_resolved"] = False not in resolved
+    return np.array([rewards_g[group] for _, group in mem["seats"]])
 
 
 @register_reward("resource_share", "CP", needs=("resource_gain",))
