@@ -201,3 +201,45 @@ def test_an_orphaned_worker_hands_its_job_back_at_the_next_lease_renewal(tmp_pat
         assert reg.run_worker(league, {"wait": wait}, poll_seconds=0.05, parent_pid=1).job_ids == []
     finally:
         league.close()
+
+
+# A worker that claims the queued job and then neither stops on SIGTERM nor hands the job back.
+_STUCK_WORKER = """
+import signal, sys, time
+from arena_league import registry as reg
+signal.signal(signal.SIGTERM, signal.SIG_IGN)
+league = reg.open_league(None, home=sys.argv[1])
+job = reg.claim_job(league, reg.default_worker_id(), lease_seconds=3600)
+print("claimed", job.id, flush=True)
+time.sleep(600)
+"""
+
+
+@linux_only
+def test_a_worker_killed_on_the_stop_has_its_job_handed_back_by_its_supervisor(tmp_path, monkeypatch):
+    home = tmp_path / "home"
+    league = reg.open_league(None, home=home)
+    with league.transaction() as session:
+        other_id = reg.enqueue(session, "wait").id
+    assert reg.claim_job(league, "elsewhere:1:abcdef", lease_seconds=3600).id == other_id  # another worker's
+    with league.transaction() as session:
+        job_id = reg.enqueue(session, "wait").id
+    monkeypatch.setattr("arena_league.web.workers.STOP_SECONDS", 1.0)
+    pool = WorkerPool([sys.executable, "-c", _STUCK_WORKER, str(home)], 1)
+    pool.start()
+    until("the job claimed", lambda: job_row_of(league, job_id).status == "running", seconds=60)
+    (pid,) = pool.pids()
+    assert pool.stop() == [pid] and not running(pid)  # killed: it ignored SIGTERM
+    assert job_row_of(league, job_id).lease_owner.split(":")[1] == str(pid)
+    assert reg.release_jobs_of_process(league, pid) == [job_id]
+    row = job_row_of(league, job_id)
+    assert (row.status, row.lease_owner, row.attempts) == ("queued", None, 0)
+    assert job_row_of(league, other_id).status == "running"  # another owner's job stays where it is
+    assert reg.release_jobs_of_process(league, pid) == []
+
+
+def job_row_of(league: reg.League, job_id: int) -> reg.Job:
+    with league.reading() as session:
+        job = reg.get_job(session, job_id)
+        session.expunge(job)
+        return job

@@ -56,7 +56,7 @@ _EXPORTS: dict[str, tuple[str, ...]] = {
     "report": ("write_html_report",),
     "schedules": (
         "WorkerSummary", "add_evaluation_schedule", "list_schedules", "remove_schedule", "run_scheduler",
-        "run_worker", "signal_stop", "tick", "waiting_jobs",
+        "release_jobs_of_process", "run_worker", "signal_stop", "tick", "waiting_jobs",
     ),
     "service": (
         "LEAGUE_WIDE", "MATCH_IDS_PER_JOB", "EvaluationPlan", "EvaluationReport", "RankReport", "SubmitResult",

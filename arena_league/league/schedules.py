@@ -90,6 +90,12 @@ def signal_stop() -> None:
     reg.jobs.signal_stop()
 
 
+def release_jobs_of_process(league: League, pid: int) -> list[int]:
+    """Hand back every job still held by the ended worker process ``pid`` of this machine (see
+    ``registry.jobs.release_jobs_of_process``); returns the jobs' ids."""
+    return reg.release_jobs_of_process(league, pid)
+
+
 def run_worker(league: League, *, worker_id: str | None = None, lease_seconds: float = 60.0,
                poll_seconds: float = 1.0, max_jobs: int | None = None, until_idle: bool = False,
                stop_event: threading.Event | None = None, parent_pid: int | None = None,

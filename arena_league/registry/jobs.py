@@ -324,6 +324,25 @@ def release_job(league: League, job: ClaimedJob) -> None:
         )
 
 
+def release_jobs_of_process(league: League, pid: int, host: str | None = None) -> list[int]:
+    """Hand back to the queue every job still held by the worker process ``pid`` of ``host`` (this
+    machine by default; owners are :func:`default_worker_id`'s ``host:pid:random``), which ended
+    without doing it itself (killed while it stopped, say), without using up an attempt, as
+    :func:`release_job` does. Returns the jobs' ids. Only the process that ran the worker knows
+    that it ended: a supervisor calls this after the worker's exit."""
+    owner = f"{host or socket.gethostname()}:{pid}:"
+    with league.transaction() as session:
+        held = session.scalars(select(Job).where(Job.status == JobStatus.RUNNING.value,
+                                                 Job.lease_owner.startswith(owner, autoescape=True))).all()
+        for job in held:
+            job.status = JobStatus.QUEUED.value
+            job.attempts = job.attempts - 1
+            job.lease_owner = None
+            job.lease_expires_at = None
+        session.flush()
+        return [job.id for job in held]
+
+
 def cancel_job(league: League, job_id: int, *, now: datetime | None = None) -> Job:
     """Cancel a queued or running job: it will not run (again). A worker running it loses its
     lease at the next renewal and discards its result; matches it already stored stay. Cancelling

@@ -95,7 +95,12 @@ def create_app(home: str | Path | None = None, url: str | None = None, *, worker
         try:
             yield
         finally:
-            await asyncio.to_thread(pool.stop)
+            for pid in await asyncio.to_thread(pool.stop):
+                # a worker killed on the stop could not hand its job back: done here for it
+                released = await asyncio.to_thread(ops.release_jobs_of_process, league, pid)
+                if released:
+                    logger.warning("job(s) %s of the stopped worker %d went back to the queue",
+                                   ", ".join(map(str, released)), pid)
             league.close()
 
     app = FastAPI(title="arena-league", lifespan=lifespan,

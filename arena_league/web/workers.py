@@ -157,9 +157,11 @@ class WorkerPool:
             document["note"] = f"{self.size - alive} job worker(s) ended and are being started again"
         return document
 
-    def stop(self) -> None:
+    def stop(self) -> list[int]:
         """Stop supervising, then stop the workers: each hands its job back to the queue (killed
-        after :data:`STOP_SECONDS` if it has not)."""
+        after :data:`STOP_SECONDS` if it has not). Returns the process ids of the workers it
+        stopped: a job one of them still holds (killed before it handed it back) is the caller's to
+        hand back (``release_jobs_of_process``)."""
         self._stopping.set()
         if self._thread is not None:
             self._thread.join()
@@ -172,5 +174,7 @@ class WorkerPool:
             try:
                 process.wait(timeout=STOP_SECONDS)
             except subprocess.TimeoutExpired:
+                logger.warning("job worker %d did not stop within %.0f s: killed", process.pid, STOP_SECONDS)
                 process.kill()
                 process.wait()
+        return [process.pid for process in processes]
