@@ -341,3 +341,24 @@ def test_heuristic_takes_any_batch_of_observations_and_refuses_another_games():
     assert BattleCityRules.heuristic(obs[:1], "continuous").shape == (1, 3)
     with pytest.raises(ValueError, match="not BattleCity's"):
         BattleCityRules.heuristic(np.zeros((2, 10)), "discrete")
+
+
+def test_a_maze_is_open_exactly_when_its_passable_tiles_are_one_component():
+    from scipy import ndimage
+
+    from arena_league.envs.games.battlecity.maze import GRID, _open, start_tiles
+
+    rng = np.random.default_rng(3)
+    start = start_tiles(2)[0]
+    answers = []
+    for density in (0.1, 0.3, 0.5):
+        for _ in range(150):
+            shares = [0.6 * (1 - density), 0.3 * (1 - density), density, 0.1 * (1 - density)]  # steel and bases close
+            kinds = rng.choice([0, 1, 2, 3], size=(GRID, GRID), p=shares).astype(np.int8)
+            kinds[start] = 0
+            passable = (kinds == 0) | (kinds == 1)
+            labels, _ = ndimage.label(passable)  # four neighbours
+            expected = bool((labels[passable] == labels[start]).all())
+            assert _open(kinds, start) is expected
+            answers.append(expected)
+    assert 0 < sum(answers) < len(answers)

@@ -51,7 +51,7 @@ START_TILES = {1: ((0, 3),), 2: ((0, 3), (0, GRID - 4))}
 _MAZE_TRIES = 50
 #: A tile and its four neighbours: what joins passable tiles into one region.
 _RING = tuple(np.array(BASE_RING).T)  # (rows, cols): the ring's tiles as one index
-_FOUR_NEIGHBOURS = np.array([[0, 1, 0], [1, 1, 1], [0, 1, 0]], dtype=bool)
+_ROW_BITS = GRID + 1  # a maze row's bits in _open, and a zero bit that keeps rows apart
 
 
 def turned(row: int, col: int) -> tuple[int, int]:
@@ -114,12 +114,21 @@ def _cleared(players: int) -> np.ndarray:
 
 def _open(kinds: np.ndarray, start: tuple[int, int]) -> bool:
     """Whether every tile but steel and the bases is reachable from ``start`` through such tiles
-    (one component of the four-neighbour grid)."""
-    from scipy import ndimage  # (imported on the first draw: the catalog's import stays light)
-
-    passable = (kinds == EMPTY) | (kinds == BRICK)
-    labels, _ = ndimage.label(passable, structure=_FOUR_NEIGHBOURS)  # (label's default, not made anew)
-    return bool((labels[passable] == labels[start]).all())
+    (one component of the four-neighbour grid): the tiles as the bits of one Python integer, a row
+    of ``GRID`` bits and a zero bit after it (so that a step sideways never wraps to the next row),
+    grown from ``start`` one step in the four directions at a time until nothing is added."""
+    passable = np.zeros((GRID, _ROW_BITS), dtype=bool)
+    np.equal(kinds, EMPTY, out=passable[:, :GRID])
+    passable[:, :GRID] |= kinds == BRICK
+    tiles = int.from_bytes(np.packbits(passable.reshape(-1), bitorder="little").tobytes(), "little")
+    reached = 1 << (start[0] * _ROW_BITS + start[1])
+    if not tiles & reached:
+        return tiles == 0
+    while True:
+        grown = (reached | reached << 1 | reached >> 1 | reached << _ROW_BITS | reached >> _ROW_BITS) & tiles
+        if grown == reached:
+            return reached == tiles
+        reached = grown
 
 
 def maze_field(n_agents: int) -> Field:
