@@ -170,7 +170,11 @@ class ArenaParallelEnv(ParallelEnv):
         Returns (observations, rewards, terminated, truncated)."""
         if not self.agents:
             raise RuntimeError(f"{self.game_id}: the episode is over; call reset() before step()")
-        actions = self._check_action_array(actions)
+        return self._step_checked(self._check_action_array(actions), messages)
+
+    def _step_checked(self, actions: np.ndarray, messages: np.ndarray | None
+                      ) -> tuple[np.ndarray, np.ndarray, bool, bool]:
+        """:meth:`step_arrays` for actions already checked (:meth:`_check_values`)."""
         rules = self.rules
         measures = rules.measures
         ctx = self._ctx
@@ -204,16 +208,23 @@ class ArenaParallelEnv(ParallelEnv):
                 else:
                     raise ValueError(f"{self.game_id}: discrete actions are one integer per seat, shape ({n},); "
                                      f"got shape {arr.shape} dtype {arr.dtype}")
+            return self._check_values(arr)
+        arr = np.asarray(actions, dtype=np.float32)
+        if arr.shape != (n, self.rules.act_dim):
+            raise ValueError(f"{self.game_id}: continuous actions have shape ({n}, {self.rules.act_dim}) "
+                             f"(one vector of {self.rules.act_dim} floats in [-1, 1] per seat); got {arr.shape}")
+        return self._check_values(arr)
+
+    def _check_values(self, arr: np.ndarray) -> np.ndarray:
+        """The actions of an array of the right shape and kind (integers of shape ``(n,)``, or
+        float32 of shape ``(n, act_dim)``), checked to be in range: as the step takes them."""
+        if self._discrete:
             values = arr.tolist()  # a few seats: Python's min and max beat two numpy reductions
             if min(values) < 0 or max(values) >= self.rules.n_actions:
                 seat = int(np.flatnonzero((arr < 0) | (arr >= self.rules.n_actions))[0])
                 raise ValueError(f"{self.game_id}: action {int(arr[seat])} of player_{seat} is out of range; "
                                  f"valid actions: {self._action_help()}")
             return arr.astype(np.int64, copy=False)
-        arr = np.asarray(actions, dtype=np.float32)
-        if arr.shape != (n, self.rules.act_dim):
-            raise ValueError(f"{self.game_id}: continuous actions have shape ({n}, {self.rules.act_dim}) "
-                             f"(one vector of {self.rules.act_dim} floats in [-1, 1] per seat); got {arr.shape}")
         values = arr.ravel().tolist()
         # (NaN fails a bound where min or max picks it, else makes the sum NaN, unequal to itself)
         if not (min(values) >= -1.0 and max(values) <= 1.0 and sum(values) == sum(values)):
@@ -301,7 +312,7 @@ class ArenaParallelEnv(ParallelEnv):
                 bad = next((i for i, a in enumerate(flat) if np.shape(a) != (self.rules.act_dim,)), 0)
                 raise ValueError(f"{self.game_id}: action of player_{bad} has shape {np.shape(flat[bad])}; "
                                  f"continuous actions are {self.rules.act_dim} floats in [-1, 1]")
-        obs, rewards, terminated, truncated = self.step_arrays(array, messages)
+        obs, rewards, terminated, truncated = self._step_checked(self._check_values(array), messages)
         if self._window is not None:
             self.render()
         return (self._obs_dict(obs), dict(zip(names, rewards.tolist())), dict.fromkeys(names, terminated),
