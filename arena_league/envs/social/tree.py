@@ -204,7 +204,7 @@ class SocialTree:
                                 f"({', '.join(names)}) must be a leaf exactly once")
         previous = sorted({m for n in nodes for m in n.reward.needs_previous})
         tree = cls(dict(spec), names, nodes, np.asarray(team_of, dtype=np.int64), tuple(previous))
-        tree.plan = _evaluation_plan(nodes)
+        tree.plan = _evaluation_plan(nodes, len(names))
         tree.boards = [n for n in nodes if n.board > 0]
         for b, node in enumerate(tree.boards):
             for seat in node.agents:
@@ -241,7 +241,10 @@ class SocialTree:
                 # cached zeros add +0.0: nothing to do while no call before has touched those rewards
                 if first and is_cached_zeros(value, view):
                     continue
-                total[where] += value if scale == 1.0 else scale * value  # (1.0 * x is x, bit for bit)
+                if where is None:  # every seat: an in-place add, without the slice
+                    total += value if scale == 1.0 else scale * value  # (1.0 * x is x, bit for bit)
+                else:
+                    total[where] += value if scale == 1.0 else scale * value
             return total
         for k, node in enumerate(self.nodes):
             value = node.reward.fn(ctx, node.view, node.params)
@@ -254,12 +257,13 @@ class SocialTree:
         return [n.describe() for n in self.nodes]
 
 
-def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[str, Any], float, Any, bool]]:
+def _evaluation_plan(nodes: list[SocialNode], n_agents: int
+                     ) -> list[tuple[Any, NodeView, dict[str, Any], float, Any, bool]]:
     """The calls of a step: IS leaves of one reward computed in one call (every agent once), as are
     sibling nodes of a reward with a grouped form (each team's CL node), which takes the place of
     the first of them (each agent's reward is summed in the same order as node by node). Each call
-    comes with where its rewards go: a slice when its agents are consecutive seats (cheaper than
-    indexing by an array, and the same sums)."""
+    comes with where its rewards go: None for every seat in order (added in place), a slice when its
+    agents are consecutive seats (cheaper than indexing by an array, and the same sums)."""
     plan: list[tuple[Any, NodeView, dict[str, Any], float] | None] = []
     fused: dict[tuple, list[SocialNode]] = {}
     siblings: dict[tuple, list[tuple[int, SocialNode]]] = {}
@@ -293,7 +297,10 @@ def _evaluation_plan(nodes: list[SocialNode]) -> list[tuple[Any, NodeView, dict[
     placed_calls = []
     for call in calls:
         agents = call[1].agents.tolist()
-        placed_calls.append((*call, seat_index(call[1].agents), reached.isdisjoint(agents)))
+        where = seat_index(call[1].agents)
+        if where == slice(0, n_agents):
+            where = None
+        placed_calls.append((*call, where, reached.isdisjoint(agents)))
         reached.update(agents)
     return placed_calls
 
