@@ -27,7 +27,8 @@ Bodies and physics
     space damping 0.5 (a coasting tank keeps half its velocity after a second); a tank's thrust of
     at most 9 is opposed by a drag of ``3 * velocity``: top speed about 2.45 tiles/s. Contacts
     have no friction (a tank slides along walls) and a restitution of 0.01 between tanks, 0
-    against walls and tiles. The pymunk space is built fresh for every match: the outer wall, the
+    against walls and tiles. Every match starts from an empty pymunk space (a new one, or the last
+    match's emptied and restarted, which plays the same bit for bit), filled with the outer wall, the
     tanks in seat order, then the runs of tiles row by row from the bottom, left to right; a broken
     brick's run is replaced by the runs left on either side of it.
 

@@ -23,7 +23,8 @@ Bodies and physics
     Fighters are discs of radius 0.35 and mass 1 that do not spin; one pymunk step of 0.1 s per
     env step; space damping 0.5; a fighter's thrust of at most 12 is opposed by a drag of ``4 *
     velocity``: top speed about 2.57 units/s. Restitution 0.04 between fighters, 0 against walls
-    and bunkers, no friction. The pymunk space is built fresh for every match: the outer wall, the
+    and bunkers, no friction. Every match starts from an empty pymunk space (a new one, or the last
+    match's emptied and restarted, which plays the same bit for bit), filled with the outer wall, the
     fighters in seat order, then the bunkers' runs of tiles along each row (one static box each),
     row by row from the bottom.
 
