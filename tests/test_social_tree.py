@@ -212,6 +212,20 @@ def test_sibling_team_nodes_are_computed_in_one_call_with_the_same_rewards():
             assert env.tree.rewards(env._ctx).tobytes() == env.tree.rewards(env._ctx, per_node).tobytes()
 
 
+def test_calls_over_scattered_seats_pay_what_the_nodes_pay_one_by_one():
+    # teams of seats {0, 2} and {1, 3}: every call's seats are out of order, indexed by an array
+    tree = {"scheme": "CP", "reward": "ranking", "scale": 10, "params": {"order": "depart"}, "children": [
+        {"scheme": "CL", "reward": "team_target", "scale": 1, "children": ["player_0", "player_2"]},
+        {"scheme": "CL", "reward": "team_target", "scale": 1, "children": ["player_1", "player_3"]}]}
+    env = make_line_race(tree=tree)
+    assert all(isinstance(place, np.ndarray) for *_, place, _ in env.tree.plan)
+    env.reset(seed=2)
+    while env.agents:
+        env.step({a: 2 if k % 2 else 1 for k, a in enumerate(env.agents)})
+        per_node = np.zeros((len(env.tree.nodes), env.tree.n_agents))
+        assert env.tree.rewards(env._ctx).tobytes() == env.tree.rewards(env._ctx, per_node).tobytes()
+
+
 @pytest.mark.parametrize("reward", ["team_living_longer", "team_living_shorter"])
 def test_team_living_nodes_in_one_call_pay_what_they_pay_node_by_node(reward):
     # one team arrives (goes out of play) first: the grouped call pays it 0.0 (-0.0 when shorter),

@@ -298,7 +298,7 @@ def _evaluation_plan(nodes: list[SocialNode], n_agents: int
     for call in calls:
         agents = call[1].agents.tolist()
         where = seat_index(call[1].agents)
-        if where == slice(0, n_agents):
+        if isinstance(where, slice) and where == slice(0, n_agents):
             where = None
         placed_calls.append((*call, where, reached.isdisjoint(agents)))
         reached.update(agents)
