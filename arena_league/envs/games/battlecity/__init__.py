@@ -295,8 +295,6 @@ class BattleCityRules(Physics2DRules):
         self._reload = world.view("reload")
         self._active = world.view("active")
         self._shell = world.view("shell").reshape(n, 2)
-        self._shell_direction = world.view("shell_direction").reshape(n, 2)
-        self._flying = world.view("flying")
         self._standing = world.view("base_standing")
         bases = np.array([tile_centre(*tile) for tile in base_tiles()])
         world.view("base")[:] = bases.reshape(-1)

@@ -253,13 +253,10 @@ class FighterRules(Physics2DRules):
         self._share = world.view("hit_points")
         self._reload, self._in_play = world.view("reload"), world.view("active")
         self._shell_xy = world.view("shell").reshape(n, 2)
-        self._shell_way = world.view("shell_direction").reshape(n, 2)
-        self._flying = world.view("flying")
         self._frame = np.stack([self.x_sign, np.ones(n)], axis=1)
         self._facing = ThrustFacing(self._frame, TURN_THRESHOLD)
         self._facing.learn_moves(self._seat_thrust.move_pairs, self._seat_thrust.move_lengths)
         self._rivals = self.team_of[:, None] != self.team_of[None, :]
-        self._out_of_reach = np.where(self._rivals, 0.0, np.inf)
         self._way, self._apart = np.zeros((n, n), dtype=np.complex128), np.zeros((n, n))
         self._length = np.zeros(n)
         # views and buffers the step reuses
@@ -296,7 +293,6 @@ class FighterRules(Physics2DRules):
         m = self.measures
         m.active[:], m.alive[:], m.energy[:], m.outcome[:] = True, True, 0.0, 0.0
         self._everyone_in = True
-        self._out_of_reach[:] = np.where(self._rivals, 0.0, np.inf)
         self._aim()
         self.game_over, self._events = False, []
 
@@ -394,7 +390,6 @@ class FighterRules(Physics2DRules):
             m.active[target] = m.alive[target] = False
             self._in_play[target] = 0.0
             self._everyone_in = False
-            self._out_of_reach[:, target] = np.inf
             body = self.world.bodies["fighter"][target]
             for shape in body.shapes:
                 shape.filter = _NOWHERE
